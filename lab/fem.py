@@ -1,0 +1,180 @@
+"""The total energy E(x, u) of a cable-driven arm and its sparse derivatives.
+
+    E(x, u) = sum_tets V psi(F)  -  sum_nodes m_a g . x_a  +  sum_cables k/2 s(L_c(x) - L*_c(u_c))^2
+
+with the base face clamped (its nodes are removed from the unknowns). The solver works
+on ``q``, the stacked free coordinates; :meth:`ArmFEM.to_nodes` and
+:meth:`ArmFEM.to_free` convert to and from node positions ``x_W`` (N, 3).
+
+Sparse assembly uses a pattern computed once: every element and cable block's entries
+are mapped to their slot in the CSR data array, so each Hessian is one ``bincount``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .cables import CableRoute, spring
+from .description import RobotDescription
+from .elasticity import NeoHookean, project_psd
+from .mesh import TetMesh, barycentric, cylinder_mesh
+
+
+class ArmFEM:
+    """FEM model of a robot description on a tet mesh.
+
+    ``mesh``: defaults to the description's structured cylinder mesh;
+    ``n_rings``/``n_axial`` override its resolution.
+    ``youngs_modulus_pa``: optional per-tet modulus (M,) (e.g. an as-built stiffness
+    gradient); ``cable_slack_m``: optional extra free length per cable (m,).
+    """
+
+    def __init__(self, robot: RobotDescription, mesh: TetMesh | None = None, *, n_rings=None,
+                 n_axial=None, youngs_modulus_pa=None, cable_slack_m=None, clamp_tol_m: float = 1e-9):
+        self.robot = robot
+        if mesh is None:
+            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings or robot.n_rings,
+                                 n_axial or robot.n_axial)
+        self.mesh = mesh
+        E = robot.youngs_modulus_pa if youngs_modulus_pa is None else youngs_modulus_pa
+        self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
+        if np.any(self.elastic.V <= 0):
+            raise ValueError("mesh has tetrahedra with non-positive volume")
+
+        # Lumped masses: a quarter of each tet's mass on each of its nodes.
+        m_node = np.zeros(mesh.n_nodes)
+        np.add.at(m_node, mesh.tets.ravel(), np.repeat(robot.density_kg_m3 * self.elastic.V / 4, 4))
+        self.m_node_kg = m_node
+        self.f_gravity_W = m_node[:, None] * robot.gravity_m_s2[None, :]
+
+        clamped = mesh.X_W[:, 0] <= mesh.X_W[:, 0].min() + clamp_tol_m
+        self.free_dofs = np.flatnonzero(np.repeat(~clamped, 3))
+        self.n_free = len(self.free_dofs)
+
+        slack = np.zeros(robot.n_cables) if cable_slack_m is None else np.asarray(cable_slack_m, float)
+        self.cables = []
+        for cable, s in zip(robot.cables, slack):
+            nodes, weights = barycentric(mesh, cable.via_points_m)
+            route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
+            self.cables.append(CableRoute(cable.anchor_m, nodes, weights, route.length(mesh.X_W), float(s)))
+        self.tip_nodes, self.tip_weights = (a[0] for a in barycentric(mesh, robot.p_tip_marker_W))
+        self._build_pattern()
+
+    # ---------------------------------------------------------------- coordinates
+    @property
+    def X_W(self) -> np.ndarray:
+        return self.mesh.X_W
+
+    def to_nodes(self, q: np.ndarray) -> np.ndarray:
+        x = self.mesh.X_W.ravel().copy()
+        x[self.free_dofs] = q
+        return x.reshape(-1, 3)
+
+    def to_free(self, x_W: np.ndarray) -> np.ndarray:
+        return np.asarray(x_W).ravel()[self.free_dofs].copy()
+
+    def rest_q(self) -> np.ndarray:
+        return self.to_free(self.mesh.X_W)
+
+    def tip(self, x_W: np.ndarray) -> np.ndarray:
+        """Tip marker position p_tip_W (3,) in metres."""
+        return self.tip_weights @ x_W[self.tip_nodes]
+
+    def tip_matrix(self) -> sp.csr_matrix:
+        """S (3, n_free) with p_tip = S q + const (the marker is embedded, so linear)."""
+        rows, cols, vals = [], [], []
+        dof_to_free = np.full(3 * self.mesh.n_nodes, -1)
+        dof_to_free[self.free_dofs] = np.arange(self.n_free)
+        for n, w in zip(self.tip_nodes, self.tip_weights):
+            for d in range(3):
+                if dof_to_free[3 * n + d] >= 0:
+                    rows.append(d), cols.append(dof_to_free[3 * n + d]), vals.append(w)
+        return sp.csr_matrix((vals, (rows, cols)), shape=(3, self.n_free))
+
+    def cable_lengths(self, x_W) -> np.ndarray:
+        return np.array([c.length(x_W) for c in self.cables])
+
+    def cable_targets(self, u_motor) -> np.ndarray:
+        """Free length L* = L0 + slack - r u of each cable (m,)."""
+        return np.array([c.L0_m + c.slack_m for c in self.cables]) - self.robot.spool_radius_m * np.asarray(u_motor)
+
+    def cable_tensions(self, x_W, u_motor) -> np.ndarray:
+        """Tension of each cable in N (m,)."""
+        d = self.cable_lengths(x_W) - self.cable_targets(u_motor)
+        return spring(d, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[1]
+
+    # ---------------------------------------------------------------- energy
+    def energy(self, q: np.ndarray, u_motor) -> float:
+        """E(q, u) in J; +inf when an element is inverted."""
+        x = self.to_nodes(q)
+        e = self.elastic.energy(x)
+        if not np.isfinite(e):
+            return np.inf
+        e -= float(np.sum(self.f_gravity_W * x))
+        d = self.cable_lengths(x) - self.cable_targets(u_motor)
+        e += float(np.sum(spring(d, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[0]))
+        return e
+
+    def gradient(self, q: np.ndarray, u_motor) -> np.ndarray:
+        """dE/dq (n_free,) in N."""
+        x = self.to_nodes(q)
+        g = np.zeros((self.mesh.n_nodes, 3))
+        np.add.at(g, self.mesh.tets, self.elastic.gradient(x))
+        g -= self.f_gravity_W
+        for c, L_star in zip(self.cables, self.cable_targets(u_motor)):
+            L, dL_dp, _ = c.length_derivatives(x)
+            tension = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[1]
+            np.add.at(g, c.nodes, tension * c.weights[:, :, None] * dL_dp[:, None, :])
+        return g.ravel()[self.free_dofs]
+
+    def hessian(self, q: np.ndarray, u_motor, project: bool = False) -> sp.csr_matrix:
+        """d2E/dq2 (n_free, n_free), exact, or with each element block projected to PSD."""
+        x = self.to_nodes(q)
+        H_el = self.elastic.hessian(x)
+        if project:
+            H_el = project_psd(H_el)
+        blocks = [H_el.ravel()]
+        for c, L_star in zip(self.cables, self.cable_targets(u_motor)):
+            L, dL_dp, d2L_dp2 = c.length_derivatives(x)
+            _, dE, d2E = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
+            W = c.embedding_matrix()
+            g_p = dL_dp.ravel()
+            blocks.append((W.T @ (d2E * np.outer(g_p, g_p) + dE * d2L_dp2) @ W).ravel())
+        values = np.concatenate(blocks)[self._keep]
+        data = np.bincount(self._slot, weights=values, minlength=len(self._indices))
+        return sp.csr_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
+
+    def mixed_derivative(self, q: np.ndarray, u_motor) -> np.ndarray:
+        """d2E/dq du (n_free, m): how each motor angle changes the forces."""
+        x = self.to_nodes(q)
+        out = np.zeros((3 * self.mesh.n_nodes, len(self.cables)))
+        for i, (c, L_star) in enumerate(zip(self.cables, self.cable_targets(u_motor))):
+            L, dL_dp, _ = c.length_derivatives(x)
+            d2E = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[2]
+            col = np.zeros((self.mesh.n_nodes, 3))
+            # d/du of dE/dL * dL/dx, with dd/du = +r (pulling shortens L*, stretching the cable)
+            np.add.at(col, c.nodes, d2E * self.robot.spool_radius_m * c.weights[:, :, None] * dL_dp[:, None, :])
+            out[:, i] = col.ravel()
+        return out[self.free_dofs]
+
+    # ---------------------------------------------------------------- assembly pattern
+    def _block_dofs(self) -> list[np.ndarray]:
+        dofs = [(3 * self.mesh.tets[:, :, None] + np.arange(3)).reshape(-1, 12)]
+        dofs += [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in self.cables]
+        return dofs
+
+    def _build_pattern(self) -> None:
+        dof_to_free = np.full(3 * self.mesh.n_nodes, -1)
+        dof_to_free[self.free_dofs] = np.arange(self.n_free)
+        rows, cols = [], []
+        for d in self._block_dofs():
+            f = dof_to_free[d]
+            rows.append(np.repeat(f, f.shape[1], axis=1).ravel())
+            cols.append(np.tile(f, (1, f.shape[1])).ravel())
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self._keep = (rows >= 0) & (cols >= 0)
+        key = rows[self._keep] * self.n_free + cols[self._keep]
+        unique, self._slot = np.unique(key, return_inverse=True)
+        r = unique // self.n_free
+        self._indices = (unique % self.n_free).astype(np.int32)
+        self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)

@@ -1,0 +1,102 @@
+"""Sparse direct solvers for the Newton and sensitivity systems.
+
+``factorize(H)`` returns an object with ``solve(b)`` for one or many right-hand sides.
+Backends, picked by ``benchmarks/bench_fem.py`` on this project's meshes:
+
+* ``"pardiso"`` — MKL PARDISO through ``pypardiso`` (pip-installable), real symmetric
+  indefinite mode, so it factorises the exact (possibly indefinite) Hessian;
+* ``"splu"`` — SciPy's SuperLU, always available, the fallback.
+
+``LAB_LINEAR_SOLVER`` selects one by name; the default is the first that imports.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+
+class SingularMatrixError(RuntimeError):
+    pass
+
+
+class _SuperLU:
+    name = "splu"
+    n_negative = None  # LU does not report the inertia
+
+    def __init__(self, H: sp.csr_matrix):
+        try:
+            # The matrix is symmetric: an ordering of A + A^T keeps the fill low.
+            self._lu = spla.splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                 options={"SymmetricMode": True})
+        except RuntimeError as err:  # "Factor is exactly singular"
+            raise SingularMatrixError(str(err)) from None
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self._lu.solve(np.asarray(b, dtype=float))
+
+
+class _Pardiso:
+    """One PARDISO handle per process, reused (finding and loading MKL costs ~10 ms):
+    a factorisation stays valid until the next call to :func:`factorize`."""
+    name = "pardiso"
+    _solver = None
+    _generation = 0  # which factorisation the shared handle holds
+
+    def __init__(self, H: sp.csr_matrix):
+        import pypardiso
+
+        if _Pardiso._solver is None:
+            _Pardiso._solver = pypardiso.PyPardisoSolver(mtype=-2)  # real symmetric indefinite
+        self._A = sp.triu(H, format="csr")
+        self._A.sort_indices()
+        self._factorize()
+        # Inertia from the LDL^T factorisation: tells an indefinite Hessian apart.
+        self.n_negative = int(self._solver.get_iparm(23))
+        if int(self._solver.get_iparm(30)) != 0:
+            raise SingularMatrixError("PARDISO found a zero pivot")
+
+    def _factorize(self):
+        import pypardiso
+
+        try:
+            self._solver.factorize(self._A)
+        except pypardiso.pardiso_wrapper.PyPardisoError as err:
+            raise SingularMatrixError(str(err)) from None
+        _Pardiso._generation += 1
+        self._generation = _Pardiso._generation
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if self._generation != _Pardiso._generation:  # the handle now holds another matrix
+            self._factorize()
+        return self._solver.solve(self._A, np.asarray(b, dtype=float))
+
+
+def _available() -> list[str]:
+    names = []
+    try:
+        import pypardiso  # noqa: F401
+
+        names.append("pardiso")
+    except ImportError:
+        pass
+    return names + ["splu"]
+
+
+BACKENDS = {"splu": _SuperLU, "pardiso": _Pardiso}
+
+
+def default_backend() -> str:
+    choice = os.environ.get("LAB_LINEAR_SOLVER")
+    if choice:
+        if choice not in BACKENDS:
+            raise ValueError(f"LAB_LINEAR_SOLVER={choice!r}: choose one of {sorted(BACKENDS)}")
+        return choice
+    return _available()[0]
+
+
+def factorize(H: sp.csr_matrix, backend: str | None = None):
+    """Factorise a sparse symmetric matrix; raises SingularMatrixError if singular."""
+    return BACKENDS[backend or default_backend()](H)

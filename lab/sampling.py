@@ -1,0 +1,167 @@
+"""Simulated (u, y) data: which motor commands to sample, and solving them all.
+
+Samplers give safe motor commands (N, m) in radians:
+
+* :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
+  (the paper's 7x7x7 grid), minus what the safety rule forbids;
+* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only.
+
+:func:`simulate` solves the statics of every command. The work is cut into chunks
+that depend only on the commands (never on the number of workers); each chunk walks
+its commands in an order where neighbours are close and warm-starts every solve from
+the previous one, predicted forward with the sensitivity dx/du (second order when the
+walk repeats the same step). Chunks run on joblib worker processes, and since each
+chunk's computation is the same wherever it runs, a parallel run gives exactly the
+serial run's numbers.
+"""
+from __future__ import annotations
+
+import itertools
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .description import RobotDescription
+from .fem import ArmFEM
+from .statics import solve_static
+
+
+@dataclass
+class Chunk:
+    """Indices into the command array, in the order they are to be solved."""
+    order: np.ndarray
+
+
+def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
+    """Safe points of the ``levels``^m grid over [0, u_max]^m, lexicographic order (N, m)."""
+    if levels < 2:
+        raise ValueError("a grid needs at least 2 levels per motor")
+    axis = np.linspace(0.0, robot.u_max_rad, levels)
+    u = np.array(list(itertools.product(axis, repeat=robot.n_cables)))
+    return u[robot.is_safe(u)]
+
+
+def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` safe commands from a scrambled Sobol sequence over [0, u_max]^m (n, m)."""
+    from scipy.stats import qmc
+
+    sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
+    out = np.empty((0, robot.n_cables))
+    while len(out) < n:
+        u = sampler.random(max(64, 2 * n)) * robot.u_max_rad
+        out = np.vstack([out, u[robot.is_safe(u)]])
+    return out[:n]
+
+
+def _serpentine(keys: np.ndarray) -> np.ndarray:
+    """Order integer grid keys (N, d) boustrophedon-style: coordinate j runs backwards
+    when the coordinates before it sum to an odd number, so on a full grid consecutive
+    points differ by one step in one coordinate."""
+    sort_keys = keys.copy()
+    for j in range(1, keys.shape[1]):
+        odd = keys[:, :j].sum(axis=1) % 2 == 1
+        sort_keys[:, j] = np.where(odd, -keys[:, j], keys[:, j])
+    return np.lexsort(sort_keys.T[::-1])
+
+
+def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int = 64) -> list[Chunk]:
+    """Chunks of grid commands: grouped by their leading grid indices, ~``target_size``
+    commands each, each walked serpentine so successive commands differ by one step."""
+    levels = np.unique(u_motor)
+    spacing = np.min(np.diff(levels)) if len(levels) > 1 else robot.u_max_rad
+    keys = np.rint(u_motor / spacing).astype(int)
+    n_levels = keys.max() + 1
+    lead = 0
+    while lead < robot.n_cables - 1 and n_levels ** (robot.n_cables - lead) > target_size:
+        lead += 1
+    groups: dict[tuple, list[int]] = {}
+    for i, k in enumerate(keys):
+        groups.setdefault(tuple(k[:lead]), []).append(i)
+    chunks = []
+    for _, idx in sorted(groups.items()):
+        idx = np.asarray(idx)
+        # Serpentine over the trailing indices only, so every chunk starts near rest.
+        chunks.append(Chunk(idx[_serpentine(keys[idx][:, lead:])]))
+    return chunks
+
+
+def nearest_neighbour_chunks(u_motor: np.ndarray, size: int = 64) -> list[Chunk]:
+    """Chunks of consecutive commands, each ordered by a greedy nearest-neighbour walk
+    starting from the command closest to rest (for scattered samples such as Sobol)."""
+    chunks = []
+    for start in range(0, len(u_motor), size):
+        idx = np.arange(start, min(start + size, len(u_motor)))
+        left = list(idx)
+        cur = min(left, key=lambda i: np.linalg.norm(u_motor[i]))
+        order = []
+        while left:
+            left.remove(cur)
+            order.append(cur)
+            if left:
+                cur = min(left, key=lambda i: np.linalg.norm(u_motor[i] - u_motor[cur]))
+        chunks.append(Chunk(np.asarray(order)))
+    return chunks
+
+
+_FEM_CACHE: dict = {}
+
+
+def _fem(robot: RobotDescription, n_rings: int, n_axial: int) -> ArmFEM:
+    key = (robot.sha256, n_rings, n_axial)
+    if key not in _FEM_CACHE:
+        _FEM_CACHE.clear()
+        _FEM_CACHE[key] = ArmFEM(robot, n_rings=n_rings, n_axial=n_axial)
+    return _FEM_CACHE[key]
+
+
+def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray) -> dict:
+    """Solve a walk of commands (K, m) with warm starts; returns tips (K, 3) and stats."""
+    fem = _fem(robot, n_rings, n_axial)
+    prev = solve_static(fem, np.zeros(robot.n_cables), sensitivity="reuse")
+    prev_step = prev_dq = None
+    tips, iters, times = [], [], []
+    for u in u_chunk:
+        step = u - prev.u_motor
+        q0 = prev.q + prev.dq_du @ step
+        if prev_step is not None and np.allclose(step, prev_step, atol=1e-12):
+            # Same step as last time: add the curvature seen along it (second order).
+            q0 += 0.5 * (prev.dq_du - prev_dq) @ step
+        sol = solve_static(fem, u, q0, sensitivity="reuse", raise_on_failure=False)
+        if not sol.converged:  # fall back to a cold start before giving up
+            sol = solve_static(fem, u, sensitivity="reuse")
+        prev_step, prev_dq, prev = step, prev.dq_du, sol
+        tips.append(sol.p_tip_W), iters.append(sol.iterations), times.append(sol.time_s)
+    return {"p_tip_W": np.asarray(tips).reshape(-1, 3), "iterations": np.asarray(iters),
+            "time_s": np.asarray(times)}
+
+
+def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], *, n_rings: int | None = None,
+             n_axial: int | None = None, n_jobs: int = 1, progress: bool = False) -> dict:
+    """Tip positions (N, 3) m for commands ``u_motor`` (N, m), solved chunk by chunk.
+
+    ``n_jobs``: worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
+    Returns ``p_tip_W`` plus per-sample ``iterations`` and ``time_s`` and ``wall_s``.
+    """
+    from joblib import Parallel, delayed, parallel_config
+    from tqdm.auto import tqdm
+
+    n_rings, n_axial = n_rings or robot.n_rings, n_axial or robot.n_axial
+    t0 = time.perf_counter()
+    p_tip = np.full((len(u_motor), 3), np.nan)
+    iters = np.zeros(len(u_motor), dtype=int)
+    times = np.zeros(len(u_motor))
+    bar = tqdm(total=len(u_motor), unit="sample", disable=not progress, smoothing=0.05)
+    jobs = (delayed(solve_chunk)(robot, n_rings, n_axial, u_motor[c.order]) for c in chunks)
+    with parallel_config(backend="loky", inner_max_num_threads=1):
+        runner = Parallel(n_jobs=n_jobs, return_as="generator")
+        for chunk, res in zip(chunks, runner(jobs)):
+            p_tip[chunk.order], iters[chunk.order], times[chunk.order] = res["p_tip_W"], res["iterations"], res["time_s"]
+            bar.update(len(chunk.order))
+    bar.close()
+    return {"p_tip_W": p_tip, "iterations": iters, "time_s": times, "wall_s": time.perf_counter() - t0}
+
+
+def default_jobs() -> int:
+    return max(1, len(os.sched_getaffinity(0)))

@@ -1,0 +1,132 @@
+"""Static equilibrium x(u) = argmin_x E(x, u) by Newton's method, and its sensitivity.
+
+Newton uses the exact Hessian; only when that does not give a descent direction (the
+factorisation reports negative eigenvalues, or the step points uphill) is the elastic
+part projected to positive semi-definite element by element, which is slower to
+converge but always descends. A backtracking line search treats inverted elements as
+infinite energy, with an Armijo slack of 1e-14 |E| so rounding does not reject the
+last, converged steps.
+
+Sensitivity analysis differentiates the equilibrium condition dE/dx (x(u), u) = 0:
+
+    dx/du = -H^-1 d2E/dx du,     J_tip_u = S dx/du
+
+with the *exact* Hessian H at the equilibrium (a projected one gives wrong Jacobians).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .fem import ArmFEM
+from .linsolve import SingularMatrixError, factorize
+
+
+class StaticSolveError(RuntimeError):
+    """Newton did not reach equilibrium; ``.solution`` holds the last iterate."""
+
+    def __init__(self, message: str, solution: "StaticSolution"):
+        super().__init__(message)
+        self.solution = solution
+
+
+@dataclass
+class StaticSolution:
+    """Equilibrium for motor angles ``u_motor`` (m,) rad: free coordinates ``q``
+    (n_free,), tip ``p_tip_W`` (3,) m, and how Newton got there."""
+    u_motor: np.ndarray
+    q: np.ndarray
+    p_tip_W: np.ndarray
+    converged: bool
+    status: str
+    iterations: int
+    grad_norm_n: float
+    projected_steps: int
+    time_s: float
+    dq_du: np.ndarray | None = field(default=None, repr=False)
+    J_tip_u: np.ndarray | None = field(default=None, repr=False)
+
+
+def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_force_n: float = 1e-6,
+                 tol_step_m: float = 1e-6, max_iter: int = 60, sensitivity: str | bool = False,
+                 raise_on_failure: bool = True, check_command: bool = True) -> StaticSolution:
+    """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
+
+    Converged when the largest residual force is below ``tol_force_n`` (N), or when a
+    full Newton step with the exact Hessian moved no coordinate more than
+    ``tol_step_m`` (m): Newton converges quadratically there, so the error left after
+    that step is orders of magnitude below it.
+    ``sensitivity``: ``True``/``"exact"`` also computes ``dq_du`` (n_free, m) and
+    ``J_tip_u`` (3, m) in m/rad with a fresh factorisation at the equilibrium;
+    ``"reuse"`` solves with the last Newton factorisation instead (one step away from
+    the equilibrium: accurate to ~tol_step, cheap; used for warm-start predictors).
+    Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
+    which case the returned solution has ``converged=False`` and a ``status`` saying why.
+    """
+    t0 = time.perf_counter()
+    u = fem.robot.check_command(u_motor) if check_command else np.asarray(u_motor, float)
+    q = fem.rest_q() if q0 is None else np.array(q0, dtype=float)
+    E = fem.energy(q, u)
+    if not np.isfinite(E):
+        raise ValueError("initial state has inverted elements; start from rest (q0=None)")
+    status, projected, it, lu = "max_iter", 0, 0, None
+    g = fem.gradient(q, u)
+    while it < max_iter:
+        if np.max(np.abs(g)) <= tol_force_n:
+            status = "converged"
+            break
+        it += 1
+        d, exact = None, True
+        try:
+            lu = factorize(fem.hessian(q, u))
+            if not lu.n_negative:
+                d = -lu.solve(g)
+        except SingularMatrixError:
+            lu = None
+        if d is None or not np.all(np.isfinite(d)) or g @ d >= 0:
+            projected, exact = projected + 1, False
+            d = -factorize(fem.hessian(q, u, project=True)).solve(g)
+        slope = g @ d
+        alpha, accepted = 1.0, False
+        for _ in range(40):
+            q_try = q + alpha * d
+            E_try = fem.energy(q_try, u)
+            if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            status = "line_search_failed"
+            break
+        q, E = q_try, E_try
+        g = fem.gradient(q, u)
+        if exact and alpha == 1.0 and np.max(np.abs(d)) <= tol_step_m and np.max(np.abs(g)) <= 1e3 * tol_force_n:
+            status = "converged"
+            break
+    else:
+        if np.max(np.abs(g)) <= tol_force_n:
+            status = "converged"
+    x = fem.to_nodes(q)
+    sol = StaticSolution(u, q, fem.tip(x), status == "converged", status, it,
+                         float(np.max(np.abs(g))), projected, 0.0)
+    if sensitivity and sol.converged:
+        if sensitivity == "reuse" and lu is not None and not lu.n_negative:
+            sol.dq_du = -lu.solve(fem.mixed_derivative(q, u))
+            sol.J_tip_u = fem.tip_matrix() @ sol.dq_du
+        else:
+            sol.dq_du, sol.J_tip_u = sensitivities(fem, q, u)
+    sol.time_s = time.perf_counter() - t0
+    if not sol.converged and raise_on_failure:
+        raise StaticSolveError(
+            f"static solve for u={u.tolist()} failed ({status}) after {it} iterations, "
+            f"residual force {sol.grad_norm_n:.3g} N > {tol_force_n:g} N", sol)
+    return sol
+
+
+def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
+    """dq/du (n_free, m) and the tip Jacobian J_tip_u = dp_tip/du (3, m) at an equilibrium."""
+    lu = factorize(fem.hessian(q, u_motor))
+    dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
+    return dq_du, fem.tip_matrix() @ dq_du
