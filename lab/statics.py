@@ -49,15 +49,18 @@ class StaticSolution:
     J_tip_u: np.ndarray | None = field(default=None, repr=False)
 
 
-def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_force_n: float = 1e-6,
-                 tol_step_m: float = 1e-6, max_iter: int = 60, sensitivity: str | bool = False,
+def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step_m: float = 1e-7,
+                 tol_force_n: float | None = None, max_iter: int = 60, sensitivity: str | bool = False,
                  raise_on_failure: bool = True, check_command: bool = True) -> StaticSolution:
     """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
 
-    Converged when the largest residual force is below ``tol_force_n`` (N), or when a
-    full Newton step with the exact Hessian moved no coordinate more than
-    ``tol_step_m`` (m): Newton converges quadratically there, so the error left after
-    that step is orders of magnitude below it.
+    Converged when a full Newton step with the exact Hessian moved no coordinate more
+    than ``tol_step_m`` (m) while reducing the residual force: Newton converges
+    quadratically there, so the error left after that step is orders of magnitude
+    below it. This test is independent of the load scale (a force tolerance is not:
+    nodal gravity forces are ~1e-5 N on the default mesh). It also stops when the
+    largest residual force is below ``tol_force_n`` (default 1e-5 of the largest nodal
+    weight, at least 1e-11 N), where rounding can keep a nearly singular cable direction from settling.
     ``sensitivity``: ``True``/``"exact"`` also computes ``dq_du`` (n_free, m) and
     ``J_tip_u`` (3, m) in m/rad with a fresh factorisation at the equilibrium;
     ``"reuse"`` solves with the last Newton factorisation instead (one step away from
@@ -71,6 +74,8 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_forc
     E = fem.energy(q, u)
     if not np.isfinite(E):
         raise ValueError("initial state has inverted elements; start from rest (q0=None)")
+    if tol_force_n is None:
+        tol_force_n = max(1e-5 * float(np.abs(fem.f_gravity_W).max()), 1e-11)
     status, projected, it, lu = "max_iter", 0, 0, None
     g = fem.gradient(q, u)
     while it < max_iter:
@@ -100,9 +105,9 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_forc
         if not accepted:
             status = "line_search_failed"
             break
-        q, E = q_try, E_try
+        q, E, g_old = q_try, E_try, g
         g = fem.gradient(q, u)
-        if exact and alpha == 1.0 and np.max(np.abs(d)) <= tol_step_m and np.max(np.abs(g)) <= 1e3 * tol_force_n:
+        if exact and alpha == 1.0 and np.max(np.abs(d)) <= tol_step_m and np.max(np.abs(g)) < np.max(np.abs(g_old)):
             status = "converged"
             break
     else:
@@ -121,7 +126,7 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_forc
     if not sol.converged and raise_on_failure:
         raise StaticSolveError(
             f"static solve for u={u.tolist()} failed ({status}) after {it} iterations, "
-            f"residual force {sol.grad_norm_n:.3g} N > {tol_force_n:g} N", sol)
+            f"residual force {sol.grad_norm_n:.3g} N", sol)
     return sol
 
 

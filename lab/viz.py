@@ -128,7 +128,7 @@ def update_scene(vis, fem, q=None, u_motor=None, *, prefix: str = "arm", u_max: 
     for route, pts, rgb in zip(fem.robot.cables, geo.cables_W, colors):
         root["cables"][route.name].set_object(g.Line(
             g.PointsGeometry(np.ascontiguousarray(pts.T, dtype=np.float32)),
-            g.LineBasicMaterial(color=_hex(rgb), linewidth=3)))
+            g.LineBasicMaterial(color=_hex(rgb))))           # WebGL lines are 1 px wide
     root["tip"].set_transform(tf.translation_matrix(geo.tip_W))
     return geo
 
@@ -136,7 +136,8 @@ def update_scene(vis, fem, q=None, u_motor=None, *, prefix: str = "arm", u_max: 
 def meshcat_scene(fem, q=None, vis=None, u_motor=None, *, prefix: str = "arm", view: bool = True,
                   tip_radius_m: float = 0.004, **kwargs):
     """Draw the arm at ``q`` in ``vis`` (a new ``meshcat.Visualizer`` if None: stop
-    it with :func:`stop_visualizer`). ``view``: also apply :func:`set_view`.
+    it with :func:`stop_visualizer`). ``view``: also apply :func:`set_view` (white
+    background, no grid/axes, camera framing the 20 cm arm from the front-left).
     ``kwargs`` go to :func:`update_scene`. Returns ``vis``."""
     meshcat = _meshcat()
     if vis is None:

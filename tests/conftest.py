@@ -1,0 +1,26 @@
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import pytest  # noqa: E402
+
+from lab.description import load_robot  # noqa: E402
+from lab.fem import ArmFEM  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def three_cable():
+    return load_robot("three-cable")
+
+
+@pytest.fixture(scope="session")
+def coarse_fem(three_cable):
+    """A coarse three-cable arm: small enough for finite differences over every dof."""
+    return ArmFEM(three_cable, n_rings=1, n_axial=6)
+
+
+@pytest.fixture(scope="session")
+def default_fem(three_cable):
+    return ArmFEM(three_cable)

@@ -1,0 +1,59 @@
+"""Execute every notebooks/NN_*.ipynb end to end with papermill.
+
+Each notebook runs with ``quick=True`` (its reduced-size mode) and a temporary
+``figures_dir``, in a kernel of the interpreter running pytest, with
+notebooks/ as its working directory. A cell error fails the test. A notebook
+that declares a ``figures_dir`` parameter must write at least one file there.
+
+One test per notebook, found when the module is collected; no notebooks, no
+tests.
+"""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+NOTEBOOKS_DIR = Path(__file__).resolve().parent.parent / "notebooks"
+NOTEBOOKS = sorted(NOTEBOOKS_DIR.glob("[0-9][0-9]_*.ipynb"))
+KERNEL_NAME = "lab-test-python"
+
+
+@pytest.fixture
+def this_interpreter_kernel(tmp_path_factory, monkeypatch):
+    """A kernel spec that starts ``sys.executable``, found before any other.
+
+    Without it, the kernel name comes from the notebook's metadata and could
+    resolve to a kernel spec of some other Python on the machine.
+    """
+    from ipykernel.kernelspec import write_kernel_spec
+
+    jupyter_path = tmp_path_factory.mktemp("jupyter")
+    write_kernel_spec(
+        jupyter_path / "kernels" / KERNEL_NAME,
+        overrides={"display_name": f"pytest {sys.executable}"},
+    )
+    monkeypatch.setenv("JUPYTER_PATH", str(jupyter_path))
+    return KERNEL_NAME
+
+
+if NOTEBOOKS:
+
+    @pytest.mark.slow
+    @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[nb.name for nb in NOTEBOOKS])
+    def test_notebook_runs(notebook, tmp_path, this_interpreter_kernel):
+        import papermill
+
+        figures_dir = tmp_path / "figures"
+        papermill.execute_notebook(
+            str(notebook),
+            str(tmp_path / notebook.name),
+            parameters={"quick": True, "figures_dir": str(figures_dir)},
+            cwd=str(NOTEBOOKS_DIR),
+            kernel_name=this_interpreter_kernel,
+            progress_bar=False,
+        )
+
+        if "figures_dir" in papermill.inspect_notebook(str(notebook)):
+            written = [p for p in figures_dir.rglob("*") if p.is_file()]
+            assert written, f"{notebook.name} declares figures_dir but wrote no file into it"
