@@ -50,7 +50,7 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
     sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
     out = np.empty((0, robot.n_cables))
     while len(out) < n:
-        u = sampler.random(max(64, 2 * n)) * robot.u_max_rad
+        u = sampler.random_base2(int(np.ceil(np.log2(max(64, 2 * n))))) * robot.u_max_rad
         out = np.vstack([out, u[robot.is_safe(u)]])
     return out[:n]
 

@@ -1,0 +1,104 @@
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lab.dataset import DatasetError, read_dataset, write_dataset
+from lab.sampling import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, simulate, sobol_commands
+from lab.statics import solve_static
+
+
+def test_serpentine_walk_moves_one_step_at_a_time():
+    keys = np.array([(i, j, k) for i in range(3) for j in range(4) for k in range(5)])
+    walk = keys[_serpentine(keys)]
+    assert len({tuple(k) for k in walk}) == len(keys)
+    assert np.all(np.abs(np.diff(walk, axis=0)).sum(axis=1) == 1)
+
+
+def test_grid_chunks_cover_every_command_once(three_cable):
+    u = grid_commands(three_cable, 7)
+    chunks = grid_chunks(three_cable, u)
+    order = np.concatenate([c.order for c in chunks])
+    assert sorted(order) == list(range(len(u)))
+    # every chunk starts at its corner nearest rest (its leading index, zeros after)
+    for c in chunks:
+        assert np.all(u[c.order[0], 1:] == 0)
+
+
+def test_sobol_commands_are_safe_and_seeded(three_cable):
+    a, b = sobol_commands(three_cable, 50, seed=3), sobol_commands(three_cable, 50, seed=3)
+    assert a.shape == (50, 3) and np.array_equal(a, b)
+    assert np.all(three_cable.is_safe(a))
+    assert not np.array_equal(a, sobol_commands(three_cable, 50, seed=4))
+    order = np.concatenate([c.order for c in nearest_neighbour_chunks(a, size=16)])
+    assert sorted(order) == list(range(50))
+
+
+@pytest.mark.slow
+def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coarse_fem):
+    u = grid_commands(three_cable, 4)
+    chunks = grid_chunks(three_cable, u, target_size=16)
+    assert len(chunks) > 2
+    kw = dict(n_rings=1, n_axial=6)
+    serial = simulate(three_cable, u, chunks, n_jobs=1, **kw)
+    parallel = simulate(three_cable, u, chunks, n_jobs=2, **kw)
+    assert np.array_equal(serial["p_tip_W"], parallel["p_tip_W"])
+    # Warm starts change the path to the equilibrium, not the equilibrium.
+    for i in [0, len(u) // 2, len(u) - 1]:
+        cold = solve_static(coarse_fem, u[i]).p_tip_W
+        assert np.allclose(serial["p_tip_W"][i], cold, atol=1e-7)
+
+
+def test_dataset_round_trip_and_corruption(tmp_path):
+    u = np.random.default_rng(0).uniform(0, 3, (5, 3))
+    y = np.random.default_rng(1).normal(size=(5, 3))
+    path = tmp_path / "d.csv"
+    write_dataset(path, u, y, {"sampler": {"name": "test"}})
+    u2, y2, meta = read_dataset(path)
+    assert np.array_equal(u, u2) and np.array_equal(y, y2)  # repr() round-trips floats exactly
+    assert meta["sampler"]["name"] == "test" and meta["n_samples"] == 5
+    assert path.read_text().splitlines()[0] == "u0,u1,u2,x,y,z"
+    assert not list(tmp_path.glob(".*tmp*"))  # no temporary files left behind
+
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[:-1]) + "\n")
+    with pytest.raises(DatasetError, match="sidecar says 5"):
+        read_dataset(path)
+    path.write_text("\n".join(lines[:3] + ["1,2,nan,4,5,6"] + lines[4:]) + "\n")
+    with pytest.raises(DatasetError, match="line 4 has a NaN"):
+        read_dataset(path)
+    path.write_text("\n".join(lines[:2] + ["1,2,oops,4,5,6"] + lines[3:]) + "\n")
+    with pytest.raises(DatasetError, match="non-numeric"):
+        read_dataset(path)
+    path.write_text("a,b,c\n" + "\n".join(lines[1:]) + "\n")
+    with pytest.raises(DatasetError, match="header"):
+        read_dataset(path)
+    path.write_text("\n".join(lines) + "\n")
+    meta["format_version"] = 99
+    (tmp_path / "d.csv.json").write_text(json.dumps(meta))
+    with pytest.raises(DatasetError, match="format_version 99"):
+        read_dataset(path)
+    with pytest.raises(DatasetError, match="not found"):
+        read_dataset(tmp_path / "missing.csv")
+
+
+def test_cli_simulate_writes_dataset_and_sidecar(tmp_path, three_cable):
+    out = tmp_path / "sim.csv"
+    cmd = [sys.executable, "-m", "lab", "simulate", "--robot", "three-cable", "--grid", "3",
+           "--n-rings", "1", "--n-axial", "6", "--jobs", "1", "--no-progress", "--out", str(out)]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    u, y, meta = read_dataset(out)
+    assert len(u) == len(grid_commands(three_cable, 3)) == 23
+    assert meta["robot"]["sha256"] == three_cable.sha256
+    assert meta["mesh"] == {"mesher": "cylinder", "n_rings": 1, "n_axial": 6, "n_nodes": 49, "n_tets": 108}
+    assert meta["sampler"]["name"] == "grid" and meta["sampler"]["levels"] == 3
+    for key in ("code_version", "created", "command"):
+        assert meta[key]
+    assert np.all(y[:, 0] > 0.1)  # tips in metres, near x = 20 cm
+
+    bad = subprocess.run(cmd[:5] + ["no-such-robot", "--out", str(tmp_path / "x.csv")],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "unknown robot 'no-such-robot'" in bad.stderr
