@@ -1,0 +1,93 @@
+"""FEM speed on the default mesh: assembly, factorisation (each sparse backend), Newton
+iterations and time per warm-started sample, and whole-dataset wall times.
+
+    python benchmarks/bench_fem.py            # ~3 minutes on 2 cores
+    python benchmarks/bench_fem.py --six-full # also the full six-cable set (long)
+
+Prints the ratio (time per warm-started sample) / (one assembly + one factorisation)
+and the targets of issue 2: 308-point grid < 60 s, >= 15,000 six-cable samples < 30 min.
+"""
+import argparse
+import os
+import time
+
+import numpy as np
+
+from lab.description import load_robot
+from lab.fem import ArmFEM
+from lab.linsolve import BACKENDS, _available, factorize
+from lab.sampling import default_jobs, grid_chunks, grid_commands, simulate
+from lab.statics import solve_static
+
+
+def best_of(fn, n=7):
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--six-full", action="store_true", help="simulate the full six-cable 5-level grid")
+args = ap.parse_args()
+jobs = default_jobs()
+print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}; "
+      f"workers: {jobs}")
+
+robot = load_robot("three-cable")
+fem = ArmFEM(robot)
+u = np.array([2.0, 1.0, 0.5])
+sol = solve_static(fem, u)
+print(f"\nthree-cable default mesh: {fem.mesh.n_nodes} nodes, {len(fem.mesh.tets)} tets, {fem.n_free} unknowns")
+t_grad = best_of(lambda: fem.gradient(sol.q, u))
+t_energy = best_of(lambda: fem.energy(sol.q, u))
+t_asm = best_of(lambda: fem.hessian(sol.q, u))
+H = fem.hessian(sol.q, u)
+print(f"  energy {1e3 * t_energy:.2f} ms, gradient {1e3 * t_grad:.2f} ms, Hessian assembly {1e3 * t_asm:.2f} ms")
+t_fact = {}
+for name in _available():
+    t_fact[name] = best_of(lambda: factorize(H, name))
+    print(f"  factorisation [{name}]: {1e3 * t_fact[name]:.2f} ms")
+backend = _available()[0]
+unit = t_asm + t_fact[backend]
+print(f"  one assembly + one factorisation [{backend}]: {1e3 * unit:.2f} ms")
+
+# Warm-started samples along one serial chunk of the grid walk.
+cmds = grid_commands(robot, 7)
+chunks = grid_chunks(robot, cmds)
+res = simulate(robot, cmds, chunks[:2], n_jobs=1)
+n = sum(len(c.order) for c in chunks[:2])
+idx = np.concatenate([c.order[1:] for c in chunks[:2]])  # drop each chunk's first (cold-ish) solve
+t_sample = res["time_s"][idx].mean()
+print(f"  warm-started samples ({len(idx)} of a serial walk): {res['iterations'][idx].mean():.2f} Newton "
+      f"iterations, {1e3 * t_sample:.1f} ms per sample")
+print(f"  ratio time per sample / (assembly + factorisation) = {t_sample / unit:.2f}  (target < 3)")
+
+t0 = time.perf_counter()
+full = simulate(robot, cmds, chunks, n_jobs=jobs)
+wall = time.perf_counter() - t0
+print(f"\nthree-cable 7x7x7 grid: {len(cmds)} samples in {wall:.1f} s with {jobs} workers "
+      f"(target < 60 s), {full['iterations'].mean():.2f} mean iterations")
+
+six = load_robot("six-cable")
+cmds6 = grid_commands(six, 5)
+chunks6 = grid_chunks(six, cmds6)
+print(f"\nsix-cable 5-level grid: {len(cmds6)} safe samples in {len(chunks6)} chunks")
+rates = {}
+for workers in sorted({1, jobs}):
+    sub = chunks6[: 4 * workers]
+    n_sub = sum(len(c.order) for c in sub)
+    t0 = time.perf_counter()
+    simulate(six, cmds6, sub, n_jobs=workers)
+    rates[workers] = n_sub / (time.perf_counter() - t0)
+    print(f"  {workers} worker(s): {rates[workers]:.2f} samples/s over {n_sub} samples "
+          f"-> full set in ~{len(cmds6) / rates[workers] / 60:.1f} min")
+if jobs > 1:
+    print(f"  scaling 1 -> {jobs} workers: {rates[jobs] / rates[1]:.2f}x")
+print(f"  samples per second per core: {rates[jobs] / jobs:.2f}")
+if args.six_full:
+    t0 = time.perf_counter()
+    simulate(six, cmds6, chunks6, n_jobs=jobs, progress=True)
+    print(f"  full six-cable set: {(time.perf_counter() - t0) / 60:.1f} min (target < 30 min)")
