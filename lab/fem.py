@@ -58,7 +58,9 @@ class ArmFEM:
             route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
             self.cables.append(CableRoute(cable.anchor_m, nodes, weights, route.length(mesh.X_W), float(s)))
         self.tip_nodes, self.tip_weights = (a[0] for a in barycentric(mesh, robot.p_tip_marker_W))
+        self._elem_dofs = (3 * mesh.tets[:, :, None] + np.arange(3)).ravel()
         self._build_pattern()
+        self._S_tip = self._tip_matrix()
 
     # ---------------------------------------------------------------- coordinates
     @property
@@ -82,6 +84,9 @@ class ArmFEM:
 
     def tip_matrix(self) -> sp.csr_matrix:
         """S (3, n_free) with p_tip = S q + const (the marker is embedded, so linear)."""
+        return self._S_tip
+
+    def _tip_matrix(self) -> sp.csr_matrix:
         rows, cols, vals = [], [], []
         dof_to_free = np.full(3 * self.mesh.n_nodes, -1)
         dof_to_free[self.free_dofs] = np.arange(self.n_free)
@@ -118,9 +123,10 @@ class ArmFEM:
     def gradient(self, q: np.ndarray, u_motor) -> np.ndarray:
         """dE/dq (n_free,) in N."""
         x = self.to_nodes(q)
-        g = np.zeros((self.mesh.n_nodes, 3))
-        np.add.at(g, self.mesh.tets, self.elastic.gradient(x))
-        g -= self.f_gravity_W
+        # Scatter-add of the element gradients (bincount is ~10x faster than np.add.at).
+        dofs = self._elem_dofs
+        g = np.bincount(dofs, weights=self.elastic.gradient(x).ravel(), minlength=3 * self.mesh.n_nodes)
+        g = g.reshape(-1, 3) - self.f_gravity_W
         for c, L_star in zip(self.cables, self.cable_targets(u_motor)):
             L, dL_dp, _ = c.length_derivatives(x)
             tension = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[1]
