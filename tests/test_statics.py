@@ -63,6 +63,13 @@ def test_symmetry(three_cable):
     assert a[[0, 2]] == pytest.approx(b[[0, 2]], abs=0.05 * abs(a[1]))
 
 
+def test_cold_solve_of_a_small_command_converges(default_fem):
+    """Regression: the final, tiny Newton steps used to be rejected by the line search
+    (energy rounding), stalling at max_iter for u = [0.25, 0, 0] on the default mesh."""
+    sol = solve_static(default_fem, [0.25, 0.0, 0.0])
+    assert sol.converged and sol.iterations < 20
+
+
 def test_failures_are_reported(default_fem):
     with pytest.raises(StaticSolveError, match="failed"):
         solve_static(default_fem, [3.0, 0, 0], max_iter=1)
