@@ -74,8 +74,18 @@ class RobotDescription:
 
     @property
     def sha256(self) -> str:
-        """Hash of the parsed description (stable across comments and formatting)."""
-        return hashlib.sha256(json.dumps(self.source, sort_keys=True).encode()).hexdigest()
+        """Hash of every field (stable across comments and formatting of the file, and
+        different for a description modified in code with ``dataclasses.replace``)."""
+        def plain(v):
+            if isinstance(v, np.ndarray):
+                return v.tolist()
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            if hasattr(v, "__dataclass_fields__"):
+                return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__}
+            return v
+        fields = {k: plain(getattr(self, k)) for k in self.__dataclass_fields__ if k not in ("source", "summary")}
+        return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()
 
     def is_safe(self, u_motor, tol: float = 1e-9) -> np.ndarray:
         """Whether motor commands satisfy the safety rule and the range ``[0, u_max]``.

@@ -49,6 +49,14 @@ def test_bad_description_names_the_field(mutate, field):
         parse_robot(data)
 
 
+def test_hash_tracks_content(three_cable):
+    import dataclasses
+
+    assert three_cable.sha256 == load_robot("three-cable").sha256
+    softer = dataclasses.replace(three_cable, youngs_modulus_pa=20e3)
+    assert softer.sha256 != three_cable.sha256
+
+
 def test_bad_files(tmp_path):
     with pytest.raises(DescriptionError, match="unknown robot"):
         load_robot("four-cable")

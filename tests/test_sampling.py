@@ -44,7 +44,10 @@ def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coa
     kw = dict(n_rings=1, n_axial=6)
     serial = simulate(three_cable, u, chunks, n_jobs=1, **kw)
     parallel = simulate(three_cable, u, chunks, n_jobs=2, **kw)
-    assert np.array_equal(serial["p_tip_W"], parallel["p_tip_W"])
+    # Same chunks, same walks, same arithmetic: equal to rounding. (Bitwise equality holds
+    # between fresh processes; inside a long-lived test worker, alignment-dependent SIMD
+    # paths in NumPy/MKL were seen to move the last bit, 7e-16 m.)
+    assert np.abs(serial["p_tip_W"] - parallel["p_tip_W"]).max() < 1e-12
     # Warm starts change the path to the equilibrium, not the equilibrium.
     for i in [0, len(u) // 2, len(u) - 1]:
         cold = solve_static(coarse_fem, u[i]).p_tip_W
