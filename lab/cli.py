@@ -29,13 +29,13 @@ def _simulate(args) -> int:
           f"{args.jobs} worker(s)", file=sys.stderr)
     res = simulate(robot, u, chunks, n_rings=n_rings, n_axial=n_axial, n_jobs=args.jobs,
                    progress=not args.no_progress)
-    from .fem import ArmFEM
+    from .mesh import cylinder_mesh
 
-    fem = ArmFEM(robot, n_rings=n_rings, n_axial=n_axial)
+    mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)  # counts only
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
         "mesh": {"mesher": "cylinder", "n_rings": n_rings, "n_axial": n_axial,
-                 "n_nodes": fem.mesh.n_nodes, "n_tets": len(fem.mesh.tets)},
+                 "n_nodes": mesh.n_nodes, "n_tets": len(mesh.tets)},
         "sampler": sampler,
         "solver": {"linear_solver": default_backend(), "mean_newton_iterations": float(res["iterations"].mean()),
                    "wall_s": res["wall_s"], "n_jobs": args.jobs},
