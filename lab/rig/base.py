@@ -1,0 +1,150 @@
+"""The rig interface: send motor angles, read a stream of tip-marker frames, stop safely.
+
+One interface, three implementations, chosen by ``make_rig`` (``lab.rig``):
+
+* ``sim``       -- ``SimRig``: the nominal quasi-static FEM, instantaneous, noise-free
+                   (the paper's "Sim Robot");
+* ``twin[:F]``  -- the emulated as-built robot (defects from the TOML file ``F``), with lag,
+                   hysteresis and motion-capture noise on a virtual clock;
+* ``hardware:C``-- Dynamixel XM430 servos + OptiTrack, configured by the TOML file ``C``.
+
+Everything downstream (capture protocol, trajectory tracking) uses only this interface:
+
+    with make_rig("twin", robot) as rig:
+        rig.send(u_motor)                 # rad, validated by the robot's limits and safety rule
+        frame = rig.next_frame()          # MocapFrame(t_s, p_tip_W), NaN while occluded
+
+``close()`` (also run by ``with`` on any exception) leaves the robot safe: torque off on
+hardware. Frames are timestamped on the rig's clock (seconds): wall time on hardware,
+a virtual clock on the emulated rigs, which therefore run much faster than real time.
+"""
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..description import RobotDescription
+
+
+class RigError(RuntimeError):
+    """A rig stopped working (the rig has been made safe before this is raised)."""
+
+
+class ServoError(RigError):
+    """A servo stopped answering, answered garbage, or reported a hardware error."""
+
+
+class MocapError(RigError):
+    """The motion-capture stream was lost, or the tip marker stayed occluded too long."""
+
+
+@dataclass(frozen=True)
+class MocapFrame:
+    """One motion-capture frame: time ``t_s`` (s, rig clock) and tip marker ``p_tip_W``
+    (3,) m in the robot frame W; all-NaN when the marker was not seen in this frame."""
+    t_s: float
+    p_tip_W: np.ndarray
+
+    @property
+    def valid(self) -> bool:
+        return bool(np.all(np.isfinite(self.p_tip_W)))
+
+
+class Rig(abc.ABC):
+    """Base class of all rigs. Subclasses implement the ``_send``/``next_frame``/... hooks."""
+
+    #: short name written into datasets and reports ("sim", "twin", "hardware")
+    kind: str = "rig"
+
+    def __init__(self, robot: RobotDescription, frame_rate_hz: float):
+        self.robot = robot
+        self.frame_rate_hz = float(frame_rate_hz)
+        self._closed = False
+
+    # --- commands -------------------------------------------------------------------
+    def send(self, u_motor) -> np.ndarray:
+        """Set the goal motor angles ``u_motor`` (n_cables,) rad and return at once.
+
+        Raises ValueError (nothing is sent) for a wrong shape, NaN, an angle outside
+        ``[0, u_max]`` or a command the robot's safety rule forbids.
+        """
+        if self._closed:
+            raise RigError(f"{self.kind} rig is closed")
+        u = self.robot.check_command(u_motor)
+        self._send(u)
+        return u
+
+    @abc.abstractmethod
+    def _send(self, u_motor: np.ndarray) -> None:
+        """Send an already validated command."""
+
+    @abc.abstractmethod
+    def present_u(self) -> np.ndarray:
+        """Measured motor angles (n_cables,) rad."""
+
+    # --- sensing --------------------------------------------------------------------
+    @abc.abstractmethod
+    def now(self) -> float:
+        """Current time on the rig's clock, s."""
+
+    @abc.abstractmethod
+    def next_frame(self) -> MocapFrame:
+        """The next motion-capture frame (blocks on hardware; advances a virtual clock by
+        one frame period on emulated rigs)."""
+
+    def frames(self, n: int) -> list[MocapFrame]:
+        """The next ``n`` frames."""
+        return [self.next_frame() for _ in range(int(n))]
+
+    def wait(self, duration_s: float) -> list[MocapFrame]:
+        """Let ``duration_s`` seconds pass on the rig clock, consuming (and returning) the
+        frames that arrive meanwhile."""
+        t_end = self.now() + float(duration_s)
+        out = []
+        while self.now() < t_end - 1e-12:
+            out.append(self.next_frame())
+        return out
+
+    # --- shutdown -------------------------------------------------------------------
+    def close(self) -> None:
+        """Make the robot safe and release the connection. Idempotent."""
+        if not self._closed:
+            self._closed = True
+            self._close()
+
+    def _close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def describe(self) -> dict:
+        """JSON-able description of this rig for dataset/report metadata."""
+        return {"kind": self.kind, "robot": self.robot.name, "frame_rate_hz": self.frame_rate_hz}
+
+
+class Body(abc.ABC):
+    """The physical arm an emulator stands in for, on a clock ``t_s`` (s).
+
+    The emulated rig (``twin``) and the hardware emulators (an XM430 bus on a
+    pseudo-terminal, a NatNet server on loopback) drive the same body, so the whole
+    hardware path can run against the emulated robot. Calls come with non-decreasing
+    ``t_s``; the body integrates its own dynamics (motor profile, lag, hysteresis) up
+    to that time.
+    """
+
+    n_motors: int
+
+    @abc.abstractmethod
+    def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
+        """New goal motor angles (n_motors,) rad from time ``t_s`` on."""
+
+    @abc.abstractmethod
+    def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(present motor angles (n_motors,) rad, true tip position p_tip_W (3,) m) at ``t_s``."""
