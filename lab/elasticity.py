@@ -52,12 +52,12 @@ class NeoHookean:
 
     def deformation_gradient(self, x_W: np.ndarray) -> np.ndarray:
         """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
-        return np.einsum("mai,maj->mij", x_W[self.tets], self.G)
+        return np.matmul(x_W[self.tets].transpose(0, 2, 1), self.G)
 
     def energy(self, x_W: np.ndarray) -> float:
         """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""
         F = self.deformation_gradient(x_W)
-        J = np.linalg.det(F)
+        J = _det3(F)
         if np.any(J <= 0):
             return np.inf
         logJ = np.log(J)
@@ -66,29 +66,53 @@ class NeoHookean:
 
     def _kinematics(self, x_W):
         F = self.deformation_gradient(x_W)
-        J = np.linalg.det(F)
+        F_inv, J = _inv3(F)
         if np.any(J <= 0):
             raise InvertedElementError(int(np.sum(J <= 0)))
-        A = np.einsum("maj,mjk->mak", self.G, np.linalg.inv(F))
-        return F, np.log(J), A
+        return F, np.log(J), np.matmul(self.G, F_inv)
 
     def gradient(self, x_W: np.ndarray) -> np.ndarray:
         """Per-element gradients (M, 4, 3) in N."""
         F, logJ, A = self._kinematics(x_W)
         c = self.mu - self.lam * logJ
-        return self.V[:, None, None] * (self.mu[:, None, None] * np.einsum("maj,mij->mai", self.G, F)
-                                        - c[:, None, None] * A)
+        GFt = np.matmul(self.G, F.transpose(0, 2, 1))
+        return self.V[:, None, None] * (self.mu[:, None, None] * GFt - c[:, None, None] * A)
 
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
         """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i)."""
         F, logJ, A = self._kinematics(x_W)
         M = len(self.V)
-        GG = np.einsum("maj,mbj->mab", self.G, self.G)
-        eye = np.eye(3)
-        H = self.mu[:, None, None, None, None] * np.einsum("mab,ik->maibk", GG, eye)
-        H += (self.mu - self.lam * logJ)[:, None, None, None, None] * np.einsum("mak,mbi->maibk", A, A)
-        H += self.lam[:, None, None, None, None] * np.einsum("mai,mbk->maibk", A, A)
-        return self.V[:, None, None] * H.reshape(M, 12, 12)
+        c, lam, mu = (self.mu - self.lam * logJ) * self.V, self.lam * self.V, self.mu * self.V
+        # Broadcast products into one preallocated array: ~3x faster than einsum here.
+        H = np.empty((M, 4, 3, 4, 3))
+        np.multiply((c[:, None, None] * A)[:, :, None, None, :],                  # c A[a,k] A[b,i]
+                    A.transpose(0, 2, 1)[:, None, :, :, None], out=H)
+        a = A.reshape(M, 12)
+        H_flat = H.reshape(M, 12, 12)
+        H_flat += (lam[:, None] * a)[:, :, None] * a[:, None, :]                 # lam A[a,i] A[b,k]
+        muGG = mu[:, None, None] * np.matmul(self.G, self.G.transpose(0, 2, 1))
+        for i in range(3):                                                       # mu (G G^T)[a,b] d_ik
+            H[:, :, i, :, i] += muGG
+        return H_flat
+
+
+def _det3(F: np.ndarray) -> np.ndarray:
+    """Determinants of (M, 3, 3) matrices (closed form; faster than LAPACK for 3x3)."""
+    return (F[:, 0, 0] * (F[:, 1, 1] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 1])
+            - F[:, 0, 1] * (F[:, 1, 0] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 0])
+            + F[:, 0, 2] * (F[:, 1, 0] * F[:, 2, 1] - F[:, 1, 1] * F[:, 2, 0]))
+
+
+def _inv3(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverses and determinants of (M, 3, 3) matrices by the adjugate; rows of an
+    inverted (J <= 0) matrix are garbage but finite unless J == 0."""
+    c0 = np.cross(F[:, :, 1], F[:, :, 2])        # rows of adj(F) = cofactors of F's columns
+    c1 = np.cross(F[:, :, 2], F[:, :, 0])
+    c2 = np.cross(F[:, :, 0], F[:, :, 1])
+    J = np.einsum("mi,mi->m", F[:, :, 0], c0)
+    adj = np.stack([c0, c1, c2], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return adj / J[:, None, None], J
 
 
 class InvertedElementError(RuntimeError):
