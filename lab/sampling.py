@@ -137,30 +137,75 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
             "time_s": np.asarray(times)}
 
 
+def _solve_indexed(i: int, robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray):
+    return i, solve_chunk(robot, n_rings, n_axial, u_chunk)
+
+
 def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], *, n_rings: int | None = None,
-             n_axial: int | None = None, n_jobs: int = 1, progress: bool = False) -> dict:
+             n_axial: int | None = None, n_jobs: int = 1, progress: bool = False,
+             checkpoint: str | os.PathLike | None = None, scheduler: str | None = None) -> dict:
     """Tip positions (N, 3) m for commands ``u_motor`` (N, m), solved chunk by chunk.
 
     ``n_jobs``: worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
-    Returns ``p_tip_W`` plus per-sample ``iterations`` and ``time_s`` and ``wall_s``.
+    ``checkpoint``: a directory where each finished chunk is stored at once; a run
+    started again with the same arguments loads those and solves only the rest
+    (see :mod:`lab.chunkstore`). ``scheduler``: the address of a Dask scheduler
+    (``tcp://host:port``) to run the chunks on a cluster through joblib's Dask backend
+    instead of local processes (its workers need this package installed and should run
+    one thread each, e.g. ``dask worker --nthreads 1`` with ``OMP_NUM_THREADS=1``).
+    The progress bar shows the samples done and an ETA.
+    Returns ``p_tip_W`` plus per-sample ``iterations`` and ``time_s``, ``wall_s`` and
+    ``resumed_samples`` (how many came from the checkpoint).
     """
     from joblib import Parallel, delayed, parallel_config
     from tqdm.auto import tqdm
+
+    from .chunkstore import ChunkStore, fingerprint
 
     n_rings, n_axial = n_rings or robot.n_rings, n_axial or robot.n_axial
     t0 = time.perf_counter()
     p_tip = np.full((len(u_motor), 3), np.nan)
     iters = np.zeros(len(u_motor), dtype=int)
     times = np.zeros(len(u_motor))
-    bar = tqdm(total=len(u_motor), unit="sample", disable=not progress, smoothing=0.05)
-    jobs = (delayed(solve_chunk)(robot, n_rings, n_axial, u_motor[c.order]) for c in chunks)
-    with parallel_config(backend="loky", inner_max_num_threads=1):
-        runner = Parallel(n_jobs=n_jobs, return_as="generator")
-        for chunk, res in zip(chunks, runner(jobs)):
-            p_tip[chunk.order], iters[chunk.order], times[chunk.order] = res["p_tip_W"], res["iterations"], res["time_s"]
-            bar.update(len(chunk.order))
-    bar.close()
-    return {"p_tip_W": p_tip, "iterations": iters, "time_s": times, "wall_s": time.perf_counter() - t0}
+    orders = [c.order for c in chunks]
+    store, done = None, {}
+    if checkpoint is not None:
+        store = ChunkStore(checkpoint, fingerprint(robot.sha256, n_rings, n_axial, u_motor, orders))
+        done = store.load(orders, u_motor)
+
+    def record(i, res):
+        order = orders[i]
+        p_tip[order], iters[order], times[order] = res["p_tip_W"], res["iterations"], res["time_s"]
+
+    for i, res in done.items():
+        record(i, res)
+    resumed = sum(len(orders[i]) for i in done)
+    bar = tqdm(total=len(u_motor), initial=resumed, unit="sample", disable=not progress, smoothing=0.05)
+    todo = [i for i in range(len(chunks)) if i not in done]
+    jobs = (delayed(_solve_indexed)(i, robot, n_rings, n_axial, u_motor[orders[i]]) for i in todo)
+    client = None
+    try:
+        if scheduler is not None:
+            from distributed import Client
+
+            client = Client(scheduler)
+            config = parallel_config(backend="dask")
+            n_jobs = -1
+        else:
+            config = parallel_config(backend="loky", inner_max_num_threads=1)
+        with config:
+            runner = Parallel(n_jobs=n_jobs, return_as="generator_unordered")
+            for i, res in runner(jobs):
+                if store is not None:
+                    store.save(i, {"order": orders[i], "u_motor": u_motor[orders[i]], **res})
+                record(i, res)
+                bar.update(len(orders[i]))
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    return {"p_tip_W": p_tip, "iterations": iters, "time_s": times, "wall_s": time.perf_counter() - t0,
+            "resumed_samples": resumed}
 
 
 def default_jobs() -> int:
