@@ -22,7 +22,7 @@ import numpy as np
 from .dataset import atomic_write_text
 
 FORMAT_VERSION = 1
-_FIELDS = ("order", "u_motor", "p_tip_W", "iterations", "time_s")
+_FIELDS = ("order", "u_motor", "p_tip_W", "iterations", "factorizations", "time_s")
 
 
 class CheckpointError(ValueError):

@@ -121,7 +121,7 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
     fem = _fem(robot, n_rings, n_axial)
     prev = solve_static(fem, np.zeros(robot.n_cables), sensitivity="reuse")
     prev_step = prev_dq = None
-    tips, iters, times = [], [], []
+    tips, iters, facts, times = [], [], [], []
     for u in u_chunk:
         step = u - prev.u_motor
         q0 = prev.q + prev.dq_du @ step
@@ -133,8 +133,9 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
             sol = solve_static(fem, u, sensitivity="reuse")
         prev_step, prev_dq, prev = step, prev.dq_du, sol
         tips.append(sol.p_tip_W), iters.append(sol.iterations), times.append(sol.time_s)
+        facts.append(sol.factorizations)
     return {"p_tip_W": np.asarray(tips).reshape(-1, 3), "iterations": np.asarray(iters),
-            "time_s": np.asarray(times)}
+            "factorizations": np.asarray(facts), "time_s": np.asarray(times)}
 
 
 def _solve_indexed(i: int, robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray):
@@ -154,7 +155,7 @@ def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], 
     instead of local processes (its workers need this package installed and should run
     one thread each, e.g. ``dask worker --nthreads 1`` with ``OMP_NUM_THREADS=1``).
     The progress bar shows the samples done and an ETA.
-    Returns ``p_tip_W`` plus per-sample ``iterations`` and ``time_s``, ``wall_s`` and
+    Returns ``p_tip_W`` plus per-sample ``iterations``, ``factorizations`` and ``time_s``, ``wall_s`` and
     ``resumed_samples`` (how many came from the checkpoint).
     """
     from joblib import Parallel, delayed, parallel_config
@@ -166,6 +167,7 @@ def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], 
     t0 = time.perf_counter()
     p_tip = np.full((len(u_motor), 3), np.nan)
     iters = np.zeros(len(u_motor), dtype=int)
+    facts = np.zeros(len(u_motor), dtype=int)
     times = np.zeros(len(u_motor))
     orders = [c.order for c in chunks]
     store, done = None, {}
@@ -176,6 +178,7 @@ def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], 
     def record(i, res):
         order = orders[i]
         p_tip[order], iters[order], times[order] = res["p_tip_W"], res["iterations"], res["time_s"]
+        facts[order] = res["factorizations"]
 
     for i, res in done.items():
         record(i, res)
@@ -204,7 +207,8 @@ def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], 
         bar.close()
         if client is not None:
             client.close()
-    return {"p_tip_W": p_tip, "iterations": iters, "time_s": times, "wall_s": time.perf_counter() - t0,
+    return {"p_tip_W": p_tip, "iterations": iters, "factorizations": facts, "time_s": times,
+            "wall_s": time.perf_counter() - t0,
             "resumed_samples": resumed}
 
 
