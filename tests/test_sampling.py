@@ -105,3 +105,69 @@ def test_cli_simulate_writes_dataset_and_sidecar(tmp_path, three_cable):
     bad = subprocess.run(cmd[:5] + ["no-such-robot", "--out", str(tmp_path / "x.csv")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "unknown robot 'no-such-robot'" in bad.stderr
+
+
+def test_checkpoint_resumes_and_refuses_another_run(tmp_path, three_cable):
+    from lab.chunkstore import CheckpointError
+
+    u = grid_commands(three_cable, 3)
+    chunks = grid_chunks(three_cable, u, target_size=4)
+    kw = dict(n_rings=1, n_axial=6)
+    full = simulate(three_cable, u, chunks, **kw)
+    ckpt = tmp_path / "ckpt"
+    first = simulate(three_cable, u, chunks, checkpoint=ckpt, **kw)
+    assert first["resumed_samples"] == 0 and len(list(ckpt.glob("chunk_*.npz"))) == len(chunks)
+    # Lose two chunks (as if the run had been killed before them) and corrupt a third.
+    (ckpt / "chunk_00001.npz").unlink()
+    (ckpt / "chunk_00003.npz").unlink()
+    (ckpt / "chunk_00004.npz").write_bytes(b"PK\x03\x04 truncated")
+    again = simulate(three_cable, u, chunks, checkpoint=ckpt, **kw)
+    lost = sum(len(chunks[i].order) for i in (1, 3, 4))
+    assert again["resumed_samples"] == len(u) - lost
+    assert np.abs(again["p_tip_W"] - full["p_tip_W"]).max() < 1e-12
+    # Same directory, other commands: refused, not mixed in.
+    with pytest.raises(CheckpointError, match="another run"):
+        simulate(three_cable, u[:-1], grid_chunks(three_cable, u[:-1], target_size=4), checkpoint=ckpt, **kw)
+
+
+@pytest.mark.slow
+def test_cli_simulate_killed_midway_resumes_without_loss(tmp_path, three_cable):
+    import os
+    import signal
+    import time
+
+    out = tmp_path / "sim.csv"
+    cmd = [sys.executable, "-m", "lab", "simulate", "--grid", "5", "--n-rings", "1", "--n-axial", "8",
+           "--chunk-size", "5", "--jobs", "1", "--no-progress", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    ckpt = tmp_path / "sim.csv.chunks"
+    deadline = time.monotonic() + 120
+    while len(list(ckpt.glob("chunk_*.npz"))) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    n_done = len(list(ckpt.glob("chunk_*.npz")))
+    assert not out.exists() and n_done >= 3, "the run should have been killed part-way"
+
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "resumed" in run.stderr and not ckpt.exists()
+    u, y, meta = read_dataset(out)
+    ref = simulate(three_cable, u, grid_chunks(three_cable, u, target_size=5), n_rings=1, n_axial=8)
+    assert meta["solver"]["resumed_samples"] > 0
+    assert np.abs(y - ref["p_tip_W"]).max() < 1e-12
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_gives_the_serial_numbers(three_cable):
+    from distributed import LocalCluster
+
+    u = grid_commands(three_cable, 3)
+    chunks = grid_chunks(three_cable, u, target_size=4)
+    kw = dict(n_rings=1, n_axial=6)
+    serial = simulate(three_cable, u, chunks, **kw)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      scheduler_port=0, dashboard_address=":0") as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        dask = simulate(three_cable, u, chunks, scheduler=cluster.scheduler_address, **kw)
+    assert np.abs(dask["p_tip_W"] - serial["p_tip_W"]).max() < 1e-12
