@@ -1,0 +1,311 @@
+"""Dynamixel XM430 servos on one bus, through the real ``dynamixel_sdk`` (Protocol 2.0).
+
+``XM430Bus`` opens the serial port, pings every servo, switches torque off, sets
+extended position mode (4) and the profile velocity, and then moves all motors at once:
+``write_goal_u`` (a GroupSyncWrite of goal positions) and ``read_present_u`` (a sync
+read of present positions, checking every servo's error byte).
+
+Motor angle convention: ``u`` (rad) >= 0 winds the cable onto its spool, contracting it
+by ``spool_radius_m * u``. Ticks (4096 per revolution) map to u per servo as
+
+    u = direction * (ticks - zero_ticks) * 2 pi / 4096
+
+with ``direction`` = +1 if increasing ticks wind the cable in, and ``zero_ticks`` the
+present position with the cable just taut. At power-up an X-series servo reports its
+position within one turn, so only ``zero_offset_ticks`` modulo 4096 is meaningful: on
+connecting, each servo's zero is moved by whole turns to the turn that puts its present
+angle nearest u = 0, and a present angle outside ``[-start_margin, u_max + start_margin]``
+is refused (a wrong zero or direction, or a spool left wound up).
+
+Errors: every failed exchange (no answer, corrupt answer, an error number in the status
+packet, the hardware-error alert bit such as an overload) raises ``ServoError`` naming the
+servo ID, its cable and the SDK's message, after trying to switch torque off on every
+servo: a broadcast write, then a read-back from each servo; the message says whether
+torque off was confirmed. A failing serial port (adapter unplugged) is a ``ServoError``
+too.
+"""
+from __future__ import annotations
+
+import math
+import termios
+from typing import Sequence
+
+import numpy as np
+import serial
+from dynamixel_sdk import (BROADCAST_ID, COMM_SUCCESS, DXL_HIBYTE, DXL_HIWORD, DXL_LOBYTE, DXL_LOWORD,
+                           GroupSyncRead, GroupSyncWrite, PacketHandler, PortHandler)
+
+from .base import ServoError
+from .dynamixel_units import (EXTENDED_POSITION_MODE, GOAL_LIMIT_TICKS, GOAL_POSITION, HARDWARE_ERROR_BITS,
+                              HARDWARE_ERROR_STATUS, OPERATING_MODE, PRESENT_POSITION, PROFILE_VELOCITY,
+                              RAD_PER_TICK, RPM_PER_VELOCITY_UNIT, SDK_BAUD_RATES, TICKS_PER_REV, TORQUE_ENABLE,
+                              VELOCITY_LIMIT, X_SERIES_MODELS, ServoConfig, ticks_from_u, u_from_ticks,
+                              velocity_units)
+
+__all__ = ["XM430Bus", "ServoConfig", "ticks_from_u", "u_from_ticks", "velocity_units", "RAD_PER_TICK",
+           "TICKS_PER_REV", "SDK_BAUD_RATES", "X_SERIES_MODELS", "IO_ERRORS"]
+
+# what pyserial raises when the adapter goes away (termios.error is no OSError)
+IO_ERRORS = (serial.SerialException, OSError, termios.error)
+
+
+def _bytes4(value: int) -> list[int]:
+    v = int(value) & 0xFFFFFFFF
+    return [DXL_LOBYTE(DXL_LOWORD(v)), DXL_HIBYTE(DXL_LOWORD(v)), DXL_LOBYTE(DXL_HIWORD(v)), DXL_HIBYTE(DXL_HIWORD(v))]
+
+
+class _PortHandler(PortHandler):
+    """The SDK's port with the reply timeout computed from the adapter's actual latency
+    timer (the SDK hard-codes 16 ms: it waits 2 x latency + 2 ms for a status packet)."""
+
+    def __init__(self, port_name: str, latency_timer_ms: float):
+        super().__init__(port_name)
+        self.latency_timer_ms = float(latency_timer_ms)
+
+    def setPacketTimeout(self, packet_length):
+        self.packet_start_time = self.getCurrentTime()
+        self.packet_timeout = self.tx_time_per_byte * packet_length + 2.0 * self.latency_timer_ms + 2.0
+
+
+class XM430Bus:
+    """A connected, configured bus of XM430 servos (torque off until ``torque_on``).
+
+    ``servos`` are in motor (cable) order; ``profile_velocity_rad_s`` caps each spool's
+    speed; ``u_max_rad`` with ``start_margin_rad`` bounds the accepted start-up angles.
+    Raises ``ServoError`` (port closed, torque off) if any of it fails.
+    """
+
+    def __init__(self, port: str, baud_rate: int, servos: Sequence[ServoConfig], *,
+                 profile_velocity_rad_s: float, u_max_rad: float = math.pi,
+                 start_margin_rad: float = 0.5, latency_timer_ms: float = 16.0):
+        self.servos = tuple(servos)
+        self.ids = [s.dxl_id for s in self.servos]
+        if not self.ids or len(set(self.ids)) != len(self.ids) or not all(0 <= i <= 252 for i in self.ids):
+            raise ValueError(f"servo IDs must be distinct integers in 0..252, got {self.ids}")
+        if any(s.direction not in (1, -1) for s in self.servos):
+            raise ValueError(f"servo directions must be +1 or -1, got {[s.direction for s in self.servos]}")
+        if baud_rate not in SDK_BAUD_RATES:
+            raise ValueError(f"baud rate {baud_rate} is not one the Dynamixel SDK supports: {SDK_BAUD_RATES}")
+        if not profile_velocity_rad_s > 0:
+            raise ValueError(f"profile velocity must be positive, got {profile_velocity_rad_s} rad/s")
+        self.port_name, self.baud_rate = str(port), int(baud_rate)
+        self.direction = np.array([s.direction for s in self.servos])
+        self.zero_ticks = np.array([s.zero_offset_ticks for s in self.servos], dtype=np.int64)
+        self.profile_velocity_rad_s = float(profile_velocity_rad_s)
+        self.profile_velocity_units = velocity_units(profile_velocity_rad_s)
+        self.model_numbers: dict[int, int] = {}
+        self._closed = False
+        self._unconfirmed_at_fail: list[int] | None = None     # torque-off result of the last failure
+        self._ph = PacketHandler(2.0)
+        self._port = _PortHandler(self.port_name, latency_timer_ms)
+        try:
+            ok = self._port.setBaudRate(self.baud_rate)      # opens the port
+        except IO_ERRORS as err:
+            self._closed = True
+            raise ServoError(f"cannot open serial port {self.port_name}: {err}") from None
+        if not ok:
+            self._closed = True
+            raise ServoError(f"serial port {self.port_name} refused {self.baud_rate} baud")
+        self._sync_write = GroupSyncWrite(self._port, self._ph, *GOAL_POSITION)
+        self._sync_read = GroupSyncRead(self._port, self._ph, *PRESENT_POSITION)
+        for dxl_id in self.ids:
+            self._sync_read.addParam(dxl_id)
+        try:
+            self._configure(u_max_rad, start_margin_rad)
+        except BaseException:
+            self.close()
+            raise
+
+    # --- set-up ---------------------------------------------------------------------
+    def _configure(self, u_max_rad: float, start_margin_rad: float) -> None:
+        for s in self.servos:
+            model, result, error = self._sdk(self._ph.ping, self._port, s.dxl_id)
+            if result != COMM_SUCCESS:
+                self._fail(s.dxl_id, f"ping on {self.port_name} at {self.baud_rate} baud",
+                           self._ph.getTxRxResult(result) + " (check power, wiring, ID and baud rate)")
+            self._check(s.dxl_id, "ping", result, error)
+            if model not in X_SERIES_MODELS:
+                self._fail(s.dxl_id, "model check", f"model number {model} is not an X-series servo "
+                           f"with the XM430 control table ({sorted(X_SERIES_MODELS)})")
+            self.model_numbers[s.dxl_id] = model
+        for s in self.servos:
+            self.write_register(s.dxl_id, *TORQUE_ENABLE, 0)
+            if self.read_register(s.dxl_id, *OPERATING_MODE) != EXTENDED_POSITION_MODE:
+                self.write_register(s.dxl_id, *OPERATING_MODE, EXTENDED_POSITION_MODE)   # EEPROM: only if needed
+            limit = self.read_register(s.dxl_id, *VELOCITY_LIMIT)
+            if self.profile_velocity_units > limit:
+                self._fail(s.dxl_id, "profile velocity check",
+                           f"{self.profile_velocity_rad_s} rad/s ({self.profile_velocity_units} units of "
+                           f"{RPM_PER_VELOCITY_UNIT} rev/min) exceeds the servo's Velocity Limit (address 44) of "
+                           f"{limit} units = {limit * RPM_PER_VELOCITY_UNIT * 2 * math.pi / 60:.2f} rad/s")
+            self.write_register(s.dxl_id, *PROFILE_VELOCITY, self.profile_velocity_units)
+        ticks = self.read_present_ticks()
+        turns = np.rint((ticks - self.zero_ticks) / TICKS_PER_REV).astype(np.int64)
+        self.zero_ticks = self.zero_ticks + TICKS_PER_REV * turns
+        u = self.u_from_ticks(ticks)
+        for s, u_i in zip(self.servos, u):
+            if not -start_margin_rad <= u_i <= u_max_rad + start_margin_rad:
+                self._fail(s.dxl_id, "start-up check",
+                           f"spool at u = {u_i:.3f} rad, outside [{-start_margin_rad}, {u_max_rad + start_margin_rad}] "
+                           "rad: check zero_offset_ticks and direction, or unwind the spool by hand")
+
+    # --- conversions ----------------------------------------------------------------
+    def ticks_from_u(self, u_rad) -> np.ndarray:
+        return ticks_from_u(u_rad, self.zero_ticks, self.direction)
+
+    def u_from_ticks(self, ticks) -> np.ndarray:
+        return u_from_ticks(ticks, self.zero_ticks, self.direction)
+
+    # --- motion ---------------------------------------------------------------------
+    def torque_on(self) -> None:
+        """Hold the present positions (goal := present), then enable torque on every servo."""
+        self._unconfirmed_at_fail = None
+        self.write_goal_ticks(self.read_present_ticks())
+        for dxl_id in self.ids:
+            self.write_register(dxl_id, *TORQUE_ENABLE, 1)
+        for dxl_id in self.ids:
+            if self.read_register(dxl_id, *TORQUE_ENABLE) != 1:
+                self._fail(dxl_id, "torque on", "torque enable did not stick")
+
+    def write_goal_u(self, u_rad) -> np.ndarray:
+        """Sync-write goal angles ``u_rad`` (n,) rad; returns the goal ticks sent."""
+        u = np.asarray(u_rad, dtype=float)
+        if u.shape != (len(self.ids),) or not np.all(np.isfinite(u)):
+            raise ValueError(f"expected {len(self.ids)} finite motor angles, got {u!r}")
+        ticks = self.ticks_from_u(u)
+        self.write_goal_ticks(ticks)
+        return ticks
+
+    def write_goal_ticks(self, ticks) -> None:
+        """Sync-write raw goal positions (n,) ticks (no status packets come back)."""
+        ticks = np.asarray(ticks, dtype=np.int64)
+        for dxl_id, t in zip(self.ids, ticks):
+            if abs(int(t)) > GOAL_LIMIT_TICKS:
+                raise ValueError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
+        self._sync_write.clearParam()
+        for dxl_id, t in zip(self.ids, ticks):
+            self._sync_write.addParam(dxl_id, _bytes4(t))
+        result = self._sdk(self._sync_write.txPacket)
+        self._check(self.ids[0], "sync write of goal positions", result, 0, who="bus")
+
+    def read_present_ticks(self) -> np.ndarray:
+        """Sync-read present positions (n,) ticks (signed), checking each status packet."""
+        result = self._sdk(self._sync_read.txPacket)
+        self._check(self.ids[0], "sync read of present positions", result, 0, who="bus")
+        out = np.zeros(len(self.ids), dtype=np.int64)
+        for k, dxl_id in enumerate(self.ids):
+            data, result, error = self._sdk(self._ph.readRx, self._port, dxl_id, PRESENT_POSITION[1])
+            self._check(dxl_id, "sync read of present position", result, error)
+            out[k] = int.from_bytes(bytes(data[:4]), "little", signed=True)
+        return out
+
+    def read_present_u(self) -> np.ndarray:
+        """Present motor angles (n,) rad."""
+        return self.u_from_ticks(self.read_present_ticks())
+
+    # --- registers ------------------------------------------------------------------
+    def _read_raw(self, dxl_id: int, address: int, size: int) -> tuple[int | None, int, int]:
+        """(value or None, comm result, error byte). Uses the SDK's generic ``readTxRx``:
+        its ``readNByteTxRx`` index an empty data list when an error status carries no data."""
+        data, result, error = self._ph.readTxRx(self._port, dxl_id, address, size)
+        if result != COMM_SUCCESS or len(data) < size:
+            return None, result, error
+        return int.from_bytes(bytes(data[:size]), "little", signed=size == 4), result, error
+
+    def read_register(self, dxl_id: int, address: int, size: int, *, alert_ok: bool = False) -> int:
+        """Read a 1/2/4-byte register (4-byte values signed)."""
+        value, result, error = self._sdk(self._read_raw, dxl_id, address, size)
+        self._check(dxl_id, f"read of address {address}", result, error, alert_ok=alert_ok)
+        if value is None:
+            self._fail(dxl_id, f"read of address {address}", "status packet without data")
+        return value
+
+    def write_register(self, dxl_id: int, address: int, size: int, value: int) -> None:
+        """Write a 1/2/4-byte register and check the servo's answer."""
+        fn = {1: self._ph.write1ByteTxRx, 2: self._ph.write2ByteTxRx, 4: self._ph.write4ByteTxRx}[size]
+        result, error = self._sdk(fn, self._port, dxl_id, address, int(value) & 0xFFFFFFFF)
+        self._check(dxl_id, f"write of {value} to address {address}", result, error)
+
+    def read_hardware_errors(self) -> dict[int, int]:
+        """Hardware error status register (address 70) of every servo, by ID."""
+        return {i: self.read_register(i, *HARDWARE_ERROR_STATUS, alert_ok=True) for i in self.ids}
+
+    # --- errors and shutdown --------------------------------------------------------
+    def _sdk(self, fn, *args):
+        try:
+            return fn(*args)
+        except IO_ERRORS as err:
+            self._fail(None, "serial I/O", f"port {self.port_name} failed: {err}")
+
+    def _cable(self, dxl_id) -> str:
+        cable = next((s.cable for s in self.servos if s.dxl_id == dxl_id), "")
+        return f" (cable {cable!r})" if cable else ""
+
+    def _check(self, dxl_id, what, result, error, *, alert_ok=False, who=None) -> None:
+        if result != COMM_SUCCESS:
+            self._fail(None if who else dxl_id, what, self._ph.getTxRxResult(result))
+        if error & 0x7F:
+            self._fail(dxl_id, what, self._ph.getRxPacketError(error & 0x7F))
+        if error & 0x80 and not alert_ok:
+            self._fail(dxl_id, what, self._ph.getRxPacketError(0x80) + self._hardware_error_text(dxl_id))
+
+    def _hardware_error_text(self, dxl_id: int) -> str:
+        try:
+            status, _result, _error = self._read_raw(dxl_id, *HARDWARE_ERROR_STATUS)
+        except IO_ERRORS:
+            return ""
+        if status is None:
+            return ""
+        names = [name for bit, name in HARDWARE_ERROR_BITS.items() if status & (1 << bit)]
+        return f" hardware error status 0x{status:02X}: {', '.join(names) or 'unknown'}"
+
+    def _fail(self, dxl_id, what: str, message: str):
+        unconfirmed = self._unconfirmed_at_fail = self.torque_off()
+        note = ("torque is off on every servo" if not unconfirmed else
+                f"torque off NOT confirmed for servo IDs {unconfirmed}: switch off servo power")
+        who = "servo bus" if dxl_id is None else f"servo ID {dxl_id}{self._cable(dxl_id)}"
+        raise ServoError(f"{who} on {self.port_name}: {what} failed: {message} [{note}]")
+
+    def torque_off(self) -> list[int]:
+        """Best effort, never raises: broadcast torque off, then read torque enable back from
+        each servo (if not 0: write it once more, read again). Returns the IDs whose torque
+        off could not be confirmed."""
+        if self._port.ser is None or not self._port.is_open:
+            return list(self.ids)
+        unconfirmed = []
+
+        def is_off(dxl_id):
+            return self._read_raw(dxl_id, *TORQUE_ENABLE)[0] == 0
+        try:
+            self._port.is_using = False      # an interrupted exchange may have left it set
+            self._ph.write1ByteTxOnly(self._port, BROADCAST_ID, TORQUE_ENABLE[0], 0)
+            for dxl_id in self.ids:
+                if not is_off(dxl_id):
+                    self._ph.write1ByteTxRx(self._port, dxl_id, TORQUE_ENABLE[0], 0)
+                    if not is_off(dxl_id):
+                        unconfirmed.append(dxl_id)
+        except IO_ERRORS:
+            return list(self.ids)
+        return unconfirmed
+
+    def close(self) -> list[int]:
+        """Torque off and close the port (idempotent). Returns the IDs whose torque off is not
+        confirmed (a failure's own torque-off result, if torque was not enabled since)."""
+        if self._closed:
+            return []
+        self._closed = True
+        unconfirmed = self._unconfirmed_at_fail
+        if unconfirmed is None:
+            unconfirmed = self.torque_off()
+        try:
+            self._port.closePort()
+        except (*IO_ERRORS, AttributeError):
+            pass
+        return unconfirmed
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

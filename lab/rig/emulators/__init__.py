@@ -1,0 +1,18 @@
+"""Emulated hardware for testing the hardware rig without a robot.
+
+* ``EmulatedXM430Bus`` (``xm430.py``): Dynamixel XM430 servos speaking Protocol 2.0 on
+  a pseudo-terminal, for the real ``dynamixel_sdk``; fault injection.
+* ``NatNetServerEmulator`` (``natnet_server.py``): an OptiTrack NatNet server on
+  loopback UDP, for the real ``natnet`` client; occlusion and a vanishing server.
+* ``LiveBody``/``KinematicBody`` (``bodies.py``): a ``Body`` shared by both on wall-clock
+  time, and a simple one.
+* ``EmulatedBench`` (``bench.py``): all of it together plus a matching rig config;
+  ``python -m lab.rig.emulators --config-out RIG.toml`` serves it until interrupted.
+"""
+from .bench import EmulatedBench, default_specs, kinematic_body_for
+from .bodies import KinematicBody, LiveBody
+from .natnet_server import MocapScene, NatNetServerEmulator, multicast_loopback_works
+from .xm430 import FAULTS, EmulatedXM430Bus, ServoSpec
+
+__all__ = ["EmulatedBench", "EmulatedXM430Bus", "FAULTS", "KinematicBody", "LiveBody", "MocapScene",
+           "NatNetServerEmulator", "ServoSpec", "default_specs", "kinematic_body_for", "multicast_loopback_works"]

@@ -1,0 +1,94 @@
+"""Bodies for the hardware emulators.
+
+``LiveBody`` puts a ``Body`` (``lab.rig.base``) on wall-clock time so that the emulated
+servo bus (which commands it) and the NatNet server (which streams its tip) can share
+it from their own threads: calls are serialised by a lock and time never runs backward
+(a command stamped before the body's latest time is applied at that time). A body with
+a ``profile_velocity_rad_s`` attribute gets the servos' profile velocity with each
+command, so its motors move at the speed the driver configured.
+
+``KinematicBody`` is a small stand-in for the arm, for exercising the hardware path
+without the FEM: each motor turns toward its goal at a fixed speed, and the tip moves
+linearly with the motor angles, ``p_tip_W = p_rest_W + J_W @ u_present``.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+
+from ..base import Body
+
+
+class LiveBody:
+    """A ``Body`` driven on wall-clock time, ``t_s`` = seconds since construction."""
+
+    def __init__(self, body: Body, clock=time.monotonic):
+        self.body = body
+        self._clock = clock
+        self._t0 = clock()
+        self._t_last = 0.0
+        self._lock = threading.Lock()
+
+    def now(self) -> float:
+        return self._clock() - self._t0
+
+    def _tick(self, t_s: float | None = None) -> float:
+        self._t_last = max(self._t_last, self.now() if t_s is None else float(t_s))
+        return self._t_last
+
+    def command(self, u_goal_rad, t_s: float | None = None, profile_velocity_rad_s: float | None = None) -> None:
+        """New goal motor angles (n_motors,) rad from ``t_s`` (default now; s on this
+        clock) on, with the motors' speed limit where the body has one."""
+        with self._lock:
+            if profile_velocity_rad_s is not None and hasattr(self.body, "profile_velocity_rad_s"):
+                self.body.profile_velocity_rad_s = float(profile_velocity_rad_s)
+            self.body.command(np.asarray(u_goal_rad, dtype=float), self._tick(t_s))
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(present motor angles (n_motors,) rad, tip position p_tip_W (3,) m) now."""
+        with self._lock:
+            return self.body.state(self._tick())
+
+    def p_tip_W(self, _t_s: float | None = None) -> np.ndarray:
+        """The true tip position (3,) m now (the argument is ignored: a NatNet tip source)."""
+        return self.state()[1]
+
+
+class KinematicBody(Body):
+    """Motors slewing at ``profile_velocity_rad_s`` toward their goals; tip linear in the
+    angles. ``p_rest_W`` (3,) m: tip at u = 0; ``J_W`` (3, n_motors) m/rad: tip
+    displacement per motor angle. The last goal and the motor angles are kept for inspection.
+    """
+
+    def __init__(self, p_rest_W, J_W, profile_velocity_rad_s: float = 2.0):
+        self.p_rest_W = np.asarray(p_rest_W, dtype=float).reshape(3)
+        self.J_W = np.asarray(J_W, dtype=float)
+        if self.J_W.ndim != 2 or self.J_W.shape[0] != 3:
+            raise ValueError(f"J_W must have shape (3, n_motors), got {self.J_W.shape}")
+        if not profile_velocity_rad_s > 0:
+            raise ValueError(f"profile_velocity_rad_s must be positive, got {profile_velocity_rad_s}")
+        self.n_motors = self.J_W.shape[1]
+        self.profile_velocity_rad_s = float(profile_velocity_rad_s)
+        self.u_goal_rad = np.zeros(self.n_motors)
+        self.u_rad = np.zeros(self.n_motors)
+        self._t_s = 0.0
+
+    def _advance(self, t_s: float) -> None:
+        dt = max(0.0, t_s - self._t_s)
+        self._t_s = max(self._t_s, t_s)
+        err = self.u_goal_rad - self.u_rad
+        step = self.profile_velocity_rad_s * dt
+        self.u_rad = self.u_rad + np.clip(err, -step, step)
+
+    def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
+        u = np.asarray(u_goal_rad, dtype=float)
+        if u.shape != (self.n_motors,):
+            raise ValueError(f"expected {self.n_motors} motor angles, got shape {u.shape}")
+        self._advance(t_s)
+        self.u_goal_rad = u.copy()
+
+    def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        self._advance(t_s)
+        return self.u_rad.copy(), self.p_rest_W + self.J_W @ self.u_rad

@@ -1,0 +1,266 @@
+"""A NatNet server (OptiTrack Motive stand-in) on loopback UDP, for the real ``natnet`` client.
+
+The command socket answers NAT_CONNECT with the server info, NAT_REQUEST_MODELDEF with
+the data descriptions (the robot's marker set and, optionally, a rigid body on the tip),
+NAT_REQUEST_FRAMEOFDATA with the current frame, NAT_REQUEST with an empty response, and
+registers unicast clients (NAT_CONNECT/NAT_KEEPALIVE; NAT_DISCONNECT or 10 s of silence
+removes them). A streaming thread sends a frame of data every ``1/frame_rate_hz`` s:
+unicast to every registered client, or to the multicast group (loopback interface,
+TTL 0, so nothing leaves the machine).
+
+Each frame holds the tip marker, given by ``tip_W_m(t_s) -> (3,)`` m in the robot frame
+W (``LiveBody.p_tip_W`` to stream an emulated body), and the base markers, all mapped
+into the mocap frame M by the scene's rigid transform ``p_M = R_MW p_W + t_MW`` and
+written in the scene's length unit, with optional Gaussian noise. Untracked markers
+follow Motive's conventions: absent from the labeled markers, (0, 0, 0) in the marker
+set, ``tracking_valid`` False for a rigid body.
+
+Faults: ``occlude_tip(True)`` hides the tip; ``freeze()`` makes the server disappear
+(no frames, no answers; the sockets stay bound as when a network cable is pulled);
+``stop()`` closes everything.
+"""
+from __future__ import annotations
+
+import math
+import socket
+import struct
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import natnet_packets as nn
+
+
+def _rotation_z_up_to_y_up(yaw_deg: float) -> np.ndarray:
+    """W (z up) into a Y-up mocap frame, turned by ``yaw_deg`` about the vertical."""
+    to_y_up = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    yaw = np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return yaw @ to_y_up
+
+
+@dataclass(frozen=True)
+class MocapScene:
+    """What the cameras see: marker names, the base markers' positions in W (m), the
+    placement of W in the mocap frame M (``p_M = R_MW p_W + t_MW_m``) and the unit."""
+    marker_set: str = "soft_arm"
+    tip_marker: str = "tip"
+    base_markers: tuple = ("base_1", "base_2", "base_3")
+    base_positions_W_m: tuple = ((-0.01, 0.03, 0.03), (-0.01, -0.035, 0.02), (-0.01, 0.0, -0.04))
+    R_MW: np.ndarray = field(default_factory=lambda: _rotation_z_up_to_y_up(30.0))
+    t_MW_m: tuple = (0.40, 0.90, -0.20)
+    tip_rigid_body: tuple | None = ("tip_body", 7)        # (name, id) or None
+    marker_set_model_id: int = 1
+    length_unit_m: float = 1.0                            # 1e-3 streams millimetres
+
+    def to_mocap(self, p_W_m: np.ndarray) -> np.ndarray:
+        """(k, 3) m in W -> (k, 3) in M, in the streamed unit."""
+        return (np.atleast_2d(p_W_m) @ self.R_MW.T + np.asarray(self.t_MW_m)) / self.length_unit_m
+
+    @property
+    def marker_names(self) -> list[str]:
+        return [self.tip_marker, *self.base_markers]
+
+
+class NatNetServerEmulator:
+    """Loopback NatNet server; ``command_port``/``data_port`` are the bound ports.
+
+    Use as a context manager (or ``start()``/``stop()``); its threads always stop.
+    """
+
+    CLIENT_TIMEOUT_S = 10.0
+
+    def __init__(self, tip_W_m: Callable[[float], np.ndarray], scene: MocapScene = MocapScene(), *,
+                 version=(3, 1), frame_rate_hz: float = 120.0, multicast: bool = False,
+                 multicast_address: str = "239.255.42.99", command_port: int = 0, data_port: int = 0,
+                 noise_m: float = 0.0, seed: int = 0, host: str = "127.0.0.1"):
+        self.tip_W_m, self.scene = tip_W_m, scene
+        self.version = nn._check(version)
+        self.frame_rate_hz = float(frame_rate_hz)
+        self.multicast, self.multicast_address, self.host = multicast, multicast_address, host
+        self.noise_m = float(noise_m)
+        self._rng = np.random.default_rng(seed)
+        self._cmd = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._cmd.bind((host, command_port))
+        self._cmd.settimeout(0.05)
+        self.command_port = self._cmd.getsockname()[1]
+        self._data = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        if multicast:
+            if data_port == 0:
+                data_port = _free_udp_port(host)
+            self._data.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, socket.inet_aton(host))
+            self._data.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+            self._data.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)
+            self._data.bind((host, 0))
+            self.data_port = data_port
+        else:
+            self._data.bind((host, data_port))
+            self.data_port = self._data.getsockname()[1]
+        self._clients: dict[tuple, float] = {}
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._frozen = threading.Event()
+        self._occluded = False
+        self._threads: list[threading.Thread] = []
+        self._t0 = time.monotonic()
+        self.frames_sent = 0
+
+    # --- lifecycle and faults -------------------------------------------------------
+    def start(self) -> "NatNetServerEmulator":
+        for target, name in ((self._serve_commands, "natnet-cmd"), (self._stream, "natnet-data")):
+            t = threading.Thread(target=target, name=name, daemon=True)
+            t.start()
+            self._threads.append(t)
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(timeout=5.0)
+        self._cmd.close()
+        self._data.close()
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()
+        return False
+
+    def freeze(self) -> None:
+        """The server disappears: no more frames, no more answers."""
+        self._frozen.set()
+
+    def occlude_tip(self, occluded: bool = True) -> None:
+        self._occluded = bool(occluded)
+
+    def now(self) -> float:
+        return time.monotonic() - self._t0
+
+    @property
+    def clients(self) -> list[tuple]:
+        with self._lock:
+            return list(self._clients)
+
+    # --- messages -------------------------------------------------------------------
+    def server_info(self) -> bytes:
+        return nn.server_info(self.version, multicast=self.multicast, multicast_address=self.multicast_address,
+                              data_port=self.data_port)
+
+    def model_def(self) -> bytes:
+        s = self.scene
+        sets = [(s.marker_set, s.marker_names), ("all", s.marker_names)]
+        bodies = []
+        if s.tip_rigid_body is not None:
+            offsets = [(0.01, 0.0, 0.0), (0.0, 0.01, 0.0), (0.0, 0.0, 0.01)]
+            bodies.append((s.tip_rigid_body[0], s.tip_rigid_body[1], -1, (0.0, 0.0, 0.0), offsets))
+        return nn.model_def(self.version, sets, bodies)
+
+    def frame(self, frame_number: int, t_s: float) -> bytes:
+        s = self.scene
+        p_W = np.vstack([np.asarray(self.tip_W_m(t_s), dtype=float).reshape(1, 3),
+                         np.asarray(s.base_positions_W_m, dtype=float)])
+        p_M = s.to_mocap(p_W)
+        if self.noise_m > 0:
+            p_M = p_M + self._rng.normal(0.0, self.noise_m / s.length_unit_m, p_M.shape)
+        pts = [tuple(map(float, p)) for p in p_M]
+        hidden = self._occluded
+        set_pts = ([(0.0, 0.0, 0.0)] if hidden else pts[:1]) + pts[1:]
+        labeled = [nn.LabeledMarkerState((s.marker_set_model_id << 16) | (k + 1), p)
+                   for k, p in enumerate(pts) if not (hidden and k == 0)]
+        rbs = []
+        if s.tip_rigid_body is not None:
+            rbs.append(nn.RigidBodyState(s.tip_rigid_body[1], (0.0, 0.0, 0.0) if hidden else pts[0],
+                                         tracking_valid=not hidden))
+        frame = nn.Frame(frame_number, t_s, marker_sets=[(s.marker_set, set_pts), ("all", set_pts)],
+                         rigid_bodies=rbs, labeled=labeled, stamp_ticks=int(t_s * 1e7))
+        return nn.frame_of_data(self.version, frame)
+
+    # --- threads --------------------------------------------------------------------
+    def _serve_commands(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data, addr = self._cmd.recvfrom(65536)
+            except (socket.timeout, BlockingIOError):
+                continue
+            except OSError:
+                if self._stop.is_set():
+                    return
+                continue          # e.g. ICMP unreachable from a client that went away
+            if self._frozen.is_set() or len(data) < 4:
+                continue
+            message_id = struct.unpack_from("<H", data)[0]
+            self._answer(message_id, addr)
+
+    def _answer(self, message_id: int, addr) -> None:
+        reply = None
+        if message_id == nn.NAT_CONNECT:
+            reply = self.server_info()
+        elif message_id == nn.NAT_REQUEST_MODELDEF:
+            reply = self.model_def()
+        elif message_id == nn.NAT_REQUEST_FRAMEOFDATA:
+            reply = self.frame(self.frames_sent, self.now())
+        elif message_id == nn.NAT_REQUEST:
+            reply = nn.message(nn.NAT_RESPONSE, struct.pack("<i", 0))
+        elif message_id not in (nn.NAT_KEEPALIVE, nn.NAT_DISCONNECT):
+            reply = nn.message(nn.NAT_UNRECOGNIZED_REQUEST, b"")
+        if reply is not None:
+            try:
+                self._cmd.sendto(reply, addr)
+            except OSError:
+                return
+        with self._lock:   # registered only after the server info went out: frames come after it
+            if message_id == nn.NAT_CONNECT or (message_id == nn.NAT_KEEPALIVE and addr in self._clients):
+                self._clients[addr] = time.monotonic()
+            elif message_id == nn.NAT_DISCONNECT:
+                self._clients.pop(addr, None)
+
+    def _stream(self) -> None:
+        period = 1.0 / self.frame_rate_hz
+        next_t = time.monotonic()
+        while not self._stop.wait(max(0.0, next_t - time.monotonic())):
+            next_t += period
+            if time.monotonic() - next_t > period:          # fell behind: skip, do not burst
+                next_t = time.monotonic() + period
+            if self._frozen.is_set():
+                continue
+            packet = self.frame(self.frames_sent, self.now())
+            self.frames_sent += 1
+            if self.multicast:
+                targets = [(self.multicast_address, self.data_port)]
+            else:
+                with self._lock:
+                    cutoff = time.monotonic() - self.CLIENT_TIMEOUT_S
+                    self._clients = {a: t for a, t in self._clients.items() if t > cutoff}
+                    targets = list(self._clients)
+            for addr in targets:
+                try:
+                    self._data.sendto(packet, addr)
+                except OSError:
+                    with self._lock:
+                        self._clients.pop(addr, None)
+
+
+def multicast_loopback_works(group: str = "239.255.42.99", host: str = "127.0.0.1") -> bool:
+    """Whether this machine delivers a multicast datagram sent on the loopback interface
+    (TTL 0) back to a member socket: the condition for multicast NatNet on loopback."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+        try:
+            rx.bind((group, 0))
+            rx.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, socket.inet_aton(group) + socket.inet_aton(host))
+            rx.settimeout(1.0)
+            tx.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, socket.inet_aton(host))
+            tx.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+            tx.sendto(b"probe", (group, rx.getsockname()[1]))
+            return rx.recv(16) == b"probe"
+        except OSError:
+            return False
+
+
+def _free_udp_port(host: str) -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]

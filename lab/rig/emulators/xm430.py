@@ -1,0 +1,272 @@
+"""An emulated bus of Dynamixel XM430 servos on a pseudo-terminal (Protocol 2.0).
+
+``EmulatedXM430Bus`` opens a pty; its slave device path (``bus.port``) is what the
+real ``dynamixel_sdk.PortHandler`` opens, exactly as it would open ``/dev/ttyUSB0``.
+A background thread reads instruction packets from the master side and answers with
+status packets: PING, READ, WRITE, SYNC_READ, SYNC_WRITE and REBOOT; CRC-16, byte
+stuffing, error numbers and the hardware-error alert bit (``protocol2.py``).
+
+Each servo (``xm430_servo.EmulatedServo``) has the XM430 control table the driver
+uses, and its spool moves on wall-clock time; a servo only hears packets sent at its own
+baud rate, read from the pty's termios.
+
+The physical truth of each motor is its ``ServoSpec``: the tick at which its cable is
+just taut (``zero_tick``) and which way winds the cable in (``direction``). With a
+``LiveBody`` attached, every change of goal or torque commands the body with the
+motor angles ``u = direction * (goal - zero_tick) * 2 pi / 4096`` rad (0 for a released
+motor) and the slowest servo's profile velocity, so the hardware rig can drive the
+emulated robot. The body is commanded from a worker thread, in order and stamped with
+the time the servos acted, so that a slow body (an FEM solve per command) never delays
+a status packet past the SDK's reply timeout.
+
+Faults (``inject_fault``): ``"silent"`` (obeys, never answers), ``"disconnected"``
+(neither hears nor answers), ``"bad_crc"`` (answers with a corrupted CRC),
+``"crc_error"`` (instructions arrive corrupted: answers with error 3 and ignores them),
+``"overload"`` (hardware error status bit 5: torque off, alert bit on every answer, until
+REBOOT). ``count`` limits a fault to that many occurrences. ``unplug()`` closes the pty.
+"""
+from __future__ import annotations
+
+import array
+import fcntl
+import os
+import queue
+import select
+import struct
+import threading
+import time
+import tty
+
+import numpy as np
+
+from . import protocol2 as p2
+from .bodies import LiveBody
+from .xm430_servo import FAULTS, TICKS_PER_REV, EmulatedServo, ServoSpec
+
+__all__ = ["EmulatedXM430Bus", "ServoSpec", "FAULTS"]
+
+
+class EmulatedXM430Bus:
+    """XM430 servos on a pseudo-terminal; ``port`` is the device path for the SDK.
+
+    Use as a context manager (or ``start()``/``stop()``); the serving thread always stops.
+    ``body``: optional ``Body`` (or ``LiveBody``) the servos drive, motors in ``specs`` order.
+    """
+
+    def __init__(self, specs, *, body=None, clock=time.monotonic):
+        self.specs = tuple(specs)
+        ids = [s.dxl_id for s in self.specs]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"duplicate servo IDs {ids}")
+        self._clock = clock
+        self._t0 = clock()
+        self.servos = [EmulatedServo(s, 0.0) for s in self.specs]
+        self.body = body if body is None or isinstance(body, LiveBody) else LiveBody(body)
+        self._lock = threading.RLock()
+        self._reader = p2.PacketReader()
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        self.port = os.ttyname(self._slave)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._body_thread: threading.Thread | None = None
+        self._body_queue: queue.Queue = queue.Queue()
+        self._last_body_command: tuple | None = None
+        self.body_error: BaseException | None = None
+        self.packets = 0
+
+    # --- lifecycle ------------------------------------------------------------------
+    def start(self) -> "EmulatedXM430Bus":
+        self._thread = threading.Thread(target=self._serve, name="xm430-bus", daemon=True)
+        self._thread.start()
+        if self.body is not None:
+            self._body_thread = threading.Thread(target=self._drive_body, name="xm430-body", daemon=True)
+            self._body_thread.start()
+            self._command_body()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._body_queue.put(None)
+        for thread in (self._thread, self._body_thread):
+            if thread is not None:
+                thread.join(timeout=30.0)
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self._master = self._slave = -1
+
+    unplug = stop   # the USB adapter pulled out: the SDK's next read/write fails
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()
+        return False
+
+    # --- inspection and faults ------------------------------------------------------
+    def now(self) -> float:
+        return self._clock() - self._t0
+
+    def servo(self, dxl_id: int) -> EmulatedServo:
+        for s in self.servos:
+            if s.dxl_id == dxl_id:
+                return s
+        raise KeyError(f"no emulated servo with ID {dxl_id}")
+
+    def state(self, dxl_id: int) -> dict:
+        """Registers of one servo after advancing it to now (for tests)."""
+        with self._lock:
+            s = self.servo(dxl_id)
+            s.advance(self.now())
+            names = ("torque_enable", "operating_mode", "profile_velocity", "goal_position",
+                     "present_position", "hardware_error_status", "moving")
+            return {n: s.get(n) for n in names} | {"u_goal_rad": s.u_goal_rad()}
+
+    def inject_fault(self, dxl_id: int, fault: str, count: int | None = None) -> None:
+        if fault not in FAULTS:
+            raise ValueError(f"unknown fault {fault!r}; expected one of {FAULTS}")
+        with self._lock:
+            s = self.servo(dxl_id)
+            s.advance(self.now())
+            if fault == "overload":
+                s.overload()
+            else:
+                s.fault, s.fault_count = fault, count
+        self._command_body()
+
+    def clear_fault(self, dxl_id: int) -> None:
+        with self._lock:
+            self.servo(dxl_id).fault = None
+
+    # --- serving --------------------------------------------------------------------
+    def _port_baud(self) -> int | None:
+        """Baud rate the SDK set on the port (Linux termios2), None where unreadable."""
+        try:
+            buf = array.array("i", [0] * 64)
+            fcntl.ioctl(self._slave, 0x802C542A, buf)   # TCGETS2: c_ispeed at word 9
+            return int(buf[9])
+        except OSError:
+            return None
+
+    def _serve(self) -> None:
+        while not self._stop.is_set():
+            try:
+                ready, _, _ = select.select([self._master], [], [], 0.05)
+                if not ready:
+                    continue
+                data = os.read(self._master, 4096)
+            except (OSError, ValueError):
+                return
+            for pkt in self._reader.feed(data):
+                with self._lock:
+                    replies = self._handle(pkt)
+                self._command_body()
+                for reply in replies:
+                    try:
+                        os.write(self._master, reply)
+                    except OSError:
+                        return
+
+    def _command_body(self) -> None:
+        """Queue a body command if the servos' goals, torque or speed changed."""
+        if self.body is None:
+            return
+        with self._lock:
+            u = tuple(s.u_goal_rad() for s in self.servos)
+            speed = min(s.speed_ticks_s() for s in self.servos) * 2 * np.pi / TICKS_PER_REV
+            if (u, speed) == self._last_body_command:
+                return
+            self._last_body_command = (u, speed)
+            self._body_queue.put((np.array(u), self.body.now(), speed))
+
+    def _drive_body(self) -> None:
+        while (item := self._body_queue.get()) is not None:
+            u, t_s, speed = item
+            try:
+                self.body.command(u, t_s=t_s, profile_velocity_rad_s=speed if speed > 0 else None)
+            except Exception as err:      # noqa: BLE001 - kept for the test that drives the bus
+                self.body_error = err
+            finally:
+                self._body_queue.task_done()
+
+    def wait_body(self, timeout_s: float = 10.0) -> None:
+        """Block until the body has been given every queued command (for tests)."""
+        deadline = time.monotonic() + timeout_s
+        while self._body_queue.unfinished_tasks and time.monotonic() < deadline:
+            time.sleep(0.005)
+
+    def _take_fault(self, s: EmulatedServo, kind: str) -> bool:
+        if s.fault != kind:
+            return False
+        if s.fault_count is not None:
+            s.fault_count -= 1
+            if s.fault_count <= 0:
+                s.fault = None
+        return True
+
+    def _reply(self, s: EmulatedServo, error: int, data: bytes = b"", *, kind: str = "") -> bytes | None:
+        level = s.get("status_return_level")
+        if (kind == "read" and level < 1) or (kind == "write" and level < 2):
+            return None
+        if s.fault == "silent":
+            return None
+        bad = self._take_fault(s, "bad_crc")
+        return p2.status(s.dxl_id, error, data, corrupt_crc=bad)
+
+    def _handle(self, pkt: p2.Packet) -> list[bytes]:
+        self.packets += 1
+        t = self.now()
+        baud = self._port_baud()
+        hearing = [s for s in self.servos if s.fault != "disconnected" and (baud is None or baud == s.baud_rate)]
+        broadcast = pkt.dxl_id == p2.BROADCAST_ID
+        targets = hearing if broadcast else [s for s in hearing if s.dxl_id == pkt.dxl_id]
+        if not pkt.crc_ok and broadcast:
+            return []
+        noisy = [s for s in targets if self._take_fault(s, "crc_error")]
+        if not pkt.crc_ok or (noisy and not broadcast):
+            return [r for s in targets if (r := self._reply(s, p2.ERR_CRC | s.alert))]
+        targets = [s for s in targets if s not in noisy]   # a broadcast still reaches the others
+        out: list[bytes | None] = []
+        prm = pkt.params
+        word = lambda i: prm[i] | (prm[i + 1] << 8)  # noqa: E731
+        if pkt.instruction == p2.PING:
+            for s in sorted(targets, key=lambda s: s.dxl_id):
+                fw = s.get("firmware_version")
+                out.append(self._reply(s, s.alert, struct.pack("<HB", s.get("model_number"), fw)))
+        elif pkt.instruction == p2.READ and not broadcast:
+            for s in targets:
+                if len(prm) != 4:
+                    out.append(self._reply(s, p2.ERR_DATA_LENGTH | s.alert, kind="read"))
+                else:
+                    err, data = s.read(word(0), word(2), t)
+                    out.append(self._reply(s, err, data, kind="read"))
+        elif pkt.instruction == p2.WRITE:
+            for s in targets:
+                err = s.write(word(0), prm[2:], t) if len(prm) > 2 else p2.ERR_DATA_LENGTH | s.alert
+                if not broadcast:
+                    out.append(self._reply(s, err, kind="write"))
+        elif pkt.instruction == p2.SYNC_WRITE and broadcast and len(prm) >= 4:
+            addr, n = word(0), word(2)
+            for i in range(4, len(prm) - n, n + 1):
+                for s in targets:
+                    if s.dxl_id == prm[i]:
+                        s.write(addr, prm[i + 1:i + 1 + n], t)
+        elif pkt.instruction == p2.SYNC_READ and broadcast and len(prm) >= 4:
+            addr, n = word(0), word(2)
+            for dxl_id in prm[4:]:
+                s = next((s for s in targets if s.dxl_id == dxl_id), None)
+                reply = None if s is None else self._reply(s, *s.read(addr, n, t), kind="read")
+                if reply is None:
+                    break            # the servos after a missing answer wait for it in vain
+                out.append(reply)
+        elif pkt.instruction == p2.REBOOT and not broadcast:
+            for s in targets:
+                out.append(self._reply(s, 0))
+                s.power_up(t)
+        elif not broadcast:
+            out.extend(self._reply(s, p2.ERR_INSTRUCTION | s.alert) for s in targets)
+        return [r for r in out if r is not None]
