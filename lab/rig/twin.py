@@ -1,0 +1,236 @@
+"""The emulated as-built robot: ``AsBuiltBody`` (the arm in time) and ``TwinRig``.
+
+``AsBuiltBody`` is a :class:`~lab.rig.base.Body`; the twin rig and the hardware
+emulators drive it. From a command to the tip:
+
+1. **Motors**: goals are rounded to encoder ticks (``ticks_per_rev``); each motor turns
+   toward its goal at the profile velocity (constant speed, infinite acceleration:
+   Dynamixel "Profile Acceleration = 0"). Present angles are reported in ticks.
+2. **Cable play** (hysteresis): the contraction a cable really applies, ``y``, follows
+   the spool's ``x = r u`` through a Prandtl play operator of half-width ``h``:
+   ``y <- clip(y, x - h, x + h)``. Pulling in, a cable lags ``h`` behind; letting out,
+   it stays ``h`` ahead, so a released cable leaves the arm slightly bent toward it.
+   Contracting all cables by more than ``2h`` and releasing them leaves every cable at
+   ``y = h`` whatever came before: the paper's reset erases the memory.
+3. **Statics**: the as-built FEM is solved once per command, at the contraction the
+   cables reach at the end of the motion (:class:`~lab.rig.asbuilt.EquilibriumCache`);
+   during the motion the equilibrium moves linearly in time from where it was to there.
+4. **Foam lag**: the tip follows that equilibrium through two first-order modes,
+   ``p = (1 - w) z_fast + w z_slow``, ``dz_k/dt = (p_eq - z_k) / tau_k``, integrated
+   exactly (the input is piecewise linear in time), so a step in the equilibrium gives
+   ``1 - (1 - w) exp(-t/tau_fast) - w exp(-t/tau_slow)`` of its size after ``t``.
+
+``TwinRig`` puts the body on a virtual clock advanced one motion-capture frame per
+``next_frame()`` (``frame_rate_hz``), and observes the tip through ``MocapModel``:
+Gaussian noise and occlusion bursts (NaN frames). Deterministic for a given seed.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..description import RobotDescription
+from .asbuilt import Defects, EquilibriumCache, as_built_fem, load_defects
+from .base import Body, MocapFrame, Rig, RigError
+
+
+class AsBuiltBody(Body):
+    """The as-built arm in time (see the module docstring). ``defects``: a
+    :class:`Defects`, a TOML path, or ``None`` for the robot's shipped default;
+    ``n_rings``/``n_axial`` override the FEM mesh (coarse meshes for tests)."""
+
+    def __init__(self, robot: RobotDescription, defects: Defects | str | None = None, *,
+                 n_rings: int | None = None, n_axial: int | None = None):
+        self.robot = robot
+        self.defects = defects if isinstance(defects, Defects) else load_defects(defects, robot)
+        self.fem = as_built_fem(robot, self.defects, n_rings=n_rings, n_axial=n_axial)
+        self.equilibria = EquilibriumCache(self.fem)
+        self.n_motors = robot.n_cables
+        #: motor speed (rad/s) used for the next command; the XM430 emulator may set it
+        self.profile_velocity_rad_s = self.defects.profile_velocity_rad_s
+        d = self.defects
+        self._r = robot.spool_radius_m
+        self._h = d.play_m
+        self._tick = 2 * math.pi / d.ticks_per_rev if d.ticks_per_rev else 0.0
+        self._w = np.array([1.0 - d.slow_fraction, d.slow_fraction])
+        self._tau = np.array([d.tau_fast_s, d.tau_slow_s])
+        zero = np.zeros(self.n_motors)
+        p_rest = self.equilibria.tip(zero)
+        # Current motion segment, from t0: motors u0 -> goal at speed v, cables from y0,
+        # equilibrium p0 -> p1 linearly over T seconds.
+        self._t0, self._u0, self._goal, self._v = 0.0, zero.copy(), zero.copy(), self.profile_velocity_rad_s
+        self._y0, self._p0, self._p1, self._T = zero.copy(), p_rest, p_rest, 0.0
+        self._t = 0.0
+        self._z = np.stack([p_rest, p_rest])          # lag modes (2, 3), settled at rest
+
+    # ---------------------------------------------------------------- Body interface
+    def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
+        """New goal motor angles (n_motors,) rad from ``t_s`` on (any finite angles; the
+        rig, not the body, enforces the robot's range and safety rule)."""
+        goal = np.asarray(u_goal_rad, dtype=float)
+        if goal.shape != (self.n_motors,) or not np.all(np.isfinite(goal)):
+            raise ValueError(f"expected {self.n_motors} finite motor angles, got {goal!r}")
+        self._advance(t_s)
+        u_now, y_now, p_now = self._motors(self._t), self._contraction(self._t), self._input(self._t)
+        goal = self._quantise(goal)
+        y_end = np.clip(y_now, self._r * goal - self._h, self._r * goal + self._h)
+        p_end = self.equilibria.tip(y_end)
+        v = float(self.profile_velocity_rad_s)
+        if not v > 0:
+            raise ValueError(f"profile_velocity_rad_s must be positive, got {v}")
+        self._t0, self._u0, self._goal, self._v = self._t, u_now, goal, v
+        self._y0, self._p0, self._p1 = y_now, p_now, p_end
+        self._T = float(np.max(np.abs(goal - u_now))) / v
+
+    def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(present motor angles (n_motors,) rad in whole ticks, true tip p_tip_W (3,) m)."""
+        self._advance(t_s)
+        return self._quantise(self._motors(self._t)), self._w @ self._z
+
+    # ---------------------------------------------------------------- helpers
+    @property
+    def time_s(self) -> float:
+        """The body's clock: the latest time it was advanced to, s."""
+        return self._t
+
+    @property
+    def contraction_m(self) -> np.ndarray:
+        """Effective cable contractions y (n_motors,) m after the play, at the body's time."""
+        return self._contraction(self._t)
+
+    def contraction_from_reset(self, u_motor) -> np.ndarray:
+        """Effective contractions (n_motors,) m when ``u_motor`` rad is approached from the
+        reset state (every cable released to y = +h): ``max(h, r u - h)``."""
+        return np.maximum(self._h, self._r * self._quantise(np.asarray(u_motor, float)) - self._h)
+
+    def quasi_static_tip(self, u_motor) -> np.ndarray:
+        """Noise-free settled tip p_tip_W (3,) m for ``u_motor`` reached after a reset:
+        the quasi-static map the capture protocol measures."""
+        return self.equilibria.tip(self.contraction_from_reset(u_motor))
+
+    def _quantise(self, u: np.ndarray) -> np.ndarray:
+        return np.rint(u / self._tick) * self._tick if self._tick else np.array(u, dtype=float)
+
+    def _motors(self, t: float) -> np.ndarray:
+        step = self._v * (t - self._t0)
+        return self._u0 + np.clip(self._goal - self._u0, -step, step)
+
+    def _contraction(self, t: float) -> np.ndarray:
+        # Each motor moves monotonically within a segment, so the play output is a clip.
+        x = self._r * self._motors(t)
+        return np.clip(self._y0, x - self._h, x + self._h)
+
+    def _input(self, t: float) -> np.ndarray:
+        if self._T <= 0 or t >= self._t0 + self._T:
+            return self._p1
+        return self._p0 + (self._p1 - self._p0) * ((t - self._t0) / self._T)
+
+    def _advance(self, t_s: float) -> None:
+        """Integrate the lag modes exactly from the body's time to ``t_s``."""
+        t_s = float(t_s)
+        if t_s < self._t - 1e-9:
+            raise ValueError(f"time went backwards: {t_s} s after {self._t} s")
+        t_ramp_end = self._t0 + self._T
+        while t_s > self._t:
+            if self._t < t_ramp_end:     # equilibrium moving linearly
+                t_b, slope = min(t_s, t_ramp_end), (self._p1 - self._p0) / self._T
+            else:
+                t_b, slope = t_s, 0.0
+            a, s = self._input(self._t), t_b - self._t
+            decay = np.exp(-s / self._tau)[:, None]
+            lag = slope * self._tau[:, None]
+            self._z = a + slope * s - lag + (self._z - a + lag) * decay
+            self._t = t_b
+
+
+class MocapModel:
+    """Motion-capture observation of a marker: per-axis Gaussian noise of
+    ``noise_sigma_m`` and occlusion bursts starting with probability ``dropout_rate_hz /
+    frame_rate_hz`` at each frame, each 1..``dropout_max_frames`` frames long (uniform),
+    reported as NaN, with at least one seen frame between two bursts. Every frame
+    consumes the same random numbers, so the sequence depends only on the seed."""
+
+    _BLOCK = 4096
+
+    def __init__(self, frame_rate_hz: float, noise_sigma_m: float, dropout_rate_hz: float,
+                 dropout_max_frames: int, seed: int = 0):
+        self.noise_sigma_m = float(noise_sigma_m)
+        self.p_burst_start = float(dropout_rate_hz) / float(frame_rate_hz)
+        self.dropout_max_frames = int(dropout_max_frames)
+        self._rng = np.random.default_rng(seed)
+        self._i = self._BLOCK
+        self._left = 0            # frames still occluded in the current burst
+        self._burst_ended = False  # a burst ended last frame: this one is seen
+        self.n_frames = self.n_dropped = 0
+
+    @classmethod
+    def from_defects(cls, defects: Defects, seed: int = 0) -> "MocapModel":
+        return cls(defects.frame_rate_hz, defects.noise_sigma_m, defects.dropout_rate_hz,
+                   defects.dropout_max_frames, seed)
+
+    def observe(self, p_true_W: np.ndarray) -> np.ndarray:
+        """One frame's measurement (3,) m of the true marker position, or NaN (3,)."""
+        if self._i == self._BLOCK:
+            self._noise = self.noise_sigma_m * self._rng.standard_normal((self._BLOCK, 3))
+            self._start = self._rng.random(self._BLOCK)
+            self._length = self._rng.integers(1, self.dropout_max_frames + 1, self._BLOCK)
+            self._i = 0
+        i = self._i
+        self._i += 1
+        self.n_frames += 1
+        if self._left == 0 and not self._burst_ended and self._start[i] < self.p_burst_start:
+            self._left = int(self._length[i])
+        self._burst_ended = False
+        if self._left > 0:
+            self._left -= 1
+            self.n_dropped += 1
+            self._burst_ended = self._left == 0
+            return np.full(3, np.nan)
+        return p_true_W + self._noise[i]
+
+
+class TwinRig(Rig):
+    """The emulated as-built robot behind the rig interface, on a virtual clock.
+
+    ``defects``: a :class:`Defects`, a TOML path, or ``None`` (the robot's shipped
+    default); ``seed``: motion-capture noise and dropouts; ``body``: an existing
+    :class:`AsBuiltBody` to drive (its defects are then used).
+    """
+    kind = "twin"
+
+    def __init__(self, robot: RobotDescription, defects: Defects | str | None = None, seed: int = 0, *,
+                 body: AsBuiltBody | None = None):
+        self.body = body if body is not None else AsBuiltBody(robot, defects)
+        self.defects = self.body.defects
+        super().__init__(robot, self.defects.frame_rate_hz)
+        self.seed = int(seed)
+        self.mocap = MocapModel.from_defects(self.defects, self.seed)
+        self._frame = 0
+        self._t_start_s = self.body.time_s       # a reused body may already be ahead
+
+    def _send(self, u_motor: np.ndarray) -> None:
+        try:
+            self.body.command(u_motor, self._body_time())
+        except RuntimeError as err:               # the as-built FEM found no equilibrium
+            raise RigError(f"twin: {err}") from err
+
+    def present_u(self) -> np.ndarray:
+        return self.body.state(self._body_time())[0]
+
+    def now(self) -> float:
+        return self._frame / self.frame_rate_hz
+
+    def _body_time(self) -> float:
+        return self._t_start_s + self.now()
+
+    def next_frame(self) -> MocapFrame:
+        self._frame += 1
+        p_true = self.body.state(self._body_time())[1]
+        return MocapFrame(self.now(), self.mocap.observe(p_true))
+
+    def describe(self) -> dict:
+        d, fem = self.defects, self.body.fem
+        return {**super().describe(), "seed": self.seed,
+                "defects": {"path": d.path, "sha256": d.sha256, "values": d.source},
+                "mesh": {"n_nodes": int(fem.mesh.n_nodes), "n_tets": int(len(fem.mesh.tets))}}
