@@ -171,6 +171,10 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--n-axial", type=int, help="FEM mesh layers of --rig sim / --soft-ik (default: robot's)")
     k.add_argument("--out", required=True, help="result JSON")
     k.set_defaults(func=_track)
+
+    from .capture_cli import add_capture_parser
+
+    add_capture_parser(sub)
     return p
 
 
