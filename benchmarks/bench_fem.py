@@ -18,15 +18,9 @@ from lab.fem import ArmFEM
 from lab.linsolve import BACKENDS, _available, factorize
 from lab.sampling import default_jobs, grid_chunks, grid_commands, simulate
 from lab.statics import solve_static
+from timing import best_of
 
 
-def best_of(fn, n=7):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 ap = argparse.ArgumentParser()

@@ -15,17 +15,11 @@ import numpy as np
 
 from lab.dataset import read_dataset
 from lab.train import LMOptions, train
+from timing import best_of
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "sim_three_cable.csv"
 
 
-def best_of(fn, n=7):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}")

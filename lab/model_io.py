@@ -25,20 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .dataset import _json_default
+
 FORMAT_VERSION = 1
 KIND = "lab.mlp"
 
 
 class ModelFileError(ValueError):
     """A model file is missing, corrupt, truncated, inconsistent or from a newer format."""
-
-
-def _json_default(obj):
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f"not JSON serialisable: {type(obj)}")
 
 
 def save_model(model, path: str | Path) -> Path:
