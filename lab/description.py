@@ -247,6 +247,17 @@ def parse_robot(data: dict) -> RobotDescription:
         p_tip_marker_W=p_tip, safety_limits=tuple(limits), source=data)
 
 
+def read_toml(path: str | Path, error: type[Exception], what: str) -> dict:
+    """Parse the TOML file ``path``; a missing or malformed file raises ``error`` naming
+    the file (``what`` says which kind of file, e.g. "defects file")."""
+    try:
+        return tomllib.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise error(f"{what} not found: {path}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise error(f"{path}: not valid TOML: {err}") from None
+
+
 def load_robot(name_or_path: str | Path) -> RobotDescription:
     """Load a shipped robot by name (``"three-cable"``, ``"six-cable"``) or a TOML path."""
     path = Path(name_or_path)
@@ -255,12 +266,7 @@ def load_robot(name_or_path: str | Path) -> RobotDescription:
         if not path.exists():
             shipped = sorted(p.stem for p in ROBOTS_DIR.glob("*.toml"))
             raise DescriptionError(f"unknown robot {str(name_or_path)!r}; shipped robots: {shipped}")
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise DescriptionError(f"robot description file not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise DescriptionError(f"{path}: not valid TOML: {err}") from None
+    data = read_toml(path, DescriptionError, "robot description file")
     try:
         return parse_robot(data)
     except DescriptionError as err:

@@ -26,14 +26,13 @@ import hashlib
 import json
 import math
 import time
-import tomllib
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..description import RobotDescription
+from ..description import RobotDescription, read_toml
 from ..fem import ArmFEM
 from ..mesh import cylinder_mesh
 from ..statics import solve_static
@@ -186,12 +185,7 @@ def load_defects(path: str | Path | None, robot: RobotDescription) -> Defects:
                                f"write one and pass it as --rig twin:DEFECTS.toml")
         shown = f"lab/rig/defects/{path.name}"          # recorded relative to the repository
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise DefectsError(f"defects file not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise DefectsError(f"{path}: not valid TOML: {err}") from None
+    data = read_toml(path, DefectsError, "defects file")
     try:
         return parse_defects(data, robot, shown or str(path))
     except DefectsError as err:

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import ipaddress
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..description import RobotDescription
+from ..description import RobotDescription, read_toml
 from .dynamixel import SDK_BAUD_RATES, ServoConfig
 from .optitrack import MarkerRef, NatNetConfig
 
@@ -193,12 +192,7 @@ def parse_hardware_config(data: dict, robot: RobotDescription, source: str = "<d
 def load_hardware_config(path: str | Path, robot: RobotDescription) -> HardwareConfig:
     """Read and validate a hardware rig TOML file for ``robot``."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise HardwareConfigError(f"hardware rig configuration not found: {path}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise HardwareConfigError(f"{path}: not valid TOML: {err}") from None
+    data = read_toml(path, HardwareConfigError, "hardware rig configuration")
     try:
         return parse_hardware_config(data, robot, str(path))
     except HardwareConfigError as err:
