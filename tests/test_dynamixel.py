@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, Protocol2PacketHandler
 
+from helpers import wait_until
 from lab.rig.base import ServoError
 from lab.rig.dynamixel import (GOAL_POSITION, OPERATING_MODE, PRESENT_POSITION, RAD_PER_TICK, ServoConfig, XM430Bus, ticks_from_u,
                                u_from_ticks, velocity_units)
@@ -18,14 +19,6 @@ CABLES = ["top", "lower-left", "lower-right"]
 SPECS = [ServoSpec(1, zero_tick=1000), ServoSpec(2, zero_tick=5000, direction=-1), ServoSpec(3, zero_tick=3100)]
 CONFIG = [ServoConfig(s.dxl_id, s.direction, s.zero_tick, c) for s, c in zip(SPECS, CABLES)]
 LATENCY_MS = 100.0     # reply timeout 2 x 100 + 2 ms: generous for a loaded CI machine
-
-
-def wait_until(predicate, timeout_s=5.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.01)
 
 
 @pytest.fixture

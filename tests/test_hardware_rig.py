@@ -1,13 +1,13 @@
 """HardwareRig end to end: real SDK + real NatNet client against the emulated bench."""
 import copy
 import json
-import time
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers import wait_until
 from lab.rig import make_rig
 from lab.rig.base import MocapError, RigError, ServoError
 from lab.rig.dynamixel import RAD_PER_TICK
@@ -16,14 +16,6 @@ from lab.rig.hardware import HardwareRig
 from lab.rig.hardware_config import HardwareConfigError, load_hardware_config, parse_hardware_config
 
 EXAMPLE = Path(__file__).parents[1] / "lab" / "rigs" / "hardware-example.toml"
-
-
-def wait_until(predicate, timeout_s=5.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.01)
 
 
 @pytest.fixture

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import fd_parameter_jacobian
 from lab.cli import main
 from lab.dataset import read_dataset, write_dataset
 from lab.evaluate import evaluate_splits, mean_distance_m, mse_m2, size_sweep, summarize, workspace_size_m
@@ -59,18 +60,6 @@ def test_error_metrics_and_workspace_size():
 
 
 # ---- Levenberg-Marquardt semantics --------------------------------------------------------
-
-def fd_parameter_jacobian(model, u, h=1e-6):
-    theta, cols = model.get_params(), []
-    for i in range(len(theta)):
-        d = np.zeros_like(theta)
-        d[i] = h
-        model.set_params(theta + d)
-        y_plus = model.predict(u)
-        model.set_params(theta - d)
-        cols.append(((y_plus - model.predict(u)) / (2 * h)).ravel())
-    model.set_params(theta)
-    return np.array(cols).T
 
 
 @pytest.mark.parametrize("hidden", [(3,), (30,)])   # primal (P < N_e) and kernel (P > N_e) forms
