@@ -1,4 +1,4 @@
-"""Command-line interface: ``python -m lab simulate ...``, ``python -m lab train ...``, ``python -m lab track ...``."""
+"""Command-line interface: ``python -m lab simulate|train|splits|track|capture ...``."""
 from __future__ import annotations
 
 import argparse
@@ -105,6 +105,32 @@ def _train(args) -> int:
     return 0
 
 
+def _splits(args) -> int:
+    from .dataset import read_dataset
+    from .evaluate import evaluate_splits, summarize, workspace_size_m, write_csv
+    from .train import LMOptions
+
+    u, y, _ = read_dataset(args.data)
+    if any(h < 1 for h in args.hidden) or args.n_splits < 1 or args.jobs < 1:
+        raise ValueError("--hidden widths, --n-splits and --jobs must be positive")
+    print(f"{args.data}: {len(u)} samples; {args.n_splits} random splits {args.split} of a "
+          f"{'-'.join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))} network, seed {args.seed}, "
+          f"{args.jobs} worker(s)", file=sys.stderr)
+    options = LMOptions(min_grad=args.min_grad) if args.min_grad is not None else None
+    rows = evaluate_splits(u, y, args.hidden, n_splits=args.n_splits, ratios=tuple(args.split), seed=args.seed,
+                           n_jobs=args.jobs, options=options)
+    for r in rows:
+        r["command"] = "python -m lab " + shlex.join(args.argv)
+    write_csv(args.out, rows)
+    size = workspace_size_m(y)
+    for s in summarize(rows, "hidden", "test_mean_distance_m"):
+        print(f"test mean distance over {s['n']} splits: {1e3 * s['mean']:.4f} mm (std {1e3 * s['std']:.4f}), "
+              f"{100 * s['mean'] / size:.3f} % of the {1e3 * size:.1f} mm workspace")
+    mse = summarize(rows, "hidden", "test_mse_m2")[0]
+    print(f"test MSE: {mse['mean']:.3e} m^2; rows -> {args.out}")
+    return 0
+
+
 def _track(args) -> int:
     from .track import track_main
 
@@ -152,6 +178,19 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--epochs", type=int, help="maximum epochs (default 1000)")
     t.add_argument("--min-grad", type=float, help="LM: gradient stop (default 1e-6; 0 disables)")
     t.set_defaults(func=_train)
+
+    e = sub.add_parser("splits", help="accuracy over random splits: train a network on each, report test errors")
+    e.add_argument("data", help="dataset CSV (u0..,x,y,z)")
+    e.add_argument("--hidden", type=int, nargs="+", default=[20, 20], metavar="WIDTH",
+                   help="hidden layer widths (default: 20 20)")
+    e.add_argument("--n-splits", type=int, default=10, help="number of random splits (default 10)")
+    e.add_argument("--split", type=float, nargs=3, default=[0.9, 0.0, 0.1], metavar=("TRAIN", "VAL", "TEST"),
+                   help="split ratios (default 0.9 0 0.1, as the paper's Section V-A study)")
+    e.add_argument("--seed", type=int, default=0, help="seed the split seeds are derived from")
+    e.add_argument("--min-grad", type=float, help="LM gradient stop (default 1e-6, the paper's)")
+    e.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes (default: all cores)")
+    e.add_argument("--out", required=True, help="CSV, one row per split (lab.evaluate.evaluate_splits keys)")
+    e.set_defaults(func=_splits)
 
     k = sub.add_parser("track", help="follow a trajectory on a rig with IK through a model (or Soft IK)")
     src = k.add_mutually_exclusive_group(required=True)

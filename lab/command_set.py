@@ -108,6 +108,11 @@ class CommandSet:
         x = np.clip(x, self.lo, self.hi)
         work = self._independent(np.flatnonzero(self.G @ x >= self.h - self.tol))
         max_iter = max_iter or 20 * (len(self.h) + m)
+        # After an unblocked full step x is the working set's minimiser: its p is zero in
+        # exact arithmetic, but in rounding it is ~eps cond(H) |x|, which on an ill-conditioned
+        # H (a damped rank-3 J^T J of six motors) can exceed any fixed threshold and made the
+        # method repeat the same tiny step forever. So the flag, not |p|, says "at minimiser".
+        at_minimiser = False
         for _ in range(max_iter):
             g = H @ x + c
             Gw = self.G[work]
@@ -116,10 +121,11 @@ class CommandSet:
             K[:m, :m], K[:m, m:], K[m:, :m] = H, Gw.T, Gw
             sol = np.linalg.solve(K, np.concatenate([-g, np.zeros(n_w)]))
             p, lam = sol[:m], sol[m:]
-            if np.max(np.abs(p)) <= 1e-13 * (self.scale + np.max(np.abs(x))):
+            if at_minimiser or np.max(np.abs(p)) <= 1e-13 * (self.scale + np.max(np.abs(x))):
                 if n_w == 0 or lam.min() >= -1e-13 * (1.0 + np.abs(g).max()):
                     return x
                 work = np.delete(work, int(np.argmin(lam)))
+                at_minimiser = False
                 continue
             Gp = self.G @ p
             slack = self.h - self.G @ x
@@ -134,6 +140,7 @@ class CommandSet:
             x = x + alpha * p
             if hit is not None:
                 work = np.append(work, hit)
+            at_minimiser = hit is None
         raise RuntimeError(f"active-set QP did not terminate in {max_iter} iterations (degenerate problem?)")
 
     def _independent(self, rows: np.ndarray) -> np.ndarray:

@@ -115,3 +115,31 @@ def plot_helix(result, robot, title: str = ""):
     ax_e.grid(alpha=0.3)
     fig.suptitle(title or f"helix, {len(t)} targets")
     return fig
+
+
+def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achieved_color: str = TARGET_COLOR):
+    """Figure 5: one 3-D panel per trajectory, target in black and achieved tip in pink (the
+    paper's colours for this figure), centimetres, equal axis scales; the panel title gives
+    the mean and max 3-D error. ``results``: {name: TrackResult}."""
+    import matplotlib.pyplot as plt
+
+    n = len(results)
+    fig = plt.figure(figsize=(4.6 * n, 4.8), layout="constrained")
+    for k, (name, res) in enumerate(results.items()):
+        ax = fig.add_subplot(1, n, k + 1, projection="3d")
+        t, p = 100 * res.targets_W, 100 * res.achieved_W
+        ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
+        ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
+        box = np.vstack([t, p])
+        mid, half = (box.max(0) + box.min(0)) / 2, 0.55 * np.ptp(box, axis=0).max()
+        ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
+               zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
+        ax.set_box_aspect((1, 1, 1), zoom=0.8)
+        ax.view_init(elev=20, azim=-50)
+        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm",
+                     fontsize=9)
+        if k == 0:
+            ax.legend(fontsize=8, loc="upper left")
+    if title:
+        fig.suptitle(title)
+    return fig

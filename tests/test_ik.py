@@ -6,6 +6,7 @@ import pytest
 
 from lab.command_set import CommandSet
 from lab.dataset import read_dataset
+from lab.description import load_robot
 from lab.ik import IKSolver, grid_seeds
 from lab.soft_ik import FEMForwardMap
 from lab.statics import solve_static
@@ -210,3 +211,29 @@ def test_soft_ik_on_a_coarse_mesh(coarse_fem, cset):
     np.testing.assert_allclose(res.u_motor, u_star, atol=1e-5)
     achieved = solve_static(coarse_fem, res.u_motor).p_tip_W        # an independent, cold solve
     assert np.linalg.norm(achieved - target) < 1e-7
+
+
+def test_qp_terminates_on_an_ill_conditioned_six_motor_step():
+    # A damped Gauss-Newton matrix of the six-cable arm (rank-3 J^T J + mu I, cond ~4e4)
+    # met during IK: after a full step the recomputed step was ~8e-13 rad, above the
+    # "p = 0" threshold, and the active-set method repeated it until max_iter.
+    cs = CommandSet.from_robot(load_robot("six-cable"))
+    H = np.array([[ 8.4910814132539686e-07,  2.6240080114553867e-06,  1.3293405923759361e-05, -3.6398180165999449e-05,
+   3.6364152697464370e-06,  2.1504658608878588e-05],
+ [ 2.6240080114553867e-06,  3.6566898146432917e-04, -1.6029317316238826e-04, -4.4725639452051764e-04,
+   5.8667846134026816e-04, -2.5127878688192248e-04],
+ [ 1.3293405923759361e-05, -1.6029317316238826e-04,  3.5083577609306641e-04, -4.2551539694975053e-04,
+  -2.7521303175971086e-04,  5.5531273578453744e-04],
+ [-3.6398180165999449e-05, -4.4725639452051764e-04, -4.2551539694975053e-04,  2.2762849535406921e-03,
+  -7.8293815385428321e-04, -7.9398373031812808e-04],
+ [ 3.6364152697464370e-06,  5.8667846134026816e-04, -2.7521303175971086e-04, -7.8293815385428321e-04,
+   9.7412477433812144e-04, -3.9744556757453410e-04],
+ [ 2.1504658608878588e-05, -2.5127878688192248e-04,  5.5531273578453744e-04, -7.9398373031812808e-04,
+  -3.9744556757453410e-04,  9.1680406638634283e-04]])
+    c = np.array([-5.7946242107349099e-05, -8.1374377233171856e-04, -6.5239693750748361e-04,  3.2738333277760800e-03,
+ -1.2537952669374830e-03, -1.0561744790605664e-03])
+    x0 = np.array([0.1293623260662785, 3.                , 3.                , 1.3903933433653302, 2.427650553501787 ,
+ 2.412152510898937 ])
+    x = cs.solve_qp(H, c, x0=x0)
+    assert cs.contains(x)
+    np.testing.assert_allclose(x, brute_force_qp(cs, H, c), atol=1e-9)

@@ -229,3 +229,25 @@ def test_python_dash_m_lab_train(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "lab", "train", str(tmp_path / "none.csv"), "--out", str(out)],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 2 and "error: dataset not found" in proc.stderr
+
+
+def test_cli_splits_writes_one_row_per_split(tmp_path, capsys):
+    import csv
+
+    out = tmp_path / "splits.csv"
+    rc = main(["splits", str(DATA), "--hidden", "6", "--n-splits", "3", "--jobs", "1", "--seed", "4",
+               "--out", str(out)])
+    assert rc == 0
+    printed = capsys.readouterr().out
+    assert "test mean distance over 3 splits" in printed
+    rows = list(csv.DictReader(out.open()))
+    assert [int(r["split"]) for r in rows] == [0, 1, 2]
+    assert all(int(r["test_n"]) == 31 and r["validation_n"] == "0" for r in rows)   # 90/0/10 of 308
+    assert rows[0]["command"].startswith("python -m lab splits")
+    # The same numbers as the library call with the same seed.
+    u, y, _ = read_dataset(DATA)
+    ref = evaluate_splits(u, y, (6,), n_splits=3, seed=4)
+    np.testing.assert_allclose([float(r["test_mean_distance_m"]) for r in rows],
+                               [r["test_mean_distance_m"] for r in ref], rtol=1e-12)
+    assert f"{1e3 * np.mean([r['test_mean_distance_m'] for r in ref]):.4f} mm" in printed
+    assert main(["splits", str(DATA), "--n-splits", "0", "--out", str(out)]) == 2
