@@ -199,12 +199,16 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--rig", default="sim", help="sim | twin[:DEFECTS.toml] | hardware:CONFIG.toml (default sim)")
     k.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
     k.add_argument("--trajectory", required=True,
-                   help="circle, square, rose, helix, or a CSV file with header x,y,z (metres, frame W)")
+                   help="circle, square, rose, helix (three-cable), six-circle, six-ring, six-saddle, six-spiral "
+                        "(six-cable), or a CSV file with header x,y,z (metres, frame W)")
     k.add_argument("--n-points", type=int, help="points of a built-in trajectory (default: its own)")
     k.add_argument("--solver", choices=["lm", "gd"], default="lm",
                    help="bounded Levenberg-Marquardt (default) or projected gradient descent")
     k.add_argument("--reg-weight", type=float, default=0.0,
                    help="regulariser towards the previous command, m^2/rad^2 (default 0)")
+    k.add_argument("--posture-weight", type=float, default=0.0,
+                   help="regulariser towards the centre of the allowed commands (keeps a redundant "
+                        "arm's cables taut), m^2/rad^2 (default 0); regularised answers are polished")
     k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
     k.add_argument("--n-rings", type=int, help="FEM mesh rings of --rig sim / --soft-ik (default: robot's)")
     k.add_argument("--n-axial", type=int, help="FEM mesh layers of --rig sim / --soft-ik (default: robot's)")

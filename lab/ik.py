@@ -10,8 +10,16 @@ safety rule) minimising Eq. (1) of the paper, plus an optional regulariser::
 ``predict_and_jacobian(u) -> (y (3,), J (3, m))``: the learned network
 (:class:`lab.model.MLP`, analytic network Jacobian) or the FEM with sensitivity
 analysis (:class:`lab.soft_ik.FEMForwardMap`, "Soft IK"). ``w`` (m^2/rad^2, default 0)
-pulls towards ``u_ref`` -- along a trajectory the previous command, which keeps the motor
-paths of redundant robots (six cables) smooth.
+pulls towards ``u_ref``.
+
+Redundant robots (six cables, three tip coordinates) reach a target with a whole family of
+commands, and :meth:`IKSolver.follow` uses ``u_ref`` to pick one along a trajectory:
+``u_ref`` blends the previous command (weight ``reg_weight``: continuity) with a posture
+``u_posture`` (weight ``posture_weight``: keeps the cables taut, away from the slack
+plateaus where a cable's Jacobian column is zero and a warm start gets stuck). The
+regulariser also pulls the tip off the target, so ``follow`` then *polishes*: a second,
+unregularised solve from the regularised answer, which moves the command only a little
+(the regulariser has already picked the branch of solutions) and removes that bias.
 
 Two solvers, both keeping every iterate in ``C``:
 
@@ -118,23 +126,28 @@ class IKSolver:
 
     ``tol_m``: stop when the tip residual is below this (m); ``reach_tol_m``: residual up to
     which a target counts as reached; ``tol_stationary``: relative stationarity tolerance;
-    ``reg_weight``: ``w`` of the regulariser (m^2/rad^2); ``seeds``: (u (S, m), y (S, 3))
+    ``reg_weight``: ``w`` of the regulariser (m^2/rad^2); ``posture_weight``, ``u_posture``
+    (default the centre of the allowed set) and ``polish``: how :meth:`follow` picks among
+    redundant solutions (module docstring); ``seeds``: (u (S, m), y (S, 3))
     for cold starts. ``max_iter`` defaults to 100 (lm) or 20000 (gd). ``record_history``:
     keep the tip residual of every iterate in ``IKResult.history_m`` (for plots).
     """
 
     def __init__(self, forward, commands: CommandSet, method: str = "lm", *, tol_m: float = 1e-8,
                  reach_tol_m: float = 1e-5, tol_stationary: float = 1e-6, max_iter: int | None = None,
-                 reg_weight: float = 0.0, seeds=None, record_history: bool = False):
+                 reg_weight: float = 0.0, posture_weight: float = 0.0, u_posture=None, polish: bool = True,
+                 seeds=None, record_history: bool = False):
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-        if reg_weight < 0 or not np.isfinite(reg_weight):
-            raise ValueError(f"reg_weight must be finite and >= 0, got {reg_weight}")
+        for name, w in (("reg_weight", reg_weight), ("posture_weight", posture_weight)):
+            if w < 0 or not np.isfinite(w):
+                raise ValueError(f"{name} must be finite and >= 0, got {w}")
         self.forward, self.commands, self.method = forward, commands, method
         self.tol_m, self.reach_tol_m = float(tol_m), float(reach_tol_m)
         self.tol_stationary = float(tol_stationary)
         self.max_iter = int(max_iter or (100 if method == "lm" else 20000))
-        self.reg_weight = float(reg_weight)
+        self.reg_weight, self.posture_weight = float(reg_weight), float(posture_weight)
+        self.polish = bool(polish)
         self.record_history = bool(record_history)
         self.seeds = None
         if seeds is not None:
@@ -143,6 +156,9 @@ class IKSolver:
                 raise ValueError(f"seeds must be (u (S, {commands.n}), y (S, 3)), got {u_s.shape}, {y_s.shape}")
             self.seeds = (u_s, y_s)
         self.centre = commands.project(0.5 * (commands.lo + commands.hi))
+        self.u_posture = self.centre.copy() if u_posture is None else np.asarray(u_posture, dtype=float)
+        if self.u_posture.shape != (commands.n,) or not commands.contains(self.u_posture):
+            raise ValueError(f"u_posture must be an allowed command of {commands.n} angles, got {u_posture!r}")
 
     # ----------------------------------------------------------------- public API
     def initial_guess(self, target_W) -> np.ndarray:
@@ -152,9 +168,10 @@ class IKSolver:
         u_s, y_s = self.seeds
         return self.commands.project(u_s[int(np.argmin(np.sum((y_s - target_W) ** 2, axis=1)))])
 
-    def solve(self, target_W, u0=None, u_ref=None) -> IKResult:
+    def solve(self, target_W, u0=None, u_ref=None, reg_weight: float | None = None) -> IKResult:
         """Solve for one target (3,) m from ``u0`` (m,) rad (default :meth:`initial_guess`),
-        regularised towards ``u_ref`` (default ``u0``) when ``reg_weight`` > 0."""
+        regularised towards ``u_ref`` (default ``u0``) with weight ``reg_weight`` (m^2/rad^2;
+        default the solver's ``reg_weight``)."""
         target = check_targets(target_W)
         if target.ndim != 1:
             raise ValueError(f"solve takes one target (3,), got {target.shape}; use follow() for many")
@@ -167,18 +184,38 @@ class IKSolver:
         if u_ref.shape != u.shape or not np.all(np.isfinite(u_ref)):
             raise ValueError(f"u_ref must be {self.commands.n} finite angles in rad, got {u_ref!r}")
         run = self._lm if self.method == "lm" else self._gd
-        res = run(target, u, u_ref)
+        keep, self.reg_weight = self.reg_weight, self.reg_weight if reg_weight is None else float(reg_weight)
+        try:
+            res = run(target, u, u_ref)
+        finally:
+            self.reg_weight = keep
         res.time_s = time.perf_counter() - t0
         return res
 
     def follow(self, targets_W, u0=None) -> TrajectoryIK:
         """IK for each of the targets (N, 3) m in order, warm-starting every point from the
-        previous solution (the first from ``u0`` or a cold start); with ``reg_weight`` > 0
-        each point is regularised towards the previous command (the first towards its start)."""
+        previous solution (the first from ``u0`` or a cold start). With ``reg_weight`` or
+        ``posture_weight`` > 0 each point is first solved regularised towards
+        ``(reg_weight u_prev + posture_weight u_posture) / (reg_weight + posture_weight)``
+        (``u_prev``: the previous command, for the first point its start), then, if
+        ``polish``, solved again unregularised from there (module docstring); the result
+        reports the iterations and time of both solves."""
         targets = np.atleast_2d(check_targets(targets_W))
         results, u_prev = [], u0
+        w = self.reg_weight + self.posture_weight
         for target in targets:
-            res = self.solve(target, u_prev, u_ref=u_prev)
+            if w > 0:
+                u_start = self.initial_guess(target) if u_prev is None else np.asarray(u_prev, dtype=float)
+                u_ref = (self.reg_weight * u_start + self.posture_weight * self.u_posture) / w
+                res = self.solve(target, u_start, u_ref=u_ref, reg_weight=w)
+                if self.polish:
+                    first, res = res, self.solve(target, res.u_motor, reg_weight=0.0)
+                    res.iterations += first.iterations
+                    res.evaluations += first.evaluations
+                    res.time_s += first.time_s
+                    res.history_m = first.history_m + res.history_m
+            else:
+                res = self.solve(target, u_prev, u_ref=u_prev)
             results.append(res)
             u_prev = res.u_motor
         col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731

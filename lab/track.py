@@ -127,7 +127,9 @@ def run_trajectory(rig: Rig, solver: IKSolver, targets_W, *, name: str = "custom
                "settle_mean_s": float(np.mean(waits)), "total_s": time.perf_counter() - t0}
     info = {"rig": rig.describe(), "robot": rig.robot.name, "robot_sha256": rig.robot.sha256,
             "solver": {"method": solver.method, "tol_m": solver.tol_m, "reach_tol_m": solver.reach_tol_m,
-                       "reg_weight": solver.reg_weight, "max_iter": solver.max_iter},
+                       "reg_weight": solver.reg_weight,
+                       "posture_weight": solver.posture_weight, "u_posture": solver.u_posture.tolist(),
+                       "polish": solver.polish, "max_iter": solver.max_iter},
             "protocol": protocol.as_dict(),
             "code_version": code_version(),
             "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
@@ -180,10 +182,12 @@ def read_result(path: str | Path) -> dict:
 
 
 def make_solver(robot, model=None, *, fem=None, method: str = "lm", reg_weight: float = 0.0,
-                seed_levels: int = 7) -> IKSolver:
+                posture_weight: float = 0.0, seed_levels: int | None = None) -> IKSolver:
     """IK solver for ``robot`` through ``model`` (anything with ``predict_and_jacobian`` and a
     batched ``predict``; cold starts seeded from a ``seed_levels`` grid of its predictions)
-    or, when ``model`` is None, Soft IK through the FEM ``fem`` (cold starts at the centre)."""
+    or, when ``model`` is None, Soft IK through the FEM ``fem`` (cold starts at the centre).
+    ``seed_levels`` defaults to 7 for up to three motors and 4 beyond (4^6 = 4096 seeds);
+    ``reg_weight`` and ``posture_weight`` (m^2/rad^2) as in :class:`lab.ik.IKSolver`."""
     from .command_set import CommandSet
     from .ik import grid_seeds
     from .soft_ik import FEMForwardMap
@@ -192,11 +196,14 @@ def make_solver(robot, model=None, *, fem=None, method: str = "lm", reg_weight: 
     if model is None:
         if fem is None:
             raise ValueError("need a model or an FEM (Soft IK) to solve the IK")
-        return IKSolver(FEMForwardMap(fem), commands, method, reg_weight=reg_weight)
+        return IKSolver(FEMForwardMap(fem), commands, method, reg_weight=reg_weight,
+                        posture_weight=posture_weight)
     if getattr(model, "n_u", robot.n_cables) != robot.n_cables or getattr(model, "n_y", 3) != 3:
         raise ValueError(f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
                          f"{robot.name} has {robot.n_cables} cables and a 3-D tip")
-    return IKSolver(model, commands, method, reg_weight=reg_weight,
+    if seed_levels is None:
+        seed_levels = 7 if robot.n_cables <= 3 else 4
+    return IKSolver(model, commands, method, reg_weight=reg_weight, posture_weight=posture_weight,
                     seeds=grid_seeds(model, commands, seed_levels))
 
 
@@ -207,7 +214,7 @@ def track_main(args) -> int:
     from .model import load_model
     from .rig import RigError, make_rig
     from .rig.sim import SimRig
-    from .trajectories import BUILTIN, load_trajectory
+    from .trajectories import BUILTIN, SIX_CABLE, load_trajectory
 
     if (args.model is None) == (not args.soft_ik):
         raise ValueError("give exactly one of --model MODEL.npz and --soft-ik")
@@ -220,8 +227,8 @@ def track_main(args) -> int:
     fem = ArmFEM(robot, **mesh) if (args.rig == "sim" or args.soft_ik) else None
     model = None if args.soft_ik else load_model(args.model)
     solver = make_solver(robot, model, fem=fem if args.soft_ik else None, method=args.solver,
-                         reg_weight=args.reg_weight)
-    name = args.trajectory if args.trajectory in BUILTIN else Path(args.trajectory).name
+                         reg_weight=args.reg_weight, posture_weight=args.posture_weight)
+    name = args.trajectory if args.trajectory in BUILTIN + SIX_CABLE else Path(args.trajectory).name
     try:
         with (SimRig(robot, fem) if args.rig == "sim" else make_rig(args.rig, robot, seed=args.seed)) as rig:
             result = run_trajectory(rig, solver, targets, name=name)

@@ -24,6 +24,20 @@ the FEM itself). The shapes keep at least 0.6 cm inside that:
 * ``helix``:  radius 3 cm, 3 turns, from x = 18.9 cm (near rest length) to 18.0 cm (the
   tip drawn 0.9 cm towards the base), about the centre's y-z position.
 
+Six-cable paths (:data:`SIX_CABLE`, Section V-B). The two-stage arm reaches much further:
+its workspace is a bowl-shaped shell about the axis (y, z) = (0, 0) -- at x = 17 cm the
+tip reaches radii of about 3.5 to 8 cm, at 16 cm 7 to 9 cm -- while with its short cables
+slack (the first stage alone) the shell is thinner and stops near x = 16.5 cm (the study
+is in ``notebooks/06_six_cable_arm.ipynb``). Centred on that axis:
+
+* ``six-circle``: radius 4 cm in the plane x = 18 cm, which the first stage alone also
+  reaches (six motors for three coordinates: redundancy without need);
+* ``six-ring``:   radius 7 cm in the plane x = 16.5 cm, out of the first stage's reach;
+* ``six-saddle``: radius 6 cm with x = 17 +- 0.4 cm going up and down twice per turn
+  (a 3-D curve on the shell), partly out of the first stage's reach;
+* ``six-spiral``: a conical spiral, 3 turns from radius 1 cm at x = 18.8 cm out to 8 cm at
+  x = 16 cm, from the first stage's workspace into the second's.
+
 A CSV trajectory has the header ``x,y,z`` and one point per row, in metres, frame W.
 """
 from __future__ import annotations
@@ -38,7 +52,11 @@ from .dataset import atomic_write_text
 
 CENTRE_W = np.array([0.184, 0.0, -0.006])
 BUILTIN = ("circle", "square", "rose", "helix")
-DEFAULT_POINTS = {"circle": 100, "square": 100, "rose": 200, "helix": 150}
+#: Paths for the six-cable arm (module docstring); also accepted by :func:`builtin`.
+SIX_CABLE = ("six-circle", "six-ring", "six-saddle", "six-spiral")
+SIX_CABLE_AXIS_W = np.array([0.0, 0.0, 0.0])      # (y, z) of the six-cable workspace's axis
+DEFAULT_POINTS = {"circle": 100, "square": 100, "rose": 200, "helix": 150,
+                  "six-circle": 100, "six-ring": 120, "six-saddle": 160, "six-spiral": 200}
 #: Coordinates larger than this (m) in a CSV are taken as a units mistake (mm or cm).
 MAX_ABS_COORD_M = 2.0
 
@@ -98,11 +116,39 @@ def helix(n_points: int = 150, radius_m: float = 0.03, turns: float = 3.0, x_sta
     return p
 
 
+def saddle(n_points: int = 160, radius_m: float = 0.06, x_mid_m: float = 0.17, dx_m: float = 0.004,
+           waves: int = 2, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+    """A circle of ``radius_m`` about the x axis through ``centre_W`` whose x goes
+    ``x_mid_m + dx_m cos(waves t)``: a closed 3-D curve (N, 3) m, equally spaced in t."""
+    t = 2 * np.pi * np.arange(_check_n(n_points, 4)) / n_points
+    p = _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
+    p[:, 0] = x_mid_m + dx_m * np.cos(waves * t)
+    return p
+
+
+def conical_spiral(n_points: int = 200, r_start_m: float = 0.01, r_end_m: float = 0.08, turns: float = 3.0,
+                   x_start_m: float = 0.188, x_end_m: float = 0.160, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+    """Spiral (N, 3) m about the x axis through ``centre_W``: radius and x both change
+    linearly from start to end (both ends included) over ``turns`` turns."""
+    s = np.linspace(0.0, 1.0, _check_n(n_points))
+    t, r = 2 * np.pi * turns * s, r_start_m + s * (r_end_m - r_start_m)
+    p = _in_plane(r * np.cos(t), r * np.sin(t), centre_W)
+    p[:, 0] = x_start_m + s * (x_end_m - x_start_m)
+    return p
+
+
+def _six(x_m: float, radius_m: float):
+    return lambda n: circle(n, radius_m, (x_m, *SIX_CABLE_AXIS_W[1:]))
+
+
 def builtin(name: str, n_points: int | None = None) -> np.ndarray:
-    """A built-in trajectory by name (see :data:`BUILTIN`), default sizes and placement."""
-    makers = {"circle": circle, "square": square, "rose": rose, "helix": helix}
+    """A built-in trajectory by name (see :data:`BUILTIN` and :data:`SIX_CABLE`), default
+    sizes and placement."""
+    makers = {"circle": circle, "square": square, "rose": rose, "helix": helix,
+              "six-circle": _six(0.18, 0.04), "six-ring": _six(0.165, 0.07),
+              "six-saddle": saddle, "six-spiral": conical_spiral}
     if name not in makers:
-        raise TrajectoryError(f"unknown trajectory {name!r}: built-in are {', '.join(BUILTIN)}, "
+        raise TrajectoryError(f"unknown trajectory {name!r}: built-in are {', '.join(BUILTIN + SIX_CABLE)}, "
                               f"or give the path of a CSV file with header x,y,z (metres)")
     return makers[name](DEFAULT_POINTS[name] if n_points is None else n_points)
 
@@ -110,7 +156,7 @@ def builtin(name: str, n_points: int | None = None) -> np.ndarray:
 def load_trajectory(name_or_csv: str | Path, n_points: int | None = None) -> np.ndarray:
     """Targets (N, 3) m: a built-in name, or a CSV path (``n_points`` must then be None)."""
     text = str(name_or_csv)
-    if text in BUILTIN:
+    if text in BUILTIN + SIX_CABLE:
         return builtin(text, n_points)
     if text.lower().endswith(".csv") or Path(text).exists():
         if n_points is not None:

@@ -82,3 +82,41 @@ def test_frozen_arm_misses_a_target_the_full_arm_reaches(six_net, six_commands):
     assert part.u_motor.shape == (3,)
     assert np.allclose(part.p_pred_W, six_net.predict(frozen.full(part.u_motor)))
     assert part.residual_m > 100 * full.residual_m
+
+
+def _small_circle(net, u_centre, n=12, radius_rad=0.3):
+    """Tips along a loop of commands about u_centre: reachable by construction."""
+    t = 2 * np.pi * np.arange(n) / n
+    phase = np.arange(6) * np.pi / 3
+    return net.predict(u_centre + radius_rad * np.cos(t[:, None] + phase))
+
+
+def test_follow_polishes_away_the_regulariser_bias(six_net, six_commands):
+    targets = _small_circle(six_net, np.full(6, 1.5))
+    kw = dict(reg_weight=1e-5, posture_weight=1e-5, u_posture=np.full(6, 1.0))
+    biased = IKSolver(six_net, six_commands, polish=False, **kw).follow(targets, u0=np.full(6, 1.5))
+    exact = IKSolver(six_net, six_commands, **kw).follow(targets, u0=np.full(6, 1.5))
+    assert biased.residual_m.min() > 1e-5          # the regulariser alone pulls the tip off
+    assert exact.reachable.all() and exact.residual_m.max() < 1e-8
+    assert all(r.iterations > b.iterations for r, b in zip(exact.results, biased.results))
+
+
+def test_posture_term_pulls_the_redundant_solution_towards_the_posture(six_net, six_commands):
+    targets = _small_circle(six_net, np.full(6, 1.5))
+    u_posture = np.array([0.5, 2.5, 0.5, 2.5, 0.5, 2.5])
+    dist = {}
+    for wp in (0.0, 1e-6):
+        tr = IKSolver(six_net, six_commands, reg_weight=1e-6, posture_weight=wp,
+                      u_posture=u_posture).follow(targets, u0=np.full(6, 1.5))
+        assert tr.reachable.all()
+        dist[wp] = np.linalg.norm(tr.u_motor - u_posture, axis=1).mean()
+    assert dist[1e-6] < 0.9 * dist[0.0], dist
+
+
+@pytest.mark.parametrize("kw, match", [({"posture_weight": -1.0}, "posture_weight"),
+                                       ({"posture_weight": np.nan}, "posture_weight"),
+                                       ({"u_posture": np.full(6, 3.0)}, "u_posture"),
+                                       ({"u_posture": np.ones(3)}, "u_posture")])
+def test_bad_posture_settings_raise(six_net, six_commands, kw, match):
+    with pytest.raises(ValueError, match=match):
+        IKSolver(six_net, six_commands, **kw)
