@@ -116,6 +116,21 @@ def test_track_cli_end_to_end(model_file, tmp_path):
     assert len(json.loads((tmp_path / "s.json").read_text())["targets"]) == 2
 
 
+def test_track_cli_six_cable_regularised(tmp_path):
+    """The redundant arm through the shipped six-cable model: every target reached by the IK,
+    the regulariser recorded, motor steps small between neighbouring targets."""
+    out = tmp_path / "spiral.json"
+    assert main(["track", "--model", "data/model_sim_six_cable.npz", "--robot", "six-cable",
+                 "--trajectory", "six-spiral", "--n-points", "12", "--reg-weight", "1e-6",
+                 "--posture-weight", "1e-6", *COARSE, "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert np.shape(doc["commands"]) == (12, 6) and doc["n_unreachable"] == 0
+    assert max(doc["ik_residual_m"]) < 1e-8                     # polished: no regulariser bias
+    solver = doc["info"]["solver"]
+    assert solver["reg_weight"] == 1e-6 and solver["posture_weight"] == 1e-6 and solver["polish"]
+    assert solver["u_posture"] == [1.5] * 6
+
+
 @pytest.mark.parametrize("args, message", [
     (["--trajectory", "star"], "unknown trajectory"),
     (["--trajectory", "circle", "--model", "missing.npz"], "not found"),

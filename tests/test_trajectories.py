@@ -107,3 +107,41 @@ def test_bad_names_and_options(tmp_path):
     with pytest.raises(T.TrajectoryError, match="n_points"):
         T.circle(2)
     assert issubclass(T.TrajectoryError, ValueError)
+
+
+def test_six_cable_paths_shapes():
+    ring = T.builtin("six-ring")
+    np.testing.assert_allclose(ring[:, 0], 0.165)
+    np.testing.assert_allclose(np.linalg.norm(ring[:, 1:], axis=1), 0.07)
+    saddle = T.builtin("six-saddle")
+    assert saddle[:, 0].min() == pytest.approx(0.166) and saddle[:, 0].max() == pytest.approx(0.174)
+    np.testing.assert_allclose(np.linalg.norm(saddle[:, 1:], axis=1), 0.06)
+    spiral = T.builtin("six-spiral")
+    assert np.linalg.norm(spiral[0, 1:]) == pytest.approx(0.01) and np.linalg.norm(spiral[-1, 1:]) == pytest.approx(0.08)
+    assert spiral[0, 0] == pytest.approx(0.188) and spiral[-1, 0] == pytest.approx(0.160)
+    assert len(T.load_trajectory("six-circle", 10)) == 10
+    with pytest.raises(T.TrajectoryError, match="six-spiral"):
+        T.builtin("seven-ring")
+
+
+def test_six_cable_paths_need_the_second_stage_and_are_reachable_with_it():
+    """Through the shipped six-cable model, with the regularised IK of notebook 06, every
+    target is reached; with the short cables slack (first stage only) six-ring is not."""
+    from lab.command_set import CommandSet
+    from lab.description import load_robot
+    from lab.ik import IKSolver, grid_seeds
+    from lab.model import load_model
+    from lab.redundancy import FrozenMotors, frozen_commands
+
+    six = load_robot("six-cable")
+    model = load_model("data/model_sim_six_cable.npz")
+    cs = CommandSet.from_robot(six)
+    seeds = grid_seeds(model, cs, 4)
+    solver = IKSolver(model, cs, seeds=seeds, reg_weight=1e-6, posture_weight=1e-6)
+    for name in T.SIX_CABLE:
+        tr = solver.follow(T.builtin(name))
+        assert tr.reachable.all(), (name, int((~tr.reachable).sum()))
+    first = FrozenMotors(model, [0, 1, 2], np.zeros(6))
+    cs_first = frozen_commands(cs, [0, 1, 2], np.zeros(6))
+    tr = IKSolver(first, cs_first, seeds=grid_seeds(first, cs_first, 9)).follow(T.builtin("six-ring"))
+    assert (~tr.reachable).mean() > 0.5 and tr.residual_m.max() > 0.002
