@@ -197,7 +197,8 @@ class IKSolver:
         previous solution (the first from ``u0`` or a cold start). With ``reg_weight`` or
         ``posture_weight`` > 0 each point is first solved regularised towards
         ``(reg_weight u_prev + posture_weight u_posture) / (reg_weight + posture_weight)``
-        (``u_prev``: the previous command, for the first point its start), then, if
+        (``u_prev``: the previous command; a cold first point is pulled to ``u_posture``
+        alone, or to its cold start without a posture term), then, if
         ``polish``, solved again unregularised from there (module docstring); the result
         reports the iterations and time of both solves."""
         targets = np.atleast_2d(check_targets(targets_W))
@@ -205,9 +206,16 @@ class IKSolver:
         w = self.reg_weight + self.posture_weight
         for target in targets:
             if w > 0:
-                u_start = self.initial_guess(target) if u_prev is None else np.asarray(u_prev, dtype=float)
-                u_ref = (self.reg_weight * u_start + self.posture_weight * self.u_posture) / w
-                res = self.solve(target, u_start, u_ref=u_ref, reg_weight=w)
+                if u_prev is None:
+                    # A cold first point has no previous command to stay near: only the
+                    # posture pulls, so the path starts on the posture's branch instead of
+                    # drifting onto it (in big steps) over the next points.
+                    u_start, w_now = self.initial_guess(target), self.posture_weight or w
+                    u_ref = self.u_posture if self.posture_weight > 0 else u_start
+                else:
+                    u_start, w_now = np.asarray(u_prev, dtype=float), w
+                    u_ref = (self.reg_weight * u_start + self.posture_weight * self.u_posture) / w
+                res = self.solve(target, u_start, u_ref=u_ref, reg_weight=w_now)
                 if self.polish:
                     first, res = res, self.solve(target, res.u_motor, reg_weight=0.0)
                     res.iterations += first.iterations
