@@ -57,6 +57,14 @@ def _plane(ax, result, a: int, b: int, label: bool = True) -> None:
     ax.grid(alpha=0.3)
 
 
+def _equal_3d(ax, points_cm: np.ndarray, zoom: float) -> None:
+    """Equal scales on a 3-D axes: a cube around ``points_cm`` (N, 3), axis labels in cm."""
+    mid, half = (points_cm.max(0) + points_cm.min(0)) / 2, 0.55 * np.ptp(points_cm, axis=0).max()
+    ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
+           zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
+
+
 def plot_tracking_row(results: dict, robot, title: str = ""):
     """Figure 3, one row: per trajectory (columns) the y-z projection of targets and achieved
     tip positions, with the motor commands below. ``results``: {name: TrackResult}."""
@@ -90,11 +98,7 @@ def plot_helix(result, robot, title: str = ""):
     t, p = 100 * result.targets_W, 100 * result.achieved_W
     ax3.plot(*t.T, color=TARGET_COLOR, lw=2.5, label="target")
     ax3.plot(*p.T, ".", color=ACHIEVED_COLOR, ms=3, label="achieved")
-    box = np.vstack([t, p])
-    mid, half = (box.max(0) + box.min(0)) / 2, 0.55 * np.ptp(box, axis=0).max()
-    ax3.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
-            zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
-    ax3.set_box_aspect((1, 1, 1), zoom=0.85)
+    _equal_3d(ax3, np.vstack([t, p]), zoom=0.85)
     ax3.view_init(elev=15, azim=-35)
     ax3.legend(fontsize=8, loc="upper left")
     ax3.set_title("3-D")
@@ -130,11 +134,7 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
         t, p = 100 * res.targets_W, 100 * res.achieved_W
         ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
         ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
-        box = np.vstack([t, p])
-        mid, half = (box.max(0) + box.min(0)) / 2, 0.55 * np.ptp(box, axis=0).max()
-        ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
-               zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
-        ax.set_box_aspect((1, 1, 1), zoom=0.8)
+        _equal_3d(ax, np.vstack([t, p]), zoom=0.8)
         ax.view_init(elev=20, azim=-50)
         ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm",
                      fontsize=9)

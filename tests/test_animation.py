@@ -1,8 +1,6 @@
 """Tests of lab.animation: the rigid pieces that carry the arm's deformation, the
 meshcat animation built from them, and the page played in headless Chromium."""
 
-import os
-
 import numpy as np
 import pytest
 
@@ -12,7 +10,7 @@ from lab import viz
 from lab.description import load_robot
 from lab.fem import ArmFEM
 from lab.statics import solve_static
-from test_viz import CHROMIUM, _pixel_counts, _screenshot
+from test_viz import CHROMIUM, _pixel_counts, _screenshot, require_chromium
 
 U_UP = np.array([3.0, 0.0, 0.0])             # top cable at u_max: the arm bends up
 ENDS = np.array([[0.0, -0.5, 0.0, 1.0], [0.0, 0.5, 0.0, 1.0]])   # unit cylinder's axis ends
@@ -186,10 +184,7 @@ def _red_centroid(img):
 @pytest.mark.slow
 @pytest.mark.browser
 def test_animation_plays_in_chromium(coarse_fem, bent_q, tmp_path):
-    if not CHROMIUM.exists():
-        if os.environ.get("LAB_REQUIRE_BROWSER", "") not in ("", "0"):
-            pytest.fail(f"{CHROMIUM} is missing and LAB_REQUIRE_BROWSER is set")
-        pytest.skip(f"{CHROMIUM} is missing")
+    require_chromium()
     fem = coarse_fem
     # Rest for frames 0-1, then up: at 0.5 frames/s the arm holds still for 2 s of
     # page time and is up from 4 s on, so the 1 s screenshot shows rest whenever the

@@ -159,13 +159,18 @@ def _pixel_counts(img: np.ndarray) -> dict:
     }
 
 
-@pytest.mark.slow
-@pytest.mark.browser
-def test_meshcat_scene_renders_in_chromium(fem, bent_q, tmp_path):
+def require_chromium() -> None:
+    """Skip a browser test without chromium, or fail it when LAB_REQUIRE_BROWSER is set (CI)."""
     if not CHROMIUM.exists():
         if os.environ.get("LAB_REQUIRE_BROWSER", "") not in ("", "0"):
             pytest.fail(f"{CHROMIUM} is missing and LAB_REQUIRE_BROWSER is set")
         pytest.skip(f"{CHROMIUM} is missing")
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+def test_meshcat_scene_renders_in_chromium(fem, bent_q, tmp_path):
+    require_chromium()
     with viz.meshcat_visualizer() as vis:                   # a bare scene: meshcat's defaults only
         blank_html = viz.static_html(vis)
     with viz.meshcat_visualizer() as vis:                   # our view settings, no arm
