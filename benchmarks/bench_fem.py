@@ -4,8 +4,9 @@ iterations and time per warm-started sample, and whole-dataset wall times.
     python benchmarks/bench_fem.py            # ~3 minutes on 2 cores
     python benchmarks/bench_fem.py --six-full # also the full six-cable set (long)
 
-Prints the ratio (time per warm-started sample) / (one assembly + one factorisation)
-and the targets of issue 2: 308-point grid < 60 s, >= 15,000 six-cable samples < 30 min.
+Prints the ratio (time per warm-started sample) / (one assembly + one factorisation),
+where that time goes (a second, instrumented run of the same walk), and the targets
+of issue 2: 308-point grid < 60 s, >= 15,000 six-cable samples < 30 min.
 """
 import argparse
 import os
@@ -13,6 +14,12 @@ import time
 
 import numpy as np
 
+import lab.fem
+import lab.linsolve
+import lab.sampling
+import lab.statics
+import lab.steps
+import lab.warmstart
 from lab.description import load_robot
 from lab.fem import ArmFEM
 from lab.linsolve import BACKENDS, _available, factorize
@@ -63,10 +70,64 @@ res = simulate(robot, cmds, chunks[:2], n_jobs=1)
 n = sum(len(c.order) for c in chunks[:2])
 idx = np.concatenate([c.order[1:] for c in chunks[:2]])  # drop each chunk's first (cold-ish) solve
 t_sample = res["time_s"][idx].mean()
-print(f"  warm-started samples ({len(idx)} of a serial walk): {res['iterations'][idx].mean():.2f} Newton "
+print(f"  warm-started samples ({len(idx)} of a serial walk): {res['iterations'][idx].mean():.2f} Newton or chord "
       f"steps, {res['factorizations'][idx].mean():.2f} assemblies + factorisations, "
       f"{1e3 * t_sample:.1f} ms per sample")
 print(f"  ratio time per sample / (assembly + factorisation) = {t_sample / unit:.2f}  (target < 3)")
+
+# Where a warm sample's time goes: the same walk again, each phase timed (exclusive of
+# the phases it calls; the timers themselves add a little).
+phases = {  # name: the functions timed, as (owner, attribute) where the solver looks them up
+    "Hessian assembly": [(lab.fem.ArmFEM, "hessian")],
+    "factorisation": [(lab.steps, "factorize"), (lab.statics, "factorize")],
+    "solves": [(lab.linsolve._Pardiso, "solve"), (lab.linsolve._SuperLU, "solve")],
+    "gradients (incl. dq/du refinement)": [(lab.fem.ArmFEM, "gradient")],
+    "energies (incl. with gradient)": [(lab.fem.ArmFEM, "energy")],
+    "cable-condensed step algebra": [(lab.steps, "condensed_step"), (lab.statics, "condensed_step")],
+    "sensitivity algebra": [(lab.statics, "reused_sensitivity")],
+    "predictions (candidates)": [(lab.warmstart.WalkPredictor, "candidates")],
+    "rest (Python, NumPy glue)": [(lab.sampling, "solve_chunk")],
+}
+spent, calls, stack, originals = {}, {}, [], []
+
+
+def timed(name, fn):
+    def wrapper(*a, **k):
+        stack.append(0.0)
+        t0 = time.perf_counter()
+        try:
+            return fn(*a, **k)
+        finally:
+            dt = time.perf_counter() - t0
+            inner = stack.pop()
+            spent[name] = spent.get(name, 0.0) + dt - inner
+            calls[name] = calls.get(name, 0) + 1
+            if stack:
+                stack[-1] += dt
+    return wrapper
+
+
+for name, targets in phases.items():
+    for owner, attr in targets:
+        originals.append((owner, attr, getattr(owner, attr)))
+        setattr(owner, attr, timed(name, getattr(owner, attr)))
+try:
+    res2 = simulate(robot, cmds, chunks[:2], n_jobs=1)
+finally:
+    for owner, attr, fn in originals:
+        setattr(owner, attr, fn)
+n_walk = sum(len(c.order) for c in chunks[:2])
+calls.pop("rest (Python, NumPy glue)")
+print(f"  where the time goes, ms per sample over all {n_walk} samples of those walks "
+      f"(instrumented run, {1e3 * sum(spent.values()) / n_walk:.1f} ms per sample; per call x calls per sample):")
+for name in sorted(spent, key=spent.get, reverse=True):
+    per_call = f"{1e3 * spent[name] / calls[name]:6.2f} ms x {calls[name] / n_walk:4.2f}" if name in calls else ""
+    print(f"    {name:36s} {1e3 * spent[name] / n_walk:6.2f} ms   {per_call}")
+# The ratio above divides by best-of-7 timings on a hot cache; inside the walk an
+# assembly and a factorisation cost more (other work evicts the caches in between).
+unit_walk = sum(spent[k] / calls[k] for k in ("Hessian assembly", "factorisation"))
+print(f"  (in that run: one assembly + one factorisation {1e3 * unit_walk:.2f} ms, a warm sample "
+      f"{1e3 * res2['time_s'][idx].mean():.1f} ms: {res2['time_s'][idx].mean() / unit_walk:.2f} of them)")
 
 t0 = time.perf_counter()
 full = simulate(robot, cmds, chunks, n_jobs=jobs)

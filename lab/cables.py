@@ -41,14 +41,23 @@ class CableRoute:
     def length(self, x_W: np.ndarray) -> float:
         return float(np.linalg.norm(np.diff(self.points(x_W), axis=0), axis=1).sum())
 
-    def length_derivatives(self, x_W: np.ndarray):
-        """L, dL/dp (K, 3) and d2L/dp2 (3K, 3K) with respect to the via points."""
+    def length_gradient(self, x_W: np.ndarray):
+        """L (m) and dL/dp (K, 3) with respect to the via points."""
+        L, dL, _, _ = self._segments(x_W)
+        return L, dL
+
+    def _segments(self, x_W):
         e = np.diff(self.points(x_W), axis=0)                 # segment s ends at via point s
         l = np.linalg.norm(e, axis=1)
         n = e / l[:, None]
-        K = len(e)
         dL = n.copy()
         dL[:-1] -= n[1:]
+        return float(l.sum()), dL, n, l
+
+    def length_derivatives(self, x_W: np.ndarray):
+        """L, dL/dp (K, 3) and d2L/dp2 (3K, 3K) with respect to the via points."""
+        L, dL, n, l = self._segments(x_W)
+        K = len(l)
         P = (np.eye(3)[None] - n[:, :, None] * n[:, None, :]) / l[:, None, None]
         H = np.zeros((K, 3, K, 3))
         for s in range(K):                                    # segment s joins via s-1 and via s
@@ -57,7 +66,7 @@ class CableRoute:
                 H[s - 1, :, s - 1] += P[s]
                 H[s, :, s - 1] -= P[s]
                 H[s - 1, :, s] -= P[s]
-        return float(l.sum()), dL, H.reshape(3 * K, 3 * K)
+        return L, dL, H.reshape(3 * K, 3 * K)
 
     def embedding_matrix(self) -> np.ndarray:
         """W (3K, 12K): via point coordinates = W @ element dofs of ``self.nodes``."""
@@ -81,3 +90,68 @@ def spring(d, k: float, eps: float):
     tension = k * dc**2 / (2 * eps) + k * dq
     stiffness = np.where(d >= eps, k, k * dc / eps)
     return energy, tension, stiffness
+
+
+class CableSet:
+    """All cables of a mesh at once: their via points stacked (V in all), so lengths,
+    dL/dq and the change of dL/dp take a few array operations instead of a Python loop
+    per cable (the solver needs them with every energy and gradient).
+
+    ``dof_to_free`` maps the mesh's dofs (3N,) to free coordinates (-1 where clamped)."""
+
+    def __init__(self, routes: list[CableRoute], dof_to_free: np.ndarray, n_free: int):
+        sizes = np.array([len(r.nodes) for r in routes])
+        self.m, self.n_free = len(routes), n_free
+        self.nodes = np.concatenate([r.nodes for r in routes])          # (V, 4)
+        self.weights = np.concatenate([r.weights for r in routes])      # (V, 4)
+        self.cable = np.repeat(np.arange(self.m), sizes)                # cable of each via point
+        V = len(self.nodes)
+        first = np.cumsum(sizes) - sizes
+        # Segment v runs from prev[v] to via point v; rows V.. of the stacked points are
+        # the anchors (and row V + m a zero row, the "next" of each cable's last point).
+        self.prev = np.arange(V) - 1
+        self.prev[first] = V + np.arange(self.m)
+        self.next = np.arange(V) + 1
+        self.next[first + sizes - 1] = V + self.m
+        self.anchors = np.array([r.anchor_W for r in routes]).reshape(-1, 3)
+        free = dof_to_free[3 * self.nodes[:, :, None] + np.arange(3)]     # (V, 4, 3)
+        self._keep = (free >= 0).ravel()
+        self._rows = (np.repeat(self.cable, 12) * n_free + free.ravel())[self._keep]
+
+    def via_points(self, x_W: np.ndarray) -> np.ndarray:
+        """Via point positions (V, 3) for node positions ``x_W`` (N, 3)."""
+        return np.einsum("vj,vjd->vd", self.weights, x_W[self.nodes])
+
+    def segments(self, x_W: np.ndarray):
+        """Unit directions n (V, 3) and lengths l (V,) of the segments ending at each via point."""
+        p = self.via_points(x_W)
+        e = p - np.vstack([p, self.anchors])[self.prev]
+        l = np.linalg.norm(e, axis=1)
+        return e / l[:, None], l
+
+    def lengths(self, x_W: np.ndarray) -> np.ndarray:
+        """Cable lengths L (m,) in m."""
+        return np.bincount(self.cable, weights=self.segments(x_W)[1], minlength=self.m)
+
+    def to_free(self, f_via: np.ndarray, per_cable: bool) -> np.ndarray:
+        """Via-point vectors (V, 3) (e.g. dL/dp) to free coordinates: summed into (n_free,),
+        or kept apart per cable as (n_free, m) if ``per_cable``."""
+        w = (self.weights[:, :, None] * f_via[:, None, :]).ravel()[self._keep]
+        if per_cable:
+            return np.bincount(self._rows, weights=w, minlength=self.m * self.n_free).reshape(self.m, -1).T
+        return np.bincount(self._rows % self.n_free, weights=w, minlength=self.n_free)
+
+    def jacobian(self, x_W: np.ndarray):
+        """Cable lengths L (m,) in m and their gradients dL/dq (n_free, m), with the
+        segment directions and lengths (see :meth:`segments`)."""
+        n, l = self.segments(x_W)
+        dL = n - np.vstack([n, np.zeros((self.m + 1, 3))])[self.next]
+        return np.bincount(self.cable, weights=l, minlength=self.m), self.to_free(dL, True), (n, l)
+
+    def gradient_change(self, segments, dp: np.ndarray) -> np.ndarray:
+        """(d2L/dp2) dp (V, 3) for via point displacements dp (V, 3), at the segments
+        (n, l) of :meth:`segments`: dn = (I - n n^T) de / l per segment."""
+        n, l = segments
+        de = dp - np.vstack([dp, np.zeros((self.m, 3))])[self.prev]   # the anchors do not move
+        dn = (de - n * np.einsum("vi,vi->v", n, de)[:, None]) / l[:, None]
+        return dn - np.vstack([dn, np.zeros((self.m + 1, 3))])[self.next]

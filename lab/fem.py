@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .cables import CableRoute, spring
+from .cables import CableRoute, CableSet, spring
 from .description import RobotDescription
 from .elasticity import NeoHookean, project_psd
 from .mesh import TetMesh, barycentric, cylinder_mesh
@@ -58,8 +58,10 @@ class ArmFEM:
             route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
             self.cables.append(CableRoute(cable.anchor_m, nodes, weights, route.length(mesh.X_W), float(s)))
         self.tip_nodes, self.tip_weights = (a[0] for a in barycentric(mesh, robot.p_tip_marker_W))
-        self._elem_dofs = (3 * mesh.tets[:, :, None] + np.arange(3)).ravel()
         self._build_pattern()
+        dof_to_free = np.full(3 * mesh.n_nodes, -1)
+        dof_to_free[self.free_dofs] = np.arange(self.n_free)
+        self._cable_set = CableSet(self.cables, dof_to_free, self.n_free)
         self._S_tip = self._tip_matrix()
 
     # ---------------------------------------------------------------- coordinates
@@ -97,7 +99,8 @@ class ArmFEM:
         return sp.csr_matrix((vals, (rows, cols)), shape=(3, self.n_free))
 
     def cable_lengths(self, x_W) -> np.ndarray:
-        return np.array([c.length(x_W) for c in self.cables])
+        """Length of each cable (m,) in m."""
+        return self._cable_set.lengths(x_W)
 
     def cable_targets(self, u_motor) -> np.ndarray:
         """Free length L* = L0 + slack - r u of each cable (m,)."""
@@ -106,32 +109,46 @@ class ArmFEM:
     def cable_tensions(self, x_W, u_motor) -> np.ndarray:
         """Tension of each cable in N (m,)."""
         d = self.cable_lengths(x_W) - self.cable_targets(u_motor)
-        return spring(d, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[1]
+        return self.cable_springs(d)[1]
 
     # ---------------------------------------------------------------- energy
-    def energy(self, q: np.ndarray, u_motor) -> float:
-        """E(q, u) in J; +inf when an element is inverted."""
+    def energy(self, q: np.ndarray, u_motor, with_gradient: bool = False):
+        """E(q, u) in J; +inf when an element is inverted. With ``with_gradient``, returns
+        ``(E, g, d, A)``, also what :meth:`gradient` returns with ``with_cables`` (None
+        when inverted), at the cost of about one gradient (the kinematics are shared)."""
         x = self.to_nodes(q)
-        e = self.elastic.energy(x)
+        if with_gradient:
+            e, g_nodes = self.elastic.energy_and_gradient(x)
+        else:
+            e = self.elastic.energy(x)
         if not np.isfinite(e):
-            return np.inf
+            return (np.inf, None, None, None) if with_gradient else np.inf
         e -= float(np.sum(self.f_gravity_W * x))
-        d = self.cable_lengths(x) - self.cable_targets(u_motor)
-        e += float(np.sum(spring(d, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[0]))
-        return e
+        if with_gradient:
+            L, A, _ = self._cable_set.jacobian(x)
+        else:
+            L = self.cable_lengths(x)
+        d = L - self.cable_targets(u_motor)
+        e_cables, tension, _ = self.cable_springs(d)
+        e += float(np.sum(e_cables))
+        return (e, self._assemble_gradient(g_nodes, A, tension), d, A) if with_gradient else e
 
-    def gradient(self, q: np.ndarray, u_motor) -> np.ndarray:
-        """dE/dq (n_free,) in N."""
+    def gradient(self, q: np.ndarray, u_motor, with_cables: bool = False):
+        """dE/dq (n_free,) in N. With ``with_cables``, returns ``(g, d, A)``: also the
+        cable stretches d = L - L* (m,) in m and the length gradients A = dL/dq (n_free, m)."""
         x = self.to_nodes(q)
-        # Scatter-add of the element gradients (bincount is ~10x faster than np.add.at).
-        dofs = self._elem_dofs
-        g = np.bincount(dofs, weights=self.elastic.gradient(x).ravel(), minlength=3 * self.mesh.n_nodes)
-        g = g.reshape(-1, 3) - self.f_gravity_W
-        for c, L_star in zip(self.cables, self.cable_targets(u_motor)):
-            L, dL_dp, _ = c.length_derivatives(x)
-            tension = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[1]
-            np.add.at(g, c.nodes, tension * c.weights[:, :, None] * dL_dp[:, None, :])
-        return g.ravel()[self.free_dofs]
+        L, A, _ = self._cable_set.jacobian(x)
+        d = L - self.cable_targets(u_motor)
+        g = self._assemble_gradient(self.elastic.nodal_gradient(x), A, self.cable_springs(d)[1])
+        return (g, d, A) if with_cables else g
+
+    def _assemble_gradient(self, g_nodes, A, tension):
+        """dE/dq from the elastic nodal gradient (N, 3), gravity and cable tensions (m,) along A."""
+        return (g_nodes - self.f_gravity_W).ravel()[self.free_dofs] + A @ tension
+
+    def cable_springs(self, stretch_m):
+        """Energy (J), tension (N) and stiffness (N/m) of each cable (m,) at stretches d = L - L* (m,)."""
+        return spring(stretch_m, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
 
     def hessian(self, q: np.ndarray, u_motor, project: bool = False) -> sp.csr_matrix:
         """d2E/dq2 (n_free, n_free), exact, or with each element block projected to PSD."""
@@ -142,7 +159,7 @@ class ArmFEM:
         blocks = [H_el.ravel()]
         for c, L_star in zip(self.cables, self.cable_targets(u_motor)):
             L, dL_dp, d2L_dp2 = c.length_derivatives(x)
-            _, dE, d2E = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
+            _, dE, d2E = self.cable_springs(L - L_star)
             W = c.embedding_matrix()
             g_p = dL_dp.ravel()
             blocks.append((W.T @ (d2E * np.outer(g_p, g_p) + dE * d2L_dp2) @ W).ravel())
@@ -150,18 +167,32 @@ class ArmFEM:
         data = np.bincount(self._slot, weights=values, minlength=len(self._indices))
         return sp.csr_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
 
+    def hessian_operator(self, q: np.ndarray, u_motor):
+        """A function v (n_free,) -> d2E/dq2 v (n_free,) in N: exact Hessian products at
+        ``q`` without assembling the Hessian (a setup and each product cost about as much
+        as a gradient, ~0.4 ms on the default mesh, against ~6 ms for an assembly)."""
+        x = self.to_nodes(q)
+        elastic = self.elastic.hessian_product(x)
+        cables = self._cable_set
+        L, A, segments = cables.jacobian(x)
+        _, tension, stiffness = self.cable_springs(L - self.cable_targets(u_motor))
+        t_via = tension[cables.cable][:, None]
+
+        def apply(v: np.ndarray) -> np.ndarray:
+            dx = np.zeros(3 * self.mesh.n_nodes)
+            dx[self.free_dofs] = v
+            dx = dx.reshape(-1, 3)
+            # Springs along dL/dq, plus the taut cables turning: tension (d2L/dp2) dp.
+            turn = t_via * cables.gradient_change(segments, cables.via_points(dx))
+            return elastic(dx).ravel()[self.free_dofs] + A @ (stiffness * (A.T @ v)) + cables.to_free(turn, False)
+        return apply
+
     def mixed_derivative(self, q: np.ndarray, u_motor) -> np.ndarray:
         """d2E/dq du (n_free, m): how each motor angle changes the forces."""
-        x = self.to_nodes(q)
-        out = np.zeros((3 * self.mesh.n_nodes, len(self.cables)))
-        for i, (c, L_star) in enumerate(zip(self.cables, self.cable_targets(u_motor))):
-            L, dL_dp, _ = c.length_derivatives(x)
-            d2E = spring(L - L_star, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)[2]
-            col = np.zeros((self.mesh.n_nodes, 3))
-            # d/du of dE/dL * dL/dx, with dd/du = +r (pulling shortens L*, stretching the cable)
-            np.add.at(col, c.nodes, d2E * self.robot.spool_radius_m * c.weights[:, :, None] * dL_dp[:, None, :])
-            out[:, i] = col.ravel()
-        return out[self.free_dofs]
+        L, A, _ = self._cable_set.jacobian(self.to_nodes(q))
+        stiffness = self.cable_springs(L - self.cable_targets(u_motor))[2]
+        # d/du of dE/dL * dL/dq, with dd/du = +r (pulling shortens L*, stretching the cable)
+        return A * (stiffness * self.robot.spool_radius_m)
 
     # ---------------------------------------------------------------- assembly pattern
     def _block_dofs(self) -> list[np.ndarray]:

@@ -131,3 +131,36 @@ def test_cable_length_derivatives(coarse_fem):
                              - _fd_gradient(length_p, p.ravel() - 1e-5 * e, 1e-7)) / 2e-5
                             for e in np.eye(p.size)])
     assert np.allclose(d2L, H_fd, atol=1e-3 * np.abs(d2L).max())
+
+
+def test_energy_with_gradient_and_cable_jacobian(state):
+    fem, q, u = state
+    E, g, d, A = fem.energy(q, u, with_gradient=True)
+    assert E == fem.energy(q, u)
+    g2, d2, A2 = fem.gradient(q, u, with_cables=True)
+    assert np.array_equal(g, g2) and np.array_equal(d, d2) and np.array_equal(A, A2)
+    x = fem.to_nodes(q)
+    assert np.allclose(d, fem.cable_lengths(x) - fem.cable_targets(u), rtol=0, atol=1e-15)
+    def lengths(z):
+        return fem.cable_lengths(fem.to_nodes(z))
+    A_fd = np.array([(lengths(q + 1e-7 * e) - lengths(q - 1e-7 * e)) / 2e-7 for e in np.eye(fem.n_free)])
+    assert np.abs(A - A_fd).max() < 1e-6
+    # The nodal gradient (B^T of the stresses) is the element gradients summed at the nodes.
+    g_el = fem.elastic.gradient(x)
+    summed = np.zeros_like(x)
+    np.add.at(summed, fem.mesh.tets, g_el)
+    assert np.allclose(fem.elastic.nodal_gradient(x), summed, rtol=0, atol=1e-13 * np.abs(summed).max())
+    q_bad = fem.rest_q() * 0.0
+    assert fem.energy(q_bad, u, with_gradient=True) == (np.inf, None, None, None)
+
+
+def test_hessian_operator_matches_the_assembled_hessian(state):
+    fem, q, u = state
+    H = fem.hessian(q, u)
+    apply = fem.hessian_operator(q, u)
+    V = np.random.default_rng(7).standard_normal((fem.n_free, 3))
+    for v in V.T:
+        assert np.abs(apply(v) - H @ v).max() < 1e-12 * np.abs(H @ v).max()
+    # Also with a slack cable (no tension: no turning term) and with gravity only.
+    u0 = np.zeros(3)
+    assert np.abs(fem.hessian_operator(q, u0)(V[:, 0]) - fem.hessian(q, u0) @ V[:, 0]).max() < 1e-9

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from lab.dataset import DatasetError, read_dataset, write_dataset
+from lab.fem import ArmFEM
 from lab.sampling import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, simulate, sobol_commands
 from lab.statics import solve_static
 
@@ -37,7 +38,7 @@ def test_sobol_commands_are_safe_and_seeded(three_cable):
 
 
 @pytest.mark.slow
-def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coarse_fem):
+def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coarse_fem, tmp_path):
     u = grid_commands(three_cable, 4)
     chunks = grid_chunks(three_cable, u, target_size=16)
     assert len(chunks) > 2
@@ -45,13 +46,20 @@ def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coa
     serial = simulate(three_cable, u, chunks, n_jobs=1, **kw)
     parallel = simulate(three_cable, u, chunks, n_jobs=2, **kw)
     # Same chunks, same walks, same arithmetic: equal to rounding. (Bitwise equality holds
-    # between fresh processes; inside a long-lived test worker, alignment-dependent SIMD
-    # paths in NumPy/MKL were seen to move the last bit, 7e-16 m.)
+    # between fresh processes, checked below; inside a long-lived test worker, alignment-
+    # dependent SIMD paths in NumPy/MKL were seen to move the last bit, 7e-16 m.)
     assert np.abs(serial["p_tip_W"] - parallel["p_tip_W"]).max() < 1e-12
+    code = ("import sys, numpy as np; from lab.description import load_robot; "
+            "from lab.sampling import grid_chunks, grid_commands, simulate; r = load_robot('three-cable'); "
+            "u = grid_commands(r, 4); res = simulate(r, u, grid_chunks(r, u, target_size=16), n_rings=1, n_axial=6); "
+            "np.save(sys.argv[1], res['p_tip_W'])")
+    out = tmp_path / "serial.npy"
+    subprocess.run([sys.executable, "-c", code, str(out)], check=True, timeout=300)
+    assert np.array_equal(np.load(out), parallel["p_tip_W"])
     # Warm starts change the path to the equilibrium, not the equilibrium.
     for i in [0, len(u) // 2, len(u) - 1]:
-        cold = solve_static(coarse_fem, u[i]).p_tip_W
-        assert np.allclose(serial["p_tip_W"][i], cold, atol=1e-7)
+        cold = solve_static(coarse_fem, u[i], tol_step_m=1e-11).p_tip_W
+        assert np.allclose(serial["p_tip_W"][i], cold, rtol=0, atol=1e-8)
 
 
 def test_dataset_round_trip_and_corruption(tmp_path):
@@ -171,3 +179,100 @@ def test_dask_local_cluster_gives_the_serial_numbers(three_cable):
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         dask = simulate(three_cable, u, chunks, scheduler=cluster.scheduler_address, **kw)
     assert np.abs(dask["p_tip_W"] - serial["p_tip_W"]).max() < 1e-12
+
+
+@pytest.mark.slow
+def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
+    import os
+    import signal
+    import time
+
+    import psutil
+
+    cmd = [sys.executable, "-m", "lab", "simulate", "--grid", "7", "--n-rings", "1", "--n-axial", "10",
+           "--chunk-size", "64", "--jobs", "2", "--no-progress", "--out", str(tmp_path / "sim.csv")]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    workers = []
+    while time.monotonic() < deadline and proc.poll() is None:
+        workers = [p for p in psutil.Process(proc.pid).children(recursive=True)
+                   if "LokyProcess" in " ".join(p.cmdline())]
+        if len(workers) == 2:
+            break
+        time.sleep(0.05)
+    assert len(workers) == 2, "the run should have started its two workers"
+    time.sleep(1.0)                      # they are computing chunks now
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=30) == 128 + signal.SIGTERM
+    gone, alive = psutil.wait_procs(workers, timeout=10)
+    for p in alive:
+        os.kill(p.pid, signal.SIGKILL)
+    assert not alive, "workers outlived the killed run"
+
+
+def test_walk_predictor_hermite_and_row_corrections(three_cable, coarse_fem):
+    from lab.warmstart import WalkPredictor
+
+    fem = coarse_fem
+    pred = WalkPredictor(fem)
+    assert pred.ranked([0, 0, 1.0]) == []
+    # Two rows of a serpentine walk: u1 = 1 with u2 = 0.5, 1, 1.5, then u1 = 1.5 backwards.
+    walk = [np.array([0, 1.0, u2]) for u2 in (0.5, 1.0, 1.5)] + [np.array([0, 1.5, u2]) for u2 in (1.5, 1.0)]
+    for k, u in enumerate(walk):
+        steps = [walk[j + 1] - walk[j] for j in (k - 1, k) if 0 <= j < len(walk) - 1]
+        pred.add(solve_static(fem, u, None if k == 0 else pred.ranked(u)[0][1], sensitivity="reuse",
+                              refine_du=np.array(steps)))
+    exact = {}
+
+    def err(u, q):
+        key = tuple(u)
+        if key not in exact:
+            exact[key] = solve_static(fem, u, tol_step_m=1e-11).q
+        return np.abs(q - exact[key]).max()
+    # Straight on along the first row: Hermite beats linear by far.
+    u = np.array([0, 1.0, 2.0])
+    names = {k: q for k, q, _ in pred.candidates(u)}
+    assert err(u, names["hermite"]) < 0.1 * err(u, names["linear"])
+    # Second row, going back: the row-back correction beats the plain linear step, and
+    # the ranking (by energy) puts a corrected prediction first.
+    u = np.array([0, 1.5, 0.5])
+    cands = pred.candidates(u)
+    kinds = [k for k, _, _ in cands]
+    assert "linear corrected" in kinds and "hermite corrected" in kinds
+    lin = next(q for k, q, _ in cands if k == "linear")
+    best_kind, best = pred.ranked(u)[0]
+    assert "corrected" in best_kind and err(u, best) < 0.5 * err(u, lin)
+
+
+@pytest.mark.slow
+def test_warm_walks_need_few_factorisations(three_cable):
+    """Regression guard for the warm starts: ~4.6 factorisations per sample before the
+    predictor, condensed and chord steps (issue: sample cost < 3 factorisations)."""
+    u = grid_commands(three_cable, 5)
+    chunks = grid_chunks(three_cable, u)
+    res = simulate(three_cable, u, chunks, n_rings=1, n_axial=8)
+    warm = np.concatenate([c.order[1:] for c in chunks])
+    assert res["factorizations"][warm].mean() < 3.2
+    fem = ArmFEM(three_cable, n_rings=1, n_axial=8)
+    for i in warm[::7]:
+        cold = solve_static(fem, u[i], tol_step_m=1e-11).p_tip_W
+        assert np.abs(res["p_tip_W"][i] - cold).max() < 1e-8
+
+
+def test_walk_predictor_ranks_implausible_cable_states_last(coarse_fem, monkeypatch):
+    from lab.warmstart import WalkPredictor, _Solved
+
+    fem = coarse_fem
+    u, ref_u = np.array([0, 1.0, 1.0]), np.array([0, 1.0, 0.5])
+    best = solve_static(fem, u).q
+    pred = WalkPredictor(fem)
+    taut = pred._taut(best, u)
+    assert taut[1]                                          # pulled by motor 1
+    true_ref = _Solved(ref_u, best, None, taut)
+    odd_ref = _Solved(ref_u, best, None, (taut[0], False, taut[2]))   # motor 1 did not move, yet it flips
+    worse = best + 1e-4 * np.random.default_rng(0).standard_normal(best.shape)
+    monkeypatch.setattr(pred, "candidates", lambda u_: [("a", best, [odd_ref]), ("b", worse, [true_ref])])
+    assert fem.energy(best, u) < fem.energy(worse, u)
+    assert [k for k, _ in pred.ranked(u)] == ["b", "a"]
+    monkeypatch.setattr(pred, "candidates", lambda u_: [("a", best, [true_ref]), ("b", worse, [true_ref])])
+    assert [k for k, _ in pred.ranked(u)] == ["a", "b"]

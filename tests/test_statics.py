@@ -117,3 +117,93 @@ def test_sensitivities_function_matches_solution(default_fem):
     dq, J = sensitivities(default_fem, sol.q, sol.u_motor)
     # reuse = the factorisation one (tiny) Newton step before the equilibrium
     assert np.allclose(sol.J_tip_u, J, rtol=1e-3, atol=1e-5)  # a predictor, not Soft IK
+
+
+@pytest.fixture(scope="module")
+def equilibrium(default_fem):
+    """A tight equilibrium with the top cable inside its smoothed zone, and its dq/du."""
+    u = np.array([0.0, 1.0, 2.0])
+    ref = solve_static(default_fem, u, tol_step_m=1e-12)
+    return u, ref, sensitivities(default_fem, ref.q, u)[0]
+
+
+def test_condensed_step_resolves_the_smoothed_cable_spring(default_fem, equilibrium):
+    from lab.linsolve import factorize
+    from lab.steps import newton_step
+
+    fem, (u, ref, D) = default_fem, equilibrium
+    stretch = fem.cable_lengths(fem.to_nodes(ref.q)) - fem.cable_targets(u)
+    assert 0 < stretch[0] < fem.robot.slack_smoothing_m   # stiffness k d / eps: varies fast
+    q0 = ref.q + 1e-3 * D[:, 0]                            # ~40 um off, mostly in cable 0's stretch
+    g, d, A = fem.gradient(q0, u, with_cables=True)
+    H = fem.hessian(q0, u)
+    dq, fac = newton_step(fem, H, g, d, A)
+    plain = -factorize(H).solve(g)
+    err, err_plain = np.abs(q0 + dq - ref.q).max(), np.abs(q0 + plain - ref.q).max()
+    assert err < 0.4 * err_plain
+    assert fac is not None and np.allclose(fac.C, fac.A.T @ fac.S)
+
+
+def test_close_start_converges_with_one_factorisation_and_chord_steps(default_fem, equilibrium):
+    fem, (u, ref, D) = default_fem, equilibrium
+    for amp in (3e-4, 1e-3):                               # 10 and 30 um from the equilibrium
+        sol = solve_static(fem, u, ref.q + amp * D[:, 1])
+        assert sol.factorizations == 1 and sol.iterations > 1
+        assert np.abs(sol.q - ref.q).max() < 1e-9          # far below tol_step_m = 1e-7
+
+
+def test_reused_sensitivity_is_refined_along_refine_du(default_fem, equilibrium):
+    fem, (u, ref, D) = default_fem, equilibrium
+    q0 = ref.q + 3e-3 * D[:, 1]                            # the factorisation is ~1e-4 m off
+    plain = solve_static(fem, u, q0, sensitivity="reuse")
+    refined = solve_static(fem, u, q0, sensitivity="reuse", refine_du=[[0.0, 0.5, 0.0]])
+    assert plain.factorizations == refined.factorizations == 1
+
+    def rel(sol, j):
+        return np.abs(sol.dq_du[:, j] - D[:, j]).max() / np.abs(D[:, j]).max()
+    assert rel(refined, 1) < 1e-3 and rel(refined, 1) < 0.02 * rel(plain, 1)
+    assert np.allclose(refined.dq_du[:, [0, 2]], plain.dq_du[:, [0, 2]])   # only along du
+    assert np.allclose(refined.J_tip_u, fem.tip_matrix() @ refined.dq_du)
+
+
+def test_indefinite_start_is_reported_or_shifted(default_fem):
+    fem = default_fem
+    q0 = fem.to_free(fem.mesh.X_W * [0.9, 1, 1])           # squashed 10 %: the Hessian is indefinite
+    stop = solve_static(fem, [0, 0, 0], q0, stop_if_indefinite=True, raise_on_failure=False)
+    assert stop.status == "indefinite" and not stop.converged and stop.factorizations == 1
+    sol = solve_static(fem, [0, 0, 0], q0)
+    assert sol.converged and sol.projected_steps == 0      # diagonal shifts were enough
+    assert np.abs(sol.p_tip_W - solve_static(fem, [0, 0, 0]).p_tip_W).max() < 1e-9
+
+
+def test_shifted_step():
+    import scipy.sparse as sp
+
+    from lab.steps import SHIFTS, shifted_step
+
+    n = 50
+    rng = np.random.default_rng(5)
+    off = sp.random(n, n, density=0.05, random_state=6) * 10.0
+    H = (sp.diags(np.full(n, 1000.0)) + off + off.T).tocsr()
+    H.setdiag(H.diagonal() - np.r_[1000.5, np.zeros(n - 1)])   # one eigenvalue near -0.5
+    g = rng.standard_normal(n)
+    s = SHIFTS[0] * np.median(H.diagonal())
+    expected = -np.linalg.solve(H.toarray() + s * np.eye(n), g)
+    d, used = shifted_step(H.copy(), g)
+    assert used == 1 and np.allclose(d, expected) and g @ d < 0
+    H.setdiag(H.diagonal() - np.r_[1000.0, np.zeros(n - 1)])    # far more negative than any shift
+    assert shifted_step(H, g) == (None, len(SHIFTS))
+
+
+def test_pardiso_solves_without_refinement_when_no_pivot_was_perturbed(default_fem, equilibrium):
+    from lab.linsolve import _available, factorize
+
+    if "pardiso" not in _available():
+        pytest.skip("pypardiso not installed")
+    u, ref, _ = equilibrium
+    H = default_fem.hessian(ref.q, u)
+    lu = factorize(H, "pardiso")
+    b = np.random.default_rng(0).standard_normal(H.shape[0])
+    x = lu.solve(b)
+    assert lu.n_perturbed == 0 and int(lu._solver.get_iparm(7)) == 0   # no refinement steps run
+    assert np.linalg.norm(H @ x - b) < 1e-14 * abs(H).max() * np.linalg.norm(x)
