@@ -13,22 +13,20 @@ import os
 import time
 
 import numpy as np
-
-import lab.fem
-import lab.linsolve
-import lab.sampling
-import lab.statics
-import lab.steps
-import lab.warmstart
-from lab.description import load_robot
-from lab.fem import ArmFEM
-from lab.linsolve import BACKENDS, _available, factorize
-from lab.sampling import default_jobs, grid_chunks, grid_commands, simulate
-from lab.statics import solve_static
 from timing import best_of
 
-
-
+import lab.data.simulation
+import lab.fem.energy
+import lab.fem.linsolve
+import lab.fem.statics
+import lab.fem.steps
+import lab.fem.warmstart
+from lab.data.designs import grid_chunks, grid_commands
+from lab.data.simulation import default_jobs, simulate
+from lab.description import load_robot
+from lab.fem.energy import ArmFEM
+from lab.fem.linsolve import _available, factorize
+from lab.fem.statics import solve_static
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--six-full", action="store_true", help="simulate the full six-cable 5-level grid")
@@ -52,7 +50,7 @@ for name in _available():
     t_fact[name] = best_of(lambda: factorize(H, name))
     print(f"  factorisation [{name}]: {1e3 * t_fact[name]:.2f} ms")
 if "pardiso" in t_fact:
-    from lab.linsolve import _Pardiso
+    from lab.fem.linsolve import _Pardiso
 
     def analyse_and_factorize():
         _Pardiso._pattern = None          # forget the symbolic analysis: phase 12, not 22
@@ -79,14 +77,14 @@ print(f"  ratio time per sample / (assembly + factorisation) = {t_sample / unit:
 # the phases it calls; the timers themselves add a little).
 phases = {  # name: the functions timed, as (owner, attribute) where the solver looks them up
     "Hessian assembly": [(lab.fem.ArmFEM, "hessian")],
-    "factorisation": [(lab.steps, "factorize"), (lab.statics, "factorize")],
-    "solves": [(lab.linsolve._Pardiso, "solve"), (lab.linsolve._SuperLU, "solve")],
+    "factorisation": [(lab.fem.steps, "factorize"), (lab.fem.statics, "factorize")],
+    "solves": [(lab.fem.linsolve._Pardiso, "solve"), (lab.fem.linsolve._SuperLU, "solve")],
     "gradients (incl. dq/du refinement)": [(lab.fem.ArmFEM, "gradient")],
     "energies (incl. with gradient)": [(lab.fem.ArmFEM, "energy")],
-    "cable-condensed step algebra": [(lab.steps, "condensed_step"), (lab.statics, "condensed_step")],
-    "sensitivity algebra": [(lab.statics, "reused_sensitivity")],
-    "predictions (candidates)": [(lab.warmstart.WalkPredictor, "candidates")],
-    "rest (Python, NumPy glue)": [(lab.sampling, "solve_chunk")],
+    "cable-condensed step algebra": [(lab.fem.steps, "condensed_step"), (lab.fem.statics, "condensed_step")],
+    "sensitivity algebra": [(lab.fem.statics, "reused_sensitivity")],
+    "predictions (candidates)": [(lab.fem.warmstart.WalkPredictor, "candidates")],
+    "rest (Python, NumPy glue)": [(lab.data.simulation, "solve_chunk")],
 }
 spent, calls, stack, originals = {}, {}, [], []
 

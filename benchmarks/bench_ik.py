@@ -16,13 +16,13 @@ import time
 
 import numpy as np
 
-from lab.command_set import CommandSet
+from lab.control.command_set import CommandSet
+from lab.control.ik import IKSolver, grid_seeds
+from lab.control.soft_ik import FEMForwardMap
+from lab.control.trajectories import BUILTIN, load_trajectory
 from lab.description import load_robot
-from lab.fem import ArmFEM
-from lab.ik import IKSolver, grid_seeds
-from lab.model import load_model
-from lab.soft_ik import FEMForwardMap
-from lab.trajectories import BUILTIN, load_trajectory
+from lab.fem.energy import ArmFEM
+from lab.learn.mlp import load_model
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--model", default="data/model_sim_three_cable.npz")

@@ -12,10 +12,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from lab.dataset import read_dataset
-from lab.train import LMOptions, train
 from timing import best_of
+
+from lab.data.dataset import read_dataset
+from lab.learn.lm import LMOptions
+from lab.learn.train import train
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "sim_three_cable.csv"
 

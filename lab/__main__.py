@@ -1,6 +1,6 @@
 """``python -m lab <command>``: see ``python -m lab --help``."""
 import sys
 
-from .cli import main
+from lab.cli import main
 
 sys.exit(main())

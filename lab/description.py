@@ -20,11 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.errors import InputError
+
 FORMAT_VERSION = 1
 ROBOTS_DIR = Path(__file__).with_name("robots")
 
 
-class DescriptionError(ValueError):
+class DescriptionError(InputError):
     """A robot description file is missing a field or has an invalid value."""
 
 
@@ -94,7 +96,7 @@ class RobotDescription:
         """
         u = np.atleast_2d(np.asarray(u_motor, dtype=float))
         if u.shape[1] != self.n_cables:
-            raise ValueError(f"expected {self.n_cables} motor angles, got {u.shape[1]}")
+            raise InputError(f"expected {self.n_cables} motor angles, got {u.shape[1]}")
         slack = tol * self.u_max_rad
         ok = np.all(np.isfinite(u), axis=1)
         ok &= np.all((u >= -slack) & (u <= self.u_max_rad + slack), axis=1)
@@ -106,13 +108,13 @@ class RobotDescription:
         """Return ``u_motor`` as a float array or raise ValueError saying what is wrong."""
         u = np.asarray(u_motor, dtype=float)
         if u.shape != (self.n_cables,):
-            raise ValueError(f"{self.name}: expected {self.n_cables} motor angles, got shape {u.shape}")
+            raise InputError(f"{self.name}: expected {self.n_cables} motor angles, got shape {u.shape}")
         if not np.all(np.isfinite(u)):
-            raise ValueError(f"{self.name}: motor angles must be finite, got {u.tolist()}")
+            raise InputError(f"{self.name}: motor angles must be finite, got {u.tolist()}")
         if np.any(u < -1e-9) or np.any(u > self.u_max_rad * (1 + 1e-9)):
-            raise ValueError(f"{self.name}: motor angles {u.tolist()} rad outside [0, {self.u_max_rad}]")
+            raise InputError(f"{self.name}: motor angles {u.tolist()} rad outside [0, {self.u_max_rad}]")
         if not self.is_safe(u):
-            raise ValueError(f"{self.name}: motor command {u.tolist()} rad violates the safety rule")
+            raise InputError(f"{self.name}: motor command {u.tolist()} rad violates the safety rule")
         return u
 
 

@@ -3,14 +3,14 @@ meshcat animation built from them, and the page played in headless Chromium."""
 
 import numpy as np
 import pytest
-
 import test_viz
-from lab import animation as A
-from lab import viz
+from lab.fem.statics import solve_static
+from test_viz import _pixel_counts, _screenshot, require_chromium
+
+from lab.viz import animation as A
+from lab.viz import arm as viz
 from lab.description import load_robot
-from lab.fem import ArmFEM
-from lab.statics import solve_static
-from test_viz import CHROMIUM, _pixel_counts, _screenshot, require_chromium
+from lab.fem.energy import ArmFEM
 
 U_UP = np.array([3.0, 0.0, 0.0])             # top cable at u_max: the arm bends up
 ENDS = np.array([[0.0, -0.5, 0.0, 1.0], [0.0, 0.5, 0.0, 1.0]])   # unit cylinder's axis ends

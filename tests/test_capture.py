@@ -6,15 +6,15 @@ import tomllib
 
 import numpy as np
 import pytest
+from lab.rig.capture import Protocol, SettleDetector, capture, measure
+from lab.data.dataset import read_dataset
+from lab.rig.journal import Journal, JournalError
+from lab.data.designs import grid_commands
 
-from lab.capture import Protocol, SettleDetector, capture, measure
-from lab.dataset import read_dataset
-from lab.journal import Journal, JournalError
 from lab.rig.asbuilt import default_defects_path, parse_defects
 from lab.rig.base import MocapError, MocapFrame, Rig
 from lab.rig.sim import SimRig
 from lab.rig.twin import AsBuiltBody, TwinRig
-from lab.sampling import grid_commands
 
 COMMANDS = np.array([[0.0, 0.0, 0.0], [1.5, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.0, 2.5],
                      [3.0, 1.0, 0.0]])
@@ -212,7 +212,7 @@ def test_unsafe_command_is_refused_before_anything_moves(three_cable, coarse_fem
 
 # ------------------------------------------------------------------ command line
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "lab.capture_cli", "capture", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "lab", "capture", *args], capture_output=True,
                           text=True, cwd=cwd, env={"PYTHONPATH": str(cwd), "OMP_NUM_THREADS": "1",
                                                    "MKL_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
 

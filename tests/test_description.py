@@ -3,11 +3,11 @@ import tomllib
 
 import numpy as np
 import pytest
+from lab.data.designs import grid_commands
+from lab.fem.statics import solve_static
 
 from lab.description import ROBOTS_DIR, DescriptionError, load_robot, parse_robot
-from lab.fem import ArmFEM
-from lab.sampling import grid_commands
-from lab.statics import solve_static
+from lab.fem.energy import ArmFEM
 
 
 def _data(name="three-cable"):

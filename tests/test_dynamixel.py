@@ -6,11 +6,10 @@ import time
 import numpy as np
 import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, Protocol2PacketHandler
-
 from helpers import wait_until
+
 from lab.rig.base import ServoError
-from lab.rig.dynamixel import (GOAL_POSITION, OPERATING_MODE, PRESENT_POSITION, RAD_PER_TICK, ServoConfig, XM430Bus, ticks_from_u,
-                               u_from_ticks, velocity_units)
+from lab.rig.dynamixel import GOAL_POSITION, OPERATING_MODE, PRESENT_POSITION, RAD_PER_TICK, ServoConfig, XM430Bus, ticks_from_u, u_from_ticks, velocity_units
 from lab.rig.emulators import EmulatedXM430Bus, KinematicBody, LiveBody, ServoSpec
 from lab.rig.emulators import protocol2 as p2
 

@@ -2,10 +2,9 @@
 import numpy as np
 import pytest
 import torch
-
-from lab.cables import spring
-from lab.elasticity import NeoHookean, project_psd
-from lab.mesh import cylinder_mesh
+from lab.fem.cables import spring
+from lab.fem.elasticity import NeoHookean, project_psd
+from lab.fem.mesh import cylinder_mesh
 
 
 def _fd_gradient(f, x, h):

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from helpers import wait_until
+
 from lab.rig import make_rig
 from lab.rig.base import MocapError, RigError, ServoError
 from lab.rig.dynamixel import RAD_PER_TICK

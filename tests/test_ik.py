@@ -3,14 +3,14 @@ import itertools
 
 import numpy as np
 import pytest
+from lab.control.command_set import CommandSet
+from lab.data.dataset import read_dataset
+from lab.control.ik import IKSolver, grid_seeds
+from lab.control.soft_ik import FEMForwardMap
+from lab.fem.statics import solve_static
+from lab.control.trajectories import circle
 
-from lab.command_set import CommandSet
-from lab.dataset import read_dataset
 from lab.description import load_robot
-from lab.ik import IKSolver, grid_seeds
-from lab.soft_ik import FEMForwardMap
-from lab.statics import solve_static
-from lab.trajectories import circle
 
 
 @pytest.fixture(scope="module")
@@ -21,7 +21,7 @@ def cset(three_cable):
 @pytest.fixture(scope="module")
 def small_model():
     """A small network fitted to the simulated data in a fraction of a second."""
-    from lab.train import train
+    from lab.learn.train import train
 
     u, y, _ = read_dataset("data/sim_three_cable.csv")
     return train(u, y, (10, 10), seed=0, epochs=40).model

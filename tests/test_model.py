@@ -4,9 +4,9 @@ import zipfile
 
 import numpy as np
 import pytest
-
 from helpers import fd_parameter_jacobian
-from lab.model import MLP, ModelFileError, init_mlp, load_model, minmax_gain
+from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
+from lab.learn.model_io import ModelFileError
 
 ARCHS = [((), "tanh"), ((7,), "tanh"), ((6,), "logistic"), ((20, 20), "tanh"),
          ((5, 8, 4), "logistic"), ((9, 3, 6, 5), "tanh")]

@@ -1,12 +1,12 @@
 """Frozen motors (the six-cable arm without its second stage) and motor-path smoothness."""
 import numpy as np
 import pytest
+from lab.control.command_set import CommandSet
+from lab.control.ik import IKSolver
+from lab.learn.mlp import init_mlp
+from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 
-from lab.command_set import CommandSet
 from lab.description import load_robot
-from lab.ik import IKSolver
-from lab.model import init_mlp
-from lab.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 
 FREE = [0, 2, 4]
 

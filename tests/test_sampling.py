@@ -4,11 +4,12 @@ import sys
 
 import numpy as np
 import pytest
+from lab.data.dataset import DatasetError, read_dataset, write_dataset
+from lab.data.designs import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
+from lab.data.simulation import simulate
+from lab.fem.statics import solve_static
 
-from lab.dataset import DatasetError, read_dataset, write_dataset
-from lab.fem import ArmFEM
-from lab.sampling import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, simulate, sobol_commands
-from lab.statics import solve_static
+from lab.fem.energy import ArmFEM
 
 
 def test_serpentine_walk_moves_one_step_at_a_time():
@@ -116,7 +117,7 @@ def test_cli_simulate_writes_dataset_and_sidecar(tmp_path, three_cable):
 
 
 def test_checkpoint_resumes_and_refuses_another_run(tmp_path, three_cable):
-    from lab.chunkstore import CheckpointError
+    from lab.data.chunkstore import CheckpointError
 
     u = grid_commands(three_cable, 3)
     chunks = grid_chunks(three_cable, u, target_size=4)
@@ -211,7 +212,7 @@ def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
 
 
 def test_walk_predictor_hermite_and_row_corrections(three_cable, coarse_fem):
-    from lab.warmstart import WalkPredictor
+    from lab.fem.warmstart import WalkPredictor
 
     fem = coarse_fem
     pred = WalkPredictor(fem)
@@ -260,7 +261,7 @@ def test_warm_walks_need_few_factorisations(three_cable):
 
 
 def test_walk_predictor_ranks_implausible_cable_states_last(coarse_fem, monkeypatch):
-    from lab.warmstart import WalkPredictor, _Solved
+    from lab.fem.warmstart import WalkPredictor, _Solved
 
     fem = coarse_fem
     u, ref_u = np.array([0, 1.0, 1.0]), np.array([0, 1.0, 0.5])

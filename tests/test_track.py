@@ -3,18 +3,18 @@ import json
 
 import numpy as np
 import pytest
+from lab.control.command_set import CommandSet
+from lab.data.dataset import read_dataset
+from lab.control.ik import IKSolver
+from lab.control.soft_ik import FEMForwardMap
+from lab.fem.statics import solve_static
+from lab.tracking.track import REQUIRED_KEYS, read_result, run_trajectory, write_result
+from lab.control.trajectories import circle, write_trajectory_csv
 
-from lab import table1
+from lab.tracking import table1
 from lab.cli import main
-from lab.command_set import CommandSet
-from lab.dataset import read_dataset
-from lab.ik import IKSolver
 from lab.rig.base import MocapFrame, Rig, RigError
 from lab.rig.sim import SimRig
-from lab.soft_ik import FEMForwardMap
-from lab.statics import solve_static
-from lab.track import REQUIRED_KEYS, read_result, run_trajectory, write_result
-from lab.trajectories import circle, write_trajectory_csv
 
 
 class LaggingRig(Rig):
@@ -84,7 +84,7 @@ def test_soft_ik_tracks_the_sim_robot_exactly(three_cable, coarse_fem):
 
 @pytest.fixture(scope="module")
 def model_file(tmp_path_factory):
-    from lab.train import train
+    from lab.learn.train import train
 
     u, y, _ = read_dataset("data/sim_three_cable.csv")
     path = tmp_path_factory.mktemp("model") / "tiny.npz"
@@ -151,14 +151,14 @@ def test_rig_is_closed_on_errors(model_file, tmp_path, monkeypatch, capsys):
 
     def fail(*args, **kwargs):
         raise RigError("servo 2 stopped answering")
-    monkeypatch.setattr("lab.track.measure", fail)
+    monkeypatch.setattr("lab.tracking.track.measure", fail)
     assert main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
                  "--out", str(tmp_path / "r.json")]) == 1
     assert closed == [True] and "servo 2" in capsys.readouterr().err
 
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
-    monkeypatch.setattr("lab.track.measure", boom)
+    monkeypatch.setattr("lab.tracking.track.measure", boom)
     with pytest.raises(KeyboardInterrupt):
         main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
               "--out", str(tmp_path / "r.json")])
@@ -166,7 +166,7 @@ def test_rig_is_closed_on_errors(model_file, tmp_path, monkeypatch, capsys):
 
 
 def test_result_file_nan_and_errors(tmp_path, three_cable, coarse_fem):
-    from lab.track import TrackResult, TrackResultError
+    from lab.tracking.track import TrackResult, TrackResultError
 
     n = 2
     res = TrackResult("t", np.zeros((n, 3)), np.zeros((n, 3)), np.array([[0.1, 0, 0], [np.nan] * 3]),

@@ -6,13 +6,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from helpers import fd_parameter_jacobian
+from lab.data.dataset import read_dataset, write_dataset
+from lab.learn.studies import evaluate_splits, size_sweep, summarize
+from lab.learn.metrics import mean_distance_m, mse_m2, workspace_size_m
+from lab.learn.mlp import MLP, init_mlp, load_model
+from lab.learn.lm import LMOptions, train_lm
+from lab.learn.split import divide_random
+from lab.learn.train import train
+
 from lab.cli import main
-from lab.dataset import read_dataset, write_dataset
-from lab.evaluate import evaluate_splits, mean_distance_m, mse_m2, size_sweep, summarize, workspace_size_m
-from lab.model import MLP, init_mlp, load_model
-from lab.train import LMOptions, divide_random, train, train_lm
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "sim_three_cable.csv"

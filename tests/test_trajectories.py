@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from lab import trajectories as T
+from lab.control import trajectories as T
 
 
 def yz(points):
@@ -61,9 +61,9 @@ def test_builtins_are_paper_sized(name):
 
 def test_builtins_are_reachable_by_the_cached_model(three_cable):
     """Every target of every built-in is reachable through the shipped model."""
-    from lab.command_set import CommandSet
-    from lab.ik import IKSolver, grid_seeds
-    from lab.model import load_model
+    from lab.control.command_set import CommandSet
+    from lab.control.ik import IKSolver, grid_seeds
+    from lab.learn.mlp import load_model
 
     model = load_model("data/model_sim_three_cable.npz")
     cs = CommandSet.from_robot(three_cable)
@@ -127,11 +127,12 @@ def test_six_cable_paths_shapes():
 def test_six_cable_paths_need_the_second_stage_and_are_reachable_with_it():
     """Through the shipped six-cable model, with the regularised IK of notebook 06, every
     target is reached; with the short cables slack (first stage only) six-ring is not."""
-    from lab.command_set import CommandSet
+    from lab.control.command_set import CommandSet
+    from lab.control.ik import IKSolver, grid_seeds
+    from lab.learn.mlp import load_model
+    from lab.control.redundancy import FrozenMotors, frozen_commands
+
     from lab.description import load_robot
-    from lab.ik import IKSolver, grid_seeds
-    from lab.model import load_model
-    from lab.redundancy import FrozenMotors, frozen_commands
 
     six = load_robot("six-cable")
     model = load_model("data/model_sim_six_cable.npz")

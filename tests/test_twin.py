@@ -9,13 +9,12 @@ import tomllib
 
 import numpy as np
 import pytest
+from lab.fem.statics import solve_static
 
 from lab.rig import make_rig
-from lab.rig.asbuilt import (DefectsError, as_built_fem, as_built_robot, default_defects_path, load_defects,
-                             parse_defects)
+from lab.rig.asbuilt import DefectsError, as_built_fem, as_built_robot, default_defects_path, load_defects, parse_defects
 from lab.rig.base import RigError
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
-from lab.statics import solve_static
 
 COARSE = dict(n_rings=1, n_axial=6)
 

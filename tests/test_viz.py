@@ -10,12 +10,12 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pytest
+from lab.fem.statics import solve_static
 from PIL import Image
 
-from lab import viz
+from lab.viz import arm as viz
 from lab.description import load_robot
-from lab.fem import ArmFEM
-from lab.statics import solve_static
+from lab.fem.energy import ArmFEM
 
 matplotlib.use("Agg")
 CHROMIUM = Path("/usr/bin/chromium")

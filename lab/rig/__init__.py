@@ -1,38 +1,65 @@
-"""Rigs: the robot behind one interface (``Rig``), simulated, emulated or real.
+"""Stage 9a: rigs -- the robot behind one interface (:class:`Rig`), simulated, emulated or real.
 
 ``make_rig(spec, robot)`` turns the ``--rig`` option of the command line into a rig:
 
-* ``"sim"``               nominal quasi-static FEM (``SimRig``)
+* ``"sim"``               nominal quasi-static FEM (:class:`SimRig`, :mod:`.sim`)
 * ``"twin"``              emulated as-built robot with the shipped default defects
+                          (:class:`TwinRig`, :mod:`.twin` and :mod:`.asbuilt`)
 * ``"twin:DEFECTS.toml"`` emulated as-built robot with the user's defect file
 * ``"hardware:RIG.toml"`` Dynamixel servos + OptiTrack, configured by the file
+                          (:class:`HardwareRig`: :mod:`.hardware`, :mod:`.dynamixel`,
+                          :mod:`.optitrack`, :mod:`.hardware_config`)
+
+On any rig, :func:`capture` (:mod:`.capture`) runs the paper's capture protocol
+(settle test, hysteresis reset) into an append-only :class:`Journal` (:mod:`.journal`).
+Emulators of the servo bus and the NatNet server for tests and dry runs are in
+:mod:`lab.rig.emulators`.
 """
+
 from __future__ import annotations
 
-from ..description import RobotDescription
-from .base import MocapError, MocapFrame, Rig, RigError, ServoError
+from lab.description import RobotDescription
+from lab.errors import InputError
+from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
+from lab.rig.capture import (
+    Capture,
+    Protocol,
+    Sample,
+    SettleDetector,
+    capture,
+    journal_columns,
+    measure,
+)
+from lab.rig.journal import Journal, JournalError
 
-__all__ = ["make_rig", "Rig", "MocapFrame", "RigError", "ServoError", "MocapError"]
+__all__ = [
+    "make_rig", "Rig", "Body", "MocapFrame", "RigError", "ServoError", "MocapError",
+    "Capture", "Protocol", "Sample", "SettleDetector", "capture", "journal_columns", "measure",
+    "Journal", "JournalError",
+]
 
 
 def make_rig(spec: str, robot: RobotDescription, *, seed: int = 0) -> Rig:
     """Rig for the command-line spec ``sim | twin[:DEFECTS.toml] | hardware:CONFIG.toml``.
 
-    ``seed`` makes the emulated robot's noise reproducible. Raises ValueError naming the
-    problem for an unknown kind or a missing file argument.
+    ``seed`` makes the emulated robot's noise reproducible. Raises :class:`lab.errors.InputError`
+    (a ValueError) naming the problem for an unknown kind or a missing file argument.
     """
     kind, _, arg = str(spec).partition(":")
     if kind == "sim":
         if arg:
-            raise ValueError(f"rig 'sim' takes no argument, got {spec!r}")
-        from .sim import SimRig
+            raise InputError(f"rig 'sim' takes no argument, got {spec!r}")
+        from lab.rig.sim import SimRig
+
         return SimRig(robot)
     if kind == "twin":
-        from .twin import TwinRig
+        from lab.rig.twin import TwinRig
+
         return TwinRig(robot, defects=arg or None, seed=seed)
     if kind == "hardware":
         if not arg:
-            raise ValueError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
-        from .hardware import HardwareRig
+            raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
+        from lab.rig.hardware import HardwareRig
+
         return HardwareRig.from_config(arg, robot)
-    raise ValueError(f"unknown rig {spec!r}: expected sim, twin[:DEFECTS.toml] or hardware:CONFIG.toml")
+    raise InputError(f"unknown rig {spec!r}: expected sim, twin[:DEFECTS.toml] or hardware:CONFIG.toml")

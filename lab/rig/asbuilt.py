@@ -32,16 +32,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description import RobotDescription, read_toml
-from ..fem import ArmFEM
-from ..mesh import cylinder_mesh
-from ..statics import solve_static
+from lab.description import RobotDescription, read_toml
+from lab.errors import InputError, LabRuntimeError
+from lab.fem.energy import ArmFEM
+from lab.fem.mesh import cylinder_mesh
+from lab.fem.statics import solve_static
 
 FORMAT_VERSION = 1
 DEFECTS_DIR = Path(__file__).with_name("defects")
 
 
-class DefectsError(ValueError):
+class DefectsError(InputError):
     """A defects file is missing a field, has an invalid value, or does not fit the robot."""
 
 
@@ -286,6 +287,6 @@ class EquilibriumCache:
             if not prev.converged:
                 break
         if not prev.converged:
-            raise RuntimeError(f"as-built FEM: no equilibrium found for effective motor angles "
+            raise LabRuntimeError(f"as-built FEM: no equilibrium found for effective motor angles "
                                f"{u_eff.tolist()} rad ({prev.status}, residual {prev.grad_norm_n:.3g} N)")
         return prev

@@ -25,10 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..description import RobotDescription
+from lab.description import RobotDescription
+from lab.errors import LabRuntimeError
 
 
-class RigError(RuntimeError):
+class RigError(LabRuntimeError):
     """A rig stopped working (the rig has been made safe before this is raised)."""
 
 

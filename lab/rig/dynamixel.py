@@ -32,15 +32,42 @@ from typing import Sequence
 
 import numpy as np
 import serial
-from dynamixel_sdk import (BROADCAST_ID, COMM_SUCCESS, DXL_HIBYTE, DXL_HIWORD, DXL_LOBYTE, DXL_LOWORD,
-                           GroupSyncRead, GroupSyncWrite, PacketHandler, PortHandler)
+from dynamixel_sdk import (
+    BROADCAST_ID,
+    COMM_SUCCESS,
+    DXL_HIBYTE,
+    DXL_HIWORD,
+    DXL_LOBYTE,
+    DXL_LOWORD,
+    GroupSyncRead,
+    GroupSyncWrite,
+    PacketHandler,
+    PortHandler,
+)
 
-from .base import ServoError
-from .dynamixel_units import (EXTENDED_POSITION_MODE, GOAL_LIMIT_TICKS, GOAL_POSITION, HARDWARE_ERROR_BITS,
-                              HARDWARE_ERROR_STATUS, OPERATING_MODE, PRESENT_POSITION, PROFILE_VELOCITY,
-                              RAD_PER_TICK, RPM_PER_VELOCITY_UNIT, SDK_BAUD_RATES, TICKS_PER_REV, TORQUE_ENABLE,
-                              VELOCITY_LIMIT, X_SERIES_MODELS, ServoConfig, ticks_from_u, u_from_ticks,
-                              velocity_units)
+from lab.errors import InputError
+from lab.rig.base import ServoError
+from lab.rig.dynamixel_units import (
+    EXTENDED_POSITION_MODE,
+    GOAL_LIMIT_TICKS,
+    GOAL_POSITION,
+    HARDWARE_ERROR_BITS,
+    HARDWARE_ERROR_STATUS,
+    OPERATING_MODE,
+    PRESENT_POSITION,
+    PROFILE_VELOCITY,
+    RAD_PER_TICK,
+    RPM_PER_VELOCITY_UNIT,
+    SDK_BAUD_RATES,
+    TICKS_PER_REV,
+    TORQUE_ENABLE,
+    VELOCITY_LIMIT,
+    X_SERIES_MODELS,
+    ServoConfig,
+    ticks_from_u,
+    u_from_ticks,
+    velocity_units,
+)
 
 __all__ = ["XM430Bus", "ServoConfig", "ticks_from_u", "u_from_ticks", "velocity_units", "RAD_PER_TICK",
            "TICKS_PER_REV", "SDK_BAUD_RATES", "X_SERIES_MODELS", "IO_ERRORS"]
@@ -81,13 +108,13 @@ class XM430Bus:
         self.servos = tuple(servos)
         self.ids = [s.dxl_id for s in self.servos]
         if not self.ids or len(set(self.ids)) != len(self.ids) or not all(0 <= i <= 252 for i in self.ids):
-            raise ValueError(f"servo IDs must be distinct integers in 0..252, got {self.ids}")
+            raise InputError(f"servo IDs must be distinct integers in 0..252, got {self.ids}")
         if any(s.direction not in (1, -1) for s in self.servos):
-            raise ValueError(f"servo directions must be +1 or -1, got {[s.direction for s in self.servos]}")
+            raise InputError(f"servo directions must be +1 or -1, got {[s.direction for s in self.servos]}")
         if baud_rate not in SDK_BAUD_RATES:
-            raise ValueError(f"baud rate {baud_rate} is not one the Dynamixel SDK supports: {SDK_BAUD_RATES}")
+            raise InputError(f"baud rate {baud_rate} is not one the Dynamixel SDK supports: {SDK_BAUD_RATES}")
         if not profile_velocity_rad_s > 0:
-            raise ValueError(f"profile velocity must be positive, got {profile_velocity_rad_s} rad/s")
+            raise InputError(f"profile velocity must be positive, got {profile_velocity_rad_s} rad/s")
         self.port_name, self.baud_rate = str(port), int(baud_rate)
         self.direction = np.array([s.direction for s in self.servos])
         self.zero_ticks = np.array([s.zero_offset_ticks for s in self.servos], dtype=np.int64)
@@ -171,7 +198,7 @@ class XM430Bus:
         """Sync-write goal angles ``u_rad`` (n,) rad; returns the goal ticks sent."""
         u = np.asarray(u_rad, dtype=float)
         if u.shape != (len(self.ids),) or not np.all(np.isfinite(u)):
-            raise ValueError(f"expected {len(self.ids)} finite motor angles, got {u!r}")
+            raise InputError(f"expected {len(self.ids)} finite motor angles, got {u!r}")
         ticks = self.ticks_from_u(u)
         self.write_goal_ticks(ticks)
         return ticks
@@ -181,7 +208,7 @@ class XM430Bus:
         ticks = np.asarray(ticks, dtype=np.int64)
         for dxl_id, t in zip(self.ids, ticks):
             if abs(int(t)) > GOAL_LIMIT_TICKS:
-                raise ValueError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
+                raise InputError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
         self._sync_write.clearParam()
         for dxl_id, t in zip(self.ids, ticks):
             self._sync_write.addParam(dxl_id, _bytes4(t))

@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description import RobotDescription
-from .base import MocapError, MocapFrame, Rig, RigError
-from .dynamixel import X_SERIES_MODELS, XM430Bus
-from .hardware_config import HardwareConfig, load_hardware_config
-from .optitrack import OptiTrackStream
+from lab.description import RobotDescription
+from lab.rig.base import MocapError, MocapFrame, Rig, RigError
+from lab.rig.dynamixel import X_SERIES_MODELS, XM430Bus
+from lab.rig.hardware_config import HardwareConfig, load_hardware_config
+from lab.rig.optitrack import OptiTrackStream
 
 
 class HardwareRig(Rig):

@@ -14,15 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description import RobotDescription, read_toml
-from .dynamixel import SDK_BAUD_RATES, ServoConfig
-from .optitrack import MarkerRef, NatNetConfig
+from lab.description import RobotDescription, read_toml
+from lab.errors import InputError
+from lab.rig.dynamixel import SDK_BAUD_RATES, ServoConfig
+from lab.rig.optitrack import MarkerRef, NatNetConfig
 
 FORMAT_VERSION = 1
 LENGTH_UNITS_M = {"m": 1.0, "mm": 1e-3}
 
 
-class HardwareConfigError(ValueError):
+class HardwareConfigError(InputError):
     """A hardware rig configuration file is missing a field or has an invalid value."""
 
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import MocapError, MocapFrame
+from lab.rig.base import MocapError, MocapFrame
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class OptiTrackStream:
     """
 
     def __init__(self, config: NatNetConfig, clock=time.monotonic):
-        import natnet    # the real client package (pure Python, NatNet 2-4)
+        import natnet  # the real client package (pure Python, NatNet 2-4)
 
         self.config, self._clock = config, clock
         self._where = f"NatNet server {config.server_address}:{config.command_port} " \

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..description import RobotDescription
-from ..fem import ArmFEM
-from ..statics import solve_static
-from .base import MocapFrame, Rig
+from lab.description import RobotDescription
+from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
+from lab.rig.base import MocapFrame, Rig
 
 
 class SimRig(Rig):

@@ -30,9 +30,10 @@ import math
 
 import numpy as np
 
-from ..description import RobotDescription
-from .asbuilt import Defects, EquilibriumCache, as_built_fem, load_defects
-from .base import Body, MocapFrame, Rig, RigError
+from lab.description import RobotDescription
+from lab.errors import InputError
+from lab.rig.asbuilt import Defects, EquilibriumCache, as_built_fem, load_defects
+from lab.rig.base import Body, MocapFrame, Rig, RigError
 
 
 class AsBuiltBody(Body):
@@ -70,7 +71,7 @@ class AsBuiltBody(Body):
         rig, not the body, enforces the robot's range and safety rule)."""
         goal = np.asarray(u_goal_rad, dtype=float)
         if goal.shape != (self.n_motors,) or not np.all(np.isfinite(goal)):
-            raise ValueError(f"expected {self.n_motors} finite motor angles, got {goal!r}")
+            raise InputError(f"expected {self.n_motors} finite motor angles, got {goal!r}")
         self._advance(t_s)
         u_now, y_now, p_now = self._motors(self._t), self._contraction(self._t), self._input(self._t)
         goal = self._quantise(goal)
@@ -78,7 +79,7 @@ class AsBuiltBody(Body):
         p_end = self.equilibria.tip(y_end)
         v = float(self.profile_velocity_rad_s)
         if not v > 0:
-            raise ValueError(f"profile_velocity_rad_s must be positive, got {v}")
+            raise InputError(f"profile_velocity_rad_s must be positive, got {v}")
         self._t0, self._u0, self._goal, self._v = self._t, u_now, goal, v
         self._y0, self._p0, self._p1 = y_now, p_now, p_end
         self._T = float(np.max(np.abs(goal - u_now))) / v
@@ -130,7 +131,7 @@ class AsBuiltBody(Body):
         """Integrate the lag modes exactly from the body's time to ``t_s``."""
         t_s = float(t_s)
         if t_s < self._t - 1e-9:
-            raise ValueError(f"time went backwards: {t_s} s after {self._t} s")
+            raise InputError(f"time went backwards: {t_s} s after {self._t} s")
         t_ramp_end = self._t0 + self._T
         while t_s > self._t:
             if self._t < t_ramp_end:     # equilibrium moving linearly

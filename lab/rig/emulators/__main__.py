@@ -12,8 +12,8 @@ import argparse
 import signal
 import threading
 
-from ...description import load_robot
-from .bench import EmulatedBench
+from lab.description import load_robot
+from lab.rig.emulators.bench import EmulatedBench
 
 
 def main(argv=None) -> int:

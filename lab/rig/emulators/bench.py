@@ -17,11 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ...description import RobotDescription
-from ..base import Body
-from .bodies import KinematicBody, LiveBody
-from .natnet_server import MocapScene, NatNetServerEmulator
-from .xm430 import EmulatedXM430Bus, ServoSpec
+from lab.description import RobotDescription
+from lab.errors import InputError
+from lab.rig.base import Body
+from lab.rig.emulators.bodies import KinematicBody, LiveBody
+from lab.rig.emulators.natnet_server import MocapScene, NatNetServerEmulator
+from lab.rig.emulators.xm430 import EmulatedXM430Bus, ServoSpec
 
 
 def default_specs(n_motors: int) -> list[ServoSpec]:
@@ -58,7 +59,7 @@ class EmulatedBench:
         self.live = LiveBody(self.body)
         self.specs = list(specs) if specs is not None else default_specs(robot.n_cables)
         if len(self.specs) != robot.n_cables:
-            raise ValueError(f"{len(self.specs)} servo specs for {robot.n_cables} cables")
+            raise InputError(f"{len(self.specs)} servo specs for {robot.n_cables} cables")
         self.scene = scene
         self.bus = EmulatedXM430Bus(self.specs, body=self.live)
         try:

@@ -18,7 +18,8 @@ import time
 
 import numpy as np
 
-from ..base import Body
+from lab.errors import InputError
+from lab.rig.base import Body
 
 
 class LiveBody:
@@ -66,9 +67,9 @@ class KinematicBody(Body):
         self.p_rest_W = np.asarray(p_rest_W, dtype=float).reshape(3)
         self.J_W = np.asarray(J_W, dtype=float)
         if self.J_W.ndim != 2 or self.J_W.shape[0] != 3:
-            raise ValueError(f"J_W must have shape (3, n_motors), got {self.J_W.shape}")
+            raise InputError(f"J_W must have shape (3, n_motors), got {self.J_W.shape}")
         if not profile_velocity_rad_s > 0:
-            raise ValueError(f"profile_velocity_rad_s must be positive, got {profile_velocity_rad_s}")
+            raise InputError(f"profile_velocity_rad_s must be positive, got {profile_velocity_rad_s}")
         self.n_motors = self.J_W.shape[1]
         self.profile_velocity_rad_s = float(profile_velocity_rad_s)
         self.u_goal_rad = np.zeros(self.n_motors)
@@ -85,7 +86,7 @@ class KinematicBody(Body):
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
         u = np.asarray(u_goal_rad, dtype=float)
         if u.shape != (self.n_motors,):
-            raise ValueError(f"expected {self.n_motors} motor angles, got shape {u.shape}")
+            raise InputError(f"expected {self.n_motors} motor angles, got shape {u.shape}")
         self._advance(t_s)
         self.u_goal_rad = u.copy()
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
+from lab.errors import InputError
+
 NAT_CONNECT, NAT_SERVERINFO, NAT_REQUEST, NAT_RESPONSE = 0, 1, 2, 3
 NAT_REQUEST_MODELDEF, NAT_MODELDEF, NAT_REQUEST_FRAMEOFDATA, NAT_FRAMEOFDATA = 4, 5, 6, 7
 NAT_MESSAGESTRING, NAT_DISCONNECT, NAT_KEEPALIVE, NAT_UNRECOGNIZED_REQUEST = 8, 9, 10, 100
@@ -67,7 +69,7 @@ class Frame:
 def _check(version) -> tuple[int, int]:
     v = tuple(version)[:2]
     if v not in SUPPORTED_VERSIONS:
-        raise ValueError(f"NatNet version {version} not emulated; supported: {SUPPORTED_VERSIONS}")
+        raise InputError(f"NatNet version {version} not emulated; supported: {SUPPORTED_VERSIONS}")
     return v
 
 

@@ -31,7 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import natnet_packets as nn
+from lab.rig.emulators import natnet_packets as nn
 
 
 def _rotation_z_up_to_y_up(yaw_deg: float) -> np.ndarray:

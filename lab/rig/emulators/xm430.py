@@ -39,9 +39,15 @@ import tty
 
 import numpy as np
 
-from . import protocol2 as p2
-from .bodies import LiveBody
-from .xm430_servo import FAULTS, TICKS_PER_REV, EmulatedServo, ServoSpec
+from lab.errors import InputError
+from lab.rig.emulators import protocol2 as p2
+from lab.rig.emulators.bodies import LiveBody
+from lab.rig.emulators.xm430_servo import (
+    FAULTS,
+    TICKS_PER_REV,
+    EmulatedServo,
+    ServoSpec,
+)
 
 __all__ = ["EmulatedXM430Bus", "ServoSpec", "FAULTS"]
 
@@ -57,7 +63,7 @@ class EmulatedXM430Bus:
         self.specs = tuple(specs)
         ids = [s.dxl_id for s in self.specs]
         if len(set(ids)) != len(ids):
-            raise ValueError(f"duplicate servo IDs {ids}")
+            raise InputError(f"duplicate servo IDs {ids}")
         self._clock = clock
         self._t0 = clock()
         self.servos = [EmulatedServo(s, 0.0) for s in self.specs]
@@ -128,7 +134,7 @@ class EmulatedXM430Bus:
 
     def inject_fault(self, dxl_id: int, fault: str, count: int | None = None) -> None:
         if fault not in FAULTS:
-            raise ValueError(f"unknown fault {fault!r}; expected one of {FAULTS}")
+            raise InputError(f"unknown fault {fault!r}; expected one of {FAULTS}")
         with self._lock:
             s = self.servo(dxl_id)
             s.advance(self.now())

@@ -20,7 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import protocol2 as p2
+from lab.errors import InputError
+from lab.rig.emulators import protocol2 as p2
 
 TICKS_PER_REV = 4096
 RPM_PER_VELOCITY_UNIT = 0.229
@@ -87,7 +88,7 @@ class EmulatedServo:
 
     def __init__(self, spec: ServoSpec, t_s: float):
         if spec.direction not in (1, -1) or not 0 <= spec.dxl_id <= 252:
-            raise ValueError(f"servo spec needs an ID in 0..252 and direction +-1, got {spec}")
+            raise InputError(f"servo spec needs an ID in 0..252 and direction +-1, got {spec}")
         self.spec = spec
         self.table = bytearray(TABLE_SIZE)
         for addr, (name, size, _w, default) in FIELDS.items():
@@ -96,7 +97,7 @@ class EmulatedServo:
         self._set(ADDR["model_number"], 2, spec.model_number)
         baud_reg = {v: k for k, v in BAUD_BY_REGISTER.items()}
         if spec.baud_rate not in baud_reg:
-            raise ValueError(f"servo {spec.dxl_id}: baud rate {spec.baud_rate} is not an XM430 rate")
+            raise InputError(f"servo {spec.dxl_id}: baud rate {spec.baud_rate} is not an XM430 rate")
         self._set(ADDR["baud_rate"], 1, baud_reg[spec.baud_rate])
         self.theta = float(spec.zero_tick if spec.start_tick is None else spec.start_tick)
         self.t_last = t_s

@@ -1,0 +1,65 @@
+"""The command line: ``python -m lab <command>`` (or ``lab <command>``), one module per command.
+
+Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
+(:mod:`.splits`), ``track`` (:mod:`.track`) and ``capture`` (:mod:`.capture`); each module
+has ``add_parser(subparsers, parents)`` and ``run(args) -> exit code``.
+
+One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
+``error: <message>`` and exits with its code -- 2 for bad input (a file, a field, an
+argument), 1 for a runtime or hardware failure. An operating-system error on a file the
+user named (missing, not permitted, a directory) is bad input too (2); other OS errors
+(disk full, I/O) exit 1. No traceback is printed for any of these
+unless ``--debug`` is given; an unexpected exception still shows its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from lab.cli import capture, simulate, splits, track, train
+from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: The commands, in the order ``--help`` lists them.
+COMMANDS = {"simulate": simulate, "train": train, "splits": splits, "track": track, "capture": capture}
+
+#: OS errors that mean the user named a bad path (exit 2); any other OSError exits 1.
+_BAD_PATH_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError, FileExistsError)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    debug = argparse.ArgumentParser(add_help=False)
+    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show the Python traceback of an error")
+    p = argparse.ArgumentParser(prog="python -m lab", description="Soft robot control with a learned "
+                                "differentiable model: simulate, capture, train, evaluate and track.")
+    p.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
+    sub = p.add_subparsers(dest="command", required=True)
+    for module in COMMANDS.values():
+        module.add_parser(sub, parents=[debug])
+    return p
+
+
+def _os_error_message(err: OSError) -> str:
+    where = f"{err.filename}: " if err.filename else ""
+    return f"{where}{err.strerror or err}"
+
+
+def main(argv=None) -> int:
+    """Run one command; returns the exit code (0 success, 1 runtime failure, 2 bad input)."""
+    args = build_parser().parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return args.func(args)
+    except LabError as err:
+        code, message = err.exit_code, str(err)
+    except OSError as err:
+        code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
+        message = _os_error_message(err)
+    if args.debug:
+        traceback.print_exc()
+    print(f"error: {message}", file=sys.stderr)
+    return code

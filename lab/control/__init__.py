@@ -1,0 +1,43 @@
+"""Stages 7-8: inverse kinematics and trajectories.
+
+:class:`IKSolver` (:mod:`.ik`) minimises ``1/2 |y(u) - y'|^2`` over the allowed commands
+(:class:`CommandSet`, :mod:`.command_set`) through *any* forward map with a Jacobian: a
+learned model, or the FEM itself (:class:`FEMForwardMap`, :mod:`.soft_ik`: Soft IK).
+:mod:`.redundancy` holds motors fixed and measures motor paths; :mod:`.trajectories`
+makes the paper's target paths and reads/writes trajectory CSVs. Nothing here imports
+:mod:`lab.learn`.
+"""
+
+from lab.control.command_set import CommandSet
+from lab.control.ik import (
+    ARMIJO,
+    METHODS,
+    IKResult,
+    IKSolver,
+    TrajectoryIK,
+    check_targets,
+    grid_seeds,
+)
+from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
+from lab.control.soft_ik import FEMForwardMap
+from lab.control.trajectories import (
+    BUILTIN,
+    CENTRE_W,
+    DEFAULT_POINTS,
+    MAX_ABS_COORD_M,
+    SIX_CABLE,
+    SIX_CABLE_AXIS_W,
+    TrajectoryError,
+    builtin,
+    circle,
+    conical_spiral,
+    helix,
+    load_trajectory,
+    read_trajectory_csv,
+    rose,
+    saddle,
+    square,
+    write_trajectory_csv,
+)
+
+__all__ = ["CommandSet", "METHODS", "ARMIJO", "IKResult", "TrajectoryIK", "check_targets", "grid_seeds", "IKSolver", "FEMForwardMap", "FrozenMotors", "frozen_commands", "motor_path_stats", "CENTRE_W", "BUILTIN", "SIX_CABLE", "SIX_CABLE_AXIS_W", "DEFAULT_POINTS", "MAX_ABS_COORD_M", "TrajectoryError", "circle", "square", "rose", "helix", "saddle", "conical_spiral", "builtin", "load_trajectory", "read_trajectory_csv", "write_trajectory_csv"]

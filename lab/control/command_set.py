@@ -1,0 +1,154 @@
+"""The set of allowed motor commands and exact projections / small QPs over it.
+
+A robot may only be sent commands ``u`` (m,) rad in the polyhedron
+
+    C = { u : lo <= u <= hi,  A u <= b }
+
+with ``lo = 0``, ``hi = u_max`` and one row of ``A`` per safety limit of the robot
+description (the listed cables' angles sum to at most ``max_sum_over_u_max * u_max``).
+Inverse kinematics keeps every iterate in ``C``; this module provides what it needs:
+
+* :meth:`CommandSet.project` -- the Euclidean projection ``argmin_{x in C} |x - v|``;
+* :meth:`CommandSet.solve_qp` -- ``argmin_{x in C} 1/2 x^T H x + c^T x`` for symmetric
+  positive-definite ``H`` (m, m) (the bounded Gauss-Newton / Levenberg-Marquardt step).
+
+Both are solved **exactly** (to rounding) by a primal active-set method (Nocedal &
+Wright, *Numerical Optimization*, Alg. 16.3) on the stacked constraints ``G x <= h``
+(2m box rows, then the rows of ``A``): start from a feasible point with a linearly
+independent working set of active constraints; repeatedly solve the equality-constrained
+QP on the working set (a KKT system of at most 2m+k unknowns); step to it or to the
+first constraint that blocks, which joins the working set; at a working-set minimiser
+drop the constraint with the most negative multiplier, or stop when all multipliers
+are >= 0 (the KKT conditions, sufficient for a convex QP). A strictly convex QP is solved
+in finitely many steps; the problems here (m <= 6) take a handful.
+
+Cheap exact shortcuts come first: a point inside ``C`` is its own projection, and if
+clipping to the box already satisfies ``A u <= b`` the clipped point is the projection
+(it is the closest point of the larger box, and lies in ``C``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from lab.description import RobotDescription
+from lab.errors import InputError, LabRuntimeError
+
+
+class CommandSet:
+    """Polyhedron ``{lo <= u <= hi, A u <= b}`` of allowed commands (rad).
+
+    ``lo``, ``hi`` (m,); ``A`` (k, m), ``b`` (k,) (k may be 0). The lower corner ``lo``
+    must be feasible (it is the start of the active-set method); ValueError otherwise.
+    ``tol`` (rad) is the slack used by :meth:`contains` and the active-set tests.
+    """
+
+    def __init__(self, lo, hi, A=None, b=None, tol: float = 1e-12):
+        self.lo, self.hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
+        m = len(self.lo)
+        if self.lo.shape != (m,) or self.hi.shape != (m,) or m == 0:
+            raise InputError(f"lo and hi must be vectors of the same length, got {self.lo.shape}, {self.hi.shape}")
+        if not (np.all(np.isfinite(self.lo)) and np.all(np.isfinite(self.hi)) and np.all(self.lo < self.hi)):
+            raise InputError(f"need finite bounds with lo < hi, got lo={self.lo}, hi={self.hi}")
+        self.A = np.zeros((0, m)) if A is None else np.atleast_2d(np.array(A, dtype=float))
+        self.b = np.zeros(0) if b is None else np.atleast_1d(np.array(b, dtype=float))
+        if self.A.shape != (len(self.b), m):
+            raise InputError(f"A must be (k, {m}) and b (k,), got {self.A.shape} and {self.b.shape}")
+        self.scale = float(np.max(self.hi - self.lo))
+        self.tol = float(tol) * self.scale
+        if np.any(self.A @ self.lo > self.b + self.tol):
+            raise InputError("the lower corner lo violates A u <= b: this command set needs a feasible lo")
+        eye = np.eye(m)
+        self.G = np.vstack([-eye, eye, self.A])                 # G x <= h
+        self.h = np.concatenate([-self.lo, self.hi, self.b])
+
+    @classmethod
+    def from_robot(cls, robot: RobotDescription) -> "CommandSet":
+        """``[0, u_max]^m`` intersected with the robot's linear safety limits."""
+        m = robot.n_cables
+        A = np.zeros((len(robot.safety_limits), m))
+        b = np.zeros(len(robot.safety_limits))
+        for i, lim in enumerate(robot.safety_limits):
+            A[i, list(lim.cables)] = 1.0
+            b[i] = lim.max_sum_over_u_max * robot.u_max_rad
+        return cls(np.zeros(m), np.full(m, robot.u_max_rad), A, b)
+
+    @property
+    def n(self) -> int:
+        """Number of motors m."""
+        return len(self.lo)
+
+    def contains(self, u, tol: float | None = None) -> bool:
+        """Whether ``u`` (m,) lies in the set, up to ``tol`` rad (default: the set's slack)."""
+        tol = self.tol if tol is None else tol
+        u = np.asarray(u, dtype=float)
+        return bool(np.all(np.isfinite(u)) and np.all(self.G @ u <= self.h + tol))
+
+    def project(self, v, x0=None) -> np.ndarray:
+        """Euclidean projection of ``v`` (m,) onto the set (exact, see the module docstring).
+
+        ``x0``: an optional feasible starting point (e.g. the previous iterate)."""
+        v = np.asarray(v, dtype=float)
+        if v.shape != (self.n,) or not np.all(np.isfinite(v)):
+            raise InputError(f"cannot project {v!r}: need a finite vector of {self.n} angles")
+        if self.contains(v, 0.0):
+            return v.copy()
+        c = np.clip(v, self.lo, self.hi)
+        if np.all(self.A @ c <= self.b):
+            return c
+        return self.solve_qp(np.eye(self.n), -v, x0)
+
+    def solve_qp(self, H, c, x0=None, max_iter: int | None = None) -> np.ndarray:
+        """``argmin_{x in C} 1/2 x^T H x + c^T x`` for symmetric positive-definite ``H`` (m, m).
+
+        Primal active-set from the feasible ``x0`` (default ``lo``); exact to rounding."""
+        H, c = np.asarray(H, dtype=float), np.asarray(c, dtype=float)
+        m = self.n
+        x = self.lo.copy() if x0 is None else np.array(x0, dtype=float)
+        if not self.contains(x, 1e3 * self.tol):
+            raise InputError("solve_qp needs a feasible starting point x0")
+        x = np.clip(x, self.lo, self.hi)
+        work = self._independent(np.flatnonzero(self.G @ x >= self.h - self.tol))
+        max_iter = max_iter or 20 * (len(self.h) + m)
+        # After an unblocked full step x is the working set's minimiser: its p is zero in
+        # exact arithmetic, but in rounding it is ~eps cond(H) |x|, which on an ill-conditioned
+        # H (a damped rank-3 J^T J of six motors) can exceed any fixed threshold and made the
+        # method repeat the same tiny step forever. So the flag, not |p|, says "at minimiser".
+        at_minimiser = False
+        for _ in range(max_iter):
+            g = H @ x + c
+            Gw = self.G[work]
+            n_w = len(work)
+            K = np.zeros((m + n_w, m + n_w))
+            K[:m, :m], K[:m, m:], K[m:, :m] = H, Gw.T, Gw
+            sol = np.linalg.solve(K, np.concatenate([-g, np.zeros(n_w)]))
+            p, lam = sol[:m], sol[m:]
+            if at_minimiser or np.max(np.abs(p)) <= 1e-13 * (self.scale + np.max(np.abs(x))):
+                if n_w == 0 or lam.min() >= -1e-13 * (1.0 + np.abs(g).max()):
+                    return x
+                work = np.delete(work, int(np.argmin(lam)))
+                at_minimiser = False
+                continue
+            Gp = self.G @ p
+            slack = self.h - self.G @ x
+            blocking = np.flatnonzero(Gp > 0)
+            blocking = blocking[~np.isin(blocking, work)]
+            alpha, hit = 1.0, None
+            if len(blocking):
+                ratios = np.maximum(slack[blocking], 0.0) / Gp[blocking]
+                j = int(np.argmin(ratios))
+                if ratios[j] < 1.0:
+                    alpha, hit = float(ratios[j]), int(blocking[j])
+            x = x + alpha * p
+            if hit is not None:
+                work = np.append(work, hit)
+            at_minimiser = hit is None
+        raise LabRuntimeError(f"active-set QP did not terminate in {max_iter} iterations (degenerate problem?)")
+
+    def _independent(self, rows: np.ndarray) -> np.ndarray:
+        """A maximal subset of ``rows`` of G with linearly independent constraint normals."""
+        keep: list[int] = []
+        for r in rows:
+            trial = self.G[keep + [int(r)]]
+            if np.linalg.matrix_rank(trial, tol=1e-10) == len(keep) + 1:
+                keep.append(int(r))
+        return np.array(keep, dtype=int)

@@ -1,0 +1,212 @@
+"""Target trajectories for the tip: the paper's circle, square and rose, a 3-D helix, or a CSV.
+
+All targets are tip-marker positions ``p_tip_W`` (N, 3) in metres, frame W (base centre
+at the origin, arm along +x, gravity along -z). The paper's shapes (Fig. 3) are drawn
+in the plane facing the arm, here the y-z plane ``x = CENTRE_W[0]``, and are "around 6 cm
+to 10 cm across" (Section V-A); the helix (Fig. 4) winds around the x axis while moving
+along it. The same targets serve every condition (sim/real data, sim/real robot).
+
+Placement. The three-cable arm cannot shorten much (all cables at the safety limit
+bring the tip only from x = 19.9 cm to about 18.2 cm), so each plane x = const meets the
+reachable workspace in a disc (x above ~18.3 cm) or an annulus (below). ``CENTRE_W``
+= (18.4, 0, -0.6) cm is the plane, and the point in it, whose reachable disc is largest:
+through the model learned from the nominal FEM robot it reaches 4.6-5.8 cm from the
+centre depending on the direction (the study is in
+``notebooks/04_trajectory_following.ipynb``, where Soft IK also reaches every target on
+the FEM itself). The shapes keep at least 0.6 cm inside that:
+
+* ``circle``: radius 3.5 cm (7 cm across), counter-clockwise from +y as seen from the tip;
+* ``square``: side 6 cm (corners 4.2 cm from the centre), starting at a corner;
+* ``rose``:   the rhodonea ``r = a cos(k t)``, ``a`` = 3.5 cm. With even ``k`` it has 2k
+  petals traced once for t in [0, 2 pi), with odd ``k`` k petals traced for t in [0, pi).
+  Default ``k = 2``: four petals along +-y and +-z, 7 cm across, passing through the centre.
+  (The paper's text does not give k; four petals is the classic choice.)
+* ``helix``:  radius 3 cm, 3 turns, from x = 18.9 cm (near rest length) to 18.0 cm (the
+  tip drawn 0.9 cm towards the base), about the centre's y-z position.
+
+Six-cable paths (:data:`SIX_CABLE`, Section V-B). The two-stage arm reaches much further:
+its workspace is a bowl-shaped shell about the axis (y, z) = (0, 0) -- at x = 17 cm the
+tip reaches radii of about 3.5 to 8 cm, at 16 cm 7 to 9 cm -- while with its short cables
+slack (the first stage alone) the shell is thinner and stops near x = 16.5 cm (the study
+is in ``notebooks/06_six_cable_arm.ipynb``). Centred on that axis:
+
+* ``six-circle``: radius 4 cm in the plane x = 18 cm, which the first stage alone also
+  reaches (six motors for three coordinates: redundancy without need);
+* ``six-ring``:   radius 7 cm in the plane x = 16.5 cm, out of the first stage's reach;
+* ``six-saddle``: radius 6 cm with x = 17 +- 0.4 cm going up and down twice per turn
+  (a 3-D curve on the shell), partly out of the first stage's reach;
+* ``six-spiral``: a conical spiral, 3 turns from radius 1 cm at x = 18.8 cm out to 8 cm at
+  x = 16 cm, from the first stage's workspace into the second's.
+
+A CSV trajectory has the header ``x,y,z`` and one point per row, in metres, frame W.
+"""
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.files import atomic_write_text
+
+CENTRE_W = np.array([0.184, 0.0, -0.006])
+BUILTIN = ("circle", "square", "rose", "helix")
+#: Paths for the six-cable arm (module docstring); also accepted by :func:`builtin`.
+SIX_CABLE = ("six-circle", "six-ring", "six-saddle", "six-spiral")
+SIX_CABLE_AXIS_W = np.array([0.0, 0.0, 0.0])      # (y, z) of the six-cable workspace's axis
+DEFAULT_POINTS = {"circle": 100, "square": 100, "rose": 200, "helix": 150,
+                  "six-circle": 100, "six-ring": 120, "six-saddle": 160, "six-spiral": 200}
+#: Coordinates larger than this (m) in a CSV are taken as a units mistake (mm or cm).
+MAX_ABS_COORD_M = 2.0
+
+
+class TrajectoryError(InputError):
+    """An unknown trajectory name, or a trajectory CSV that is missing or malformed."""
+
+
+def _in_plane(y_m: np.ndarray, z_m: np.ndarray, centre_W) -> np.ndarray:
+    c = np.asarray(centre_W, dtype=float)
+    return np.column_stack([np.full_like(y_m, c[0]), c[1] + y_m, c[2] + z_m])
+
+
+def _check_n(n_points: int, minimum: int = 2) -> int:
+    if int(n_points) != n_points or n_points < minimum:
+        raise TrajectoryError(f"n_points must be an integer >= {minimum}, got {n_points!r}")
+    return int(n_points)
+
+
+def circle(n_points: int = 100, radius_m: float = 0.035, centre_W=CENTRE_W) -> np.ndarray:
+    """``n_points`` equally spaced points (N, 3) m on a circle in the plane x = centre x."""
+    t = 2 * np.pi * np.arange(_check_n(n_points, 3)) / n_points
+    return _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
+
+
+def square(n_points: int = 100, side_m: float = 0.06, centre_W=CENTRE_W) -> np.ndarray:
+    """``n_points`` points (N, 3) m equally spaced along the perimeter of an axis-aligned
+    square, starting at the (+y, -z) corner, counter-clockwise; corners are hit exactly
+    when ``n_points`` is a multiple of 4."""
+    s = 4.0 * np.arange(_check_n(n_points, 4)) / n_points          # perimeter parameter in [0, 4)
+    side, f = np.floor(s).astype(int), s - np.floor(s)
+    h = 0.5 * side_m
+    corners = np.array([[h, -h], [h, h], [-h, h], [-h, -h], [h, -h]])
+    yz = corners[side] + f[:, None] * (corners[side + 1] - corners[side])
+    return _in_plane(yz[:, 0], yz[:, 1], centre_W)
+
+
+def rose(n_points: int = 200, radius_m: float = 0.035, k: int = 2, centre_W=CENTRE_W) -> np.ndarray:
+    """Rhodonea ``r = radius cos(k t)`` (N, 3) m: 2k petals for even k, k for odd k, each
+    traced once; equally spaced in t."""
+    if int(k) != k or k < 1:
+        raise TrajectoryError(f"rose k must be a positive integer, got {k!r}")
+    period = 2 * np.pi if k % 2 == 0 else np.pi
+    t = period * np.arange(_check_n(n_points, 4)) / n_points
+    r = radius_m * np.cos(k * t)
+    return _in_plane(r * np.cos(t), r * np.sin(t), centre_W)
+
+
+def helix(n_points: int = 150, radius_m: float = 0.03, turns: float = 3.0, x_start_m: float = 0.189,
+          x_end_m: float = 0.180, centre_W=CENTRE_W) -> np.ndarray:
+    """Helix (N, 3) m about the line through ``centre_W`` along x: ``turns`` turns of radius
+    ``radius_m`` while x goes linearly from ``x_start_m`` to ``x_end_m`` (both ends included)."""
+    s = np.linspace(0.0, 1.0, _check_n(n_points))
+    t = 2 * np.pi * turns * s
+    p = _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
+    p[:, 0] = x_start_m + s * (x_end_m - x_start_m)
+    return p
+
+
+def saddle(n_points: int = 160, radius_m: float = 0.06, x_mid_m: float = 0.17, dx_m: float = 0.004,
+           waves: int = 2, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+    """A circle of ``radius_m`` about the x axis through ``centre_W`` whose x goes
+    ``x_mid_m + dx_m cos(waves t)``: a closed 3-D curve (N, 3) m, equally spaced in t."""
+    t = 2 * np.pi * np.arange(_check_n(n_points, 4)) / n_points
+    p = _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
+    p[:, 0] = x_mid_m + dx_m * np.cos(waves * t)
+    return p
+
+
+def conical_spiral(n_points: int = 200, r_start_m: float = 0.01, r_end_m: float = 0.08, turns: float = 3.0,
+                   x_start_m: float = 0.188, x_end_m: float = 0.160, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+    """Spiral (N, 3) m about the x axis through ``centre_W``: radius and x both change
+    linearly from start to end (both ends included) over ``turns`` turns."""
+    s = np.linspace(0.0, 1.0, _check_n(n_points))
+    t, r = 2 * np.pi * turns * s, r_start_m + s * (r_end_m - r_start_m)
+    p = _in_plane(r * np.cos(t), r * np.sin(t), centre_W)
+    p[:, 0] = x_start_m + s * (x_end_m - x_start_m)
+    return p
+
+
+def _six(x_m: float, radius_m: float):
+    return lambda n: circle(n, radius_m, (x_m, *SIX_CABLE_AXIS_W[1:]))
+
+
+def builtin(name: str, n_points: int | None = None) -> np.ndarray:
+    """A built-in trajectory by name (see :data:`BUILTIN` and :data:`SIX_CABLE`), default
+    sizes and placement."""
+    makers = {"circle": circle, "square": square, "rose": rose, "helix": helix,
+              "six-circle": _six(0.18, 0.04), "six-ring": _six(0.165, 0.07),
+              "six-saddle": saddle, "six-spiral": conical_spiral}
+    if name not in makers:
+        raise TrajectoryError(f"unknown trajectory {name!r}: built-in are {', '.join(BUILTIN + SIX_CABLE)}, "
+                              f"or give the path of a CSV file with header x,y,z (metres)")
+    return makers[name](DEFAULT_POINTS[name] if n_points is None else n_points)
+
+
+def load_trajectory(name_or_csv: str | Path, n_points: int | None = None) -> np.ndarray:
+    """Targets (N, 3) m: a built-in name, or a CSV path (``n_points`` must then be None)."""
+    text = str(name_or_csv)
+    if text in BUILTIN + SIX_CABLE:
+        return builtin(text, n_points)
+    if text.lower().endswith(".csv") or Path(text).exists():
+        if n_points is not None:
+            raise TrajectoryError("n_points applies to built-in trajectories only, not to a CSV file")
+        return read_trajectory_csv(text)
+    return builtin(text, n_points)          # raises, listing the names
+
+
+def read_trajectory_csv(path: str | Path) -> np.ndarray:
+    """Read a CSV with header ``x,y,z`` (metres, frame W) -> (N, 3); TrajectoryError naming
+    the file, line and problem for anything else."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise TrajectoryError(f"trajectory file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise TrajectoryError(f"{path}: cannot read trajectory file ({err})") from None
+    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise TrajectoryError(f"{path}: empty file; expected a header x,y,z and one point per row")
+    header = [c.strip().lower() for c in rows[0]]
+    if header != ["x", "y", "z"]:
+        raise TrajectoryError(f"{path}: header must be x,y,z (metres), got {','.join(rows[0])}")
+    if len(rows) < 2:
+        raise TrajectoryError(f"{path}: no points after the header")
+    pts = np.empty((len(rows) - 1, 3))
+    for i, row in enumerate(rows[1:], start=2):
+        if len(row) != 3:
+            raise TrajectoryError(f"{path}: line {i} has {len(row)} fields, expected 3 (x,y,z)")
+        try:
+            pts[i - 2] = [float(c) for c in row]
+        except ValueError:
+            raise TrajectoryError(f"{path}: line {i} has a non-numeric value: {','.join(row)}") from None
+        if not np.all(np.isfinite(pts[i - 2])):
+            raise TrajectoryError(f"{path}: line {i} has a NaN or infinite value: {','.join(row)}")
+    if np.max(np.abs(pts)) > MAX_ABS_COORD_M:
+        raise TrajectoryError(f"{path}: coordinates up to {np.max(np.abs(pts)):g} -- the file must be in "
+                              f"metres (|x|, |y|, |z| <= {MAX_ABS_COORD_M} m); millimetres or centimetres?")
+    return pts
+
+
+def write_trajectory_csv(path: str | Path, points_W) -> None:
+    """Write targets (N, 3) m as a CSV with header x,y,z (atomic)."""
+    pts = np.asarray(points_W, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+        raise TrajectoryError(f"points must be a finite (N, 3) array, got shape {pts.shape}")
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["x", "y", "z"])
+    writer.writerows([[repr(float(v)) for v in p] for p in pts])
+    atomic_write_text(path, buf.getvalue())

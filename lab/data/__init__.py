@@ -1,0 +1,26 @@
+"""Stage 5: (u, y) data -- which commands to sample, simulating them, and dataset files.
+
+:mod:`.designs` picks safe motor commands (grids, Sobol) and cuts them into walks;
+:mod:`.simulation` solves them with the FEM on joblib workers or a Dask cluster, resumable
+through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV + JSON-sidecar format
+that simulated and captured data share.
+"""
+
+from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
+from lab.data.dataset import (
+    DatasetError,
+    columns,
+    read_dataset,
+    sidecar_path,
+    write_dataset,
+)
+from lab.data.designs import (
+    Chunk,
+    grid_chunks,
+    grid_commands,
+    nearest_neighbour_chunks,
+    sobol_commands,
+)
+from lab.data.simulation import default_jobs, simulate, solve_chunk
+
+__all__ = ["Chunk", "grid_commands", "sobol_commands", "grid_chunks", "nearest_neighbour_chunks", "solve_chunk", "simulate", "default_jobs", "CheckpointError", "fingerprint", "ChunkStore", "DatasetError", "columns", "write_dataset", "sidecar_path", "read_dataset"]

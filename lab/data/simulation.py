@@ -1,0 +1,194 @@
+"""Simulated (u, y) data: which motor commands to sample, and solving them all.
+
+Samplers give safe motor commands (N, m) in radians:
+
+* :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
+  (the paper's 7x7x7 grid), minus what the safety rule forbids;
+* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only.
+
+:func:`simulate` solves the statics of every command. The work is cut into chunks
+that depend only on the commands (never on the number of workers); each chunk walks
+its commands in an order where neighbours are close and warm-starts every solve from
+a prediction built from the equilibria already solved in that walk
+(:mod:`lab.fem.warmstart`). Chunks run on joblib worker processes, and since each chunk's
+computation is the same wherever it runs, a parallel run gives exactly the serial
+run's numbers.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import numpy as np
+
+from lab.data.designs import Chunk
+from lab.description import RobotDescription
+from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
+from lab.fem.warmstart import WalkPredictor
+
+#: How many predictions (best first) a solve may start from before it accepts one where
+#: the exact Hessian is indefinite (each try costs one assembly and factorisation).
+START_TRIES = 3
+_FEM_CACHE: dict = {}
+
+
+def _fem(robot: RobotDescription, n_rings: int, n_axial: int) -> ArmFEM:
+    key = (robot.sha256, n_rings, n_axial)
+    if key not in _FEM_CACHE:
+        _FEM_CACHE.clear()
+        _FEM_CACHE[key] = ArmFEM(robot, n_rings=n_rings, n_axial=n_axial)
+    return _FEM_CACHE[key]
+
+
+def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray) -> dict:
+    """Solve a walk of commands (K, m) with warm starts; returns tips (K, 3) and stats.
+
+    Each solve starts from the best prediction of :class:`lab.fem.warmstart.WalkPredictor`
+    where the exact Hessian is positive definite, if one of the first ``START_TRIES`` is
+    (starting where it is not costs several extra factorisations; the best prediction
+    was such a start at 2 of the 308 grid points), and refines dq/du along
+    the walk's steps into and out of its command, which the next predictions use.
+    Per sample, ``iterations``, ``factorizations`` and ``time_s`` count all of that."""
+    fem = _fem(robot, n_rings, n_axial)
+    walk = [np.zeros(robot.n_cables)] + [np.asarray(u, float) for u in u_chunk]
+    predictor = WalkPredictor(fem)
+    tips, iters, facts, times = [], [], [], []
+    for k, u in enumerate(walk):
+        steps = [walk[j + 1] - walk[j] for j in (k - 1, k) if 0 <= j < len(walk) - 1]
+        kw = dict(sensitivity="reuse", raise_on_failure=False, refine_du=np.array(steps))
+        t0 = time.perf_counter()
+        starts = [q for _, q in predictor.ranked(u)] or ([predictor.last.q] if predictor.last else [None])
+        solves = []
+        for q0 in starts[:START_TRIES]:
+            solves.append(solve_static(fem, u, q0, stop_if_indefinite=True, **kw))
+            if solves[-1].status != "indefinite":
+                break
+        else:                  # indefinite everywhere tried: start from the best anyway
+            solves.append(solve_static(fem, u, starts[0], **kw))
+        if not solves[-1].converged:  # fall back to a cold start before giving up
+            solves.append(solve_static(fem, u, **kw))
+        sol = solves[-1]
+        predictor.add(sol)
+        if k == 0:
+            continue           # the rest state every walk starts from
+        tips.append(sol.p_tip_W), times.append(time.perf_counter() - t0)
+        iters.append(sum(s.iterations for s in solves)), facts.append(sum(s.factorizations for s in solves))
+    return {"p_tip_W": np.asarray(tips).reshape(-1, 3), "iterations": np.asarray(iters),
+            "factorizations": np.asarray(facts), "time_s": np.asarray(times)}
+
+
+def _solve_indexed(i: int, robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray):
+    return i, solve_chunk(robot, n_rings, n_axial, u_chunk)
+
+
+def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], *, n_rings: int | None = None,
+             n_axial: int | None = None, n_jobs: int = 1, progress: bool = False,
+             checkpoint: str | os.PathLike | None = None, scheduler: str | None = None) -> dict:
+    """Tip positions (N, 3) m for commands ``u_motor`` (N, m), solved chunk by chunk.
+
+    ``n_jobs``: worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
+    ``checkpoint``: a directory where each finished chunk is stored at once; a run
+    started again with the same arguments loads those and solves only the rest
+    (see :mod:`lab.data.chunkstore`). ``scheduler``: the address of a Dask scheduler
+    (``tcp://host:port``) to run the chunks on a cluster through joblib's Dask backend
+    instead of local processes (its workers need this package installed and should run
+    one thread each, e.g. ``dask worker --nthreads 1`` with ``OMP_NUM_THREADS=1``).
+    The progress bar shows the samples done and an ETA.
+    Returns ``p_tip_W`` plus per-sample ``iterations``, ``factorizations`` and ``time_s``, ``wall_s`` and
+    ``resumed_samples`` (how many came from the checkpoint).
+    """
+    from joblib import Parallel, delayed, parallel_config
+    from tqdm.auto import tqdm
+
+    from lab.data.chunkstore import ChunkStore, fingerprint
+
+    n_rings, n_axial = n_rings or robot.n_rings, n_axial or robot.n_axial
+    t0 = time.perf_counter()
+    p_tip = np.full((len(u_motor), 3), np.nan)
+    iters = np.zeros(len(u_motor), dtype=int)
+    facts = np.zeros(len(u_motor), dtype=int)
+    times = np.zeros(len(u_motor))
+    orders = [c.order for c in chunks]
+    store, done = None, {}
+    if checkpoint is not None:
+        store = ChunkStore(checkpoint, fingerprint(robot.sha256, n_rings, n_axial, u_motor, orders))
+        done = store.load(orders, u_motor)
+
+    def record(i, res):
+        order = orders[i]
+        p_tip[order], iters[order], times[order] = res["p_tip_W"], res["iterations"], res["time_s"]
+        facts[order] = res["factorizations"]
+
+    for i, res in done.items():
+        record(i, res)
+    resumed = sum(len(orders[i]) for i in done)
+    bar = tqdm(total=len(u_motor), initial=resumed, unit="sample", disable=not progress, smoothing=0.05)
+    todo = [i for i in range(len(chunks)) if i not in done]
+    jobs = (delayed(_solve_indexed)(i, robot, n_rings, n_axial, u_motor[orders[i]]) for i in todo)
+    client, stop = None, _SigtermToExit()
+    try:
+        if scheduler is not None:
+            from distributed import Client
+
+            client = Client(scheduler)
+            config = parallel_config(backend="dask")
+            n_jobs = -1
+        else:
+            config = parallel_config(backend="loky", inner_max_num_threads=1)
+        with config:
+            runner = Parallel(n_jobs=n_jobs, return_as="generator_unordered")
+            for i, res in runner(jobs):
+                if store is not None:
+                    store.save(i, {"order": orders[i], "u_motor": u_motor[orders[i]], **res})
+                record(i, res)
+                bar.update(len(orders[i]))
+    except BaseException:
+        if scheduler is None and n_jobs != 1:
+            _kill_local_workers()   # do not leave them computing chunks nobody will collect
+        raise
+    finally:
+        stop.restore()
+        bar.close()
+        if client is not None:
+            client.close()
+    return {"p_tip_W": p_tip, "iterations": iters, "factorizations": facts, "time_s": times,
+            "wall_s": time.perf_counter() - t0,
+            "resumed_samples": resumed}
+
+
+class _SigtermToExit:
+    """While alive (until :meth:`restore`), SIGTERM raises SystemExit(143) in the main
+    thread instead of ending the process at once, so that a killed run (``kill``, a
+    batch scheduler, ``timeout``) unwinds: it stops its worker processes, which would
+    otherwise go on computing their chunks for minutes. Elsewhere than in the main
+    thread (where signal handlers cannot be installed) it does nothing."""
+
+    def __init__(self):
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGTERM, self._handle)
+
+    @staticmethod
+    def _handle(signum, frame):
+        raise SystemExit(128 + signum)
+
+    def restore(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGTERM, self._previous)
+            self._previous = None
+
+
+def _kill_local_workers() -> None:
+    """Kill the worker processes of joblib's (reusable) loky executor, if there is one."""
+    from joblib.externals.loky import reusable_executor
+
+    executor = getattr(reusable_executor, "_executor", None)   # loky's singleton (joblib 1.6)
+    if executor is not None:
+        executor.shutdown(wait=False, kill_workers=True)
+
+
+def default_jobs() -> int:
+    return max(1, len(os.sched_getaffinity(0)))

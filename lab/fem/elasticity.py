@@ -1,0 +1,229 @@
+"""Compressible neo-Hookean elasticity on linear tetrahedra, vectorised over elements.
+
+Energy density (Bonet & Wood):  psi(F) = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2.
+
+With ``G`` (4, 3) the gradients of the linear shape functions (so F = x^T G, x the
+element's node positions (4, 3)) and ``A = G F^-1``, the closed forms per element are
+
+    grad[a, i]        = V (mu (G F^T)[a, i] - (mu - lam ln J) A[a, i])
+    hess[a, i, b, k]  = V (mu d_ik (G G^T)[a, b] + (mu - lam ln J) A[a, k] A[b, i]
+                           + lam A[a, i] A[b, k])
+
+which is the exact Hessian; it is indefinite under strong compression, so
+:func:`project_psd` clamps negative eigenvalues element by element when the solver
+needs a descent direction. A tet with J <= 0 is inverted and has infinite energy.
+
+F is linear in the node positions: one sparse matrix B (9M, 3N) maps them to every
+element's F, kept as (3, 3, M) so that each F_ij is one contiguous array, and B^T
+scatters the stresses back to the nodes: dE/dx = B^T vec(V P) with the first
+Piola-Kirchhoff stress P = dpsi/dF = mu F - (mu - lam ln J) F^-T. That makes the
+energy and gradient ~2x faster than gathering element coordinates and batched 3x3
+products, which matters because the solver evaluates them several times per Hessian;
+:meth:`NeoHookean.hessian_product` gives exact Hessian products the same way.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from lab.errors import LabRuntimeError
+from lab.fem.mesh import TetMesh
+
+
+def lame(youngs_modulus_pa, poisson_ratio):
+    """(mu, lam) in Pa from Young's modulus and Poisson ratio (scalars or arrays)."""
+    E, nu = np.asarray(youngs_modulus_pa, float), np.asarray(poisson_ratio, float)
+    return E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
+
+
+@dataclass(frozen=True)
+class NeoHookean:
+    """Per-element constants of a mesh: shape-function gradients ``G`` (M, 4, 3),
+    rest volumes ``V`` (M,), Lamé parameters ``mu``, ``lam`` (M,) in Pa."""
+    tets: np.ndarray
+    G: np.ndarray
+    V: np.ndarray
+    mu: np.ndarray
+    lam: np.ndarray
+    _B: dict = field(default_factory=dict, init=False, repr=False, compare=False)   # see _operators
+
+    @classmethod
+    def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> "NeoHookean":
+        """``youngs_modulus_pa`` may be a scalar or one value per tet (M,)."""
+        X = mesh.X_W[mesh.tets]
+        Dm = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)
+        Dm_inv = np.linalg.inv(Dm)                      # F = Ds Dm^-1
+        G = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
+        mu, lam = lame(youngs_modulus_pa, poisson_ratio)
+        M = len(mesh.tets)
+        return cls(mesh.tets, G, np.linalg.det(Dm) / 6.0, np.broadcast_to(mu, (M,)).copy(),
+                   np.broadcast_to(lam, (M,)).copy())
+
+    def _operators(self, n_nodes: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """B (9M, 3N) with vec(F) = B vec(x_W), rows ordered (i, j, element) so that each
+        F_ij is one contiguous (M,) array (elementwise work on those is ~3x faster than
+        on (M, 3, 3) slices), columns (node, axis); and B^T. Built once per node count."""
+        if n_nodes not in self._B:
+            M = len(self.tets)
+            rows = ((3 * np.arange(3)[:, None, None] + np.arange(3)[None, :, None]) * M
+                    + np.arange(M)[None, None, :])[:, :, :, None]                    # (i, j, M, 1)
+            cols = 3 * self.tets[None, None, :, :] + np.arange(3)[:, None, None, None]  # (i, 1, M, a)
+            vals = self.G.transpose(2, 0, 1)[None, :, :, :]                         # G[m, a, j] at (1, j, M, a)
+            shape = (3, 3, M, 4)
+            B = sp.csr_matrix((np.broadcast_to(vals, shape).ravel(), (np.broadcast_to(rows, shape).ravel(),
+                               np.broadcast_to(cols, shape).ravel())), shape=(9 * M, 3 * n_nodes))
+            self._B[n_nodes] = (B, B.T.tocsr())
+        return self._B[n_nodes]
+
+    def _F(self, x_W) -> np.ndarray:
+        """F as (3, 3, M): F[i, j] is the (M,) array of F_ij."""
+        x_W = np.asarray(x_W, dtype=float)
+        return (self._operators(len(x_W))[0] @ x_W.ravel()).reshape(3, 3, -1)
+
+    def deformation_gradient(self, x_W: np.ndarray) -> np.ndarray:
+        """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
+        return np.ascontiguousarray(self._F(x_W).transpose(2, 0, 1))
+
+    def energy(self, x_W: np.ndarray) -> float:
+        """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""
+        F = self._F(x_W)
+        J = F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0]) \
+            + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0])
+        if np.any(J <= 0):
+            return np.inf
+        return self._energy(F, np.log(J))
+
+    def _energy(self, F, logJ) -> float:
+        I1 = np.einsum("ijm,ijm->m", F, F)
+        return float(np.sum(self.V * (0.5 * self.mu * (I1 - 3) - self.mu * logJ + 0.5 * self.lam * logJ**2)))
+
+    def _kinematics(self, x_W):
+        """F (M, 3, 3), ln J (M,) and F^-1 (M, 3, 3); raises if an element is inverted."""
+        F = self.deformation_gradient(x_W)
+        F_inv, J = _inv3(F)
+        if np.any(J <= 0):
+            raise InvertedElementError(int(np.sum(J <= 0)))
+        return F, np.log(J), F_inv
+
+    def _stressed(self, x_W):
+        """F (3, 3, M), ln J (M,), the cofactors cof(F) = J F^-T (3, 3, M) and V P (3, 3, M),
+        volume times the first Piola-Kirchhoff stress mu F - c F^-T; None if inverted."""
+        F = self._F(x_W)
+        cof = np.empty_like(F)
+        cof[0, 0] = F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]
+        cof[0, 1] = F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]
+        cof[0, 2] = F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]
+        cof[1, 0] = F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]
+        cof[1, 1] = F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]
+        cof[1, 2] = F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]
+        cof[2, 0] = F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]
+        cof[2, 1] = F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]
+        cof[2, 2] = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+        J = F[0, 0] * cof[0, 0] + F[0, 1] * cof[0, 1] + F[0, 2] * cof[0, 2]
+        if np.any(J <= 0):
+            return None
+        logJ = np.log(J)
+        VP = (self.V * self.mu) * F - (self.V * (self.mu - self.lam * logJ) / J) * cof
+        return F, logJ, cof, J, VP
+
+    def gradient(self, x_W: np.ndarray) -> np.ndarray:
+        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T, the docstring's form."""
+        k = self._stressed(x_W)
+        if k is None:
+            raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
+        return np.matmul(self.G, k[4].transpose(2, 1, 0))
+
+    def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
+        """dE/dx (N, 3) in N, the element gradients summed at the nodes (B^T vec(V P))."""
+        k = self._stressed(x_W)
+        if k is None:
+            raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
+        return (self._operators(len(x_W))[1] @ k[4].ravel()).reshape(-1, 3)
+
+    def energy_and_gradient(self, x_W: np.ndarray):
+        """Total energy in J and dE/dx (N, 3) in N, computing F once; (inf, None) if any
+        element is inverted."""
+        k = self._stressed(x_W)
+        if k is None:
+            return np.inf, None
+        F, logJ, _, _, VP = k
+        return self._energy(F, logJ), (self._operators(len(x_W))[1] @ VP.ravel()).reshape(-1, 3)
+
+    def hessian_product(self, x_W: np.ndarray):
+        """A function dx (N, 3) -> d2E/dx2 dx (N, 3): exact Hessian products at ``x_W``
+        from one evaluation of the kinematics, without the element Hessians:
+
+            dP = mu dF + lam tr(F^-1 dF) F^-T + c (F^-1 dF F^-1)^T,   c = mu - lam ln J
+
+        (per unit volume); each product costs about half a gradient."""
+        k = self._stressed(x_W)
+        if k is None:
+            raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
+        _, logJ, cof, J, _ = k
+        B, B_T = self._operators(len(x_W))
+        Fi = np.ascontiguousarray(cof.transpose(1, 0, 2)) / J                       # F^-1
+        mu, lam, c = self.mu * self.V, self.lam * self.V, (self.mu - self.lam * logJ) * self.V
+        M = len(J)
+
+        def apply(dx: np.ndarray) -> np.ndarray:
+            dF = (B @ np.asarray(dx, float).ravel()).reshape(3, 3, M)
+            G = np.einsum("ijm,jkm->ikm", Fi, dF)                                    # F^-1 dF
+            T = np.einsum("ijm,jkm->ikm", G, Fi)                                     # F^-1 dF F^-1
+            dP = mu * dF + (lam * (G[0, 0] + G[1, 1] + G[2, 2])) * Fi.transpose(1, 0, 2) + c * T.transpose(1, 0, 2)
+            return (B_T @ dP.ravel()).reshape(-1, 3)
+        return apply
+
+    def hessian(self, x_W: np.ndarray) -> np.ndarray:
+        """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i)."""
+        F, logJ, F_inv = self._kinematics(x_W)
+        A = np.matmul(self.G, F_inv)
+        M = len(self.V)
+        c, lam, mu = (self.mu - self.lam * logJ) * self.V, self.lam * self.V, self.mu * self.V
+        # Broadcast products into one preallocated array: ~3x faster than einsum here.
+        H = np.empty((M, 4, 3, 4, 3))
+        np.multiply((c[:, None, None] * A)[:, :, None, None, :],                  # c A[a,k] A[b,i]
+                    A.transpose(0, 2, 1)[:, None, :, :, None], out=H)
+        a = A.reshape(M, 12)
+        H_flat = H.reshape(M, 12, 12)
+        H_flat += (lam[:, None] * a)[:, :, None] * a[:, None, :]                 # lam A[a,i] A[b,k]
+        muGG = mu[:, None, None] * np.matmul(self.G, self.G.transpose(0, 2, 1))
+        for i in range(3):                                                       # mu (G G^T)[a,b] d_ik
+            H[:, :, i, :, i] += muGG
+        return H_flat
+
+
+def _det3(F: np.ndarray) -> np.ndarray:
+    """Determinants of (M, 3, 3) matrices (closed form; faster than LAPACK for 3x3)."""
+    return (F[:, 0, 0] * (F[:, 1, 1] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 1])
+            - F[:, 0, 1] * (F[:, 1, 0] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 0])
+            + F[:, 0, 2] * (F[:, 1, 0] * F[:, 2, 1] - F[:, 1, 1] * F[:, 2, 0]))
+
+
+def _inv3(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverses and determinants of (M, 3, 3) matrices by the adjugate (closed form,
+    ~2x faster than with np.cross); an inverted (J <= 0) matrix gives garbage but
+    finite entries unless J == 0."""
+    a, b, c = F[:, 0, 0], F[:, 0, 1], F[:, 0, 2]
+    d, e, f = F[:, 1, 0], F[:, 1, 1], F[:, 1, 2]
+    g, h, i = F[:, 2, 0], F[:, 2, 1], F[:, 2, 2]
+    adj = np.empty_like(F)
+    adj[:, 0, 0], adj[:, 0, 1], adj[:, 0, 2] = e * i - f * h, c * h - b * i, b * f - c * e
+    adj[:, 1, 0], adj[:, 1, 1], adj[:, 1, 2] = f * g - d * i, a * i - c * g, c * d - a * f
+    adj[:, 2, 0], adj[:, 2, 1], adj[:, 2, 2] = d * h - e * g, b * g - a * h, a * e - b * d
+    J = a * adj[:, 0, 0] + b * adj[:, 1, 0] + c * adj[:, 2, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return adj / J[:, None, None], J
+
+
+class InvertedElementError(LabRuntimeError):
+    def __init__(self, count: int):
+        super().__init__(f"{count} tetrahedra are inverted (det F <= 0)")
+        self.count = count
+
+
+def project_psd(H: np.ndarray, floor: float = 0.0) -> np.ndarray:
+    """Clamp the eigenvalues of each symmetric block (..., n, n) at ``floor``."""
+    w, Q = np.linalg.eigh(H)
+    return np.einsum("...ij,...j,...kj->...ik", Q, np.maximum(w, floor), Q)

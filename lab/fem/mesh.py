@@ -1,0 +1,141 @@
+"""Tetrahedral meshes of the arm body, and embedding points in them.
+
+The built-in mesher makes a structured cylinder along +x: each cross-section is a
+disk of concentric rings (ring k has 6k nodes), triangulated ring by ring, extruded
+into prisms, and each prism split into three tetrahedra. The split follows the
+global node order, so neighbouring prisms cut their shared quad face along the same
+diagonal and the mesh is conforming. Users with their own geometry can load any
+tetrahedral mesh with :func:`load_mesh` (anything ``meshio`` reads).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.errors import InputError
+
+
+@dataclass(frozen=True)
+class TetMesh:
+    """Rest node positions ``X_W`` (N, 3) in metres and tetrahedra ``tets`` (M, 4),
+    positively oriented (det[X1-X0, X2-X0, X3-X0] > 0)."""
+    X_W: np.ndarray
+    tets: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.X_W)
+
+    def volumes(self) -> np.ndarray:
+        """Rest volume of every tet (M,), m^3."""
+        X = self.X_W[self.tets]
+        return np.linalg.det(np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)) / 6.0
+
+    def surface_triangles(self) -> np.ndarray:
+        """Boundary faces (F, 3), wound counter-clockwise seen from outside."""
+        t = self.tets
+        # Faces opposite vertex 0..3, each wound so its normal points out of the tet.
+        faces = np.concatenate([t[:, [1, 2, 3]], t[:, [0, 3, 2]], t[:, [0, 1, 3]], t[:, [0, 2, 1]]])
+        key = np.sort(faces, axis=1)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        return faces[counts[inverse.ravel()] == 1]
+
+
+def _disk(radius: float, n_rings: int) -> tuple[np.ndarray, np.ndarray]:
+    """Concentric-ring disk: points (P, 2) and counter-clockwise triangles (T, 3)."""
+    pts = [np.zeros((1, 2))]
+    ring_start = [0]
+    for k in range(1, n_rings + 1):
+        n = 6 * k
+        a = 2 * np.pi * np.arange(n) / n
+        pts.append(radius * k / n_rings * np.column_stack([np.cos(a), np.sin(a)]))
+        ring_start.append(ring_start[-1] + (1 if k == 1 else 6 * (k - 1)))
+    tris = []
+    for k in range(1, n_rings + 1):
+        n_in, n_out = (1 if k == 1 else 6 * (k - 1)), 6 * k
+        s_in, s_out = ring_start[k - 1], ring_start[k]
+        # March around both rings by angle, always advancing the ring whose next node
+        # comes first; this strip triangulation has no overlaps and no slivers.
+        i, j = (1 if n_in == 1 else 0), 0  # the centre node is a fan, it never advances
+        while i < n_in or j < n_out:
+            a_in = (i + 1) / n_in if n_in > 1 else np.inf
+            a_out = (j + 1) / n_out
+            if j < n_out and (i >= n_in or a_out <= a_in):
+                tris.append((s_in + i % n_in, s_out + j % n_out, s_out + (j + 1) % n_out))
+                j += 1
+            else:
+                tris.append((s_in + i % n_in, s_out + j % n_out, s_in + (i + 1) % n_in))
+                i += 1
+    return np.concatenate(pts), np.asarray(tris)
+
+
+def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) -> TetMesh:
+    """Structured tet mesh of a cylinder from x=0 to x=length along +x.
+
+    ``n_rings`` rings across the radius and ``n_axial`` layers along the length give
+    ``(1 + 3 n_rings (n_rings + 1)) (n_axial + 1)`` nodes and ``18 n_rings^2 n_axial`` tets.
+    """
+    if n_rings < 1 or n_axial < 1:
+        raise InputError("cylinder_mesh needs n_rings >= 1 and n_axial >= 1")
+    disk, tris = _disk(radius_m, n_rings)
+    n_layer = len(disk)
+    xs = np.linspace(0.0, length_m, n_axial + 1)
+    X = np.concatenate([np.column_stack([np.full(n_layer, x), disk]) for x in xs])
+    tris = np.sort(tris, axis=1)  # the prism split below relies on ascending node order
+    tets = []
+    for layer in range(n_axial):
+        a, b, c = (tris + layer * n_layer).T
+        a2, b2, c2 = a + n_layer, b + n_layer, c + n_layer
+        tets += [np.column_stack(v) for v in ((a, b, c, a2), (b, c, a2, b2), (c, a2, b2, c2))]
+    tets = np.concatenate(tets)
+    return _oriented(TetMesh(X, tets))
+
+
+def _oriented(mesh: TetMesh) -> TetMesh:
+    vol = mesh.volumes()
+    if np.any(np.abs(vol) < 1e-15 * np.max(np.abs(vol))):
+        raise InputError("mesh has degenerate (zero-volume) tetrahedra")
+    tets = mesh.tets.copy()
+    flip = vol < 0
+    tets[flip] = tets[flip][:, [0, 2, 1, 3]]
+    return TetMesh(np.ascontiguousarray(mesh.X_W, dtype=float), tets.astype(np.int64))
+
+
+def load_mesh(path) -> TetMesh:
+    """Read a tetrahedral mesh (metres) with meshio: .msh, .vtu, .mesh, .xdmf, ..."""
+    import meshio
+
+    m = meshio.read(path)
+    tets = [c.data for c in m.cells if c.type == "tetra"]
+    if not tets:
+        raise InputError(f"{path}: no 'tetra' cells (only {[c.type for c in m.cells]})")
+    used = np.unique(np.concatenate(tets))
+    remap = np.full(len(m.points), -1)
+    remap[used] = np.arange(len(used))
+    return _oriented(TetMesh(np.asarray(m.points, float)[used, :3], remap[np.concatenate(tets)]))
+
+
+def save_mesh(path, mesh: TetMesh) -> None:
+    import meshio
+
+    meshio.write(path, meshio.Mesh(mesh.X_W, [("tetra", mesh.tets)]))
+
+
+def barycentric(mesh: TetMesh, p_W: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Embed points in the rest mesh: nodes (P, 4) and weights (P, 4) with
+    ``p = sum_k weights[:, k] * X_W[nodes[:, k]]``. Points outside raise ValueError."""
+    p_W = np.atleast_2d(np.asarray(p_W, dtype=float))
+    X = mesh.X_W[mesh.tets]
+    T = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)
+    T_inv = np.linalg.inv(T)
+    nodes, weights = [], []
+    for p in p_W:
+        lam = np.einsum("mij,mj->mi", T_inv, p - X[:, 0])
+        w = np.column_stack([1 - lam.sum(1), lam])
+        best = np.argmax(w.min(axis=1))
+        if w[best].min() < -tol:
+            raise InputError(f"point {p.tolist()} m lies outside the mesh")
+        nodes.append(mesh.tets[best])
+        weights.append(np.clip(w[best], 0.0, None) / np.clip(w[best], 0.0, None).sum())
+    return np.asarray(nodes), np.asarray(weights)

@@ -1,0 +1,220 @@
+"""Static equilibrium x(u) = argmin_x E(x, u) by Newton's method, and its sensitivity.
+
+Newton uses the exact Hessian, in cable-condensed steps that keep the cables' stiff,
+smoothed one-sided spring law exact (:mod:`lab.fem.steps`). Where the Hessian is
+indefinite (the factorisation reports negative eigenvalues) a diagonally shifted one
+is used instead; only if that gives no descent direction either is the elastic part
+projected to positive semi-definite element by element, which always descends but
+converges slowly and is expensive. A backtracking line search treats inverted
+elements as infinite energy, with an Armijo slack of 1e-14 |E| so rounding does not
+reject the last, converged steps. Near the equilibrium, chord steps reuse the last
+factorisation, updated with the secant pairs of the steps since (quasi-Newton), while
+they contract well (see ``CHORD_WINDOW``).
+
+Sensitivity analysis differentiates the equilibrium condition dE/dx (x(u), u) = 0:
+
+    dx/du = -H^-1 d2E/dx du,     J_tip_u = S dx/du
+
+with the *exact* Hessian H at the equilibrium (a projected one gives wrong Jacobians).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lab.errors import InputError, LabRuntimeError
+from lab.fem.energy import ArmFEM
+from lab.fem.linsolve import factorize
+from lab.fem.steps import (
+    condensed_step,
+    newton_step,
+    reused_sensitivity,
+    secant_step,
+    shifted_step,
+)
+
+#: A step may reuse the last factorisation (a "chord" step: one solve instead of an
+#: assembly and a factorisation, BFGS-updated with the secant pairs of the steps taken
+#: since, :func:`lab.fem.steps.secant_step`) when the previous step was within CHORD_WINDOW
+#: tolerances (1e-3 m by default); it is kept only if it is at most CHORD_CONTRACTION
+#: of the previous step and passes the line search at full length, otherwise the
+#: Hessian is reassembled and refactorised where the chord step started. (Chord steps
+#: without that contraction test, far from the equilibrium, changed the path, wandered
+#: into indefinite regions and saved nothing.) A chord step ends the solve only if,
+#: besides being below the tolerance, the error it leaves, estimated from the
+#: contraction of two successive steps as step * ratio / (1 - ratio), is below
+#: CHORD_FINAL tolerances (tip errors ~1e-9 m on the grid, as with Newton alone). The
+#: arm's softest bending mode (~0.015 N/m at rest) stiffens or softens by tens of %
+#: within 10 um, so the first chord step after a distant factorisation says little
+#: about the next one: that estimate needs two chord steps, or a factorisation within
+#: 100 tolerances.
+CHORD_WINDOW = 1e4
+CHORD_CONTRACTION = 0.4
+CHORD_FINAL = 1e-3
+
+
+class StaticSolveError(LabRuntimeError):
+    """Newton did not reach equilibrium; ``.solution`` holds the last iterate."""
+
+    def __init__(self, message: str, solution: "StaticSolution"):
+        super().__init__(message)
+        self.solution = solution
+
+
+@dataclass
+class StaticSolution:
+    """Equilibrium for motor angles ``u_motor`` (m,) rad: free coordinates ``q``
+    (n_free,), tip ``p_tip_W`` (3,) m, and how Newton got there."""
+    u_motor: np.ndarray
+    q: np.ndarray
+    p_tip_W: np.ndarray
+    converged: bool
+    status: str
+    iterations: int
+    grad_norm_n: float
+    projected_steps: int
+    time_s: float
+    factorizations: int = 0          # Hessian assemblies + factorisations (iterations = all steps)
+    dq_du: np.ndarray | None = field(default=None, repr=False)
+    J_tip_u: np.ndarray | None = field(default=None, repr=False)
+
+
+def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step_m: float = 1e-7,
+                 tol_force_n: float | None = None, max_iter: int = 60, sensitivity: str | bool = False,
+                 raise_on_failure: bool = True, check_command: bool = True,
+                 refine_du=None, stop_if_indefinite: bool = False) -> StaticSolution:
+    """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
+
+    Converged when the (cable-condensed) Newton step with the exact Hessian, or a chord
+    step that contracts well (see ``CHORD_FINAL``), moves no coordinate more than
+    ``tol_step_m`` (m); that step is taken and ends the solve. Newton converges
+    quadratically there, so the error left after that step is orders of magnitude
+    below it. This test is independent of the load scale (a force tolerance is not:
+    nodal gravity forces are ~1e-5 N on the default mesh). It also stops when the
+    largest residual force is below ``tol_force_n`` (default 1e-5 of the largest nodal
+    weight, at least 1e-11 N), where rounding can keep a nearly singular cable
+    direction from settling; not after a chord step, whose error that force bound does
+    not bound well enough along the soft bending mode (~1e-8 m on a coarse mesh).
+    ``sensitivity``: ``True``/``"exact"`` also computes ``dq_du`` (n_free, m) and
+    ``J_tip_u`` (3, m) in m/rad with a fresh factorisation at the equilibrium;
+    ``"reuse"`` takes them from the last factorisation instead (no new one; a step or a
+    few chord steps away from the equilibrium, up to ~1 mm: for predictors, off by up to
+    ~20 % along the softest bending mode), made accurate (to ~1e-4) along the rows of
+    ``refine_du`` (k, m) rad if given, the motor steps the caller will predict along
+    (a few ms each).
+    ``stop_if_indefinite``: return at once, with ``status="indefinite"``, if the exact
+    Hessian at ``q0`` is not positive definite (one factorisation spent), for a caller
+    that has other starting points to try first.
+    ``iterations`` counts all steps, ``factorizations`` the assemblies (each with its
+    factorisation; a shifted one counts once more).
+    Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
+    which case the returned solution has ``converged=False`` and a ``status`` saying why.
+    """
+    t0 = time.perf_counter()
+    u = fem.robot.check_command(u_motor) if check_command else np.asarray(u_motor, float)
+    q = fem.rest_q() if q0 is None else np.array(q0, dtype=float)
+    E, g, stretch, A = fem.energy(q, u, with_gradient=True)
+    if not np.isfinite(E):
+        raise InputError("initial state has inverted elements; start from rest (q0=None)")
+    if tol_force_n is None:
+        tol_force_n = max(1e-5 * float(np.abs(fem.f_gravity_W).max()), 1e-11)
+    status, projected, it, n_fact, fac, step_prev = "max_iter", 0, 0, 0, None, np.inf
+    chord = False
+    pairs = []
+    while it < max_iter:
+        if np.max(np.abs(g)) <= tol_force_n and not chord:   # chord steps: see CHORD_FINAL
+            status = "converged"
+            break
+        it += 1
+        prev_chord = chord
+        d, exact, chord = None, True, False
+        if fac is not None and step_prev <= CHORD_WINDOW * tol_step_m:
+            # Near convergence: a step with the previous factorisation. Kept only if it
+            # contracts well (and, unless converged, passes the line search at full
+            # length); otherwise refactorise here.
+            if pairs:
+                d = secant_step(fac.lu, pairs, g)
+            else:
+                d = condensed_step(fem, fac, -fac.lu.solve(g), stretch)
+            step = np.max(np.abs(d))
+            chord = bool(np.isfinite(step) and g @ d < 0 and step <= CHORD_CONTRACTION * step_prev)
+            d = d if chord else None
+        if d is None:
+            n_fact += 1
+            H = fem.hessian(q, u)
+            d, fac = newton_step(fem, H, g, stretch, A)
+            pairs = []
+            exact = d is not None
+            if not exact and stop_if_indefinite and it == 1:
+                status = "indefinite"
+                break
+            if not exact:
+                d, n_shifted = shifted_step(H, g)
+                n_fact += n_shifted
+            if d is None:
+                projected += 1
+                d = -factorize(fem.hessian(q, u, project=True)).solve(g)
+        step = float(np.max(np.abs(d)))
+        if exact and step <= tol_step_m and (not chord or (
+                (prev_chord or step_prev <= 100 * tol_step_m)     # a trustworthy ratio
+                and step * step / max(step_prev - step, 1e-300) <= CHORD_FINAL * tol_step_m)):
+            # Converged: take the step without a line search, whose energy test cannot
+            # resolve such small decreases (gravity sums terms ~1e-2 J) and would stall.
+            q = q + d
+            g, stretch, A = fem.gradient(q, u, with_cables=True)
+            status = "converged"
+            break
+        slope = g @ d
+        alpha, accepted = 1.0, False
+        for _ in range(1 if chord else 40):
+            q_try = q + alpha * d
+            if alpha == 1.0:   # usually accepted: take its gradient along (shared kinematics)
+                E_try, g_try, stretch_try, A_try = fem.energy(q_try, u, with_gradient=True)
+            else:
+                E_try = fem.energy(q_try, u)
+            if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            if chord:          # the old factorisation no longer fits: refactorise here
+                step_prev = np.inf
+                continue
+            status = "line_search_failed"
+            break
+        q_old, g_old = q, g
+        q, E, step_prev = q_try, E_try, alpha * step
+        if alpha == 1.0:
+            g, stretch, A = g_try, stretch_try, A_try
+        else:
+            g, stretch, A = fem.gradient(q, u, with_cables=True)
+        if fac is not None and (q - q_old) @ (g - g_old) > 0:     # secant pair for chord steps
+            pairs.append((q - q_old, g - g_old, 1.0 / ((q - q_old) @ (g - g_old))))
+    else:
+        if np.max(np.abs(g)) <= tol_force_n:
+            status = "converged"
+    x = fem.to_nodes(q)
+    sol = StaticSolution(u, q, fem.tip(x), status == "converged", status, it,
+                         float(np.max(np.abs(g))), projected, 0.0, factorizations=n_fact)
+    if sensitivity and sol.converged:
+        if sensitivity == "reuse" and fac is not None:
+            sol.dq_du = reused_sensitivity(fem, fac, q, u, stretch, A, refine_du)
+            sol.J_tip_u = fem.tip_matrix() @ sol.dq_du
+        else:
+            sol.dq_du, sol.J_tip_u = sensitivities(fem, q, u)
+    sol.time_s = time.perf_counter() - t0
+    if not sol.converged and raise_on_failure:
+        raise StaticSolveError(
+            f"static solve for u={u.tolist()} failed ({status}) after {it} iterations, "
+            f"residual force {sol.grad_norm_n:.3g} N", sol)
+    return sol
+
+
+def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
+    """dq/du (n_free, m) and the tip Jacobian J_tip_u = dp_tip/du (3, m) at an equilibrium."""
+    lu = factorize(fem.hessian(q, u_motor))
+    dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
+    return dq_du, fem.tip_matrix() @ dq_du
+

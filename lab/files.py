@@ -1,0 +1,70 @@
+"""Small file helpers every stage shares: atomic writes, JSON encoding, the code version.
+
+Files the package writes are never left half-written: :func:`atomic_open` writes to a
+temporary file in the same directory, fsyncs it and renames it over the target only when
+the writing finished; on any failure the temporary file is removed and the target is
+untouched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["atomic_open", "atomic_write_text", "json_default", "code_version"]
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | Path, mode: str = "w"):
+    """Open a temporary file next to ``path`` for writing (``mode`` "w" or "wb"); on a clean
+    exit it is flushed, fsynced and renamed to ``path``, on an exception it is removed."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        with open(tmp, mode, **({"newline": ""} if "b" not in mode else {})) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (see :func:`atomic_open`)."""
+    with atomic_open(path) as fh:
+        fh.write(text)
+
+
+def json_default(obj):
+    """``json.dumps(..., default=json_default)``: NumPy arrays and scalars as lists and numbers."""
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def code_version() -> str:
+    """Package version plus the git commit it runs from, when known."""
+    from lab import __version__
+
+    try:
+        out = subprocess.run(
+            ["git", "describe", "--always", "--dirty"],
+            cwd=Path(__file__).parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+        if out.returncode == 0:
+            return f"{__version__}+git.{out.stdout.strip()}"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return __version__

@@ -1,0 +1,25 @@
+"""Stage 6: the learned forward model u -> y.
+
+:class:`MLP` (:mod:`.mlp`) with the Appendix's analytic Jacobian, stored by
+:mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
+Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
+point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
+metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
+"""
+
+from lab.learn.gradient import train_adam, train_lbfgs
+from lab.learn.lm import LMOptions, TrainLog, mse, train_lm
+from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
+from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
+from lab.learn.model_io import ModelFileError, read_model, save_model
+from lab.learn.split import Split, divide_random
+from lab.learn.studies import (
+    evaluate_splits,
+    run_seeds,
+    size_sweep,
+    summarize,
+    write_csv,
+)
+from lab.learn.train import TrainResult, data_sha256, train
+
+__all__ = ["minmax_gain", "MLP", "init_mlp", "load_model", "ModelFileError", "save_model", "read_model", "Split", "divide_random", "mse", "LMOptions", "TrainLog", "train_lm", "train_adam", "train_lbfgs", "data_sha256", "TrainResult", "train", "mse_m2", "mean_distance_m", "error_report", "workspace_size_m", "run_seeds", "evaluate_splits", "size_sweep", "summarize", "write_csv"]

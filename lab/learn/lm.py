@@ -1,0 +1,185 @@
+"""Training the forward model: data splits, MATLAB-faithful Levenberg-Marquardt, one entry point.
+
+The paper trained its networks with MATLAB's Deep Learning Toolbox (``feedforwardnet`` +
+``trainlm``). :func:`train_lm` reproduces ``trainlm`` with its parameters
+
+    mu = 1e-3, mu_dec = 0.1, mu_inc = 10, mu_max = 1e10, epochs = 1000,
+    max_fail = 6, min_grad = 1e-6 (the paper's value; MATLAB's default is 1e-7), goal = 0
+
+and its semantics, epoch by epoch:
+
+1. **Stop checks**, in MATLAB's order: performance goal met, maximum epoch reached,
+   gradient ``2 |J^T e| / N_e`` below ``min_grad``, ``mu >= mu_max``, or ``max_fail``
+   consecutive validation failures. Whatever the reason, the network returned is the
+   **best one seen**: lowest validation MSE (lowest training MSE without a validation set).
+2. **Step**: solve ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` (Cholesky). If the
+   training MSE decreases, accept and set ``mu <- max(mu * mu_dec, 1e-20)``; otherwise
+   ``mu <- mu * mu_inc`` and retry, until ``mu > mu_max``. A matrix that is not
+   numerically positive definite counts as a failed trial (MATLAB: singular-matrix warning).
+3. **Validation**: MSE on the validation set; lower than the best so far -> new best and
+   ``val_fail = 0``; higher -> ``val_fail += 1``; equal -> unchanged.
+
+Errors ``e = y(u) - y_data`` are in the data's units (metres), the performance is MATLAB's
+``mse`` (mean over samples *and* coordinates, ``N_e = N * n_y`` elements), as with
+``feedforwardnet``'s default ``performParam.normalization = 'none'``. The Jacobian
+``J = d y / d theta`` comes in closed form from :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
+When there are more parameters than residuals the identical step is computed in the
+kernel form ``dtheta = -J^T (J J^T + mu N_e I)^{-1} e`` (cheaper: an N_e x N_e system).
+
+Splits follow MATLAB ``dividerand``: a random permutation, ``round(ratio * N)`` samples
+for validation and test, the rest for training. :func:`train` does split + init + fit
+with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
+datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
+from scipy.linalg.blas import dsyrk
+
+from lab.learn.metrics import mse_m2
+from lab.learn.mlp import MLP
+
+STOP_MESSAGES = {  # MATLAB's tr.stop texts
+    "goal": "Performance goal met.", "max_epochs": "Maximum epoch reached.",
+    "min_grad": "Minimum gradient reached.", "mu_max": "Maximum MU reached.",
+    "validation": "Validation stop.",
+}
+
+
+def mse(model: MLP, u: np.ndarray, y: np.ndarray) -> float:
+    """MATLAB ``mse`` of ``model`` on (u, y): mean over samples and coordinates of the squared
+    error (units of y squared); NaN for an empty set."""
+    return mse_m2(model.predict(u), y) if len(u) else float("nan")
+
+
+@dataclass
+class LMOptions:
+    """``trainlm`` parameters (see the module docstring); ``max_jacobian_mb`` bounds memory
+    by building J in chunks of samples (MATLAB's ``mem_reduc``)."""
+    epochs: int = 1000
+    mu: float = 1e-3
+    mu_dec: float = 0.1
+    mu_inc: float = 10.0
+    mu_max: float = 1e10
+    max_fail: int = 6
+    min_grad: float = 1e-6
+    goal: float = 0.0
+    max_jacobian_mb: float = 256.0
+
+
+@dataclass
+class TrainLog:
+    """What a training run did: per-epoch record (MATLAB's ``tr``), why it stopped, best epoch."""
+    algorithm: str
+    stop_reason: str
+    epochs: int
+    best_epoch: int
+    history: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+    wall_s: float = 0.0
+
+
+def _jacobian_products(model, u, y, max_mb):
+    """Training MSE, J^T e / N_e, and the LM system: ("primal", J^T J / N_e) or, when there
+    are more parameters than residuals, ("kernel", J J^T, J, e). Only upper triangles are
+    filled (BLAS syrk on the F-ordered view J^T, no copies)."""
+    n_e, n_p = y.size, model.n_params
+    if n_p > n_e and 8 * n_e * n_p <= max_mb * 2**20:
+        y_hat, J = model.parameter_jacobian(u)
+        e = (y_hat - y).ravel()
+        return float(e @ e / n_e), J.T @ e / n_e, ("kernel", dsyrk(1.0, J.T, trans=1), J, e)
+    chunk = max(1, int(max_mb * 2**20 // (8 * y.shape[1] * n_p)))
+    JJ, JE, sse = None, np.zeros(n_p), 0.0
+    for s in range(0, len(u), chunk):
+        y_hat, J = model.parameter_jacobian(u[s:s + chunk])
+        e = (y_hat - y[s:s + chunk]).ravel()
+        JJ = dsyrk(1.0 / n_e, J.T) if JJ is None else dsyrk(1.0 / n_e, J.T, beta=1.0, c=JJ, overwrite_c=1)
+        JE += J.T @ e
+        sse += float(e @ e)
+    return sse / n_e, JE / n_e, ("primal", JJ)
+
+
+def _lm_step(system, JE, mu, n_e, buf):
+    """dtheta of one LM trial with damping mu; None if the damped matrix is not numerically
+    positive definite (Cholesky fails). ``buf`` is scratch space of the system's size."""
+    buf[...] = system[1]
+    if system[0] == "primal":                      # (J^T J / N_e + mu I) dtheta = -J^T e / N_e
+        buf.flat[::len(buf) + 1] += mu
+        rhs = -JE
+    else:                                          # dtheta = -J^T (J J^T + mu N_e I)^{-1} e
+        buf.flat[::len(buf) + 1] += mu * n_e
+        rhs = system[3]
+    try:
+        c = cho_solve(cho_factor(buf, lower=False, overwrite_a=True, check_finite=False), rhs,
+                      check_finite=False)
+    except (LinAlgError, ValueError):
+        return None
+    if not np.all(np.isfinite(c)):
+        return None
+    return c if system[0] == "primal" else -(system[2].T @ c)
+
+
+def train_lm(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None, y_test=None,
+             options: LMOptions | None = None, progress=None) -> tuple[MLP, TrainLog]:
+    """Levenberg-Marquardt with ``trainlm`` semantics; returns (best network, log).
+
+    ``u_*`` (N, n_u), ``y_*`` (N, n_y) in the model's units; validation and test sets may
+    be None or empty (the test set is only recorded, never used for decisions).
+    ``progress(epoch, history_row)`` is called once per epoch if given."""
+    opt = options or LMOptions()
+    t0 = time.perf_counter()
+    net = model.copy()
+    empty = (np.empty((0, net.n_u)), np.empty((0, net.n_y)))
+    u_val, y_val = (u_val, y_val) if u_val is not None and len(u_val) else empty
+    u_test, y_test = (u_test, y_test) if u_test is not None and len(u_test) else empty
+    has_val, n_e = len(u_val) > 0, y_train.size
+    theta = net.get_params()
+    perf, JE, system = _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb)
+    buf = np.empty_like(system[1], order="F")
+    vperf = mse(net, u_val, y_val)
+    best = {"theta": theta.copy(), "perf": perf, "vperf": vperf, "epoch": 0}
+    mu, val_fail, hist, stop = opt.mu, 0, [], None
+    for epoch in range(opt.epochs + 1):
+        gradient = 2.0 * float(np.linalg.norm(JE))
+        if perf <= opt.goal:
+            stop = "goal"
+        elif epoch == opt.epochs:
+            stop = "max_epochs"
+        elif gradient <= opt.min_grad:
+            stop = "min_grad"
+        elif mu >= opt.mu_max:
+            stop = "mu_max"
+        elif val_fail >= opt.max_fail:
+            stop = "validation"
+        hist.append((epoch, perf, vperf, mse(net, u_test, y_test), mu, gradient, val_fail))
+        if progress is not None:
+            progress(epoch, hist[-1])
+        if stop:
+            break
+        while mu <= opt.mu_max:
+            step = _lm_step(system, JE, mu, n_e, buf)
+            if step is not None:
+                net.set_params(theta + step)
+                if mse(net, u_train, y_train) < perf:
+                    theta = theta + step
+                    mu = max(mu * opt.mu_dec, 1e-20)
+                    break
+            mu *= opt.mu_inc
+        net.set_params(theta)
+        perf, JE, system = _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb)
+        vperf = mse(net, u_val, y_val)
+        improved = vperf < best["vperf"] if has_val else perf < best["perf"]
+        if improved:
+            best = {"theta": theta.copy(), "perf": perf, "vperf": vperf, "epoch": epoch + 1}
+            val_fail = 0
+        elif has_val and vperf > best["vperf"]:
+            val_fail += 1
+    net.set_params(best["theta"])
+    cols = ("epoch", "perf", "vperf", "tperf", "mu", "gradient", "val_fail")
+    history = {c: np.array([row[i] for row in hist]) for i, c in enumerate(cols)}
+    return net, TrainLog("lm", stop, int(hist[-1][0]), best["epoch"], history, asdict(opt),
+                         time.perf_counter() - t0)

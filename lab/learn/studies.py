@@ -1,0 +1,111 @@
+"""How accurate is the learned model? Error metrics, workspace size, repeated-split studies.
+
+Metrics, for predicted ``y_hat`` and measured ``y`` tip positions (N, 3) in metres:
+
+* ``mse_m2`` -- MATLAB ``mse``: mean over samples *and* coordinates of the squared error (m^2);
+* ``mean_distance_m`` -- mean Euclidean distance ``|y_hat_i - y_i|`` (m), the paper's
+  "average Euclidean distance between the predicted and measured tip position".
+
+**Workspace size** (for relative errors): the diagonal of the axis-aligned bounding box
+of all measured tip positions of the dataset, ``|max_i y_i - min_i y_i|`` (m). The paper
+does not define it; its 4.42 mm = 1.6 % implies a size of about 0.28 m.
+
+Studies (each run independent and seeded, optionally on joblib/loky workers with one BLAS
+thread each; results do not depend on the number of workers):
+
+* :func:`evaluate_splits` -- the paper's Section V-A.3 test: train the same architecture
+  on ``n_splits`` random splits (90/10 train/test) and report each test error;
+* :func:`size_sweep` -- Section VI-A / Figure 6: two hidden layers of ``width`` neurons,
+  ``n_runs`` random 80/10/10 splits per width. Run ``r`` uses the same split for every
+  width, so the widths are compared on the same data.
+"""
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+
+from lab.files import atomic_write_text
+
+
+def run_seeds(seed: int, n: int) -> list[int]:
+    """``n`` independent integer seeds derived from ``seed`` (NumPy SeedSequence)."""
+    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(n)]
+
+
+def _one_run(u, y, hidden, ratios, seed, train_kwargs) -> dict:
+    from lab.learn.train import train
+
+    res = train(u, y, hidden, ratios=ratios, seed=seed, **train_kwargs)
+    row = {"hidden": "-".join(map(str, hidden)), "n_params": res.model.n_params, "seed": seed,
+           "epochs": res.log.epochs, "best_epoch": res.log.best_epoch, "stop_reason": res.log.stop_reason,
+           "wall_s": res.log.wall_s}
+    for name, err in res.errors.items():
+        row[f"{name}_n"] = err["n"]
+        row[f"{name}_mse_m2"] = err["mse_m2"] if err["n"] else float("nan")
+        row[f"{name}_mean_distance_m"] = err["mean_distance_m"] if err["n"] else float("nan")
+    return row
+
+
+def _run_all(jobs, n_jobs: int) -> list[dict]:
+    if n_jobs == 1:
+        return [_one_run(*job) for job in jobs]
+    from joblib import Parallel, delayed, parallel_config
+
+    with parallel_config(backend="loky", inner_max_num_threads=1):
+        return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
+
+
+def evaluate_splits(u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0.0, 0.1), seed: int = 0,
+                    n_jobs: int = 1, **train_kwargs) -> list[dict]:
+    """Train ``hidden`` on ``n_splits`` random splits; one row per split with its errors.
+
+    Row keys: hidden, n_params, seed, epochs, best_epoch, stop_reason, wall_s and, for each
+    of train/validation/test, ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m``
+    (NaN for an empty set). ``train_kwargs`` go to :func:`lab.learn.train.train`."""
+    jobs = [(u, y, tuple(hidden), ratios, s, train_kwargs) for s in run_seeds(seed, n_splits)]
+    rows = _run_all(jobs, n_jobs)
+    for i, row in enumerate(rows):
+        row["split"] = i
+    return rows
+
+
+def size_sweep(u, y, widths, *, n_layers: int = 2, n_runs: int = 10, ratios=(0.8, 0.1, 0.1),
+               seed: int = 0, n_jobs: int = 1, **train_kwargs) -> list[dict]:
+    """Figure 6: ``n_layers`` hidden layers of each width, ``n_runs`` splits each; one row per
+    (width, run) with the keys of :func:`evaluate_splits` plus ``width`` and ``run``."""
+    seeds = run_seeds(seed, n_runs)
+    jobs = [(u, y, (int(w),) * n_layers, ratios, s, train_kwargs) for w in widths for s in seeds]
+    # Largest networks first: the slowest jobs do not end up alone at the tail.
+    order = sorted(range(len(jobs)), key=lambda i: -jobs[i][2][0])
+    done = dict(zip(order, _run_all([jobs[i] for i in order], n_jobs)))
+    rows = [done[i] for i in range(len(jobs))]
+    for i, row in enumerate(rows):
+        row["width"], row["run"] = int(widths[i // n_runs]), i % n_runs
+    return rows
+
+
+def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
+    """Per value of ``by``: n, mean, std (ddof=1), median, min, max of ``value`` (NaNs dropped)."""
+    out = []
+    for key in dict.fromkeys(r[by] for r in rows):
+        v = np.array([r[value] for r in rows if r[by] == key], dtype=float)
+        v = v[np.isfinite(v)]
+        out.append({by: key, "n": len(v), "mean": float(v.mean()) if len(v) else float("nan"),
+                    "std": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
+                    "median": float(np.median(v)) if len(v) else float("nan"),
+                    "min": float(v.min()) if len(v) else float("nan"),
+                    "max": float(v.max()) if len(v) else float("nan")})
+    return out
+
+
+def write_csv(path, rows: list[dict], columns: list[str] | None = None) -> None:
+    """Write dict rows as CSV (atomic); floats with full precision (repr)."""
+    columns = columns or list(rows[0])
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow([repr(float(r[c])) if isinstance(r[c], (float, np.floating)) else r[c] for c in columns])
+    atomic_write_text(path, buf.getvalue())

@@ -1,0 +1,160 @@
+"""An append-only, resumable CSV journal: one fsynced line per record.
+
+Layout of ``NAME`` (plain text, readable with any CSV reader that skips ``#`` lines)::
+
+    # lab.journal 1 {"...header JSON: what this journal is a record of..."}
+    index,u0,u1,...                      <- column names
+    # session {"...": "who appended the lines below, when"}
+    0,0.5,1.0,...                        <- one line per record, in order
+    # session-end {"...": "..."}
+
+Records are only ever appended, each line written, flushed and fsynced before the
+next one starts, so killing the writer loses at most the line being written. Such a
+torn last line (no newline) is cut off when the journal is reopened; any other
+malformed line is an error. Reopening compares the header with the one given and
+refuses to continue a journal made with different settings, naming the fields that
+differ. An exclusive lock (``flock``) stops two processes appending at once.
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.files import atomic_write_text
+
+MAGIC = "# lab.journal 1 "
+
+
+class JournalError(InputError):
+    """A journal is corrupt, locked, or was started with different settings."""
+
+
+def _diff(old, new, prefix="") -> list[str]:
+    """Dotted names of the fields that differ between two JSON-like dicts."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(set(old) | set(new), key=str):
+            out += _diff(old.get(k), new.get(k), f"{prefix}{k}.")
+        return out
+    return [] if old == new else [f"{prefix[:-1]}: journal {old!r}, now {new!r}"]
+
+
+def _format(value) -> str:
+    """Integers (and bools) as integers, everything else as the shortest exact float."""
+    if isinstance(value, (bool, np.bool_, int, np.integer)):
+        return str(int(value))
+    return repr(float(value))
+
+
+class Journal:
+    """Append-only record file; use :meth:`open`. ``rows`` holds the records (dicts of
+    floats), ``notes`` the ``# tag {json}`` lines as (tag, dict), old and new."""
+
+    def __init__(self, path: Path, fh, columns: list[str], rows: list[dict], notes: list[tuple[str, dict]]):
+        self.path, self._fh, self.columns, self.rows, self.notes = path, fh, columns, rows, notes
+
+    def notes_tagged(self, tag: str) -> list[dict]:
+        return [info for t, info in self.notes if t == tag]
+
+    @classmethod
+    def open(cls, path: str | Path, header: dict, columns: list[str]) -> "Journal":
+        """Open (or create) the journal at ``path`` for appending records with ``columns``.
+
+        Raises :class:`JournalError` if another process holds it, if its header differs
+        from ``header`` (JSON-able) or its columns from ``columns``, or if a line is corrupt.
+        """
+        path = Path(path)
+        header = json.loads(json.dumps(header))            # normalise (tuples -> lists)
+        if not path.exists():
+            atomic_write_text(path, MAGIC + json.dumps(header, sort_keys=True) + "\n" + ",".join(columns) + "\n")
+        fh = open(path, "r+", newline="")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.close()
+            raise JournalError(f"{path} is being written by another process") from None
+        try:
+            rows, notes = cls._read(path, fh, header, columns)
+        except BaseException:
+            fh.close()
+            raise
+        fh.seek(0, os.SEEK_END)
+        return cls(path, fh, list(columns), rows, notes)
+
+    @staticmethod
+    def _read(path: Path, fh, header: dict, columns: list[str]) -> tuple[list[dict], list]:
+        text = fh.read()
+        if not text.endswith("\n"):                          # torn last line: cut it off
+            cut = text.rfind("\n") + 1
+            fh.truncate(cut)
+            fh.flush()
+            os.fsync(fh.fileno())
+            text = text[:cut]
+        lines = text.split("\n")[:-1]
+        if len(lines) < 2 or not lines[0].startswith(MAGIC):
+            raise JournalError(f"{path}: not a lab journal (first line must start with {MAGIC.strip()!r})")
+        try:
+            old = json.loads(lines[0][len(MAGIC):])
+        except json.JSONDecodeError as err:
+            raise JournalError(f"{path}: corrupt header: {err}") from None
+        if old != header:
+            raise JournalError(f"{path} was started with different settings: " + "; ".join(_diff(old, header))
+                               + ". Continue it with the same settings, or write to another file.")
+        if lines[1].split(",") != list(columns):
+            raise JournalError(f"{path}: columns are {lines[1]!r}, expected {','.join(columns)!r}")
+        rows, notes = [], []
+        for n, line in enumerate(lines[2:], start=3):
+            if line.startswith("#"):
+                tag, _, info = line[1:].strip().partition(" ")
+                try:
+                    notes.append((tag, json.loads(info)))
+                except json.JSONDecodeError:
+                    raise JournalError(f"{path}: line {n} is a corrupt note: {line[:80]!r}") from None
+                continue
+            if not line:
+                continue
+            fields = line.split(",")
+            try:
+                if len(fields) != len(columns):
+                    raise ValueError
+                rows.append({c: float(v) for c, v in zip(columns, fields)})
+            except ValueError:
+                raise JournalError(f"{path}: line {n} is corrupt: {line[:80]!r}") from None
+        return rows, notes
+
+    def _write(self, line: str) -> None:
+        self._fh.write(line + "\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def note(self, tag: str, info: dict) -> None:
+        """Append a ``# tag {json}`` comment line (e.g. ``session``, ``session-end``)."""
+        if not tag or " " in tag:
+            raise InputError(f"a note tag is one word, got {tag!r}")
+        text = json.dumps(info, sort_keys=True, default=str)
+        self._write(f"# {tag} " + text)
+        self.notes.append((tag, json.loads(text)))
+
+    def append(self, row: dict) -> None:
+        """Append one record (a value for every column) and make it durable."""
+        missing = [c for c in self.columns if c not in row]
+        if missing:
+            raise InputError(f"journal record lacks columns {missing}")
+        self._write(",".join(_format(row[c]) for c in self.columns))
+        self.rows.append({c: float(row[c]) for c in self.columns})
+
+    def close(self) -> None:
+        if not self._fh.closed:
+            self._fh.close()          # releases the lock
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

@@ -1,0 +1,29 @@
+"""Stage 9b: following a trajectory on a rig, and the paper's Table I.
+
+:func:`run_trajectory` (:mod:`.track`) solves the IK for every target, sends the commands
+to any :class:`lab.rig.Rig` and records where the tip settled; :mod:`.table1` merges the
+mean errors into ``table1.csv``.
+"""
+
+from lab.tracking.table1 import (
+    COLUMNS,
+    CONDITIONS,
+    PAPER_CM,
+    SHAPES,
+    Table1Error,
+    read_table1,
+    render_markdown,
+    update_table1,
+)
+from lab.tracking.track import (
+    REQUIRED_KEYS,
+    TRACK_PROTOCOL,
+    TrackResult,
+    TrackResultError,
+    make_solver,
+    read_result,
+    run_trajectory,
+    write_result,
+)
+
+__all__ = ["TRACK_PROTOCOL", "REQUIRED_KEYS", "TrackResultError", "TrackResult", "run_trajectory", "write_result", "read_result", "make_solver", "SHAPES", "PAPER_CM", "CONDITIONS", "COLUMNS", "Table1Error", "read_table1", "update_table1", "render_markdown"]

@@ -1,0 +1,268 @@
+"""A meshcat animation of the arm following a trajectory, as self-contained HTML.
+
+meshcat animates the transforms and properties of scene objects, not vertex
+positions, so the animated arm is built from rigid pieces whose transforms carry
+the deformation (frame W, metres):
+
+* the foam body: a chain of unit cylinders along the deformed centreline, each
+  scaled to its segment's length and the body radius;
+* each cable: one thin cylinder per segment of its polyline (WebGL lines are 1 px).
+  A cable's colour follows its motor command through ``n_color_levels`` copies of
+  the cylinder in colours of the "cool" map whose visibility is animated: a colour
+  track on a material cannot be used, because the static page loads objects
+  asynchronously and an animation bound to a material before its mesh exists
+  animates nothing;
+* the tip marker (red sphere), the moving target (black sphere), the target path
+  (black line) and the achieved tip path (pink line), as in Figure 5 of the paper.
+
+:func:`animation_html` returns the page (meshcat's JavaScript embedded, no network
+needed); show it in a notebook with ``IPython.display.HTML(notebook_iframe(html))``.
+The page costs about 180 bytes per piece and frame (8 kB per frame for the six-cable
+arm with 20 body segments) on top of about 1.2 MB (mostly meshcat's JavaScript):
+pass fewer frames for long trajectories.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.fem.mesh import barycentric
+from lab.viz.arm import (
+    FOAM_RGB,
+    TIP_RGB,
+    _hex,
+    _meshcat,
+    cable_colors,
+    meshcat_visualizer,
+    set_view,
+)
+
+TARGET_RGB = (0.0, 0.0, 0.0)
+ACHIEVED_RGB = (1.0, 0.41, 0.71)        # pink: the achieved path of Fig. 5
+CABLE_RADIUS_M = 0.0012
+MARKER_RADIUS_M = 0.004
+
+
+# ------------------------------------------------------------------ geometry
+def centreline_embedding(fem, n_segments: int = 20):
+    """Barycentric embedding (nodes (S+1, 4), weights (S+1, 4)) of ``n_segments`` + 1
+    equally spaced points on the body axis (x from 0 to length, y = z = 0) in the rest
+    mesh. Embedded points move with the FEM interpolation, so this works for any tet
+    mesh containing the axis and any ``n_segments`` (no need to find cross-sections)."""
+    if int(n_segments) != n_segments or n_segments < 1:
+        raise InputError(f"n_segments must be a positive integer, got {n_segments!r}")
+    x = np.linspace(0.0, fem.robot.length_m, int(n_segments) + 1)
+    return barycentric(fem.mesh, np.column_stack([x, np.zeros_like(x), np.zeros_like(x)]))
+
+
+def centreline(fem, q=None, n_segments: int = 20, embedding=None) -> np.ndarray:
+    """Deformed body axis (n_segments + 1, 3) in metres, base to tip, at free
+    coordinates ``q`` (n_free,) (None: rest)."""
+    nodes, weights = centreline_embedding(fem, n_segments) if embedding is None else embedding
+    x = fem.X_W if q is None else fem.to_nodes(np.asarray(q, float))
+    return np.einsum("sk,skd->sd", weights, x[nodes])
+
+
+def rotation_from_y(d) -> np.ndarray:
+    """Minimal rotation R (3, 3) with R e_y = d / |d| (meshcat/three.js cylinders lie
+    along y). Minimal rotations change smoothly with d, so interpolating between
+    frames does not twist the pieces; d antiparallel to y turns about x."""
+    d = np.asarray(d, float) / np.linalg.norm(d)
+    v, c = np.cross([0.0, 1.0, 0.0], d), d[1]
+    if c < -1 + 1e-6:          # 1/(1+c) would lose accuracy: mirror the problem by pi about x
+        return np.diag([1.0, -1.0, -1.0]) @ rotation_from_y(d * [1, -1, -1])
+    K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + K + K @ K / (1 + c)
+
+
+def segment_transforms(points, radius_m: float) -> np.ndarray:
+    """Transforms (P-1, 4, 4) mapping the unit cylinder (radius 1, height 1, centred
+    on the origin along y) onto the segments between consecutive ``points`` (P, 3) m:
+    rotation and scale diag(r, length, r), then translation to the midpoint. So the
+    unit cylinder's end points (0, -1/2, 0) and (0, 1/2, 0) map to points[i], points[i+1]."""
+    p = np.asarray(points, float)
+    T = np.tile(np.eye(4), (len(p) - 1, 1, 1))
+    for i, (a, b) in enumerate(zip(p[:-1], p[1:])):
+        length = np.linalg.norm(b - a)
+        R = rotation_from_y(b - a) if length > 0 else np.eye(3)
+        T[i, :3, :3] = R * [radius_m, length, radius_m]          # R @ diag(r, L, r)
+        T[i, :3, 3] = (a + b) / 2
+    return T
+
+
+@dataclass(frozen=True)
+class ArmPieces:
+    """Transforms (4, 4) of the unit cylinders: ``body`` (S, 4, 4), one (K, 4, 4)
+    array per cable in ``cables``; ``tip_W`` (3,) m."""
+    body: np.ndarray
+    cables: list
+    tip_W: np.ndarray
+
+
+def arm_pieces(fem, q=None, n_segments: int = 20, *, cable_radius_m: float = CABLE_RADIUS_M,
+               embedding=None) -> ArmPieces:
+    """The rigid pieces of the arm at ``q`` (n_free,) (None: rest)."""
+    x = fem.X_W if q is None else fem.to_nodes(np.asarray(q, float))
+    axis = centreline(fem, q, n_segments, embedding)
+    return ArmPieces(segment_transforms(axis, fem.robot.radius_m),
+                     [segment_transforms(c.points(x), cable_radius_m) for c in fem.cables], fem.tip(x))
+
+
+# ------------------------------------------------------------------ animation
+def _check_frames(name, a, shape) -> np.ndarray:
+    a = np.asarray(a, float)
+    if a.ndim != 2 or a.shape[1] != shape[1] or len(a) == 0 or shape[0] not in (None, len(a)):
+        want = f"({'T' if shape[0] is None else shape[0]}, {shape[1]})"
+        raise InputError(f"{name} must have shape {want}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} has non-finite values (frames {np.flatnonzero(~np.isfinite(a).all(1))[:5].tolist()})")
+    return a
+
+
+def _quaternion_xyzw(R) -> list:
+    """Quaternion [x, y, z, w] (three.js order) of a rotation matrix (3, 3)."""
+    M = np.eye(4)
+    M[:3, :3] = R
+    w, x, y, z = _meshcat().transformations.quaternion_from_matrix(M)
+    return [float(x), float(y), float(z), float(w)]
+
+
+def _unit_cylinder(radial_segments: int, open_ended: bool):
+    """meshcat ``Cylinder`` of radius 1 and height 1 along y, with the three.js
+    options meshcat does not expose (facets around, no end discs)."""
+    class UnitCylinder(_meshcat().geometry.Cylinder):
+        def lower(self, object_data):
+            return {**super().lower(object_data), "radialSegments": radial_segments, "openEnded": open_ended}
+    return UnitCylinder(1.0, 1.0)
+
+
+def _key_transform(frame, T, position_only: bool = False) -> None:
+    """Animate a piece to T (4, 4): position, quaternion and scale as three tracks
+    (meshcat's frame.set_transform keeps no scale and takes the quaternion of R S)."""
+    frame.set_property("position", "vector3", T[:3, 3].tolist())
+    if position_only:                         # markers: a sphere needs no turning
+        return
+    s = np.linalg.norm(T[:3, :3], axis=0)
+    frame.set_property("quaternion", "quaternion", _quaternion_xyzw(T[:3, :3] / np.where(s > 0, s, 1)))
+    frame.set_property("scale", "vector3", s.tolist())
+
+
+def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float = 10.0, prefix: str = "anim",
+                n_segments: int = 20, n_color_levels: int = 7, foam_opacity: float = 0.4, play: bool = True,
+                repetitions: int = 1, paths: bool = True):
+    """Draw the arm under ``vis[prefix]`` and animate it through the states
+    ``q_frames`` (T, n_free) m, shown at ``fps`` frames per second.
+
+    ``u_frames`` (T, m) rad colours each cable by its command, rounded to one of
+    ``n_color_levels`` levels over [0, u_max] (None: grey cables). ``targets_W`` (T, 3)
+    m adds a moving target sphere and, with ``paths``, the target path (black) and
+    achieved tip path (pink) as lines. The body is ``n_segments`` cylinders of the
+    body radius (``foam_opacity`` lets the cables inside show). The scene shows
+    frame 0 until the animation runs; a single frame is drawn but not animated.
+    Pieces under ``vis[prefix]``: ``body/00``.., ``body/base``, ``body/end``,
+    ``cables/<name>/00``.. (colour levels ``u0``.. below them), ``tip``, ``target``,
+    ``target_path``, ``tip_path``. Sends the animation with ``vis.set_animation``
+    (``play``, ``repetitions``) and returns the ``meshcat.animation.Animation``.
+    Raises ValueError on bad shapes or values."""
+    g = _meshcat().geometry
+    from meshcat.animation import Animation
+    q = _check_frames("q_frames", q_frames, (None, fem.n_free))
+    n_frames = len(q)
+    u = None if u_frames is None else _check_frames("u_frames", u_frames, (n_frames, fem.robot.n_cables))
+    targets = None if targets_W is None else _check_frames("targets_W", targets_W, (n_frames, 3))
+    if not (np.isfinite(fps) and fps > 0):
+        raise InputError(f"fps must be positive, got {fps!r}")
+    if int(n_color_levels) != n_color_levels or n_color_levels < 2:
+        raise InputError(f"n_color_levels must be an integer >= 2, got {n_color_levels!r}")
+
+    embedding = centreline_embedding(fem, n_segments)
+    pieces = [arm_pieces(fem, qi, n_segments, embedding=embedding) for qi in q]
+    u_max = fem.robot.u_max_rad
+    n_levels = 1 if u is None else int(n_color_levels)
+    level_u = np.linspace(0.0, u_max, n_levels)
+    colors = cable_colors(n_levels, None if u is None else level_u, u_max)
+    # levels[t, c]: the colour level shown for cable c in frame t
+    levels = (np.zeros((n_frames, fem.robot.n_cables), int) if u is None
+              else np.rint(np.clip(u / u_max, 0, 1) * (n_levels - 1)).astype(int))
+
+    root = vis[prefix]
+    # The body segments are open tubes, closed by two thin discs at the base and tip:
+    # transparent end discs at every joint would show as dark bands. Front faces only:
+    # transparent double-sided tubes draw their two sides in triangle order (stripes).
+    tube, disc, cable_geom = _unit_cylinder(48, True), _unit_cylinder(48, False), _unit_cylinder(12, False)
+    body_mat = g.MeshLambertMaterial(color=_hex(FOAM_RGB), opacity=foam_opacity, side=0)
+    level_mats = [g.MeshLambertMaterial(color=_hex(c)) for c in colors]
+    moving = {}                               # path -> (T, 4, 4) transforms over the frames
+    body = np.array([p.body for p in pieces])                     # (T, S, 4, 4)
+    for i in range(body.shape[1]):
+        root[f"body/{i:02d}"].set_object(tube, body_mat)
+        moving[f"body/{i:02d}"] = body[:, i]
+    for name, T, end in (("base", body[:, 0], -0.5), ("end", body[:, -1], 0.5)):
+        root[f"body/{name}"].set_object(disc, body_mat)
+        cap = T.copy()
+        cap[:, :3, 3] += end * T[:, :3, 1]                         # centred on the axis end
+        cap[:, :3, 1] *= 1e-4 / np.linalg.norm(T[:, :3, 1], axis=1, keepdims=True)   # 0.1 mm thick
+        moving[f"body/{name}"] = cap
+    for c, route in enumerate(fem.robot.cables):
+        for k in range(len(pieces[0].cables[c])):
+            path = f"cables/{route.name}/{k:02d}"
+            for j in range(n_levels):
+                root[path][f"u{j}"].set_object(cable_geom, level_mats[j])
+                root[path][f"u{j}"].set_property("visible", bool(levels[0, c] == j))
+            moving[path] = np.array([p.cables[c][k] for p in pieces])
+    markers = {"tip": (np.array([p.tip_W for p in pieces]), TIP_RGB)}
+    if targets is not None:
+        markers["target"] = (targets, TARGET_RGB)
+    for name, (pos, rgb) in markers.items():
+        root[name].set_object(g.Sphere(MARKER_RADIUS_M), g.MeshLambertMaterial(color=_hex(rgb)))
+        moving[name] = np.tile(np.eye(4), (n_frames, 1, 1))
+        moving[name][:, :3, 3] = pos
+    if paths and targets is not None:
+        for name, pts, rgb in (("target_path", targets, TARGET_RGB), ("tip_path", markers["tip"][0], ACHIEVED_RGB)):
+            root[name].set_object(g.Line(g.PointsGeometry(np.ascontiguousarray(pts.T, np.float32)),
+                                         g.LineBasicMaterial(color=_hex(rgb))))
+
+    anim = Animation(default_framerate=fps)
+    for path, Ts in moving.items():
+        root[path].set_transform(Ts[0])       # the still scene: frame 0
+        for t, T in enumerate(Ts):
+            _key_transform(anim.at_frame(root, t)[path], T, position_only=path in markers)
+    for c, route in enumerate(fem.robot.cables):
+        if n_levels == 1:
+            break
+        # Visibility only needs keys where it changes (boolean tracks are stepwise),
+        # plus the last frame so that every clip lasts as long as the motion.
+        change = np.flatnonzero(np.r_[True, levels[1:, c] != levels[:-1, c]])
+        for k in range(len(pieces[0].cables[c])):
+            for j in range(n_levels):
+                for t in sorted({*change.tolist(), n_frames - 1}):
+                    anim.at_frame(root, t)[f"cables/{route.name}/{k:02d}/u{j}"].set_property(
+                        "visible", "boolean", bool(levels[t, c] == j))
+    if n_frames > 1:                          # a clip of duration 0 makes three.js wrap time to NaN
+        vis.set_animation(anim, play=play, repetitions=repetitions)
+    return anim
+
+
+def animation_html(fem, q_frames, u_frames=None, *, targets_W=None, view: bool = True, camera_W=None,
+                   **kwargs) -> str:
+    """Self-contained HTML page (meshcat JavaScript embedded, no network needed) of
+    :func:`animate_arm`, from a fresh visualizer that is stopped afterwards.
+    ``view``: white background, no grid/axes, camera at ``camera_W`` (3,) m
+    (default: :func:`lab.viz.arm.set_view`'s). ``kwargs`` go to :func:`animate_arm`."""
+    with meshcat_visualizer() as vis:
+        if view:
+            set_view(vis, **({} if camera_W is None else {"camera_W": camera_W}))
+        animate_arm(vis, fem, q_frames, u_frames, targets_W=targets_W, **kwargs)
+        return vis.static_html()
+
+
+def notebook_iframe(page_html: str, height_px: int = 400) -> str:
+    """``page_html`` in an ``<iframe srcdoc>`` for ``IPython.display.HTML``, as
+    ``vis.render_static()`` wraps it: works on remote kernels and offline, and its
+    styles stay out of the notebook page."""
+    srcdoc_escape = _meshcat().visualizer.srcdoc_escape
+    return (f'<div style="height: {height_px}px; width: 100%; overflow-x: auto; overflow-y: hidden; '
+            f'resize: both"><iframe srcdoc="{srcdoc_escape(page_html)}" '
+            f'style="width: 100%; height: 100%; border: none"></iframe></div>')

@@ -1,0 +1,145 @@
+"""Figures of trajectory following: a row of Figure 3 and the helix of Figure 4.
+
+Positions are drawn in centimetres in frame W. As in the paper, the planar shapes are
+shown projected onto their plane, the y-z plane facing the arm (errors are still 3-D).
+Motor commands are colour-coded per cable as in the paper's Figure 2: every cable has
+its own colour (:data:`CABLE_COLORS`, the same in every panel), used for its command
+curve ``u_c`` over the trajectory and for its position in a small cross-section key.
+Both functions take :class:`lab.tracking.track.TrackResult` objects and return the figure.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: One colour per cable (cable i -> CABLE_COLORS[i % 6]); tab10's first six.
+CABLE_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
+TARGET_COLOR = "#e377c2"          # the paper draws targets in pink (Fig. 4)
+ACHIEVED_COLOR = "0.15"
+
+
+def _cable_key(ax, robot) -> None:
+    """Cross-section of the arm (seen from the tip, y-z) with each cable's colour."""
+    from matplotlib.patches import Circle
+
+    R = 100 * robot.radius_m
+    ax.add_patch(Circle((0, 0), R, fill=False, color="0.5"))
+    for i, c in enumerate(robot.cables):
+        y, z = 100 * c.via_points_m[-1, 1:]
+        ax.plot(y, z, "o", color=CABLE_COLORS[i % 6], ms=6)
+    ax.set_xlim(-1.5 * R, 1.5 * R)
+    ax.set_ylim(-1.5 * R, 1.5 * R)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title("cables (seen from the tip)", fontsize=7)
+
+
+def plot_commands(ax, result, robot, legend: bool = True) -> None:
+    """Motor commands (rad) along the trajectory, one colour per cable, with u_max dashed."""
+    for i, c in enumerate(robot.cables):
+        ax.plot(result.commands[:, i], color=CABLE_COLORS[i % 6], lw=1.8, label=c.name)
+    ax.axhline(robot.u_max_rad, color="0.6", ls="--", lw=0.8)
+    ax.set_ylim(-0.1, 1.05 * robot.u_max_rad)
+    ax.set_xlabel("target index")
+    ax.set_ylabel("motor command u [rad]")
+    if legend:
+        ax.legend(fontsize=7, loc="upper right", ncol=len(robot.cables))
+
+
+def _plane(ax, result, a: int, b: int, label: bool = True) -> None:
+    t, p = 100 * result.targets_W, 100 * result.achieved_W
+    closed = np.vstack([t, t[:1]]) if result.trajectory != "helix" else t
+    ax.plot(closed[:, a], closed[:, b], "-", color=TARGET_COLOR, lw=2.5, label="target" if label else None)
+    ax.plot(p[:, a], p[:, b], ".", color=ACHIEVED_COLOR, ms=3.5, label="achieved" if label else None)
+    ax.set_xlabel(f"{'xyz'[a]} [cm]")
+    ax.set_ylabel(f"{'xyz'[b]} [cm]")
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+
+
+def _equal_3d(ax, points_cm: np.ndarray, zoom: float) -> None:
+    """Equal scales on a 3-D axes: a cube around ``points_cm`` (N, 3), axis labels in cm."""
+    mid, half = (points_cm.max(0) + points_cm.min(0)) / 2, 0.55 * np.ptp(points_cm, axis=0).max()
+    ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
+           zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
+
+
+def plot_tracking_row(results: dict, robot, title: str = ""):
+    """Figure 3, one row: per trajectory (columns) the y-z projection of targets and achieved
+    tip positions, with the motor commands below. ``results``: {name: TrackResult}."""
+    import matplotlib.pyplot as plt
+
+    n = len(results)
+    fig = plt.figure(figsize=(4.3 * n, 7.2), layout="constrained")
+    grid = fig.add_gridspec(2, n, height_ratios=(1.6, 1))
+    for k, (name, res) in enumerate(results.items()):
+        ax = fig.add_subplot(grid[0, k])
+        _plane(ax, res, 1, 2)
+        ax.set_title(f"{name}: mean error {100 * res.mean_error_m:.4f} cm\n(max {100 * res.max_error_m:.4f} cm, "
+                     f"{len(res.targets_W)} targets)", fontsize=10)
+        if k == 0:
+            ax.legend(fontsize=8, loc="lower left")
+            _cable_key(ax.inset_axes([0.8, 0.8, 0.2, 0.2]), robot)
+        plot_commands(fig.add_subplot(grid[1, k]), res, robot, legend=k == 0)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_helix(result, robot, title: str = ""):
+    """Figure 4: the helix in 3-D (target pink, achieved dark), its y-z and x-z projections,
+    and the motor commands."""
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(15, 8), layout="constrained")
+    grid = fig.add_gridspec(2, 3, height_ratios=(1.5, 1), width_ratios=(1.2, 1, 0.8))
+    ax3 = fig.add_subplot(grid[0, 0], projection="3d")
+    t, p = 100 * result.targets_W, 100 * result.achieved_W
+    ax3.plot(*t.T, color=TARGET_COLOR, lw=2.5, label="target")
+    ax3.plot(*p.T, ".", color=ACHIEVED_COLOR, ms=3, label="achieved")
+    _equal_3d(ax3, np.vstack([t, p]), zoom=0.85)
+    ax3.view_init(elev=15, azim=-35)
+    ax3.legend(fontsize=8, loc="upper left")
+    ax3.set_title("3-D")
+    for k, ((a, b), name) in enumerate((((1, 2), "front view (y-z)"), ((0, 2), "side view (x-z)"))):
+        ax = fig.add_subplot(grid[0, k + 1])
+        _plane(ax, result, a, b, label=k == 0)
+        ax.set_title(name)
+    ax.set_aspect("auto")                      # the helix is only ~1 cm deep along x
+    ax.set_title("side view (x-z), x stretched")
+    ax_u = fig.add_subplot(grid[1, :2])
+    plot_commands(ax_u, result, robot)
+    _cable_key(ax_u.inset_axes([0.0, 0.62, 0.12, 0.38]), robot)
+    ax_e = fig.add_subplot(grid[1, 2])
+    ax_e.plot(100 * result.errors_m, color=ACHIEVED_COLOR)
+    ax_e.set_xlabel("target index")
+    ax_e.set_ylabel("error |achieved - target| [cm]")
+    ax_e.set_title(f"mean {100 * result.mean_error_m:.4f} cm, max {100 * result.max_error_m:.4f} cm")
+    ax_e.grid(alpha=0.3)
+    fig.suptitle(title or f"helix, {len(t)} targets")
+    return fig
+
+
+def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achieved_color: str = TARGET_COLOR):
+    """Figure 5: one 3-D panel per trajectory, target in black and achieved tip in pink (the
+    paper's colours for this figure), centimetres, equal axis scales; the panel title gives
+    the mean and max 3-D error. ``results``: {name: TrackResult}."""
+    import matplotlib.pyplot as plt
+
+    n = len(results)
+    fig = plt.figure(figsize=(4.6 * n, 4.8), layout="constrained")
+    for k, (name, res) in enumerate(results.items()):
+        ax = fig.add_subplot(1, n, k + 1, projection="3d")
+        t, p = 100 * res.targets_W, 100 * res.achieved_W
+        ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
+        ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
+        _equal_3d(ax, np.vstack([t, p]), zoom=0.8)
+        ax.view_init(elev=20, azim=-50)
+        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm",
+                     fontsize=9)
+        if k == 0:
+            ax.legend(fontsize=8, loc="upper left")
+    if title:
+        fig.suptitle(title)
+    return fig
