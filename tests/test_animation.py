@@ -1,4 +1,4 @@
-"""Tests of lab.animation: the rigid pieces that carry the arm's deformation, the
+"""Tests of lab.viz.animation: the rigid pieces that carry the arm's deformation, the
 meshcat animation built from them, and the page played in headless Chromium."""
 
 import numpy as np

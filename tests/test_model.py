@@ -1,4 +1,4 @@
-"""lab.model / lab.model_io: forward pass, analytic Jacobians, normalisation, files."""
+"""lab.learn.mlp / lab.learn.model_io: forward pass, analytic Jacobians, normalisation, files."""
 import json
 import zipfile
 

@@ -51,7 +51,7 @@ def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coa
     # dependent SIMD paths in NumPy/MKL were seen to move the last bit, 7e-16 m.)
     assert np.abs(serial["p_tip_W"] - parallel["p_tip_W"]).max() < 1e-12
     code = ("import sys, numpy as np; from lab.description import load_robot; "
-            "from lab.sampling import grid_chunks, grid_commands, simulate; r = load_robot('three-cable'); "
+            "from lab.data import grid_chunks, grid_commands, simulate; r = load_robot('three-cable'); "
             "u = grid_commands(r, 4); res = simulate(r, u, grid_chunks(r, u, target_size=16), n_rings=1, n_axial=6); "
             "np.save(sys.argv[1], res['p_tip_W'])")
     out = tmp_path / "serial.npy"

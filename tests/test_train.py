@@ -1,4 +1,4 @@
-"""lab.train / lab.train_gradient / lab.evaluate / `python -m lab train`: splits, LM semantics, errors, CLI."""
+"""lab.learn (split, lm, gradient, train, metrics, studies) / `python -m lab train`: splits, LM semantics, errors, CLI."""
 import json
 import subprocess
 import sys

@@ -54,12 +54,13 @@ def main(argv=None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)
     try:
         return args.func(args)
-    except LabError as err:
-        code, message = err.exit_code, str(err)
-    except OSError as err:
-        code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
-        message = _os_error_message(err)
-    if args.debug:
-        traceback.print_exc()
-    print(f"error: {message}", file=sys.stderr)
-    return code
+    except (LabError, OSError) as err:
+        if isinstance(err, LabError):
+            code, message = err.exit_code, str(err)
+        else:
+            code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
+            message = _os_error_message(err)
+        if args.debug:
+            traceback.print_exc()
+        print(f"error: {message}", file=sys.stderr)
+        return code

@@ -22,7 +22,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     e.add_argument("--seed", type=int, default=0, help="seed the split seeds are derived from")
     e.add_argument("--min-grad", type=float, help="LM gradient stop (default 1e-6, the paper's)")
     e.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes (default: all cores)")
-    e.add_argument("--out", required=True, help="CSV, one row per split (lab.evaluate.evaluate_splits keys)")
+    e.add_argument("--out", required=True, help="CSV, one row per split (lab.learn.evaluate_splits keys)")
     e.set_defaults(func=run)
 
     return e

@@ -8,7 +8,7 @@ metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:
 """
 
 from lab.learn.gradient import train_adam, train_lbfgs
-from lab.learn.lm import LMOptions, TrainLog, mse, train_lm
+from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
 from lab.learn.model_io import ModelFileError, read_model, save_model
@@ -22,4 +22,4 @@ from lab.learn.studies import (
 )
 from lab.learn.train import TrainResult, data_sha256, train
 
-__all__ = ["minmax_gain", "MLP", "init_mlp", "load_model", "ModelFileError", "save_model", "read_model", "Split", "divide_random", "mse", "LMOptions", "TrainLog", "train_lm", "train_adam", "train_lbfgs", "data_sha256", "TrainResult", "train", "mse_m2", "mean_distance_m", "error_report", "workspace_size_m", "run_seeds", "evaluate_splits", "size_sweep", "summarize", "write_csv"]
+__all__ = ["STOP_MESSAGES", "minmax_gain", "MLP", "init_mlp", "load_model", "ModelFileError", "save_model", "read_model", "Split", "divide_random", "mse", "LMOptions", "TrainLog", "train_lm", "train_adam", "train_lbfgs", "data_sha256", "TrainResult", "train", "mse_m2", "mean_distance_m", "error_report", "workspace_size_m", "run_seeds", "evaluate_splits", "size_sweep", "summarize", "write_csv"]

@@ -30,12 +30,16 @@ from lab.rig.capture import (
     journal_columns,
     measure,
 )
+from lab.rig.asbuilt import Defects, default_defects_path, load_defects, parse_defects
 from lab.rig.journal import Journal, JournalError
+from lab.rig.sim import SimRig
+from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
 __all__ = [
     "make_rig", "Rig", "Body", "MocapFrame", "RigError", "ServoError", "MocapError",
     "Capture", "Protocol", "Sample", "SettleDetector", "capture", "journal_columns", "measure",
-    "Journal", "JournalError",
+    "Journal", "JournalError", "SimRig", "TwinRig", "AsBuiltBody", "MocapModel",
+    "Defects", "default_defects_path", "load_defects", "parse_defects",
 ]
 
 
