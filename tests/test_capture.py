@@ -6,13 +6,14 @@ import tomllib
 
 import numpy as np
 import pytest
-from lab.rig.capture import Protocol, SettleDetector, capture, measure
-from lab.data.dataset import read_dataset
-from lab.rig.journal import Journal, JournalError
-from lab.data.designs import grid_commands
 
+from lab.data.dataset import read_dataset
+from lab.data.designs import grid_commands
 from lab.rig.asbuilt import default_defects_path, parse_defects
 from lab.rig.base import MocapError, MocapFrame, Rig
+from lab.rig.capture import capture
+from lab.rig.journal import Journal, JournalError
+from lab.rig.protocol import Protocol, SettleDetector, measure
 from lab.rig.sim import SimRig
 from lab.rig.twin import AsBuiltBody, TwinRig
 

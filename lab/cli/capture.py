@@ -75,7 +75,8 @@ def run(args) -> int:
     from lab.data.designs import grid_commands
     from lab.description import load_robot
     from lab.rig import make_rig
-    from lab.rig.capture import Protocol, capture
+    from lab.rig.capture import capture
+    from lab.rig.protocol import Protocol
 
     journal = Path(args.journal) if args.journal else Path(args.out).with_suffix(".journal.csv")
     try:

@@ -20,18 +20,11 @@ from __future__ import annotations
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
-from lab.rig.capture import (
-    Capture,
-    Protocol,
-    Sample,
-    SettleDetector,
-    capture,
-    journal_columns,
-    measure,
-)
 from lab.rig.asbuilt import Defects, default_defects_path, load_defects, parse_defects
+from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
+from lab.rig.capture import Capture, capture, journal_columns
 from lab.rig.journal import Journal, JournalError
+from lab.rig.protocol import Protocol, Sample, SettleDetector, measure
 from lab.rig.sim import SimRig
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 

@@ -1,181 +1,21 @@
-"""The data-capture protocol of Section III: reset, command, wait until settled, record.
-
-For each motor command ``u`` (rad) the protocol
-
-1. **erases hysteresis** (``reset``): contracts every cable together to
-   ``reset_u_rad``, releases them all to 0, then goes to ``u``;
-2. **waits until settled** (``wait``): the tip is watched as *readings*, each the mean
-   of the valid motion-capture frames over ``reading_period_s`` (0.1 s: 12 frames at
-   120 Hz). The arm is settled, once the motors have arrived, when the current reading
-   is within ``settle_tol_m`` (0.1 mm) of the mean of the previous ``n_previous`` (20)
-   readings -- the paper's criterion, over a 2 s window (twenty single 120 Hz frames span
-   only 0.17 s, too short to see a creep of seconds). Frames where the marker was
-   occluded (NaN) are left out of the readings; a reading with no valid frame is
-   skipped. A marker unseen for ``max_occlusion_s`` raises :class:`MocapError`.
-   Not settled within ``settle_timeout_s`` of the command: the sample is recorded
-   anyway and *flagged* (``settled = 0``), so a slow sample never stops a long capture;
-   the dataset's metadata lists flagged samples;
-3. **records** the current reading as ``y`` (m, frame W), with timings on the rig clock.
-
-Without waiting (``wait=False``) it records the first valid reading ``dwell_s`` after
-the motors arrive, as a script with a fixed pause would.
+"""A capture run: the protocol (:mod:`lab.rig.protocol`) over a list of commands, resumable.
 
 :func:`capture` runs a list of commands through an append-only :class:`~lab.rig.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. ``python -m lab capture``
-(``add_capture_parser``, in ``lab/capture_cli.py``) adds the grid, the rig and the dataset.
+(:mod:`lab.cli.capture`) adds the grid, the rig and the dataset.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from lab.errors import InputError
-from lab.rig.base import MocapError, Rig, RigError
+from lab.rig.base import Rig
 from lab.rig.journal import Journal
-
-
-@dataclass(frozen=True)
-class Protocol:
-    """Capture settings (SI units); the defaults are the protocol of the shipped data."""
-    wait: bool = True
-    reset: bool = True
-    n_previous: int = 20
-    reading_period_s: float = 0.1
-    settle_tol_m: float = 1e-4
-    settle_timeout_s: float = 60.0
-    dwell_s: float = 0.5
-    reset_u_rad: float = 1.0
-    motor_tol_rad: float = 0.01
-    motion_timeout_s: float = 30.0
-    max_occlusion_s: float = 2.0
-
-    def __post_init__(self):
-        for name in ("reading_period_s", "settle_tol_m", "settle_timeout_s", "motor_tol_rad",
-                     "motion_timeout_s", "max_occlusion_s"):
-            if not getattr(self, name) > 0:
-                raise InputError(f"protocol field '{name}' must be positive, got {getattr(self, name)!r}")
-        if self.n_previous < 1 or self.dwell_s < 0 or self.reset_u_rad < 0:
-            raise InputError("protocol needs n_previous >= 1, dwell_s >= 0 and reset_u_rad >= 0")
-
-    def as_dict(self) -> dict:
-        return asdict(self)
-
-
-class SettleDetector:
-    """The paper's test: the current reading is within ``tol_m`` of the mean of the
-    previous ``n_previous`` readings. NaN readings are ignored."""
-
-    def __init__(self, n_previous: int = 20, tol_m: float = 1e-4):
-        self.n_previous, self.tol_m = int(n_previous), float(tol_m)
-        self._history: list[np.ndarray] = []
-        self.deviation_m = np.inf    # |current - mean(previous)| at the last update, m
-
-    def update(self, reading_W: np.ndarray) -> bool:
-        """Add a reading (3,) m; True when settled."""
-        reading_W = np.asarray(reading_W, dtype=float)
-        if not np.all(np.isfinite(reading_W)):
-            return False
-        previous = self._history[-self.n_previous:]
-        self._history.append(reading_W)
-        if len(previous) < self.n_previous:
-            return False
-        self.deviation_m = float(np.linalg.norm(reading_W - np.mean(previous, axis=0)))
-        return self.deviation_m <= self.tol_m
-
-
-@dataclass
-class Sample:
-    """One recorded sample: command ``u_motor`` (m,) rad, tip ``p_tip_W`` (3,) m, present
-    motor angles ``u_present`` (m,) rad, times on the rig clock (s), settle statistics."""
-    u_motor: np.ndarray
-    p_tip_W: np.ndarray
-    u_present: np.ndarray
-    settled: bool
-    t_start_s: float
-    t_command_s: float
-    t_arrived_s: float
-    t_done_s: float
-    n_readings: int
-    deviation_m: float
-    n_frames: int
-    n_invalid_frames: int
-
-
-class _Watcher:
-    """Readings (mean of valid frames over one period) from a rig, with frame counts
-    and the occlusion check."""
-
-    def __init__(self, rig: Rig, protocol: Protocol):
-        self.rig, self.protocol = rig, protocol
-        self.n_frames = self.n_invalid = 0
-        self._t_seen = rig.now()
-
-    def read(self) -> np.ndarray:
-        end = self.rig.now() + self.protocol.reading_period_s
-        points = []
-        while self.rig.now() < end - 1e-9:
-            frame = self.rig.next_frame()
-            self.n_frames += 1
-            if frame.valid:
-                points.append(frame.p_tip_W)
-                self._t_seen = frame.t_s
-            else:
-                self.n_invalid += 1
-                if frame.t_s - self._t_seen > self.protocol.max_occlusion_s:
-                    raise MocapError(f"tip marker not seen for {frame.t_s - self._t_seen:.1f} s "
-                                     f"(limit {self.protocol.max_occlusion_s} s)")
-        return np.mean(points, axis=0) if points else np.full(3, np.nan)
-
-    def arrived(self, goal: np.ndarray) -> bool:
-        return bool(np.all(np.abs(self.rig.present_u() - goal) <= self.protocol.motor_tol_rad))
-
-    def go_to(self, u_motor: np.ndarray) -> None:
-        """Send ``u_motor`` and watch until the motors report it."""
-        goal = self.rig.send(u_motor)
-        t0 = self.rig.now()
-        while not self.arrived(goal):
-            if self.rig.now() - t0 > self.protocol.motion_timeout_s:
-                raise RigError(f"motors did not reach {goal.tolist()} rad within {self.protocol.motion_timeout_s} s "
-                               f"(present {self.rig.present_u().tolist()} rad)")
-            self.read()
-
-
-def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
-    """Capture one sample of command ``u_motor`` (m,) rad with ``protocol``."""
-    watch = _Watcher(rig, protocol)
-    t_start = rig.now()
-    if protocol.reset:
-        m = rig.robot.n_cables
-        watch.go_to(np.full(m, protocol.reset_u_rad))     # contract all together ...
-        watch.go_to(np.zeros(m))                          # ... and release
-    goal = rig.send(u_motor)
-    t_command = rig.now()
-    detector = SettleDetector(protocol.n_previous, protocol.settle_tol_m)
-    t_arrived, last_valid, settled, n_readings = None, None, False, 0
-    while True:
-        reading = watch.read()
-        n_readings += 1
-        valid = bool(np.all(np.isfinite(reading)))
-        if valid:
-            last_valid = reading
-        if t_arrived is None:
-            if watch.arrived(goal):
-                t_arrived = rig.now()
-            elif rig.now() - t_command > protocol.motion_timeout_s:
-                raise RigError(f"motors did not reach {goal.tolist()} rad within {protocol.motion_timeout_s} s "
-                               f"(present {rig.present_u().tolist()} rad)")
-        if protocol.wait:
-            settled = detector.update(reading)
-            if t_arrived is not None and (settled or (rig.now() - t_command > protocol.settle_timeout_s
-                                                      and last_valid is not None)):
-                break                                     # settled, or flagged (settled = False)
-        elif t_arrived is not None and rig.now() - t_arrived >= protocol.dwell_s and valid:
-            break                                         # fixed pause: settling not checked
-    return Sample(goal, last_valid, rig.present_u(), bool(settled), t_start, t_command, t_arrived, rig.now(),
-                  n_readings, detector.deviation_m if protocol.wait else float("nan"), watch.n_frames, watch.n_invalid)
+from lab.rig.protocol import Protocol, measure
 
 
 def journal_columns(n_motors: int) -> list[str]:

@@ -5,7 +5,7 @@
 1. IK for every target, warm-started along the trajectory (:meth:`lab.control.ik.IKSolver.follow`),
    through the learned model or, for Soft IK, the FEM;
 2. send each command to the rig in turn, wait until the tip has settled and record where
-   it is -- the capture protocol's :func:`lab.rig.capture.measure` (the paper's settle rule
+   it is -- the capture protocol's :func:`lab.rig.protocol.measure` (the paper's settle rule
    of Section III) without its hysteresis reset, since the trajectory is followed
    continuously;
 3. errors ``|achieved - target|`` (m) in 3-D, their mean (Table I) and maximum.
@@ -39,7 +39,7 @@ from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.files import atomic_write_text, code_version
 from lab.rig.base import Rig
-from lab.rig.capture import Protocol, measure
+from lab.rig.protocol import Protocol, measure
 
 #: How each trajectory point is recorded: the capture protocol without the reset.
 TRACK_PROTOCOL = Protocol(reset=False)
@@ -102,7 +102,7 @@ class TrackResult:
 def run_trajectory(rig: Rig, solver: IKSolver, targets_W, *, name: str = "custom",
                    protocol: Protocol = TRACK_PROTOCOL, u0=None, progress=None) -> TrackResult:
     """IK for all ``targets_W`` (N, 3) m, then send each command to ``rig`` and record the
-    settled tip with ``protocol`` (:class:`lab.rig.capture.Protocol`, default
+    settled tip with ``protocol`` (:class:`lab.rig.protocol.Protocol`, default
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
     ``progress(i, n)`` is called after each point. The rig is left open (the caller owns it)."""
     targets = np.atleast_2d(check_targets(targets_W))
