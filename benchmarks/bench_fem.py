@@ -8,6 +8,7 @@ Prints the ratio (time per warm-started sample) / (one assembly + one factorisat
 where that time goes (a second, instrumented run of the same walk), and the targets
 of issue 2: 308-point grid < 60 s, >= 15,000 six-cable samples < 30 min.
 """
+
 import argparse
 import os
 import time
@@ -32,8 +33,10 @@ ap = argparse.ArgumentParser()
 ap.add_argument("--six-full", action="store_true", help="simulate the full six-cable 5-level grid")
 args = ap.parse_args()
 jobs = default_jobs()
-print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}; "
-      f"workers: {jobs}")
+print(
+    f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}; "
+    f"workers: {jobs}"
+)
 
 robot = load_robot("three-cable")
 fem = ArmFEM(robot)
@@ -47,16 +50,19 @@ H = fem.hessian(sol.q, u)
 print(f"  energy {1e3 * t_energy:.2f} ms, gradient {1e3 * t_grad:.2f} ms, Hessian assembly {1e3 * t_asm:.2f} ms")
 t_fact = {}
 for name in _available():
-    t_fact[name] = best_of(lambda: factorize(H, name))
+    t_fact[name] = best_of(lambda name=name: factorize(H, name))
     print(f"  factorisation [{name}]: {1e3 * t_fact[name]:.2f} ms")
 if "pardiso" in t_fact:
     from lab.fem.linsolve import _Pardiso
 
     def analyse_and_factorize():
-        _Pardiso._pattern = None          # forget the symbolic analysis: phase 12, not 22
+        _Pardiso._pattern = None  # forget the symbolic analysis: phase 12, not 22
         factorize(H, "pardiso")
-    print(f"  (pardiso analysis + factorisation, paid once per mesh: {1e3 * best_of(analyse_and_factorize):.2f} ms; "
-          f"each Newton iteration pays the numerical factorisation above)")
+
+    print(
+        f"  (pardiso analysis + factorisation, paid once per mesh: {1e3 * best_of(analyse_and_factorize):.2f} ms; "
+        f"each Newton iteration pays the numerical factorisation above)"
+    )
 backend = _available()[0]
 unit = t_asm + t_fact[backend]
 print(f"  one assembly + one factorisation [{backend}]: {1e3 * unit:.2f} ms")
@@ -68,9 +74,11 @@ res = simulate(robot, cmds, chunks[:2], n_jobs=1)
 n = sum(len(c.order) for c in chunks[:2])
 idx = np.concatenate([c.order[1:] for c in chunks[:2]])  # drop each chunk's first (cold-ish) solve
 t_sample = res["time_s"][idx].mean()
-print(f"  warm-started samples ({len(idx)} of a serial walk): {res['iterations'][idx].mean():.2f} Newton or chord "
-      f"steps, {res['factorizations'][idx].mean():.2f} assemblies + factorisations, "
-      f"{1e3 * t_sample:.1f} ms per sample")
+print(
+    f"  warm-started samples ({len(idx)} of a serial walk): {res['iterations'][idx].mean():.2f} Newton or chord "
+    f"steps, {res['factorizations'][idx].mean():.2f} assemblies + factorisations, "
+    f"{1e3 * t_sample:.1f} ms per sample"
+)
 print(f"  ratio time per sample / (assembly + factorisation) = {t_sample / unit:.2f}  (target < 3)")
 
 # Where a warm sample's time goes: the same walk again, each phase timed (exclusive of
@@ -102,6 +110,7 @@ def timed(name, fn):
             calls[name] = calls.get(name, 0) + 1
             if stack:
                 stack[-1] += dt
+
     return wrapper
 
 
@@ -116,22 +125,28 @@ finally:
         setattr(owner, attr, fn)
 n_walk = sum(len(c.order) for c in chunks[:2])
 calls.pop("rest (Python, NumPy glue)")
-print(f"  where the time goes, ms per sample over all {n_walk} samples of those walks "
-      f"(instrumented run, {1e3 * sum(spent.values()) / n_walk:.1f} ms per sample; per call x calls per sample):")
+print(
+    f"  where the time goes, ms per sample over all {n_walk} samples of those walks "
+    f"(instrumented run, {1e3 * sum(spent.values()) / n_walk:.1f} ms per sample; per call x calls per sample):"
+)
 for name in sorted(spent, key=spent.get, reverse=True):
     per_call = f"{1e3 * spent[name] / calls[name]:6.2f} ms x {calls[name] / n_walk:4.2f}" if name in calls else ""
     print(f"    {name:36s} {1e3 * spent[name] / n_walk:6.2f} ms   {per_call}")
 # The ratio above divides by best-of-7 timings on a hot cache; inside the walk an
 # assembly and a factorisation cost more (other work evicts the caches in between).
 unit_walk = sum(spent[k] / calls[k] for k in ("Hessian assembly", "factorisation"))
-print(f"  (in that run: one assembly + one factorisation {1e3 * unit_walk:.2f} ms, a warm sample "
-      f"{1e3 * res2['time_s'][idx].mean():.1f} ms: {res2['time_s'][idx].mean() / unit_walk:.2f} of them)")
+print(
+    f"  (in that run: one assembly + one factorisation {1e3 * unit_walk:.2f} ms, a warm sample "
+    f"{1e3 * res2['time_s'][idx].mean():.1f} ms: {res2['time_s'][idx].mean() / unit_walk:.2f} of them)"
+)
 
 t0 = time.perf_counter()
 full = simulate(robot, cmds, chunks, n_jobs=jobs)
 wall = time.perf_counter() - t0
-print(f"\nthree-cable 7x7x7 grid: {len(cmds)} samples in {wall:.1f} s with {jobs} workers "
-      f"(target < 60 s), {full['iterations'].mean():.2f} mean iterations")
+print(
+    f"\nthree-cable 7x7x7 grid: {len(cmds)} samples in {wall:.1f} s with {jobs} workers "
+    f"(target < 60 s), {full['iterations'].mean():.2f} mean iterations"
+)
 
 six = load_robot("six-cable")
 cmds6 = grid_commands(six, 5)
@@ -144,8 +159,10 @@ for workers in sorted({1, jobs}):
     t0 = time.perf_counter()
     simulate(six, cmds6, sub, n_jobs=workers)
     rates[workers] = n_sub / (time.perf_counter() - t0)
-    print(f"  {workers} worker(s): {rates[workers]:.2f} samples/s over {n_sub} samples "
-          f"-> full set in ~{len(cmds6) / rates[workers] / 60:.1f} min")
+    print(
+        f"  {workers} worker(s): {rates[workers]:.2f} samples/s over {n_sub} samples "
+        f"-> full set in ~{len(cmds6) / rates[workers] / 60:.1f} min"
+    )
 if jobs > 1:
     print(f"  scaling 1 -> {jobs} workers: {rates[jobs] / rates[1]:.2f}x")
 print(f"  samples per second per core: {rates[jobs] / jobs:.2f}")

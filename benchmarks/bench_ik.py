@@ -10,6 +10,7 @@ command set. The learned-model timing is the best of 5 passes (the target is < 1
 point); Soft IK runs once. Also shown: projected gradient descent (the paper's
 minimiser) through the learned model, and the ratio Soft IK / learned model.
 """
+
 import argparse
 import os
 import time
@@ -40,10 +41,12 @@ print(f"{args.trajectory}: {len(targets)} targets; model {model!r} from {args.mo
 
 def summary(name, run, wall_s):
     per = run.time_s
-    print(f"  {name:<28} {1e3 * np.mean(per):9.3f} ms/target (median {1e3 * np.median(per):.3f}, max "
-          f"{1e3 * np.max(per):.3f}), {run.iterations.mean():.2f} iterations/target, "
-          f"max residual {run.residual_m.max():.1e} m, {int(run.reachable.sum())}/{len(per)} reached, "
-          f"{wall_s:.2f} s in all")
+    print(
+        f"  {name:<28} {1e3 * np.mean(per):9.3f} ms/target (median {1e3 * np.median(per):.3f}, max "
+        f"{1e3 * np.max(per):.3f}), {run.iterations.mean():.2f} iterations/target, "
+        f"max residual {run.residual_m.max():.1e} m, {int(run.reachable.sum())}/{len(per)} reached, "
+        f"{wall_s:.2f} s in all"
+    )
     return float(np.mean(per))
 
 
@@ -68,11 +71,15 @@ fmap = FEMForwardMap(fem)
 t0 = time.perf_counter()
 soft = IKSolver(fmap, commands, "lm").follow(targets)
 t_soft = summary("LM, warm-started", soft, time.perf_counter() - t0)
-print(f"  {fmap.n_solves} static solves ({fmap.n_solves / len(targets):.2f} per target), "
-      f"{1e3 * fmap.solve_time_s / fmap.n_solves:.1f} ms each")
+print(
+    f"  {fmap.n_solves} static solves ({fmap.n_solves / len(targets):.2f} per target), "
+    f"{1e3 * fmap.solve_time_s / fmap.n_solves:.1f} ms each"
+)
 
 du = np.abs(soft.u_motor - best[0].u_motor).max()
-print(f"\nlearned model LM: {1e3 * t_model:.3f} ms per target (target < 1 ms); gradient descent "
-      f"{1e3 * t_gd:.2f} ms ({t_gd / t_model:.0f}x LM)")
+print(
+    f"\nlearned model LM: {1e3 * t_model:.3f} ms per target (target < 1 ms); gradient descent "
+    f"{1e3 * t_gd:.2f} ms ({t_gd / t_model:.0f}x LM)"
+)
 print(f"Soft IK: {1e3 * t_soft:.1f} ms per target; ratio Soft IK / learned model = {t_soft / t_model:.0f}x")
 print(f"largest command difference between the two: {du:.4f} rad")

@@ -7,6 +7,7 @@ analytic Jacobian for a batch of 10,000 inputs < 10 ms; the analytic Jacobian at
 fast as torch autograd on the same batch (ratio reported). Times are the best of several
 repetitions; torch runs on one thread like NumPy's BLAS here.
 """
+
 import os
 import time
 from pathlib import Path
@@ -21,15 +22,14 @@ from lab.learn.train import train
 DATA = Path(__file__).resolve().parent.parent / "data" / "sim_three_cable.csv"
 
 
-
-
 print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}")
 u, y, _ = read_dataset(DATA)
 print(f"\nLM training (trainlm semantics) of 3-20-20-3 on {DATA.name} ({len(u)} samples):")
-for label, kwargs in (("80/10/10 split, paper's stopping rules", dict(ratios=(0.8, 0.1, 0.1))),
-                      ("90/10 split (the 10-split study), paper's rules", dict(ratios=(0.9, 0.0, 0.1))),
-                      ("all 308 samples, full 1000 epochs (min_grad = 0)",
-                       dict(ratios=(1.0, 0.0, 0.0), options=LMOptions(min_grad=0.0)))):
+for label, kwargs in (
+    ("80/10/10 split, paper's stopping rules", dict(ratios=(0.8, 0.1, 0.1))),
+    ("90/10 split (the 10-split study), paper's rules", dict(ratios=(0.9, 0.0, 0.1))),
+    ("all 308 samples, full 1000 epochs (min_grad = 0)", dict(ratios=(1.0, 0.0, 0.0), options=LMOptions(min_grad=0.0))),
+):
     walls, epochs = [], []
     for seed in range(3):
         t0 = time.perf_counter()
@@ -38,8 +38,10 @@ for label, kwargs in (("80/10/10 split, paper's stopping rules", dict(ratios=(0.
         epochs.append(res.log.epochs)
         if kwargs.get("options"):
             break
-    print(f"  {label}: {np.mean(walls):.2f} s per run (max {max(walls):.2f} s, target < 10 s), "
-          f"{np.mean(epochs):.0f} epochs, {1e3 * sum(walls) / sum(epochs):.1f} ms per epoch")
+    print(
+        f"  {label}: {np.mean(walls):.2f} s per run (max {max(walls):.2f} s, target < 10 s), "
+        f"{np.mean(epochs):.0f} epochs, {1e3 * sum(walls) / sum(epochs):.1f} ms per epoch"
+    )
 
 rng = np.random.default_rng(0)
 model = res.model
@@ -71,16 +73,17 @@ U_t = T(U)
 vmapped = torch.func.vmap(torch.func.jacrev(f))
 
 
-def rows_by_backward():            # samples are independent: d(sum_i y_ik)/du_i = row k of J_i
+def rows_by_backward():  # samples are independent: d(sum_i y_ik)/du_i = row k of J_i
     u = U_t.clone().requires_grad_(True)
     out = f(u)
     return torch.stack([torch.autograd.grad(out[:, k].sum(), u, retain_graph=k < 2)[0] for k in range(3)], 1)
 
 
 J_np = model.jacobian(U)
-for name, fn in (("torch.func.vmap(jacrev)", lambda: vmapped(U_t)),
-                 ("autograd, one backward per output", rows_by_backward)):
+for name, fn in (
+    ("torch.func.vmap(jacrev)", lambda: vmapped(U_t)),
+    ("autograd, one backward per output", rows_by_backward),
+):
     err = np.abs(fn().detach().numpy() - J_np).max() / np.abs(J_np).max()
     t = best_of(fn, 20)
-    print(f"  {name:<34} {1e3 * t:7.2f} ms   analytic is {t / t_jac:.1f}x faster "
-          f"(max rel. difference {err:.1e})")
+    print(f"  {name:<34} {1e3 * t:7.2f} ms   analytic is {t / t_jac:.1f}x faster (max rel. difference {err:.1e})")

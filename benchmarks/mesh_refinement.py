@@ -6,6 +6,7 @@ lies within TOL_M of the finest one for every command.
 
     python benchmarks/mesh_refinement.py [--robot three-cable]
 """
+
 import argparse
 import time
 
@@ -40,8 +41,10 @@ for n_rings, n_axial in MESHES:
     tips[(n_rings, n_axial)] = np.array([rest.p_tip_W] + [solve_static(fem, u, rest.q).p_tip_W for u in commands[1:]])
     rows.append((n_rings, n_axial, fem.mesh.n_nodes, time.perf_counter() - t0))
 ref = tips[MESHES[-1]]
-print(f"{robot.name}: tip distance to the finest mesh {MESHES[-1]} over {len(commands)} commands "
-      f"(rest, each cable at u_max, a mixed one)")
+print(
+    f"{robot.name}: tip distance to the finest mesh {MESHES[-1]} over {len(commands)} commands "
+    f"(rest, each cable at u_max, a mixed one)"
+)
 print(f"{'rings':>5} {'axial':>5} {'nodes':>6} {'max dist mm':>11} {'rest sag mm':>11} {'solve s':>8}")
 chosen = None
 for (n_rings, n_axial, n_nodes, t), mesh in zip(rows, MESHES):
@@ -49,5 +52,7 @@ for (n_rings, n_axial, n_nodes, t), mesh in zip(rows, MESHES):
     print(f"{n_rings:5d} {n_axial:5d} {n_nodes:6d} {1e3 * dist:11.2f} {-1e3 * tips[mesh][0, 2]:11.2f} {t:8.2f}")
     if chosen is None and dist <= TOL_M and mesh != MESHES[-1]:
         chosen = (n_rings, n_axial, n_nodes)
-print(f"cheapest mesh within {1e3 * TOL_M:.1f} mm of the finest: n_rings={chosen[0]} n_axial={chosen[1]} "
-      f"({chosen[2]} nodes); description default: n_rings={robot.n_rings} n_axial={robot.n_axial}")
+print(
+    f"cheapest mesh within {1e3 * TOL_M:.1f} mm of the finest: n_rings={chosen[0]} n_axial={chosen[1]} "
+    f"({chosen[2]} nodes); description default: n_rings={robot.n_rings} n_axial={robot.n_axial}"
+)

@@ -1,4 +1,5 @@
 """``python -m lab <command>``: see ``python -m lab --help``."""
+
 import sys
 
 from lab.cli import main

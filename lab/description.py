@@ -9,6 +9,7 @@ Shipped descriptions live in ``lab/robots/<name>.toml``; :func:`load_robot` acce
 either such a name (``"three-cable"``) or a path to a user's own file. Every field is
 checked and a bad file raises :class:`DescriptionError` naming the field.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -37,6 +38,7 @@ class Cable:
     ``via_points_m`` (K, 3) are rest positions in frame W; the last one is where the
     cable is tied off. ``anchor_m`` (3,) is where it leaves the base towards its spool.
     """
+
     name: str
     anchor_m: np.ndarray
     via_points_m: np.ndarray
@@ -45,6 +47,7 @@ class Cable:
 @dataclass(frozen=True)
 class SafetyLimit:
     """Forbid commands with ``sum(u[cables]) > max_sum_over_u_max * u_max``."""
+
     cables: tuple[int, ...]
     max_sum_over_u_max: float
 
@@ -78,6 +81,7 @@ class RobotDescription:
     def sha256(self) -> str:
         """Hash of every field (stable across comments and formatting of the file, and
         different for a description modified in code with ``dataclasses.replace``)."""
+
         def plain(v):
             if isinstance(v, np.ndarray):
                 return v.tolist()
@@ -86,6 +90,7 @@ class RobotDescription:
             if hasattr(v, "__dataclass_fields__"):
                 return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__}
             return v
+
         fields = {k: plain(getattr(self, k)) for k in self.__dataclass_fields__ if k not in ("source", "summary")}
         return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()
 
@@ -174,11 +179,13 @@ def _cable(entry: dict, i: int, length: float, radius: float) -> Cable:
         angle = math.radians(_get(entry, "angle_deg", where))
         offset = _get(entry, "offset_m", where, positive=True)
         if "stations_m" not in entry or not isinstance(entry["stations_m"], list) or not entry["stations_m"]:
-            raise DescriptionError(f"field '{where}.stations_m' must be a non-empty list of x positions "
-                                   f"(or give '{where}.via_points_m')")
+            raise DescriptionError(
+                f"field '{where}.stations_m' must be a non-empty list of x positions (or give '{where}.via_points_m')"
+            )
         xs = np.asarray(entry["stations_m"], dtype=float)
-        pts = np.column_stack([xs, np.full_like(xs, offset * math.cos(angle)),
-                               np.full_like(xs, offset * math.sin(angle))])
+        pts = np.column_stack(
+            [xs, np.full_like(xs, offset * math.cos(angle)), np.full_like(xs, offset * math.sin(angle))]
+        )
     if not np.all(np.isfinite(pts)):
         raise DescriptionError(f"{where}: via points must be finite")
     if np.any(pts[:, 0] <= 0) or np.any(pts[:, 0] > length + 1e-12):
@@ -242,11 +249,25 @@ def parse_robot(data: dict) -> RobotDescription:
         limits.append(SafetyLimit(tuple(idx), _get(lim, "max_sum_over_u_max", where, positive=True)))
 
     return RobotDescription(
-        name=name, summary=str(data.get("summary", "")), length_m=length, radius_m=radius,
-        youngs_modulus_pa=E, poisson_ratio=nu, density_kg_m3=rho, gravity_m_s2=gravity,
-        n_rings=n_rings, n_axial=n_axial, spool_radius_m=spool, u_max_rad=u_max,
-        cable_stiffness_n_m=k_cable, slack_smoothing_m=eps, cables=cables,
-        p_tip_marker_W=p_tip, safety_limits=tuple(limits), source=data)
+        name=name,
+        summary=str(data.get("summary", "")),
+        length_m=length,
+        radius_m=radius,
+        youngs_modulus_pa=E,
+        poisson_ratio=nu,
+        density_kg_m3=rho,
+        gravity_m_s2=gravity,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        spool_radius_m=spool,
+        u_max_rad=u_max,
+        cable_stiffness_n_m=k_cable,
+        slack_smoothing_m=eps,
+        cables=cables,
+        p_tip_marker_W=p_tip,
+        safety_limits=tuple(limits),
+        source=data,
+    )
 
 
 def read_toml(path: str | Path, error: type[Exception], what: str) -> dict:

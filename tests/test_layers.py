@@ -137,9 +137,9 @@ def test_subpackage_exports(package):
 
 
 def test_modules_stay_small():
-    # One concept per module: about 300 lines at most (a little slack for docstrings).
-    big = {module_name(p): n for p in LAB.rglob("*.py") if (n := len(p.read_text().splitlines())) > 360}
-    assert not big, f"modules over 360 lines: {big}"
+    # One concept per module: about 300 lines (formatted by ruff); 400 is the hard limit.
+    big = {module_name(p): n for p in LAB.rglob("*.py") if (n := len(p.read_text().splitlines())) > 400}
+    assert not big, f"modules over 400 lines: {big}"
 
 
 def test_errors_derive_from_lab_error():

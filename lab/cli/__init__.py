@@ -32,10 +32,14 @@ _BAD_PATH_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotAD
 
 def build_parser() -> argparse.ArgumentParser:
     debug = argparse.ArgumentParser(add_help=False)
-    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                       help="show the Python traceback of an error")
-    p = argparse.ArgumentParser(prog="python -m lab", description="Soft robot control with a learned "
-                                "differentiable model: simulate, capture, train, evaluate and track.")
+    debug.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="show the Python traceback of an error"
+    )
+    p = argparse.ArgumentParser(
+        prog="python -m lab",
+        description="Soft robot control with a learned "
+        "differentiable model: simulate, capture, train, evaluate and track.",
+    )
     p.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
     sub = p.add_subparsers(dest="command", required=True)
     for module in COMMANDS.values():

@@ -9,6 +9,7 @@ format ``lab.data.dataset.read_dataset`` reads. Killed or failed, it keeps every
 captured so far; the same command continues where it stopped. On any error the rig is
 closed (torque off on hardware) and the message names the problem.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,20 +25,33 @@ from lab.errors import LabError
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     """Add the ``capture`` command to an ``argparse`` subparsers object."""
-    p = subparsers.add_parser("capture", parents=parents, help="capture (u, y) samples of a grid on a rig with the paper's protocol",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "capture",
+        parents=parents,
+        help="capture (u, y) samples of a grid on a rig with the paper's protocol",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--rig", default="twin", help="sim | twin[:DEFECTS.toml] | hardware:RIG.toml (default: twin)")
     p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
     p.add_argument("--grid", type=int, default=7, metavar="LEVELS", help="grid levels per motor (default 7)")
     p.add_argument("--out", required=True, help="output CSV; metadata goes to OUT.json")
     p.add_argument("--journal", help="append-only journal to write or resume (default: OUT with .journal.csv)")
     p.add_argument("--seed", type=int, default=0, help="seed of the shuffled order and the emulated rig's noise")
-    p.add_argument("--order", choices=("shuffled", "grid"), default="shuffled",
-                   help="capture order (default shuffled; the dataset is written in grid order either way)")
-    p.add_argument("--no-wait", action="store_true", help="do not wait until settled: record 0.5 s after the motors arrive")
+    p.add_argument(
+        "--order",
+        choices=("shuffled", "grid"),
+        default="shuffled",
+        help="capture order (default shuffled; the dataset is written in grid order either way)",
+    )
+    p.add_argument(
+        "--no-wait", action="store_true", help="do not wait until settled: record 0.5 s after the motors arrive"
+    )
     p.add_argument("--no-reset", action="store_true", help="do not erase hysteresis before each sample")
     p.add_argument("--settle-tol-mm", type=float, default=0.1, help="settle tolerance, mm (default 0.1)")
-    p.add_argument("--reset-rad", type=float, default=1.0, help="contraction of every cable in the reset, rad (default 1)")
+    p.add_argument(
+        "--reset-rad", type=float, default=1.0, help="contraction of every cable in the reset, rad (default 1)"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
@@ -45,8 +59,24 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 def command_line(args) -> str:
     """The command that reproduces ``args`` (for the dataset's metadata)."""
-    words = ["python", "-m", "lab", "capture", "--rig", args.rig, "--robot", args.robot, "--grid", str(args.grid),
-             "--out", str(args.out), "--seed", str(args.seed), "--order", args.order]
+    words = [
+        "python",
+        "-m",
+        "lab",
+        "capture",
+        "--rig",
+        args.rig,
+        "--robot",
+        args.robot,
+        "--grid",
+        str(args.grid),
+        "--out",
+        str(args.out),
+        "--seed",
+        str(args.seed),
+        "--order",
+        args.order,
+    ]
     if args.journal:
         words += ["--journal", str(args.journal)]
     words += ["--no-wait"] * args.no_wait + ["--no-reset"] * args.no_reset
@@ -66,8 +96,12 @@ def rig_identity(description: dict) -> dict:
 
 
 def _stats(a: np.ndarray) -> dict:
-    return {"mean": float(np.mean(a)), "median": float(np.median(a)), "p95": float(np.percentile(a, 95)),
-            "max": float(np.max(a))}
+    return {
+        "mean": float(np.mean(a)),
+        "median": float(np.median(a)),
+        "p95": float(np.percentile(a, 95)),
+        "max": float(np.max(a)),
+    }
 
 
 def run(args) -> int:
@@ -82,35 +116,66 @@ def run(args) -> int:
     try:
         robot = load_robot(args.robot)
         grid = grid_commands(robot, args.grid)
-        protocol = Protocol(wait=not args.no_wait, reset=not args.no_reset, settle_tol_m=1e-3 * args.settle_tol_mm,
-                            reset_u_rad=args.reset_rad)
-        order = (np.random.default_rng(args.seed).permutation(len(grid)) if args.order == "shuffled"
-                 else np.arange(len(grid)))
-        sampler = {"name": "grid", "levels": args.grid, "n_candidates": args.grid ** robot.n_cables,
-                   "n_safe": len(grid), "order": args.order, "seed": args.seed}
-        print(f"{robot.name}: {len(grid)} safe commands of the {args.grid}^{robot.n_cables} grid on rig {args.rig!r}, "
-              f"journal {journal}", file=sys.stderr)
+        protocol = Protocol(
+            wait=not args.no_wait,
+            reset=not args.no_reset,
+            settle_tol_m=1e-3 * args.settle_tol_mm,
+            reset_u_rad=args.reset_rad,
+        )
+        order = (
+            np.random.default_rng(args.seed).permutation(len(grid))
+            if args.order == "shuffled"
+            else np.arange(len(grid))
+        )
+        sampler = {
+            "name": "grid",
+            "levels": args.grid,
+            "n_candidates": args.grid**robot.n_cables,
+            "n_safe": len(grid),
+            "order": args.order,
+            "seed": args.seed,
+        }
+        print(
+            f"{robot.name}: {len(grid)} safe commands of the {args.grid}^{robot.n_cables} grid on rig {args.rig!r}, "
+            f"journal {journal}",
+            file=sys.stderr,
+        )
         t0 = time.perf_counter()
         with make_rig(args.rig, robot, seed=args.seed) as rig:
             description = rig.describe()
-            header = {"robot": {"name": robot.name, "sha256": robot.sha256}, "rig": rig_identity(description),
-                      "sampler": sampler}
-            res = capture(rig, grid[order], journal, protocol, header=header,
-                          session_info={"command": command_line(args)}, progress=not args.no_progress)
+            header = {
+                "robot": {"name": robot.name, "sha256": robot.sha256},
+                "rig": rig_identity(description),
+                "sampler": sampler,
+            }
+            res = capture(
+                rig,
+                grid[order],
+                journal,
+                protocol,
+                header=header,
+                session_info={"command": command_line(args)},
+                progress=not args.no_progress,
+            )
         wall_s = time.perf_counter() - t0
     except KeyboardInterrupt:
-        print(f"interrupted; every sample captured so far is in {journal}: "
-              "run the same command again to continue", file=sys.stderr)
+        print(
+            f"interrupted; every sample captured so far is in {journal}: run the same command again to continue",
+            file=sys.stderr,
+        )
         return 130
     except (LabError, OSError):
         # the message itself is printed by lab.cli.main; the exit code follows the error
         if journal.exists():
-            print(f"(the rig was closed; samples captured so far are in {journal}; "
-                  "the same command continues from there)", file=sys.stderr)
+            print(
+                f"(the rig was closed; samples captured so far are in {journal}; "
+                "the same command continues from there)",
+                file=sys.stderr,
+            )
         raise
 
     y = np.empty_like(res.p_tip_W)
-    y[order] = res.p_tip_W                                     # back to grid order
+    y[order] = res.p_tip_W  # back to grid order
     settled = np.empty(len(grid), bool)
     settled[order] = res.settled
     per_sample = {name: np.empty(len(grid)) for name in ("sample_s", "settle_s")}
@@ -123,20 +188,26 @@ def run(args) -> int:
         "protocol": protocol.as_dict(),
         "sampler": sampler,
         "capture": {
-            "journal": str(journal), "n_sessions": int(res.session.max()),
+            "journal": str(journal),
+            "n_sessions": int(res.session.max()),
             "n_unsettled": int(len(unsettled)) if protocol.wait else None,
             "unsettled_rows": unsettled.tolist() if protocol.wait else None,
-            "robot_time_s": res.robot_time_s, "rate_samples_per_hour": res.rate_per_hour,
-            "sample_s": _stats(res.sample_s), "settle_s": _stats(res.settle_s),
+            "robot_time_s": res.robot_time_s,
+            "rate_samples_per_hour": res.rate_per_hour,
+            "sample_s": _stats(res.sample_s),
+            "settle_s": _stats(res.settle_s),
             "invalid_frame_fraction": float(res.n_invalid_frames.sum() / max(1, res.n_frames.sum())),
-            "wall_s_this_session": wall_s, "wall_s_all_sessions": res.wall_s,
+            "wall_s_this_session": wall_s,
+            "wall_s_all_sessions": res.wall_s,
         },
         "per_sample": {"settled": settled.astype(int).tolist(), **{k: v.tolist() for k, v in per_sample.items()}},
         "command": command_line(args),
     }
     write_dataset(args.out, grid, y, meta)
-    print(f"wrote {len(grid)} samples to {args.out} ({res.new_samples} new): {res.rate_per_hour:.0f} samples per "
-          f"hour of robot time ({res.robot_time_s / 3600:.2f} h), {wall_s:.1f} s wall"
-          + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else ""),
-          file=sys.stderr)
+    print(
+        f"wrote {len(grid)} samples to {args.out} ({res.new_samples} new): {res.rate_per_hour:.0f} samples per "
+        f"hour of robot time ({res.robot_time_s / 3600:.2f} h), {wall_s:.1f} s wall"
+        + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else ""),
+        file=sys.stderr,
+    )
     return 0

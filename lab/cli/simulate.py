@@ -12,7 +12,9 @@ from lab.data.simulation import default_jobs
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     """Add this command to an ``argparse`` subparsers object; returns its parser."""
-    s = subparsers.add_parser("simulate", parents=parents, help="simulate (u, y) pairs of a robot with the FEM and write a dataset")
+    s = subparsers.add_parser(
+        "simulate", parents=parents, help="simulate (u, y) pairs of a robot with the FEM and write a dataset"
+    )
     s.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
     g = s.add_mutually_exclusive_group()
     g.add_argument("--grid", type=int, default=7, metavar="LEVELS", help="grid levels per motor (default 7)")
@@ -23,14 +25,24 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     s.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes (default: all cores)")
     s.add_argument("--out", required=True, help="output CSV; metadata goes to OUT.json")
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
-    s.add_argument("--checkpoint", metavar="DIR",
-                   help="where finished chunks are kept until the dataset is written (default OUT.chunks); "
-                        "running the same command again after a kill resumes from it")
-    s.add_argument("--chunk-size", type=int, default=64,
-                   help="commands per chunk (a unit of work and of checkpointing; default 64)")
+    s.add_argument(
+        "--checkpoint",
+        metavar="DIR",
+        help="where finished chunks are kept until the dataset is written (default OUT.chunks); "
+        "running the same command again after a kill resumes from it",
+    )
+    s.add_argument(
+        "--chunk-size",
+        type=int,
+        default=64,
+        help="commands per chunk (a unit of work and of checkpointing; default 64)",
+    )
     s.add_argument("--restart", action="store_true", help="discard an existing checkpoint and start over")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                   help="run the chunks on this Dask scheduler instead of local worker processes")
+    s.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="run the chunks on this Dask scheduler instead of local worker processes",
+    )
     s.set_defaults(func=run)
 
     return s
@@ -57,15 +69,26 @@ def run(args) -> int:
     else:
         u = grid_commands(robot, args.grid)
         chunks = grid_chunks(robot, u, target_size=args.chunk_size)
-        sampler = {"name": "grid", "levels": args.grid, "n_candidates": args.grid ** robot.n_cables}
+        sampler = {"name": "grid", "levels": args.grid, "n_candidates": args.grid**robot.n_cables}
     sampler["n_safe"] = len(u)
-    print(f"{robot.name}: {len(u)} safe commands, mesh n_rings={n_rings} n_axial={n_axial}, "
-          f"{args.jobs} worker(s)", file=sys.stderr)
+    print(
+        f"{robot.name}: {len(u)} safe commands, mesh n_rings={n_rings} n_axial={n_axial}, {args.jobs} worker(s)",
+        file=sys.stderr,
+    )
     checkpoint = args.checkpoint or f"{args.out}.chunks"
     if args.restart:
         shutil.rmtree(checkpoint, ignore_errors=True)
-    res = simulate(robot, u, chunks, n_rings=n_rings, n_axial=n_axial, n_jobs=args.jobs,
-                   progress=not args.no_progress, checkpoint=checkpoint, scheduler=args.scheduler)
+    res = simulate(
+        robot,
+        u,
+        chunks,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=args.jobs,
+        progress=not args.no_progress,
+        checkpoint=checkpoint,
+        scheduler=args.scheduler,
+    )
     if res["resumed_samples"]:
         print(f"resumed: {res['resumed_samples']} samples came from {checkpoint}", file=sys.stderr)
     from lab.fem.mesh import cylinder_mesh
@@ -73,16 +96,29 @@ def run(args) -> int:
     mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)  # counts only
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
-        "mesh": {"mesher": "cylinder", "n_rings": n_rings, "n_axial": n_axial,
-                 "n_nodes": mesh.n_nodes, "n_tets": len(mesh.tets)},
+        "mesh": {
+            "mesher": "cylinder",
+            "n_rings": n_rings,
+            "n_axial": n_axial,
+            "n_nodes": mesh.n_nodes,
+            "n_tets": len(mesh.tets),
+        },
         "sampler": sampler,
-        "solver": {"linear_solver": default_backend(), "mean_newton_iterations": float(res["iterations"].mean()),
-                   "wall_s": res["wall_s"], "n_jobs": args.jobs, "scheduler": args.scheduler,
-                   "resumed_samples": res["resumed_samples"]},
+        "solver": {
+            "linear_solver": default_backend(),
+            "mean_newton_iterations": float(res["iterations"].mean()),
+            "wall_s": res["wall_s"],
+            "n_jobs": args.jobs,
+            "scheduler": args.scheduler,
+            "resumed_samples": res["resumed_samples"],
+        },
         "command": "python -m lab " + shlex.join(sys.argv[1:]),
     }
     write_dataset(args.out, u, res["p_tip_W"], meta)
     shutil.rmtree(checkpoint, ignore_errors=True)  # the dataset now holds every chunk
-    print(f"wrote {len(u)} samples to {args.out} in {res['wall_s']:.1f} s "
-          f"(mean {res['iterations'].mean():.2f} Newton iterations)", file=sys.stderr)
+    print(
+        f"wrote {len(u)} samples to {args.out} in {res['wall_s']:.1f} s "
+        f"(mean {res['iterations'].mean():.2f} Newton iterations)",
+        file=sys.stderr,
+    )
     return 0

@@ -2,6 +2,7 @@
 
 The result file is described in :mod:`lab.tracking.track`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,23 +18,37 @@ from lab.tracking.track import make_solver, run_trajectory, write_result
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     """Add this command to an ``argparse`` subparsers object; returns its parser."""
-    k = subparsers.add_parser("track", parents=parents, help="follow a trajectory on a rig with IK through a model (or Soft IK)")
+    k = subparsers.add_parser(
+        "track", parents=parents, help="follow a trajectory on a rig with IK through a model (or Soft IK)"
+    )
     src = k.add_mutually_exclusive_group(required=True)
     src.add_argument("--model", help="learned forward model (.npz) to solve the IK through")
     src.add_argument("--soft-ik", action="store_true", help="Soft IK: solve the IK through the FEM instead")
     k.add_argument("--rig", default="sim", help="sim | twin[:DEFECTS.toml] | hardware:CONFIG.toml (default sim)")
     k.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
-    k.add_argument("--trajectory", required=True,
-                   help="circle, square, rose, helix (three-cable), six-circle, six-ring, six-saddle, six-spiral "
-                        "(six-cable), or a CSV file with header x,y,z (metres, frame W)")
+    k.add_argument(
+        "--trajectory",
+        required=True,
+        help="circle, square, rose, helix (three-cable), six-circle, six-ring, six-saddle, six-spiral "
+        "(six-cable), or a CSV file with header x,y,z (metres, frame W)",
+    )
     k.add_argument("--n-points", type=int, help="points of a built-in trajectory (default: its own)")
-    k.add_argument("--solver", choices=["lm", "gd"], default="lm",
-                   help="bounded Levenberg-Marquardt (default) or projected gradient descent")
-    k.add_argument("--reg-weight", type=float, default=0.0,
-                   help="regulariser towards the previous command, m^2/rad^2 (default 0)")
-    k.add_argument("--posture-weight", type=float, default=0.0,
-                   help="regulariser towards the centre of the allowed commands (keeps a redundant "
-                        "arm's cables taut), m^2/rad^2 (default 0); regularised answers are polished")
+    k.add_argument(
+        "--solver",
+        choices=["lm", "gd"],
+        default="lm",
+        help="bounded Levenberg-Marquardt (default) or projected gradient descent",
+    )
+    k.add_argument(
+        "--reg-weight", type=float, default=0.0, help="regulariser towards the previous command, m^2/rad^2 (default 0)"
+    )
+    k.add_argument(
+        "--posture-weight",
+        type=float,
+        default=0.0,
+        help="regulariser towards the centre of the allowed commands (keeps a redundant "
+        "arm's cables taut), m^2/rad^2 (default 0); regularised answers are polished",
+    )
     k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
     k.add_argument("--n-rings", type=int, help="FEM mesh rings of --rig sim / --soft-ik (default: robot's)")
     k.add_argument("--n-axial", type=int, help="FEM mesh layers of --rig sim / --soft-ik (default: robot's)")
@@ -62,16 +77,32 @@ def run(args) -> int:
         raise InputError("--n-rings/--n-axial set the FEM mesh of --rig sim and --soft-ik only")
     fem = ArmFEM(robot, **mesh) if (args.rig == "sim" or args.soft_ik) else None
     model = None if args.soft_ik else load_model(args.model)
-    solver = make_solver(robot, model, fem=fem if args.soft_ik else None, method=args.solver,
-                         reg_weight=args.reg_weight, posture_weight=args.posture_weight)
+    solver = make_solver(
+        robot,
+        model,
+        fem=fem if args.soft_ik else None,
+        method=args.solver,
+        reg_weight=args.reg_weight,
+        posture_weight=args.posture_weight,
+    )
     name = args.trajectory if args.trajectory in BUILTIN + SIX_CABLE else Path(args.trajectory).name
     # a rig failure (RigError, exit 1) reaches lab.cli.main after the rig was closed (torque off)
     with SimRig(robot, fem) if args.rig == "sim" else make_rig(args.rig, robot, seed=args.seed) as rig:
         result = run_trajectory(rig, solver, targets, name=name)
-    write_result(args.out, result, {"model": args.model, "soft_ik": bool(args.soft_ik),
-                                    "command": "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:]))})
+    write_result(
+        args.out,
+        result,
+        {
+            "model": args.model,
+            "soft_ik": bool(args.soft_ik),
+            "command": "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:])),
+        },
+    )
     t = result.timings
-    print(f"{name}: {len(targets)} targets, mean error {100 * result.mean_error_m:.4f} cm, max "
-          f"{100 * result.max_error_m:.4f} cm, {int(np.sum(~result.reachable))} unreachable; IK "
-          f"{1e3 * t['ik_per_target_mean_s']:.2f} ms per target -> {args.out}", file=sys.stderr)
+    print(
+        f"{name}: {len(targets)} targets, mean error {100 * result.mean_error_m:.4f} cm, max "
+        f"{100 * result.max_error_m:.4f} cm, {int(np.sum(~result.reachable))} unreachable; IK "
+        f"{1e3 * t['ik_per_target_mean_s']:.2f} ms per target -> {args.out}",
+        file=sys.stderr,
+    )
     return 0

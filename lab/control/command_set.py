@@ -26,6 +26,7 @@ Cheap exact shortcuts come first: a point inside ``C`` is its own projection, an
 clipping to the box already satisfies ``A u <= b`` the clipped point is the projection
 (it is the closest point of the larger box, and lies in ``C``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -58,11 +59,11 @@ class CommandSet:
         if np.any(self.A @ self.lo > self.b + self.tol):
             raise InputError("the lower corner lo violates A u <= b: this command set needs a feasible lo")
         eye = np.eye(m)
-        self.G = np.vstack([-eye, eye, self.A])                 # G x <= h
+        self.G = np.vstack([-eye, eye, self.A])  # G x <= h
         self.h = np.concatenate([-self.lo, self.hi, self.b])
 
     @classmethod
-    def from_robot(cls, robot: RobotDescription) -> "CommandSet":
+    def from_robot(cls, robot: RobotDescription) -> CommandSet:
         """``[0, u_max]^m`` intersected with the robot's linear safety limits."""
         m = robot.n_cables
         A = np.zeros((len(robot.safety_limits), m))

@@ -58,6 +58,7 @@ training data or :func:`grid_seeds`), else at the projection of the box centre;
 :meth:`IKSolver.follow` warm-starts each trajectory point from the previous solution
 (Section II-D).
 """
+
 from __future__ import annotations
 
 import time
@@ -77,6 +78,7 @@ ARMIJO = 0.5
 class IKResult:
     """One IK solve: command ``u_motor`` (m,) rad, predicted tip ``p_pred_W`` (3,) m, tip
     residual ``residual_m`` = |y(u) - y'| m, objective ``objective_m2``, how it stopped."""
+
     u_motor: np.ndarray
     p_pred_W: np.ndarray
     residual_m: float
@@ -86,19 +88,20 @@ class IKResult:
     iterations: int
     evaluations: int
     time_s: float
-    history_m: list = field(default_factory=list, repr=False)   # residual after each iteration
+    history_m: list = field(default_factory=list, repr=False)  # residual after each iteration
 
 
 @dataclass
 class TrajectoryIK:
     """IK along a trajectory of N targets: per-point arrays and the per-point results."""
-    targets_W: np.ndarray        # (N, 3) m
-    u_motor: np.ndarray          # (N, m) rad
-    p_pred_W: np.ndarray         # (N, 3) m, forward map at u_motor
-    residual_m: np.ndarray       # (N,) m
-    reachable: np.ndarray        # (N,) bool
-    iterations: np.ndarray       # (N,)
-    time_s: np.ndarray           # (N,) s per target
+
+    targets_W: np.ndarray  # (N, 3) m
+    u_motor: np.ndarray  # (N, m) rad
+    p_pred_W: np.ndarray  # (N, 3) m, forward map at u_motor
+    residual_m: np.ndarray  # (N,) m
+    reachable: np.ndarray  # (N,) bool
+    iterations: np.ndarray  # (N,)
+    time_s: np.ndarray  # (N,) s per target
     results: list = field(repr=False, default_factory=list)
 
 
@@ -134,10 +137,23 @@ class IKSolver:
     keep the tip residual of every iterate in ``IKResult.history_m`` (for plots).
     """
 
-    def __init__(self, forward, commands: CommandSet, method: str = "lm", *, tol_m: float = 1e-8,
-                 reach_tol_m: float = 1e-5, tol_stationary: float = 1e-6, max_iter: int | None = None,
-                 reg_weight: float = 0.0, posture_weight: float = 0.0, u_posture=None, polish: bool = True,
-                 seeds=None, record_history: bool = False):
+    def __init__(
+        self,
+        forward,
+        commands: CommandSet,
+        method: str = "lm",
+        *,
+        tol_m: float = 1e-8,
+        reach_tol_m: float = 1e-5,
+        tol_stationary: float = 1e-6,
+        max_iter: int | None = None,
+        reg_weight: float = 0.0,
+        posture_weight: float = 0.0,
+        u_posture=None,
+        polish: bool = True,
+        seeds=None,
+        record_history: bool = False,
+    ):
         if method not in METHODS:
             raise InputError(f"method must be one of {METHODS}, got {method!r}")
         for name, w in (("reg_weight", reg_weight), ("posture_weight", posture_weight)):
@@ -228,8 +244,16 @@ class IKSolver:
             results.append(res)
             u_prev = res.u_motor
         col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731
-        return TrajectoryIK(targets, col("u_motor"), col("p_pred_W"), col("residual_m"), col("reachable"),
-                            col("iterations"), col("time_s"), results)
+        return TrajectoryIK(
+            targets,
+            col("u_motor"),
+            col("p_pred_W"),
+            col("residual_m"),
+            col("reachable"),
+            col("iterations"),
+            col("time_s"),
+            results,
+        )
 
     # ----------------------------------------------------------------- internals
     def _evaluate(self, u, target, u_ref):
@@ -271,7 +295,7 @@ class IKSolver:
         w, n_eval, nu, mu, eye = self.reg_weight, 1, 2.0, None, np.eye(len(u))
         status, history = "max_iter", []
         self._record(history, y, target)
-        for it in range(self.max_iter):
+        for it in range(self.max_iter):  # noqa: B007 (it is the iteration count after the loop)
             if np.linalg.norm(y - target) <= self.tol_m:
                 status = "converged"
                 break
@@ -295,7 +319,7 @@ class IKSolver:
             y_new, J_new, obj_new = self._evaluate(u_new, target, u_ref)
             n_eval += 1
             rho = (obj - obj_new) / predicted
-            if rho > 0:                                     # accept: Nielsen's update
+            if rho > 0:  # accept: Nielsen's update
                 u, y, J, obj = u_new, y_new, J_new, obj_new
                 mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
                 nu = 2.0
@@ -314,7 +338,7 @@ class IKSolver:
         y, J, obj = self._first(u, target, u_ref)
         n_eval, alpha, status, history = 1, None, "max_iter", []
         self._record(history, y, target)
-        for it in range(self.max_iter):
+        for it in range(self.max_iter):  # noqa: B007 (it is the iteration count after the loop)
             if np.linalg.norm(y - target) <= self.tol_m:
                 status = "converged"
                 break
@@ -324,7 +348,7 @@ class IKSolver:
                 status = "stationary"
                 break
             a = 1.0 / lip if alpha is None else 2.0 * alpha
-            for _ in range(60):                              # Armijo along the projection arc
+            for _ in range(60):  # Armijo along the projection arc
                 u_new = self.commands.project(u - a * g, x0=u)
                 y_new, J_new, obj_new = self._evaluate(u_new, target, u_ref)
                 n_eval += 1

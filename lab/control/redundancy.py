@@ -12,6 +12,7 @@ three-dimensional family of commands that reach it. Two tools for studying that:
   is free to wander along the family of solutions between targets; the pull towards the
   previous command (``IKSolver(reg_weight=w)``) keeps the path short and smooth.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -90,5 +91,9 @@ def motor_path_stats(u_path) -> dict:
         raise InputError(f"u_path must be finite (N >= 2, m) motor angles, got shape {u.shape}")
     step = np.abs(np.diff(u, axis=0))
     per_step = step.max(axis=1)
-    return {"max_step_rad": float(per_step.max()), "mean_step_rad": float(per_step.mean()),
-            "travel_rad": float(step.sum()), "max_step_index": int(np.argmax(per_step)) + 1}
+    return {
+        "max_step_rad": float(per_step.max()),
+        "mean_step_rad": float(per_step.mean()),
+        "travel_rad": float(step.sum()),
+        "max_step_index": int(np.argmax(per_step)) + 1,
+    }

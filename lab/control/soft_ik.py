@@ -18,6 +18,7 @@ stretch). IK started where a cable is slack cannot "see" that pulling it would h
 may stop at such a flat point; start Soft IK where every cable is taut, e.g. the default
 cold start at the centre of the command set. (The smooth network has no such plateaus.)
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,7 +41,7 @@ class FEMForwardMap:
         self.tol_step_m = float(tol_step_m)
         self.n_solves = 0
         self.solve_time_s = 0.0
-        self._last = None                 # (u, q, dq_du) of the last converged equilibrium
+        self._last = None  # (u, q, dq_du) of the last converged equilibrium
 
     @property
     def n_u(self) -> int:
@@ -60,7 +61,7 @@ class FEMForwardMap:
             u_last, q_last, dq_du = self._last
             q0 = q_last + dq_du @ (u - u_last)
         sol = self._solve(u, q0)
-        if sol is None and q0 is not None:         # the predictor overshot: plain warm start
+        if sol is None and q0 is not None:  # the predictor overshot: plain warm start
             sol = self._solve(u, self._last[1])
         if sol is None:
             nan = np.full(3, np.nan)
@@ -77,9 +78,8 @@ class FEMForwardMap:
 
     def _solve(self, u, q0):
         try:
-            sol = solve_static(self.fem, u, q0, tol_step_m=self.tol_step_m, sensitivity=True,
-                               raise_on_failure=False)
-        except (ValueError, StaticSolveError):      # e.g. an inverted predictor state
+            sol = solve_static(self.fem, u, q0, tol_step_m=self.tol_step_m, sensitivity=True, raise_on_failure=False)
+        except (ValueError, StaticSolveError):  # e.g. an inverted predictor state
             return None
         self.n_solves += 1
         self.solve_time_s += sol.time_s

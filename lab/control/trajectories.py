@@ -40,6 +40,7 @@ is in ``notebooks/06_six_cable_arm.ipynb``). Centred on that axis:
 
 A CSV trajectory has the header ``x,y,z`` and one point per row, in metres, frame W.
 """
+
 from __future__ import annotations
 
 import csv
@@ -55,9 +56,17 @@ CENTRE_W = np.array([0.184, 0.0, -0.006])
 BUILTIN = ("circle", "square", "rose", "helix")
 #: Paths for the six-cable arm (module docstring); also accepted by :func:`builtin`.
 SIX_CABLE = ("six-circle", "six-ring", "six-saddle", "six-spiral")
-SIX_CABLE_AXIS_W = np.array([0.0, 0.0, 0.0])      # (y, z) of the six-cable workspace's axis
-DEFAULT_POINTS = {"circle": 100, "square": 100, "rose": 200, "helix": 150,
-                  "six-circle": 100, "six-ring": 120, "six-saddle": 160, "six-spiral": 200}
+SIX_CABLE_AXIS_W = np.array([0.0, 0.0, 0.0])  # (y, z) of the six-cable workspace's axis
+DEFAULT_POINTS = {
+    "circle": 100,
+    "square": 100,
+    "rose": 200,
+    "helix": 150,
+    "six-circle": 100,
+    "six-ring": 120,
+    "six-saddle": 160,
+    "six-spiral": 200,
+}
 #: Coordinates larger than this (m) in a CSV are taken as a units mistake (mm or cm).
 MAX_ABS_COORD_M = 2.0
 
@@ -87,7 +96,7 @@ def square(n_points: int = 100, side_m: float = 0.06, centre_W=CENTRE_W) -> np.n
     """``n_points`` points (N, 3) m equally spaced along the perimeter of an axis-aligned
     square, starting at the (+y, -z) corner, counter-clockwise; corners are hit exactly
     when ``n_points`` is a multiple of 4."""
-    s = 4.0 * np.arange(_check_n(n_points, 4)) / n_points          # perimeter parameter in [0, 4)
+    s = 4.0 * np.arange(_check_n(n_points, 4)) / n_points  # perimeter parameter in [0, 4)
     side, f = np.floor(s).astype(int), s - np.floor(s)
     h = 0.5 * side_m
     corners = np.array([[h, -h], [h, h], [-h, h], [-h, -h], [h, -h]])
@@ -106,8 +115,14 @@ def rose(n_points: int = 200, radius_m: float = 0.035, k: int = 2, centre_W=CENT
     return _in_plane(r * np.cos(t), r * np.sin(t), centre_W)
 
 
-def helix(n_points: int = 150, radius_m: float = 0.03, turns: float = 3.0, x_start_m: float = 0.189,
-          x_end_m: float = 0.180, centre_W=CENTRE_W) -> np.ndarray:
+def helix(
+    n_points: int = 150,
+    radius_m: float = 0.03,
+    turns: float = 3.0,
+    x_start_m: float = 0.189,
+    x_end_m: float = 0.180,
+    centre_W=CENTRE_W,
+) -> np.ndarray:
     """Helix (N, 3) m about the line through ``centre_W`` along x: ``turns`` turns of radius
     ``radius_m`` while x goes linearly from ``x_start_m`` to ``x_end_m`` (both ends included)."""
     s = np.linspace(0.0, 1.0, _check_n(n_points))
@@ -117,8 +132,14 @@ def helix(n_points: int = 150, radius_m: float = 0.03, turns: float = 3.0, x_sta
     return p
 
 
-def saddle(n_points: int = 160, radius_m: float = 0.06, x_mid_m: float = 0.17, dx_m: float = 0.004,
-           waves: int = 2, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+def saddle(
+    n_points: int = 160,
+    radius_m: float = 0.06,
+    x_mid_m: float = 0.17,
+    dx_m: float = 0.004,
+    waves: int = 2,
+    centre_W=SIX_CABLE_AXIS_W,
+) -> np.ndarray:
     """A circle of ``radius_m`` about the x axis through ``centre_W`` whose x goes
     ``x_mid_m + dx_m cos(waves t)``: a closed 3-D curve (N, 3) m, equally spaced in t."""
     t = 2 * np.pi * np.arange(_check_n(n_points, 4)) / n_points
@@ -127,8 +148,15 @@ def saddle(n_points: int = 160, radius_m: float = 0.06, x_mid_m: float = 0.17, d
     return p
 
 
-def conical_spiral(n_points: int = 200, r_start_m: float = 0.01, r_end_m: float = 0.08, turns: float = 3.0,
-                   x_start_m: float = 0.188, x_end_m: float = 0.160, centre_W=SIX_CABLE_AXIS_W) -> np.ndarray:
+def conical_spiral(
+    n_points: int = 200,
+    r_start_m: float = 0.01,
+    r_end_m: float = 0.08,
+    turns: float = 3.0,
+    x_start_m: float = 0.188,
+    x_end_m: float = 0.160,
+    centre_W=SIX_CABLE_AXIS_W,
+) -> np.ndarray:
     """Spiral (N, 3) m about the x axis through ``centre_W``: radius and x both change
     linearly from start to end (both ends included) over ``turns`` turns."""
     s = np.linspace(0.0, 1.0, _check_n(n_points))
@@ -145,12 +173,21 @@ def _six(x_m: float, radius_m: float):
 def builtin(name: str, n_points: int | None = None) -> np.ndarray:
     """A built-in trajectory by name (see :data:`BUILTIN` and :data:`SIX_CABLE`), default
     sizes and placement."""
-    makers = {"circle": circle, "square": square, "rose": rose, "helix": helix,
-              "six-circle": _six(0.18, 0.04), "six-ring": _six(0.165, 0.07),
-              "six-saddle": saddle, "six-spiral": conical_spiral}
+    makers = {
+        "circle": circle,
+        "square": square,
+        "rose": rose,
+        "helix": helix,
+        "six-circle": _six(0.18, 0.04),
+        "six-ring": _six(0.165, 0.07),
+        "six-saddle": saddle,
+        "six-spiral": conical_spiral,
+    }
     if name not in makers:
-        raise TrajectoryError(f"unknown trajectory {name!r}: built-in are {', '.join(BUILTIN + SIX_CABLE)}, "
-                              f"or give the path of a CSV file with header x,y,z (metres)")
+        raise TrajectoryError(
+            f"unknown trajectory {name!r}: built-in are {', '.join(BUILTIN + SIX_CABLE)}, "
+            f"or give the path of a CSV file with header x,y,z (metres)"
+        )
     return makers[name](DEFAULT_POINTS[name] if n_points is None else n_points)
 
 
@@ -163,7 +200,7 @@ def load_trajectory(name_or_csv: str | Path, n_points: int | None = None) -> np.
         if n_points is not None:
             raise TrajectoryError("n_points applies to built-in trajectories only, not to a CSV file")
         return read_trajectory_csv(text)
-    return builtin(text, n_points)          # raises, listing the names
+    return builtin(text, n_points)  # raises, listing the names
 
 
 def read_trajectory_csv(path: str | Path) -> np.ndarray:
@@ -195,8 +232,10 @@ def read_trajectory_csv(path: str | Path) -> np.ndarray:
         if not np.all(np.isfinite(pts[i - 2])):
             raise TrajectoryError(f"{path}: line {i} has a NaN or infinite value: {','.join(row)}")
     if np.max(np.abs(pts)) > MAX_ABS_COORD_M:
-        raise TrajectoryError(f"{path}: coordinates up to {np.max(np.abs(pts)):g} -- the file must be in "
-                              f"metres (|x|, |y|, |z| <= {MAX_ABS_COORD_M} m); millimetres or centimetres?")
+        raise TrajectoryError(
+            f"{path}: coordinates up to {np.max(np.abs(pts)):g} -- the file must be in "
+            f"metres (|x|, |y|, |z| <= {MAX_ABS_COORD_M} m); millimetres or centimetres?"
+        )
     return pts
 
 

@@ -23,4 +23,21 @@ from lab.data.designs import (
 )
 from lab.data.simulation import default_jobs, simulate, solve_chunk
 
-__all__ = ["Chunk", "grid_commands", "sobol_commands", "grid_chunks", "nearest_neighbour_chunks", "solve_chunk", "simulate", "default_jobs", "CheckpointError", "fingerprint", "ChunkStore", "DatasetError", "columns", "write_dataset", "sidecar_path", "read_dataset"]
+__all__ = [
+    "Chunk",
+    "grid_commands",
+    "sobol_commands",
+    "grid_chunks",
+    "nearest_neighbour_chunks",
+    "solve_chunk",
+    "simulate",
+    "default_jobs",
+    "CheckpointError",
+    "fingerprint",
+    "ChunkStore",
+    "DatasetError",
+    "columns",
+    "write_dataset",
+    "sidecar_path",
+    "read_dataset",
+]

@@ -8,6 +8,7 @@ hash, mesh, the commands and the chunking); a directory left by a different run 
 refused rather than mixed in. Chunk results do not depend on where or when they ran,
 so a resumed run gives the same numbers as an uninterrupted one. No pickle.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -36,9 +37,15 @@ def fingerprint(robot_sha256: str, n_rings: int, n_axial: int, u_motor: np.ndarr
     for order in orders:
         h.update(np.asarray(order, dtype=np.int64).tobytes())
         h.update(b"|")
-    return {"format_version": FORMAT_VERSION, "robot_sha256": robot_sha256, "n_rings": int(n_rings),
-            "n_axial": int(n_axial), "n_samples": int(len(u_motor)), "n_chunks": len(orders),
-            "commands_and_chunks_sha256": h.hexdigest()}
+    return {
+        "format_version": FORMAT_VERSION,
+        "robot_sha256": robot_sha256,
+        "n_rings": int(n_rings),
+        "n_axial": int(n_axial),
+        "n_samples": int(len(u_motor)),
+        "n_chunks": len(orders),
+        "commands_and_chunks_sha256": h.hexdigest(),
+    }
 
 
 class ChunkStore:
@@ -57,7 +64,8 @@ class ChunkStore:
                 diff = sorted(k for k in set(old) | set(fp) if old.get(k) != fp.get(k))
                 raise CheckpointError(
                     f"checkpoint {self.directory} belongs to another run (differs in {', '.join(diff)}); "
-                    f"delete it, or restart from scratch")
+                    f"delete it, or restart from scratch"
+                )
         else:
             atomic_write_text(manifest, json.dumps(fp, indent=2) + "\n")
 

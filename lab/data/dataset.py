@@ -6,6 +6,7 @@ holds the metadata (robot description and hash, mesh, sampler, code version, dat
 Both are written atomically (temporary file + rename), so a crash never leaves a
 half-written dataset behind. Nothing is pickled.
 """
+
 from __future__ import annotations
 
 import csv
@@ -40,10 +41,16 @@ def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, me
     writer.writerow(columns(u_motor.shape[1]))
     for row in np.hstack([u_motor, p_tip_W]):
         writer.writerow([repr(float(v)) for v in row])
-    meta = {"format_version": FORMAT_VERSION, "kind": "lab.dataset", "columns": columns(u_motor.shape[1]),
-            "units": {"u": "rad", "xyz": "m"}, "n_samples": len(u_motor),
-            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "code_version": code_version(), **metadata}
+    meta = {
+        "format_version": FORMAT_VERSION,
+        "kind": "lab.dataset",
+        "columns": columns(u_motor.shape[1]),
+        "units": {"u": "rad", "xyz": "m"},
+        "n_samples": len(u_motor),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "code_version": code_version(),
+        **metadata,
+    }
     # Sidecar first: a CSV never exists without its metadata.
     atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=json_default) + "\n")
     atomic_write_text(path, buf.getvalue())
@@ -70,8 +77,10 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
             raise DatasetError(f"{side}: corrupt metadata JSON: {err}") from None
         version = meta.get("format_version")
         if not isinstance(version, int) or version > FORMAT_VERSION:
-            raise DatasetError(f"{side}: format_version {version!r} is not supported "
-                               f"(this code reads up to {FORMAT_VERSION}); update the package")
+            raise DatasetError(
+                f"{side}: format_version {version!r} is not supported "
+                f"(this code reads up to {FORMAT_VERSION}); update the package"
+            )
     with open(path, newline="") as fh:
         rows = list(csv.reader(fh))
     if not rows:

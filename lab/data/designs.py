@@ -14,6 +14,7 @@ a prediction built from the equilibria already solved in that walk
 computation is the same wherever it runs, a parallel run gives exactly the serial
 run's numbers.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -28,6 +29,7 @@ from lab.errors import InputError
 @dataclass
 class Chunk:
     """Indices into the command array, in the order they are to be solved."""
+
     order: np.ndarray
 
 

@@ -14,6 +14,7 @@ a prediction built from the equilibria already solved in that walk
 computation is the same wherever it runs, a parallel run gives exactly the serial
 run's numbers.
 """
+
 from __future__ import annotations
 
 import os
@@ -66,27 +67,40 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
             solves.append(solve_static(fem, u, q0, stop_if_indefinite=True, **kw))
             if solves[-1].status != "indefinite":
                 break
-        else:                  # indefinite everywhere tried: start from the best anyway
+        else:  # indefinite everywhere tried: start from the best anyway
             solves.append(solve_static(fem, u, starts[0], **kw))
         if not solves[-1].converged:  # fall back to a cold start before giving up
             solves.append(solve_static(fem, u, **kw))
         sol = solves[-1]
         predictor.add(sol)
         if k == 0:
-            continue           # the rest state every walk starts from
+            continue  # the rest state every walk starts from
         tips.append(sol.p_tip_W), times.append(time.perf_counter() - t0)
         iters.append(sum(s.iterations for s in solves)), facts.append(sum(s.factorizations for s in solves))
-    return {"p_tip_W": np.asarray(tips).reshape(-1, 3), "iterations": np.asarray(iters),
-            "factorizations": np.asarray(facts), "time_s": np.asarray(times)}
+    return {
+        "p_tip_W": np.asarray(tips).reshape(-1, 3),
+        "iterations": np.asarray(iters),
+        "factorizations": np.asarray(facts),
+        "time_s": np.asarray(times),
+    }
 
 
 def _solve_indexed(i: int, robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray):
     return i, solve_chunk(robot, n_rings, n_axial, u_chunk)
 
 
-def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], *, n_rings: int | None = None,
-             n_axial: int | None = None, n_jobs: int = 1, progress: bool = False,
-             checkpoint: str | os.PathLike | None = None, scheduler: str | None = None) -> dict:
+def simulate(
+    robot: RobotDescription,
+    u_motor: np.ndarray,
+    chunks: list[Chunk],
+    *,
+    n_rings: int | None = None,
+    n_axial: int | None = None,
+    n_jobs: int = 1,
+    progress: bool = False,
+    checkpoint: str | os.PathLike | None = None,
+    scheduler: str | None = None,
+) -> dict:
     """Tip positions (N, 3) m for commands ``u_motor`` (N, m), solved chunk by chunk.
 
     ``n_jobs``: worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
@@ -147,16 +161,21 @@ def simulate(robot: RobotDescription, u_motor: np.ndarray, chunks: list[Chunk], 
                 bar.update(len(orders[i]))
     except BaseException:
         if scheduler is None and n_jobs != 1:
-            _kill_local_workers()   # do not leave them computing chunks nobody will collect
+            _kill_local_workers()  # do not leave them computing chunks nobody will collect
         raise
     finally:
         stop.restore()
         bar.close()
         if client is not None:
             client.close()
-    return {"p_tip_W": p_tip, "iterations": iters, "factorizations": facts, "time_s": times,
-            "wall_s": time.perf_counter() - t0,
-            "resumed_samples": resumed}
+    return {
+        "p_tip_W": p_tip,
+        "iterations": iters,
+        "factorizations": facts,
+        "time_s": times,
+        "wall_s": time.perf_counter() - t0,
+        "resumed_samples": resumed,
+    }
 
 
 class _SigtermToExit:
@@ -185,7 +204,7 @@ def _kill_local_workers() -> None:
     """Kill the worker processes of joblib's (reusable) loky executor, if there is one."""
     from joblib.externals.loky import reusable_executor
 
-    executor = getattr(reusable_executor, "_executor", None)   # loky's singleton (joblib 1.6)
+    executor = getattr(reusable_executor, "_executor", None)  # loky's singleton (joblib 1.6)
     if executor is not None:
         executor.shutdown(wait=False, kill_workers=True)
 

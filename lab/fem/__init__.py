@@ -30,4 +30,32 @@ from lab.fem.steps import (
 )
 from lab.fem.warmstart import WalkPredictor
 
-__all__ = ["TetMesh", "cylinder_mesh", "load_mesh", "save_mesh", "barycentric", "lame", "NeoHookean", "InvertedElementError", "project_psd", "CableRoute", "spring", "CableSet", "ArmFEM", "SingularMatrixError", "default_backend", "factorize", "Factorised", "newton_step", "shifted_step", "secant_step", "condensed_step", "reused_sensitivity", "StaticSolveError", "StaticSolution", "solve_static", "sensitivities", "WalkPredictor"]
+__all__ = [
+    "TetMesh",
+    "cylinder_mesh",
+    "load_mesh",
+    "save_mesh",
+    "barycentric",
+    "lame",
+    "NeoHookean",
+    "InvertedElementError",
+    "project_psd",
+    "CableRoute",
+    "spring",
+    "CableSet",
+    "ArmFEM",
+    "SingularMatrixError",
+    "default_backend",
+    "factorize",
+    "Factorised",
+    "newton_step",
+    "shifted_step",
+    "secant_step",
+    "condensed_step",
+    "reused_sensitivity",
+    "StaticSolveError",
+    "StaticSolution",
+    "solve_static",
+    "sensitivities",
+    "WalkPredictor",
+]

@@ -16,6 +16,7 @@ blends in a cubic so the energy is C2, with no tension at all while slack.
 L is convex in x (a sum of norms of affine maps) and E is convex increasing in L, so
 the cable Hessian is always positive semi-definite.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -27,6 +28,7 @@ import numpy as np
 class CableRoute:
     """A cable embedded in a mesh: anchor (3,), via nodes (K, 4), weights (K, 4), rest
     length ``L0_m``, ``slack_m`` added to the free length (as-built defects)."""
+
     anchor_W: np.ndarray
     nodes: np.ndarray
     weights: np.ndarray
@@ -47,7 +49,7 @@ class CableRoute:
         return L, dL
 
     def _segments(self, x_W):
-        e = np.diff(self.points(x_W), axis=0)                 # segment s ends at via point s
+        e = np.diff(self.points(x_W), axis=0)  # segment s ends at via point s
         l = np.linalg.norm(e, axis=1)
         n = e / l[:, None]
         dL = n.copy()
@@ -60,7 +62,7 @@ class CableRoute:
         K = len(l)
         P = (np.eye(3)[None] - n[:, :, None] * n[:, None, :]) / l[:, None, None]
         H = np.zeros((K, 3, K, 3))
-        for s in range(K):                                    # segment s joins via s-1 and via s
+        for s in range(K):  # segment s joins via s-1 and via s
             H[s, :, s] += P[s]
             if s > 0:
                 H[s - 1, :, s - 1] += P[s]
@@ -84,8 +86,8 @@ def spring(d, k: float, eps: float):
     Exactly zero when slack (d <= 0), ``k/2 (d^2 - d eps + eps^2/3)`` beyond ``eps``, and
     the cubic ``k d^3 / (6 eps)`` in between, so E is C2 and Newton sees no kink."""
     d = np.asarray(d, dtype=float)
-    dc = np.clip(d, 0.0, eps)                 # cubic part
-    dq = np.maximum(d - eps, 0.0)             # quadratic part beyond eps
+    dc = np.clip(d, 0.0, eps)  # cubic part
+    dq = np.maximum(d - eps, 0.0)  # quadratic part beyond eps
     energy = k * dc**3 / (6 * eps) + k * (0.5 * dq**2 + 0.5 * eps * dq)
     tension = k * dc**2 / (2 * eps) + k * dq
     stiffness = np.where(d >= eps, k, k * dc / eps)
@@ -102,9 +104,9 @@ class CableSet:
     def __init__(self, routes: list[CableRoute], dof_to_free: np.ndarray, n_free: int):
         sizes = np.array([len(r.nodes) for r in routes])
         self.m, self.n_free = len(routes), n_free
-        self.nodes = np.concatenate([r.nodes for r in routes])          # (V, 4)
-        self.weights = np.concatenate([r.weights for r in routes])      # (V, 4)
-        self.cable = np.repeat(np.arange(self.m), sizes)                # cable of each via point
+        self.nodes = np.concatenate([r.nodes for r in routes])  # (V, 4)
+        self.weights = np.concatenate([r.weights for r in routes])  # (V, 4)
+        self.cable = np.repeat(np.arange(self.m), sizes)  # cable of each via point
         V = len(self.nodes)
         first = np.cumsum(sizes) - sizes
         # Segment v runs from prev[v] to via point v; rows V.. of the stacked points are
@@ -114,7 +116,7 @@ class CableSet:
         self.next = np.arange(V) + 1
         self.next[first + sizes - 1] = V + self.m
         self.anchors = np.array([r.anchor_W for r in routes]).reshape(-1, 3)
-        free = dof_to_free[3 * self.nodes[:, :, None] + np.arange(3)]     # (V, 4, 3)
+        free = dof_to_free[3 * self.nodes[:, :, None] + np.arange(3)]  # (V, 4, 3)
         self._keep = (free >= 0).ravel()
         self._rows = (np.repeat(self.cable, 12) * n_free + free.ravel())[self._keep]
 
@@ -152,6 +154,6 @@ class CableSet:
         """(d2L/dp2) dp (V, 3) for via point displacements dp (V, 3), at the segments
         (n, l) of :meth:`segments`: dn = (I - n n^T) de / l per segment."""
         n, l = segments
-        de = dp - np.vstack([dp, np.zeros((self.m, 3))])[self.prev]   # the anchors do not move
+        de = dp - np.vstack([dp, np.zeros((self.m, 3))])[self.prev]  # the anchors do not move
         dn = (de - n * np.einsum("vi,vi->v", n, de)[:, None]) / l[:, None]
         return dn - np.vstack([dn, np.zeros((self.m + 1, 3))])[self.next]

@@ -21,6 +21,7 @@ energy and gradient ~2x faster than gathering element coordinates and batched 3x
 products, which matters because the solver evaluates them several times per Hessian;
 :meth:`NeoHookean.hessian_product` gives exact Hessian products the same way.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -42,24 +43,26 @@ def lame(youngs_modulus_pa, poisson_ratio):
 class NeoHookean:
     """Per-element constants of a mesh: shape-function gradients ``G`` (M, 4, 3),
     rest volumes ``V`` (M,), Lamé parameters ``mu``, ``lam`` (M,) in Pa."""
+
     tets: np.ndarray
     G: np.ndarray
     V: np.ndarray
     mu: np.ndarray
     lam: np.ndarray
-    _B: dict = field(default_factory=dict, init=False, repr=False, compare=False)   # see _operators
+    _B: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # see _operators
 
     @classmethod
-    def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> "NeoHookean":
+    def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> NeoHookean:
         """``youngs_modulus_pa`` may be a scalar or one value per tet (M,)."""
         X = mesh.X_W[mesh.tets]
         Dm = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)
-        Dm_inv = np.linalg.inv(Dm)                      # F = Ds Dm^-1
+        Dm_inv = np.linalg.inv(Dm)  # F = Ds Dm^-1
         G = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
         mu, lam = lame(youngs_modulus_pa, poisson_ratio)
         M = len(mesh.tets)
-        return cls(mesh.tets, G, np.linalg.det(Dm) / 6.0, np.broadcast_to(mu, (M,)).copy(),
-                   np.broadcast_to(lam, (M,)).copy())
+        return cls(
+            mesh.tets, G, np.linalg.det(Dm) / 6.0, np.broadcast_to(mu, (M,)).copy(), np.broadcast_to(lam, (M,)).copy()
+        )
 
     def _operators(self, n_nodes: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """B (9M, 3N) with vec(F) = B vec(x_W), rows ordered (i, j, element) so that each
@@ -67,13 +70,19 @@ class NeoHookean:
         on (M, 3, 3) slices), columns (node, axis); and B^T. Built once per node count."""
         if n_nodes not in self._B:
             M = len(self.tets)
-            rows = ((3 * np.arange(3)[:, None, None] + np.arange(3)[None, :, None]) * M
-                    + np.arange(M)[None, None, :])[:, :, :, None]                    # (i, j, M, 1)
+            rows = ((3 * np.arange(3)[:, None, None] + np.arange(3)[None, :, None]) * M + np.arange(M)[None, None, :])[
+                :, :, :, None
+            ]  # (i, j, M, 1)
             cols = 3 * self.tets[None, None, :, :] + np.arange(3)[:, None, None, None]  # (i, 1, M, a)
-            vals = self.G.transpose(2, 0, 1)[None, :, :, :]                         # G[m, a, j] at (1, j, M, a)
+            vals = self.G.transpose(2, 0, 1)[None, :, :, :]  # G[m, a, j] at (1, j, M, a)
             shape = (3, 3, M, 4)
-            B = sp.csr_matrix((np.broadcast_to(vals, shape).ravel(), (np.broadcast_to(rows, shape).ravel(),
-                               np.broadcast_to(cols, shape).ravel())), shape=(9 * M, 3 * n_nodes))
+            B = sp.csr_matrix(
+                (
+                    np.broadcast_to(vals, shape).ravel(),
+                    (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
+                ),
+                shape=(9 * M, 3 * n_nodes),
+            )
             self._B[n_nodes] = (B, B.T.tocsr())
         return self._B[n_nodes]
 
@@ -89,8 +98,11 @@ class NeoHookean:
     def energy(self, x_W: np.ndarray) -> float:
         """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""
         F = self._F(x_W)
-        J = F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0]) \
+        J = (
+            F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
+            - F[0, 1] * (F[1, 0] * F[2, 2] - F[1, 2] * F[2, 0])
             + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0])
+        )
         if np.any(J <= 0):
             return np.inf
         return self._energy(F, np.log(J))
@@ -163,16 +175,17 @@ class NeoHookean:
             raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
         _, logJ, cof, J, _ = k
         B, B_T = self._operators(len(x_W))
-        Fi = np.ascontiguousarray(cof.transpose(1, 0, 2)) / J                       # F^-1
+        Fi = np.ascontiguousarray(cof.transpose(1, 0, 2)) / J  # F^-1
         mu, lam, c = self.mu * self.V, self.lam * self.V, (self.mu - self.lam * logJ) * self.V
         M = len(J)
 
         def apply(dx: np.ndarray) -> np.ndarray:
             dF = (B @ np.asarray(dx, float).ravel()).reshape(3, 3, M)
-            G = np.einsum("ijm,jkm->ikm", Fi, dF)                                    # F^-1 dF
-            T = np.einsum("ijm,jkm->ikm", G, Fi)                                     # F^-1 dF F^-1
+            G = np.einsum("ijm,jkm->ikm", Fi, dF)  # F^-1 dF
+            T = np.einsum("ijm,jkm->ikm", G, Fi)  # F^-1 dF F^-1
             dP = mu * dF + (lam * (G[0, 0] + G[1, 1] + G[2, 2])) * Fi.transpose(1, 0, 2) + c * T.transpose(1, 0, 2)
             return (B_T @ dP.ravel()).reshape(-1, 3)
+
         return apply
 
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
@@ -183,22 +196,27 @@ class NeoHookean:
         c, lam, mu = (self.mu - self.lam * logJ) * self.V, self.lam * self.V, self.mu * self.V
         # Broadcast products into one preallocated array: ~3x faster than einsum here.
         H = np.empty((M, 4, 3, 4, 3))
-        np.multiply((c[:, None, None] * A)[:, :, None, None, :],                  # c A[a,k] A[b,i]
-                    A.transpose(0, 2, 1)[:, None, :, :, None], out=H)
+        np.multiply(
+            (c[:, None, None] * A)[:, :, None, None, :],  # c A[a,k] A[b,i]
+            A.transpose(0, 2, 1)[:, None, :, :, None],
+            out=H,
+        )
         a = A.reshape(M, 12)
         H_flat = H.reshape(M, 12, 12)
-        H_flat += (lam[:, None] * a)[:, :, None] * a[:, None, :]                 # lam A[a,i] A[b,k]
+        H_flat += (lam[:, None] * a)[:, :, None] * a[:, None, :]  # lam A[a,i] A[b,k]
         muGG = mu[:, None, None] * np.matmul(self.G, self.G.transpose(0, 2, 1))
-        for i in range(3):                                                       # mu (G G^T)[a,b] d_ik
+        for i in range(3):  # mu (G G^T)[a,b] d_ik
             H[:, :, i, :, i] += muGG
         return H_flat
 
 
 def _det3(F: np.ndarray) -> np.ndarray:
     """Determinants of (M, 3, 3) matrices (closed form; faster than LAPACK for 3x3)."""
-    return (F[:, 0, 0] * (F[:, 1, 1] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 1])
-            - F[:, 0, 1] * (F[:, 1, 0] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 0])
-            + F[:, 0, 2] * (F[:, 1, 0] * F[:, 2, 1] - F[:, 1, 1] * F[:, 2, 0]))
+    return (
+        F[:, 0, 0] * (F[:, 1, 1] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 1])
+        - F[:, 0, 1] * (F[:, 1, 0] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 0])
+        + F[:, 0, 2] * (F[:, 1, 0] * F[:, 2, 1] - F[:, 1, 1] * F[:, 2, 0])
+    )
 
 
 def _inv3(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

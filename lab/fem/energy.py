@@ -9,6 +9,7 @@ on ``q``, the stacked free coordinates; :meth:`ArmFEM.to_nodes` and
 Sparse assembly uses a pattern computed once: every element and cable block's entries
 are mapped to their slot in the CSR data array, so each Hessian is one ``bincount``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,12 +31,20 @@ class ArmFEM:
     gradient); ``cable_slack_m``: optional extra free length per cable (m,).
     """
 
-    def __init__(self, robot: RobotDescription, mesh: TetMesh | None = None, *, n_rings=None,
-                 n_axial=None, youngs_modulus_pa=None, cable_slack_m=None, clamp_tol_m: float = 1e-9):
+    def __init__(
+        self,
+        robot: RobotDescription,
+        mesh: TetMesh | None = None,
+        *,
+        n_rings=None,
+        n_axial=None,
+        youngs_modulus_pa=None,
+        cable_slack_m=None,
+        clamp_tol_m: float = 1e-9,
+    ):
         self.robot = robot
         if mesh is None:
-            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings or robot.n_rings,
-                                 n_axial or robot.n_axial)
+            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings or robot.n_rings, n_axial or robot.n_axial)
         self.mesh = mesh
         E = robot.youngs_modulus_pa if youngs_modulus_pa is None else youngs_modulus_pa
         self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
@@ -186,6 +195,7 @@ class ArmFEM:
             # Springs along dL/dq, plus the taut cables turning: tension (d2L/dp2) dp.
             turn = t_via * cables.gradient_change(segments, cables.via_points(dx))
             return elastic(dx).ravel()[self.free_dofs] + A @ (stiffness * (A.T @ v)) + cables.to_free(turn, False)
+
         return apply
 
     def mixed_derivative(self, q: np.ndarray, u_motor) -> np.ndarray:

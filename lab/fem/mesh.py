@@ -7,6 +7,7 @@ global node order, so neighbouring prisms cut their shared quad face along the s
 diagonal and the mesh is conforming. Users with their own geometry can load any
 tetrahedral mesh with :func:`load_mesh` (anything ``meshio`` reads).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from lab.errors import InputError
 class TetMesh:
     """Rest node positions ``X_W`` (N, 3) in metres and tetrahedra ``tets`` (M, 4),
     positively oriented (det[X1-X0, X2-X0, X3-X0] > 0)."""
+
     X_W: np.ndarray
     tets: np.ndarray
 

@@ -17,6 +17,7 @@ Sensitivity analysis differentiates the equilibrium condition dE/dx (x(u), u) = 
 
 with the *exact* Hessian H at the equilibrium (a projected one gives wrong Jacobians).
 """
+
 from __future__ import annotations
 
 import time
@@ -58,7 +59,7 @@ CHORD_FINAL = 1e-3
 class StaticSolveError(LabRuntimeError):
     """Newton did not reach equilibrium; ``.solution`` holds the last iterate."""
 
-    def __init__(self, message: str, solution: "StaticSolution"):
+    def __init__(self, message: str, solution: StaticSolution):
         super().__init__(message)
         self.solution = solution
 
@@ -67,6 +68,7 @@ class StaticSolveError(LabRuntimeError):
 class StaticSolution:
     """Equilibrium for motor angles ``u_motor`` (m,) rad: free coordinates ``q``
     (n_free,), tip ``p_tip_W`` (3,) m, and how Newton got there."""
+
     u_motor: np.ndarray
     q: np.ndarray
     p_tip_W: np.ndarray
@@ -76,15 +78,25 @@ class StaticSolution:
     grad_norm_n: float
     projected_steps: int
     time_s: float
-    factorizations: int = 0          # Hessian assemblies + factorisations (iterations = all steps)
+    factorizations: int = 0  # Hessian assemblies + factorisations (iterations = all steps)
     dq_du: np.ndarray | None = field(default=None, repr=False)
     J_tip_u: np.ndarray | None = field(default=None, repr=False)
 
 
-def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step_m: float = 1e-7,
-                 tol_force_n: float | None = None, max_iter: int = 60, sensitivity: str | bool = False,
-                 raise_on_failure: bool = True, check_command: bool = True,
-                 refine_du=None, stop_if_indefinite: bool = False) -> StaticSolution:
+def solve_static(
+    fem: ArmFEM,
+    u_motor,
+    q0: np.ndarray | None = None,
+    *,
+    tol_step_m: float = 1e-7,
+    tol_force_n: float | None = None,
+    max_iter: int = 60,
+    sensitivity: str | bool = False,
+    raise_on_failure: bool = True,
+    check_command: bool = True,
+    refine_du=None,
+    stop_if_indefinite: bool = False,
+) -> StaticSolution:
     """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
 
     Converged when the (cable-condensed) Newton step with the exact Hessian, or a chord
@@ -124,7 +136,7 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
     chord = False
     pairs = []
     while it < max_iter:
-        if np.max(np.abs(g)) <= tol_force_n and not chord:   # chord steps: see CHORD_FINAL
+        if np.max(np.abs(g)) <= tol_force_n and not chord:  # chord steps: see CHORD_FINAL
             status = "converged"
             break
         it += 1
@@ -157,9 +169,17 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
                 projected += 1
                 d = -factorize(fem.hessian(q, u, project=True)).solve(g)
         step = float(np.max(np.abs(d)))
-        if exact and step <= tol_step_m and (not chord or (
-                (prev_chord or step_prev <= 100 * tol_step_m)     # a trustworthy ratio
-                and step * step / max(step_prev - step, 1e-300) <= CHORD_FINAL * tol_step_m)):
+        if (
+            exact
+            and step <= tol_step_m
+            and (
+                not chord
+                or (
+                    (prev_chord or step_prev <= 100 * tol_step_m)  # a trustworthy ratio
+                    and step * step / max(step_prev - step, 1e-300) <= CHORD_FINAL * tol_step_m
+                )
+            )
+        ):
             # Converged: take the step without a line search, whose energy test cannot
             # resolve such small decreases (gravity sums terms ~1e-2 J) and would stall.
             q = q + d
@@ -170,7 +190,7 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
         alpha, accepted = 1.0, False
         for _ in range(1 if chord else 40):
             q_try = q + alpha * d
-            if alpha == 1.0:   # usually accepted: take its gradient along (shared kinematics)
+            if alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
                 E_try, g_try, stretch_try, A_try = fem.energy(q_try, u, with_gradient=True)
             else:
                 E_try = fem.energy(q_try, u)
@@ -179,7 +199,7 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
                 break
             alpha *= 0.5
         if not accepted:
-            if chord:          # the old factorisation no longer fits: refactorise here
+            if chord:  # the old factorisation no longer fits: refactorise here
                 step_prev = np.inf
                 continue
             status = "line_search_failed"
@@ -190,14 +210,24 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
             g, stretch, A = g_try, stretch_try, A_try
         else:
             g, stretch, A = fem.gradient(q, u, with_cables=True)
-        if fac is not None and (q - q_old) @ (g - g_old) > 0:     # secant pair for chord steps
+        if fac is not None and (q - q_old) @ (g - g_old) > 0:  # secant pair for chord steps
             pairs.append((q - q_old, g - g_old, 1.0 / ((q - q_old) @ (g - g_old))))
     else:
         if np.max(np.abs(g)) <= tol_force_n:
             status = "converged"
     x = fem.to_nodes(q)
-    sol = StaticSolution(u, q, fem.tip(x), status == "converged", status, it,
-                         float(np.max(np.abs(g))), projected, 0.0, factorizations=n_fact)
+    sol = StaticSolution(
+        u,
+        q,
+        fem.tip(x),
+        status == "converged",
+        status,
+        it,
+        float(np.max(np.abs(g))),
+        projected,
+        0.0,
+        factorizations=n_fact,
+    )
     if sensitivity and sol.converged:
         if sensitivity == "reuse" and fac is not None:
             sol.dq_du = reused_sensitivity(fem, fac, q, u, stretch, A, refine_du)
@@ -208,7 +238,9 @@ def solve_static(fem: ArmFEM, u_motor, q0: np.ndarray | None = None, *, tol_step
     if not sol.converged and raise_on_failure:
         raise StaticSolveError(
             f"static solve for u={u.tolist()} failed ({status}) after {it} iterations, "
-            f"residual force {sol.grad_norm_n:.3g} N", sol)
+            f"residual force {sol.grad_norm_n:.3g} N",
+            sol,
+        )
     return sol
 
 
@@ -217,4 +249,3 @@ def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.n
     lu = factorize(fem.hessian(q, u_motor))
     dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
     return dq_du, fem.tip_matrix() @ dq_du
-

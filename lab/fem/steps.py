@@ -36,6 +36,7 @@ bending mode (~0.015 N/m at rest) stiffens or softens by tens of % within 10 um 
 well, so along the motor steps a caller will predict along, dq/du is refined by
 conjugate gradients (:func:`reused_sensitivity`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -60,6 +61,7 @@ class Factorised:
     """The exact Hessian factorised at an iterate where it is positive definite, with
     what condensed steps need from that point: A = dL/dq (n_free, m), S = H^-1 A,
     C = A^T S (m, m) in m/N, spring stiffnesses K (m,) in N/m."""
+
     lu: object
     A: np.ndarray
     S: np.ndarray
@@ -80,7 +82,7 @@ def newton_step(fem: ArmFEM, H: sp.csr_matrix, g, stretch, A):
         return None, None
     Z = lu.solve(np.column_stack([-g, A]))
     fac = Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], fem.cable_springs(stretch)[2])
-    for d in (condensed_step(fem, fac, Z[:, 0], stretch), Z[:, 0]):   # else the plain Newton step
+    for d in (condensed_step(fem, fac, Z[:, 0], stretch), Z[:, 0]):  # else the plain Newton step
         if np.all(np.isfinite(d)) and g @ d < 0:
             return d, fac
     return None, None
@@ -159,26 +161,27 @@ def reused_sensitivity(fem: ArmFEM, fac: Factorised, q, u, stretch, A, refine_du
     def precondition(R):
         Z = fac.lu.solve(R)
         return Z - fac.S @ (W @ (dK * (fac.A.T @ Z)))
+
     r_K = fem.robot.spool_radius_m * K
     D = -fac.S @ (W * r_K[None, :])
-    U = []                                               # unit directions, none parallel
+    U = []  # unit directions, none parallel
     for du in np.zeros((0, len(K))) if refine_du is None else np.atleast_2d(np.asarray(refine_du, float)):
         n = np.linalg.norm(du)
         if n > 0 and all(abs(du @ w) < (1 - 1e-9) * n for w in U):
             U.append(du / n)
     if not U:
         return D
-    U = np.array(U)                                      # (k, m)
+    U = np.array(U)  # (k, m)
     V = np.empty((len(q), len(U)))
     hessian = fem.hessian_operator(q, u)
     for i, du in enumerate(U):
         v = D @ du
-        r = -(hessian(v) + A @ (r_K * du))               # -(H v + d2E/dq du du)
+        r = -(hessian(v) + A @ (r_K * du))  # -(H v + d2E/dq du du)
         z = precondition(r)
         p, rz = z, r @ z
         for k in range(REFINE_ITERATIONS):
             if np.max(np.abs(p)) <= REFINE_TOL * np.max(np.abs(v)):
-                break                                    # accurate already (e.g. a slack cable)
+                break  # accurate already (e.g. a slack cable)
             Hp = hessian(p)
             curvature = p @ Hp
             if not curvature > 0:

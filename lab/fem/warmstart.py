@@ -26,6 +26,7 @@ along the walk's previous and next steps (``refine_du`` of
 :func:`lab.fem.statics.solve_static`). Everything depends only on the walk, so a walk
 gives the same numbers wherever it runs.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -38,10 +39,10 @@ from lab.fem.statics import StaticSolution
 
 @dataclass(frozen=True)
 class _Solved:
-    u: np.ndarray           # (m,) rad
-    q: np.ndarray           # (n_free,) m
-    dq_du: np.ndarray       # (n_free, m) m/rad
-    taut: tuple             # which cables pull (tension > 0)
+    u: np.ndarray  # (m,) rad
+    q: np.ndarray  # (n_free,) m
+    dq_du: np.ndarray  # (n_free, m) m/rad
+    taut: tuple  # which cables pull (tension > 0)
 
 
 def _key(u) -> tuple:
@@ -114,12 +115,12 @@ class WalkPredictor:
                 if along or kind == "linear":
                     for t in near:
                         if abs(abs(s @ t) - np.linalg.norm(s) * np.linalg.norm(t)) <= 1e-9 * (s @ s):
-                            continue                       # t parallel to s (or 0): no parallelogram
+                            continue  # t parallel to s (or 0): no parallelogram
                         row, start, back = self._get(u - t), self._get(u - s), self._get(u - s - t)
                         if row is None or back is None or start.taut != back.taut:
                             continue
                         other = self._predict(row.u, s, kind)
-                        if other is not None:                # carries the row's cable states over
+                        if other is not None:  # carries the row's cable states over
                             corrected.append((kind + " corrected", base[0] + row.q - other[0], [row]))
                 # Across the walk (from rows solved before), plain linear and corrected
                 # Hermite predictions were never or rarely the best on the 308-point grid.
@@ -139,7 +140,9 @@ class WalkPredictor:
         implausible = []
         for (_, q, refs), energy in zip(cands, energies):
             taut = self._taut(q, u) if np.isfinite(energy) else None
-            implausible.append(taut is None or any(t != pt for p in refs for t, pt, du in zip(taut, p.taut, u - p.u)
-                                                   if abs(du) <= 1e-12))
+            implausible.append(
+                taut is None
+                or any(t != pt for p in refs for t, pt, du in zip(taut, p.taut, u - p.u) if abs(du) <= 1e-12)
+            )
         order = np.lexsort((energies, implausible))
         return [cands[i][:2] for i in order if np.isfinite(energies[i])]

@@ -22,4 +22,33 @@ from lab.learn.studies import (
 )
 from lab.learn.train import TrainResult, data_sha256, train
 
-__all__ = ["STOP_MESSAGES", "minmax_gain", "MLP", "init_mlp", "load_model", "ModelFileError", "save_model", "read_model", "Split", "divide_random", "mse", "LMOptions", "TrainLog", "train_lm", "train_adam", "train_lbfgs", "data_sha256", "TrainResult", "train", "mse_m2", "mean_distance_m", "error_report", "workspace_size_m", "run_seeds", "evaluate_splits", "size_sweep", "summarize", "write_csv"]
+__all__ = [
+    "STOP_MESSAGES",
+    "minmax_gain",
+    "MLP",
+    "init_mlp",
+    "load_model",
+    "ModelFileError",
+    "save_model",
+    "read_model",
+    "Split",
+    "divide_random",
+    "mse",
+    "LMOptions",
+    "TrainLog",
+    "train_lm",
+    "train_adam",
+    "train_lbfgs",
+    "data_sha256",
+    "TrainResult",
+    "train",
+    "mse_m2",
+    "mean_distance_m",
+    "error_report",
+    "workspace_size_m",
+    "run_seeds",
+    "evaluate_splits",
+    "size_sweep",
+    "summarize",
+    "write_csv",
+]

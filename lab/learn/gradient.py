@@ -12,6 +12,7 @@ are in the data's units like those of LM. Early stopping uses the validation set
 validation MSE is worse than the best so far stop training, and the best-validation
 weights are returned. Noisier than LM epochs, so ``max_fail`` defaults to 20 here.
 """
+
 from __future__ import annotations
 
 import time
@@ -60,14 +61,30 @@ class _Tracker:
         self.model.set_params(self.best[1])
         cols = ("epoch", "perf", "vperf", "tperf", "val_fail")
         history = {c: np.array([r[i] for r in self.rows]) for i, c in enumerate(cols)}
-        return self.model, TrainLog(algorithm, stop, int(self.rows[-1][0]), int(self.best[2]), history,
-                                    options, time.perf_counter() - t0)
+        return self.model, TrainLog(
+            algorithm, stop, int(self.rows[-1][0]), int(self.best[2]), history, options, time.perf_counter() - t0
+        )
 
 
-def train_adam(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None, y_test=None, *,
-               epochs: int = 1000, lr: float = 1e-3, batch_size: int = 256, beta1: float = 0.9,
-               beta2: float = 0.999, eps: float = 1e-8, max_fail: int = 20,
-               seed: int | np.random.Generator = 0, progress=None) -> tuple[MLP, TrainLog]:
+def train_adam(
+    model: MLP,
+    u_train,
+    y_train,
+    u_val=None,
+    y_val=None,
+    u_test=None,
+    y_test=None,
+    *,
+    epochs: int = 1000,
+    lr: float = 1e-3,
+    batch_size: int = 256,
+    beta1: float = 0.9,
+    beta2: float = 0.999,
+    eps: float = 1e-8,
+    max_fail: int = 20,
+    seed: int | np.random.Generator = 0,
+    progress=None,
+) -> tuple[MLP, TrainLog]:
     """Mini-batch Adam (Kingma & Ba) on the normalised MSE; shuffles each epoch with ``seed``."""
     t0 = time.perf_counter()
     net = model.copy()
@@ -76,8 +93,15 @@ def train_adam(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None
     m, v, t = np.zeros_like(theta), np.zeros_like(theta), 0
     track = _Tracker(net, u_train, y_train, u_val, y_val, u_test, y_test, max_fail, progress)
     stop = "max_epochs"
-    options = {"epochs": epochs, "lr": lr, "batch_size": batch_size, "beta1": beta1, "beta2": beta2,
-               "eps": eps, "max_fail": max_fail}
+    options = {
+        "epochs": epochs,
+        "lr": lr,
+        "batch_size": batch_size,
+        "beta1": beta1,
+        "beta2": beta2,
+        "eps": eps,
+        "max_fail": max_fail,
+    }
     if track.record(0, theta):
         stop = "validation"
     for epoch in range(1, epochs + 1):
@@ -85,7 +109,7 @@ def train_adam(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None
             break
         perm = rng.permutation(len(u_train))
         for s in range(0, len(perm), batch_size):
-            idx = perm[s:s + batch_size]
+            idx = perm[s : s + batch_size]
             _, g = _loss_grad(net, theta, u_train[idx], y_train[idx])
             t += 1
             m = beta1 * m + (1 - beta1) * g
@@ -96,9 +120,20 @@ def train_adam(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None
     return track.finish("adam", stop, options, t0)
 
 
-def train_lbfgs(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None, y_test=None, *,
-                epochs: int = 1000, max_fail: int = 20, gtol: float = 1e-10, progress=None
-                ) -> tuple[MLP, TrainLog]:
+def train_lbfgs(
+    model: MLP,
+    u_train,
+    y_train,
+    u_val=None,
+    y_val=None,
+    u_test=None,
+    y_test=None,
+    *,
+    epochs: int = 1000,
+    max_fail: int = 20,
+    gtol: float = 1e-10,
+    progress=None,
+) -> tuple[MLP, TrainLog]:
     """Full-batch L-BFGS (``scipy.optimize.minimize``, method L-BFGS-B, analytic gradient);
     one "epoch" is one L-BFGS iteration."""
     from scipy.optimize import minimize
@@ -117,7 +152,13 @@ def train_lbfgs(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=Non
             state["stop"] = "validation"
             raise StopIteration
 
-    res = minimize(lambda th: _loss_grad(net, th, u_train, y_train), theta0, jac=True, method="L-BFGS-B",
-                   callback=callback, options={"maxiter": epochs, "gtol": gtol, "ftol": 1e-15, "maxcor": 20})
+    res = minimize(
+        lambda th: _loss_grad(net, th, u_train, y_train),
+        theta0,
+        jac=True,
+        method="L-BFGS-B",
+        callback=callback,
+        options={"maxiter": epochs, "gtol": gtol, "ftol": 1e-15, "maxcor": 20},
+    )
     stop = state["stop"] or ("max_epochs" if state["it"] >= epochs else f"lbfgs: {res.message}")
     return track.finish("lbfgs", stop, options, t0)

@@ -31,6 +31,7 @@ for validation and test, the rest for training. :func:`train` does split + init 
 with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
 datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
 """
+
 from __future__ import annotations
 
 import time
@@ -44,8 +45,10 @@ from lab.learn.metrics import mse_m2
 from lab.learn.mlp import MLP
 
 STOP_MESSAGES = {  # MATLAB's tr.stop texts
-    "goal": "Performance goal met.", "max_epochs": "Maximum epoch reached.",
-    "min_grad": "Minimum gradient reached.", "mu_max": "Maximum MU reached.",
+    "goal": "Performance goal met.",
+    "max_epochs": "Maximum epoch reached.",
+    "min_grad": "Minimum gradient reached.",
+    "mu_max": "Maximum MU reached.",
     "validation": "Validation stop.",
 }
 
@@ -60,6 +63,7 @@ def mse(model: MLP, u: np.ndarray, y: np.ndarray) -> float:
 class LMOptions:
     """``trainlm`` parameters (see the module docstring); ``max_jacobian_mb`` bounds memory
     by building J in chunks of samples (MATLAB's ``mem_reduc``)."""
+
     epochs: int = 1000
     mu: float = 1e-3
     mu_dec: float = 0.1
@@ -74,6 +78,7 @@ class LMOptions:
 @dataclass
 class TrainLog:
     """What a training run did: per-epoch record (MATLAB's ``tr``), why it stopped, best epoch."""
+
     algorithm: str
     stop_reason: str
     epochs: int
@@ -95,8 +100,8 @@ def _jacobian_products(model, u, y, max_mb):
     chunk = max(1, int(max_mb * 2**20 // (8 * y.shape[1] * n_p)))
     JJ, JE, sse = None, np.zeros(n_p), 0.0
     for s in range(0, len(u), chunk):
-        y_hat, J = model.parameter_jacobian(u[s:s + chunk])
-        e = (y_hat - y[s:s + chunk]).ravel()
+        y_hat, J = model.parameter_jacobian(u[s : s + chunk])
+        e = (y_hat - y[s : s + chunk]).ravel()
         JJ = dsyrk(1.0 / n_e, J.T) if JJ is None else dsyrk(1.0 / n_e, J.T, beta=1.0, c=JJ, overwrite_c=1)
         JE += J.T @ e
         sse += float(e @ e)
@@ -107,15 +112,14 @@ def _lm_step(system, JE, mu, n_e, buf):
     """dtheta of one LM trial with damping mu; None if the damped matrix is not numerically
     positive definite (Cholesky fails). ``buf`` is scratch space of the system's size."""
     buf[...] = system[1]
-    if system[0] == "primal":                      # (J^T J / N_e + mu I) dtheta = -J^T e / N_e
-        buf.flat[::len(buf) + 1] += mu
+    if system[0] == "primal":  # (J^T J / N_e + mu I) dtheta = -J^T e / N_e
+        buf.flat[:: len(buf) + 1] += mu
         rhs = -JE
-    else:                                          # dtheta = -J^T (J J^T + mu N_e I)^{-1} e
-        buf.flat[::len(buf) + 1] += mu * n_e
+    else:  # dtheta = -J^T (J J^T + mu N_e I)^{-1} e
+        buf.flat[:: len(buf) + 1] += mu * n_e
         rhs = system[3]
     try:
-        c = cho_solve(cho_factor(buf, lower=False, overwrite_a=True, check_finite=False), rhs,
-                      check_finite=False)
+        c = cho_solve(cho_factor(buf, lower=False, overwrite_a=True, check_finite=False), rhs, check_finite=False)
     except (LinAlgError, ValueError):
         return None
     if not np.all(np.isfinite(c)):
@@ -123,8 +127,17 @@ def _lm_step(system, JE, mu, n_e, buf):
     return c if system[0] == "primal" else -(system[2].T @ c)
 
 
-def train_lm(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None, y_test=None,
-             options: LMOptions | None = None, progress=None) -> tuple[MLP, TrainLog]:
+def train_lm(
+    model: MLP,
+    u_train,
+    y_train,
+    u_val=None,
+    y_val=None,
+    u_test=None,
+    y_test=None,
+    options: LMOptions | None = None,
+    progress=None,
+) -> tuple[MLP, TrainLog]:
     """Levenberg-Marquardt with ``trainlm`` semantics; returns (best network, log).
 
     ``u_*`` (N, n_u), ``y_*`` (N, n_y) in the model's units; validation and test sets may
@@ -181,5 +194,4 @@ def train_lm(model: MLP, u_train, y_train, u_val=None, y_val=None, u_test=None, 
     net.set_params(best["theta"])
     cols = ("epoch", "perf", "vperf", "tperf", "mu", "gradient", "val_fail")
     history = {c: np.array([row[i] for row in hist]) for i, c in enumerate(cols)}
-    return net, TrainLog("lm", stop, int(hist[-1][0]), best["epoch"], history, asdict(opt),
-                         time.perf_counter() - t0)
+    return net, TrainLog("lm", stop, int(hist[-1][0]), best["epoch"], history, asdict(opt), time.perf_counter() - t0)

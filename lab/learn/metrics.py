@@ -19,6 +19,7 @@ thread each; results do not depend on the number of workers):
   ``n_runs`` random 80/10/10 splits per width. Run ``r`` uses the same split for every
   width, so the widths are compared on the same data.
 """
+
 from __future__ import annotations
 
 import numpy as np

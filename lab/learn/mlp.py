@@ -30,6 +30,7 @@ The flat parameter vector ``theta`` is, layer by layer, ``W_l`` (row-major) then
 ``b_l``. Files: :meth:`MLP.save` / :func:`load_model` (``.npz``, no pickle, JSON
 metadata; see :mod:`lab.learn.model_io`), failures raise :class:`ModelFileError`.
 """
+
 from __future__ import annotations
 
 import copy
@@ -81,8 +82,9 @@ class MLP:
     :mod:`lab.learn.model_io` saves with the model.
     """
 
-    def __init__(self, weights, biases, u_min, u_max, y_min, y_max, activation: str = "tanh",
-                 metadata: dict | None = None):
+    def __init__(
+        self, weights, biases, u_min, u_max, y_min, y_max, activation: str = "tanh", metadata: dict | None = None
+    ):
         if activation not in ACTIVATIONS:
             raise InputError(f"activation must be one of {ACTIVATIONS}, got {activation!r}")
         self.weights = [np.array(w, dtype=float) for w in weights]
@@ -93,8 +95,9 @@ class MLP:
             if w.ndim != 2 or b.shape != (w.shape[0],):
                 raise InputError(f"layer {l}: weight {w.shape} and bias {b.shape} do not match")
             if l and w.shape[1] != self.weights[l - 1].shape[0]:
-                raise InputError(f"layer {l}: takes {w.shape[1]} inputs but layer {l - 1} has "
-                                 f"{self.weights[l - 1].shape[0]} outputs")
+                raise InputError(
+                    f"layer {l}: takes {w.shape[1]} inputs but layer {l - 1} has {self.weights[l - 1].shape[0]} outputs"
+                )
         self.activation = activation
         self.u_min, self.u_max = np.array(u_min, float), np.array(u_max, float)
         self.y_min, self.y_max = np.array(y_min, float), np.array(y_max, float)
@@ -104,7 +107,7 @@ class MLP:
             raise InputError(f"y_min/y_max must have shape ({self.n_y},)")
         self.u_gain = minmax_gain(self.u_min, self.u_max)
         self.y_gain = minmax_gain(self.y_min, self.y_max)
-        self._J_scale = self.u_gain[None, None, :] / self.y_gain[None, :, None]   # dy/du = J_n * this
+        self._J_scale = self.u_gain[None, None, :] / self.y_gain[None, :, None]  # dy/du = J_n * this
         self._piece = max(16, _CHUNK_ELEMENTS // (self.n_y * max(self.layer_sizes)))
         self.metadata = dict(metadata or {})
 
@@ -133,7 +136,7 @@ class MLP:
     def __repr__(self) -> str:
         return f"MLP({'-'.join(map(str, self.layer_sizes))}, {self.activation}, {self.n_params} parameters)"
 
-    def copy(self) -> "MLP":
+    def copy(self) -> MLP:
         return copy.deepcopy(self)
 
     def save(self, path) -> None:
@@ -152,9 +155,9 @@ class MLP:
             raise InputError(f"expected {self.n_params} parameters, got shape {theta.shape}")
         k = 0
         for w, b in zip(self.weights, self.biases):
-            w[...] = theta[k:k + w.size].reshape(w.shape)
+            w[...] = theta[k : k + w.size].reshape(w.shape)
             k += w.size
-            b[...] = theta[k:k + b.size]
+            b[...] = theta[k : k + b.size]
             k += b.size
 
     # ---- evaluation ----------------------------------------------------------------
@@ -168,8 +171,8 @@ class MLP:
 
     def _forward(self, u2: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """Hidden activations [a_0 (normalised u), a_1, ..., a_{L-1}] and normalised output y_n."""
-        a = u2 - self.u_min                      # updates in place: every large temporary
-        a *= self.u_gain                         # costs time at batch sizes of 10^4
+        a = u2 - self.u_min  # updates in place: every large temporary
+        a *= self.u_gain  # costs time at batch sizes of 10^4
         a -= 1.0
         acts = [a]
         for w, b in zip(self.weights[:-1], self.biases[:-1]):
@@ -194,8 +197,8 @@ class MLP:
         n, n_y, n_layers = len(acts[0]), self.n_y, len(self.weights)
         deltas = [None] * (n_layers + 1)
         w = self.weights[-1]
-        grad_a = np.broadcast_to(w, (n, n_y, w.shape[1]))             # d y_n / d a_{L-1} = W_L
-        for l in range(n_layers - 1, 0, -1):                          # times D_l = diag(sigma'(z_l))
+        grad_a = np.broadcast_to(w, (n, n_y, w.shape[1]))  # d y_n / d a_{L-1} = W_L
+        for l in range(n_layers - 1, 0, -1):  # times D_l = diag(sigma'(z_l))
             slope = _slope(self.activation, acts[l], out=acts[l] if overwrite else None)
             deltas[l - 1] = grad_a * slope[:, None, :]
             w = self.weights[l - 1]
@@ -217,9 +220,9 @@ class MLP:
         y, J = np.empty((len(u2), self.n_y)), np.empty((len(u2), self.n_y, self.n_u))
         piece = self._piece
         for s in range(0, len(u2), piece):
-            acts, y_n = self._forward(u2[s:s + piece])
-            np.multiply(self._backward(acts, overwrite=True)[-1], self._J_scale, out=J[s:s + piece])
-            y[s:s + piece] = self._denormalise(y_n)
+            acts, y_n = self._forward(u2[s : s + piece])
+            np.multiply(self._backward(acts, overwrite=True)[-1], self._J_scale, out=J[s : s + piece])
+            y[s : s + piece] = self._denormalise(y_n)
         return (y[0], J[0]) if single else (y, J)
 
     def jacobian(self, u) -> np.ndarray:
@@ -236,13 +239,16 @@ class MLP:
         n, n_y = len(u2), self.n_y
         J = np.empty((n, n_y, self.n_params))
         k = 0
-        deltas[-2] = np.broadcast_to(np.eye(n_y), (n, n_y, n_y))      # output layer: identity
+        deltas[-2] = np.broadcast_to(np.eye(n_y), (n, n_y, n_y))  # output layer: identity
         for l, (w, b) in enumerate(zip(self.weights, self.biases)):
-            d, a_prev = deltas[l], acts[l]                       # (N, n_y, n_out), (N, n_in)
-            np.multiply(d[:, :, :, None], a_prev[:, None, None, :],     # written in place, no temporary
-                        out=J[:, :, k:k + w.size].reshape(n, n_y, *w.shape))
+            d, a_prev = deltas[l], acts[l]  # (N, n_y, n_out), (N, n_in)
+            np.multiply(
+                d[:, :, :, None],
+                a_prev[:, None, None, :],  # written in place, no temporary
+                out=J[:, :, k : k + w.size].reshape(n, n_y, *w.shape),
+            )
             k += w.size
-            J[:, :, k:k + b.size] = d
+            J[:, :, k : k + b.size] = d
             k += b.size
         J /= self.y_gain[None, :, None]
         return self._denormalise(y_n), J.reshape(n * n_y, self.n_params)
@@ -254,7 +260,7 @@ class MLP:
         large datasets. ``dL_dy`` (N, n_y) is the loss gradient with respect to y."""
         u2, _ = self._as_batch(u)
         acts, _ = self._forward(u2)
-        delta = np.asarray(dL_dy, float) / self.y_gain            # d L / d y_n
+        delta = np.asarray(dL_dy, float) / self.y_gain  # d L / d y_n
         grads = []
         for l in range(len(self.weights) - 1, -1, -1):
             grads.append(np.concatenate([(delta.T @ acts[l]).ravel(), delta.sum(axis=0)]))
@@ -263,8 +269,9 @@ class MLP:
         return np.concatenate(grads[::-1])
 
 
-def _nguyen_widrow(rng: np.random.Generator, n_out: int, in_range: tuple[float, float],
-                   n_in: int, active: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+def _nguyen_widrow(
+    rng: np.random.Generator, n_out: int, in_range: tuple[float, float], n_in: int, active: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """MATLAB ``initnw`` for one layer: weights of magnitude 0.7 n_out^(1/n_in) in random
     directions, biases spread evenly so the neurons' active regions tile the input range."""
     mag = 0.7 * n_out ** (1.0 / n_in)
@@ -272,8 +279,8 @@ def _nguyen_widrow(rng: np.random.Generator, n_out: int, in_range: tuple[float, 
     w *= mag / np.linalg.norm(w, axis=1, keepdims=True)
     b = mag * np.linspace(-1.0, 1.0, n_out) * np.sign(w[:, 0]) if n_out > 1 else np.zeros(1)
     half, mid = 0.5 * (active[1] - active[0]), 0.5 * (active[1] + active[0])
-    w, b = half * w, half * b + mid                     # net inputs [-1, 1] -> active range
-    scale = 2.0 / (in_range[1] - in_range[0])          # inputs in_range -> [-1, 1]
+    w, b = half * w, half * b + mid  # net inputs [-1, 1] -> active range
+    scale = 2.0 / (in_range[1] - in_range[0])  # inputs in_range -> [-1, 1]
     shift = 1.0 - in_range[1] * scale
     return w * scale, w @ np.full(n_in, shift) + b
 

@@ -15,6 +15,7 @@ split sizes, errors, SHA-256 of the training data, ...). Files are written atomi
 file -- missing, truncated, corrupt, a newer format, a missing array, inconsistent
 shapes -- raises :class:`ModelFileError` naming the file and the problem.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -43,15 +44,19 @@ def save_model(model, path: str | Path) -> Path:
     meta = {
         "format_version": FORMAT_VERSION,
         "kind": KIND,
-        "architecture": {"layer_sizes": list(model.layer_sizes), "activation": model.activation,
-                         "output": "linear"},
+        "architecture": {"layer_sizes": list(model.layer_sizes), "activation": model.activation, "output": "linear"},
         "normalisation": {"method": "mapminmax", "range": [-1, 1]},
         **{k: v for k, v in model.metadata.items() if k not in ("format_version", "kind", "architecture")},
         "code_version": code_version(),
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
-    arrays = {"metadata": np.array(json.dumps(meta, default=json_default, allow_nan=False)),
-              "u_min": model.u_min, "u_max": model.u_max, "y_min": model.y_min, "y_max": model.y_max}
+    arrays = {
+        "metadata": np.array(json.dumps(meta, default=json_default, allow_nan=False)),
+        "u_min": model.u_min,
+        "u_max": model.u_max,
+        "y_min": model.y_min,
+        "y_max": model.y_max,
+    }
     for l, (w, b) in enumerate(zip(model.weights, model.biases)):
         arrays[f"W{l}"], arrays[f"b{l}"] = w, b
     with atomic_open(path, "wb") as fh:
@@ -103,16 +108,20 @@ def read_model(path: str | Path, activations: tuple[str, ...]) -> dict:
     if not isinstance(version, int) or isinstance(version, bool):
         raise ModelFileError(f"{path}: metadata has no integer format_version (got {version!r})")
     if version > FORMAT_VERSION:
-        raise ModelFileError(f"{path}: format_version {version} is newer than this code reads "
-                             f"({FORMAT_VERSION}); update the package")
+        raise ModelFileError(
+            f"{path}: format_version {version} is newer than this code reads ({FORMAT_VERSION}); update the package"
+        )
     if meta.get("kind") != KIND:
         raise ModelFileError(f"{path}: kind {meta.get('kind')!r} is not {KIND!r}")
     arch = meta.get("architecture")
     if not isinstance(arch, dict) or "layer_sizes" not in arch or "activation" not in arch:
         raise ModelFileError(f"{path}: metadata lacks architecture.layer_sizes / architecture.activation")
     sizes, activation = arch["layer_sizes"], arch["activation"]
-    if (not isinstance(sizes, list) or len(sizes) < 2
-            or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in sizes)):
+    if (
+        not isinstance(sizes, list)
+        or len(sizes) < 2
+        or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in sizes)
+    ):
         raise ModelFileError(f"{path}: bad layer_sizes {sizes!r}")
     if activation not in activations:
         raise ModelFileError(f"{path}: unknown activation {activation!r} (known: {activations})")
@@ -120,8 +129,10 @@ def read_model(path: str | Path, activations: tuple[str, ...]) -> dict:
     for l in range(len(sizes) - 1):
         w, b = _need(arrays, f"W{l}", path), _need(arrays, f"b{l}", path)
         if w.shape != (sizes[l + 1], sizes[l]) or b.shape != (sizes[l + 1],):
-            raise ModelFileError(f"{path}: layer {l} has W{w.shape} b{b.shape}, but layer_sizes {sizes} "
-                                 f"needs W({sizes[l + 1]}, {sizes[l]}) b({sizes[l + 1]},)")
+            raise ModelFileError(
+                f"{path}: layer {l} has W{w.shape} b{b.shape}, but layer_sizes {sizes} "
+                f"needs W({sizes[l + 1]}, {sizes[l]}) b({sizes[l + 1]},)"
+            )
         weights.append(w)
         biases.append(b)
     ranges = {}
@@ -129,8 +140,11 @@ def read_model(path: str | Path, activations: tuple[str, ...]) -> dict:
         ranges[key] = _need(arrays, key, path)
         if ranges[key].shape != (n,):
             raise ModelFileError(f"{path}: {key} has shape {ranges[key].shape}, expected ({n},)")
-    for key, arr in [*ranges.items(), *((f"W{l}", w) for l, w in enumerate(weights)),
-                     *((f"b{l}", b) for l, b in enumerate(biases))]:
+    for key, arr in [
+        *ranges.items(),
+        *((f"W{l}", w) for l, w in enumerate(weights)),
+        *((f"b{l}", b) for l, b in enumerate(biases)),
+    ]:
         if arr.dtype.kind != "f" or not np.all(np.isfinite(arr)):
             raise ModelFileError(f"{path}: array {key!r} is not finite floating point")
     keep = {k: v for k, v in meta.items() if k not in ("format_version", "kind", "architecture")}

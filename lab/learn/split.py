@@ -31,6 +31,7 @@ for validation and test, the rest for training. :func:`train` does split + init 
 with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
 datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -43,6 +44,7 @@ from lab.errors import InputError
 @dataclass
 class Split:
     """Sample indices of the training, validation and test sets (sorted, disjoint)."""
+
     train: np.ndarray
     validation: np.ndarray
     test: np.ndarray
@@ -56,8 +58,9 @@ def divide_random(n: int, ratios=(0.7, 0.15, 0.15), seed: int | np.random.Genera
     validation and test get ``round(ratio * n)`` samples, training the rest."""
     r = np.asarray(ratios, dtype=float)
     if r.shape != (3,) or np.any(r < 0) or not np.all(np.isfinite(r)) or r[0] <= 0:
-        raise InputError(f"split ratios must be 3 non-negative numbers (train, validation, test) "
-                         f"with train > 0, got {tuple(ratios)}")
+        raise InputError(
+            f"split ratios must be 3 non-negative numbers (train, validation, test) with train > 0, got {tuple(ratios)}"
+        )
     r = r / r.sum()
     n_val, n_test = int(round(r[1] * n)), int(round(r[2] * n))
     n_train = n - n_val - n_test
@@ -65,5 +68,4 @@ def divide_random(n: int, ratios=(0.7, 0.15, 0.15), seed: int | np.random.Genera
         raise InputError(f"split {tuple(ratios)} of {n} samples leaves no training samples")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     perm = rng.permutation(n)
-    return Split(np.sort(perm[:n_train]), np.sort(perm[n_train:n_train + n_val]),
-                 np.sort(perm[n_train + n_val:]))
+    return Split(np.sort(perm[:n_train]), np.sort(perm[n_train : n_train + n_val]), np.sort(perm[n_train + n_val :]))

@@ -19,6 +19,7 @@ thread each; results do not depend on the number of workers):
   ``n_runs`` random 80/10/10 splits per width. Run ``r`` uses the same split for every
   width, so the widths are compared on the same data.
 """
+
 from __future__ import annotations
 
 import csv
@@ -38,9 +39,15 @@ def _one_run(u, y, hidden, ratios, seed, train_kwargs) -> dict:
     from lab.learn.train import train
 
     res = train(u, y, hidden, ratios=ratios, seed=seed, **train_kwargs)
-    row = {"hidden": "-".join(map(str, hidden)), "n_params": res.model.n_params, "seed": seed,
-           "epochs": res.log.epochs, "best_epoch": res.log.best_epoch, "stop_reason": res.log.stop_reason,
-           "wall_s": res.log.wall_s}
+    row = {
+        "hidden": "-".join(map(str, hidden)),
+        "n_params": res.model.n_params,
+        "seed": seed,
+        "epochs": res.log.epochs,
+        "best_epoch": res.log.best_epoch,
+        "stop_reason": res.log.stop_reason,
+        "wall_s": res.log.wall_s,
+    }
     for name, err in res.errors.items():
         row[f"{name}_n"] = err["n"]
         row[f"{name}_mse_m2"] = err["mse_m2"] if err["n"] else float("nan")
@@ -57,8 +64,9 @@ def _run_all(jobs, n_jobs: int) -> list[dict]:
         return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
 
 
-def evaluate_splits(u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0.0, 0.1), seed: int = 0,
-                    n_jobs: int = 1, **train_kwargs) -> list[dict]:
+def evaluate_splits(
+    u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0.0, 0.1), seed: int = 0, n_jobs: int = 1, **train_kwargs
+) -> list[dict]:
     """Train ``hidden`` on ``n_splits`` random splits; one row per split with its errors.
 
     Row keys: hidden, n_params, seed, epochs, best_epoch, stop_reason, wall_s and, for each
@@ -71,8 +79,18 @@ def evaluate_splits(u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0
     return rows
 
 
-def size_sweep(u, y, widths, *, n_layers: int = 2, n_runs: int = 10, ratios=(0.8, 0.1, 0.1),
-               seed: int = 0, n_jobs: int = 1, **train_kwargs) -> list[dict]:
+def size_sweep(
+    u,
+    y,
+    widths,
+    *,
+    n_layers: int = 2,
+    n_runs: int = 10,
+    ratios=(0.8, 0.1, 0.1),
+    seed: int = 0,
+    n_jobs: int = 1,
+    **train_kwargs,
+) -> list[dict]:
     """Figure 6: ``n_layers`` hidden layers of each width, ``n_runs`` splits each; one row per
     (width, run) with the keys of :func:`evaluate_splits` plus ``width`` and ``run``."""
     seeds = run_seeds(seed, n_runs)
@@ -92,11 +110,17 @@ def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
     for key in dict.fromkeys(r[by] for r in rows):
         v = np.array([r[value] for r in rows if r[by] == key], dtype=float)
         v = v[np.isfinite(v)]
-        out.append({by: key, "n": len(v), "mean": float(v.mean()) if len(v) else float("nan"),
-                    "std": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
-                    "median": float(np.median(v)) if len(v) else float("nan"),
-                    "min": float(v.min()) if len(v) else float("nan"),
-                    "max": float(v.max()) if len(v) else float("nan")})
+        out.append(
+            {
+                by: key,
+                "n": len(v),
+                "mean": float(v.mean()) if len(v) else float("nan"),
+                "std": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
+                "median": float(np.median(v)) if len(v) else float("nan"),
+                "min": float(v.min()) if len(v) else float("nan"),
+                "max": float(v.max()) if len(v) else float("nan"),
+            }
+        )
     return out
 
 

@@ -31,6 +31,7 @@ for validation and test, the rest for training. :func:`train` does split + init 
 with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
 datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -59,15 +60,26 @@ def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
 @dataclass
 class TrainResult:
     """A trained network with its split, log and errors (``errors[set]`` = {mse_m2, mean_distance_m, n})."""
+
     model: MLP
     split: Split
     log: TrainLog
     errors: dict
 
 
-def train(u, y, hidden=(20, 20), *, activation: str = "tanh", algorithm: str = "lm",
-          ratios=(0.8, 0.1, 0.1), seed: int = 0, epochs: int | None = None, options=None,
-          progress=None) -> TrainResult:
+def train(
+    u,
+    y,
+    hidden=(20, 20),
+    *,
+    activation: str = "tanh",
+    algorithm: str = "lm",
+    ratios=(0.8, 0.1, 0.1),
+    seed: int = 0,
+    epochs: int | None = None,
+    options=None,
+    progress=None,
+) -> TrainResult:
     """Split (``dividerand``), initialise (Nguyen-Widrow) and train a u -> y network.
 
     ``u`` (N, n_u), ``y`` (N, n_y); ``ratios`` (train, validation, test); one random stream
@@ -87,8 +99,10 @@ def train(u, y, hidden=(20, 20), *, activation: str = "tanh", algorithm: str = "
     rng = np.random.default_rng(seed)
     split = divide_random(len(u), ratios, rng)
     model = init_mlp(u, y, hidden, activation, rng)
-    sets = {name: (u[idx], y[idx]) for name, idx in
-            (("train", split.train), ("validation", split.validation), ("test", split.test))}
+    sets = {
+        name: (u[idx], y[idx])
+        for name, idx in (("train", split.train), ("validation", split.validation), ("test", split.test))
+    }
     args = (*sets["train"], *sets["validation"], *sets["test"])
     if algorithm == "lm":
         opt = options or LMOptions()
@@ -107,13 +121,26 @@ def train(u, y, hidden=(20, 20), *, activation: str = "tanh", algorithm: str = "
         model, log = fit(model, *args, progress=progress, **kwargs)
     errors = {name: error_report(model, *sets[name]) for name in sets}
     model.metadata["training"] = {
-        "algorithm": log.algorithm, "options": {k: v for k, v in log.options.items() if k != "seed"},
-        "epochs": log.epochs, "best_epoch": log.best_epoch, "stop_reason": log.stop_reason,
-        "stop_message": STOP_MESSAGES.get(log.stop_reason, log.stop_reason), "seed": seed,
-        "split": {"method": "dividerand", "ratios": list(map(float, ratios)), **split.sizes(),
-                  "indices": {"train": split.train.tolist(), "validation": split.validation.tolist(),
-                              "test": split.test.tolist()}},
-        "errors": errors, "data_sha256": data_sha256(u, y), "n_samples": len(u),
+        "algorithm": log.algorithm,
+        "options": {k: v for k, v in log.options.items() if k != "seed"},
+        "epochs": log.epochs,
+        "best_epoch": log.best_epoch,
+        "stop_reason": log.stop_reason,
+        "stop_message": STOP_MESSAGES.get(log.stop_reason, log.stop_reason),
+        "seed": seed,
+        "split": {
+            "method": "dividerand",
+            "ratios": list(map(float, ratios)),
+            **split.sizes(),
+            "indices": {
+                "train": split.train.tolist(),
+                "validation": split.validation.tolist(),
+                "test": split.test.tolist(),
+            },
+        },
+        "errors": errors,
+        "data_sha256": data_sha256(u, y),
+        "n_samples": len(u),
         "wall_s": log.wall_s,
     }
     model.metadata["units"] = {"u": "rad", "y": "m"}

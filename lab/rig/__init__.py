@@ -29,10 +29,30 @@ from lab.rig.sim import SimRig
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
 __all__ = [
-    "make_rig", "Rig", "Body", "MocapFrame", "RigError", "ServoError", "MocapError",
-    "Capture", "Protocol", "Sample", "SettleDetector", "capture", "journal_columns", "measure",
-    "Journal", "JournalError", "SimRig", "TwinRig", "AsBuiltBody", "MocapModel",
-    "Defects", "default_defects_path", "load_defects", "parse_defects",
+    "make_rig",
+    "Rig",
+    "Body",
+    "MocapFrame",
+    "RigError",
+    "ServoError",
+    "MocapError",
+    "Capture",
+    "Protocol",
+    "Sample",
+    "SettleDetector",
+    "capture",
+    "journal_columns",
+    "measure",
+    "Journal",
+    "JournalError",
+    "SimRig",
+    "TwinRig",
+    "AsBuiltBody",
+    "MocapModel",
+    "Defects",
+    "default_defects_path",
+    "load_defects",
+    "parse_defects",
 ]
 
 

@@ -19,6 +19,7 @@ the bad one. The shipped default for a robot is ``lab/rig/defects/<robot>.toml``
 :class:`EquilibriumCache` solves the as-built FEM for effective cable contractions,
 warm-started from the nearest cached equilibrium.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -50,6 +51,7 @@ class DefectsError(InputError):
 class CableDefects:
     """As-built cable ``name``: eyelet shift ``via_shift_m`` (3,) m in frame W, extra free
     length ``slack_m`` (m), play half-width ``play_m`` (m of contraction)."""
+
     name: str
     via_shift_m: np.ndarray
     slack_m: float
@@ -59,6 +61,7 @@ class CableDefects:
 @dataclass(frozen=True)
 class Defects:
     """A validated defects file (see the module docstring for the meaning of each field)."""
+
     robot: str
     softness: float
     gradient: float
@@ -109,8 +112,11 @@ def _num(table: dict, key: str, where: str, *, lo=None, hi=None, lo_open=False, 
 
 def _vec3(table: dict, key: str, where: str) -> np.ndarray:
     v = table.get(key)
-    if not isinstance(v, list) or len(v) != 3 or not all(
-            isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in v):
+    if (
+        not isinstance(v, list)
+        or len(v) != 3
+        or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in v)
+    ):
         raise DefectsError(f"field '{where}.{key}' must be a list of 3 finite numbers, got {v!r}")
     return np.asarray(v, dtype=float)
 
@@ -133,20 +139,30 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
     gradient = _num(mat, "gradient", "material", lo=0.0, hi=1.0)
     direction = _vec3(mat, "gradient_direction", "material")
     if abs(direction[0]) > 1e-12 or np.linalg.norm(direction) == 0:
-        raise DefectsError("field 'material.gradient_direction' must be a nonzero direction across the "
-                           f"section (x component 0: the body axis is +x), got {direction.tolist()}")
+        raise DefectsError(
+            "field 'material.gradient_direction' must be a nonzero direction across the "
+            f"section (x component 0: the body axis is +x), got {direction.tolist()}"
+        )
     entries = data.get("cables")
     if not isinstance(entries, list) or len(entries) != robot.n_cables:
-        raise DefectsError(f"[[cables]] must have one table per cable of {robot.name} "
-                           f"({robot.n_cables}), got {len(entries) if isinstance(entries, list) else 0}")
+        raise DefectsError(
+            f"[[cables]] must have one table per cable of {robot.name} "
+            f"({robot.n_cables}), got {len(entries) if isinstance(entries, list) else 0}"
+        )
     cables = []
     for i, (entry, cable) in enumerate(zip(entries, robot.cables)):
         where = f"cables[{i}]"
         if not isinstance(entry, dict) or entry.get("name") != cable.name:
             got = entry.get("name") if isinstance(entry, dict) else entry
             raise DefectsError(f"field '{where}.name' must be {cable.name!r} (the description's order), got {got!r}")
-        cables.append(CableDefects(cable.name, _vec3(entry, "via_shift_m", where),
-                                   _num(entry, "slack_m", where, lo=0.0), _num(entry, "play_m", where, lo=0.0)))
+        cables.append(
+            CableDefects(
+                cable.name,
+                _vec3(entry, "via_shift_m", where),
+                _num(entry, "slack_m", where, lo=0.0),
+                _num(entry, "play_m", where, lo=0.0),
+            )
+        )
     lag = _table(data, "lag")
     tau_fast = _num(lag, "tau_fast_s", "lag", lo=0.0, lo_open=True)
     tau_slow = _num(lag, "tau_slow_s", "lag", lo=0.0, lo_open=True)
@@ -156,19 +172,30 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
     emulator = data.get("emulator", {})
     if not isinstance(emulator, dict):
         raise DefectsError("[emulator] must be a table")
-    mesh = {k: (_num(emulator, k, "emulator", lo=1, integer=True) if k in emulator else None)
-            for k in ("n_rings", "n_axial")}
+    mesh = {
+        k: (_num(emulator, k, "emulator", lo=1, integer=True) if k in emulator else None)
+        for k in ("n_rings", "n_axial")
+    }
     return Defects(
-        robot=robot.name, softness=softness, gradient=gradient,
-        gradient_direction_W=direction / np.linalg.norm(direction), cables=tuple(cables),
-        tau_fast_s=tau_fast, tau_slow_s=tau_slow, slow_fraction=_num(lag, "slow_fraction", "lag", lo=0.0, hi=1.0),
+        robot=robot.name,
+        softness=softness,
+        gradient=gradient,
+        gradient_direction_W=direction / np.linalg.norm(direction),
+        cables=tuple(cables),
+        tau_fast_s=tau_fast,
+        tau_slow_s=tau_slow,
+        slow_fraction=_num(lag, "slow_fraction", "lag", lo=0.0, hi=1.0),
         ticks_per_rev=_num(motors, "ticks_per_rev", "motors", lo=0, integer=True),
         profile_velocity_rad_s=_num(motors, "profile_velocity_rad_s", "motors", lo=0.0, lo_open=True),
         frame_rate_hz=_num(mocap, "frame_rate_hz", "mocap", lo=0.0, lo_open=True),
         noise_sigma_m=_num(mocap, "noise_sigma_m", "mocap", lo=0.0),
         dropout_rate_hz=_num(mocap, "dropout_rate_hz", "mocap", lo=0.0),
         dropout_max_frames=_num(mocap, "dropout_max_frames", "mocap", lo=1, integer=True),
-        n_rings=mesh["n_rings"], n_axial=mesh["n_axial"], path=path, source=data)
+        n_rings=mesh["n_rings"],
+        n_axial=mesh["n_axial"],
+        path=path,
+        source=data,
+    )
 
 
 def default_defects_path(robot: RobotDescription) -> Path:
@@ -182,9 +209,11 @@ def load_defects(path: str | Path | None, robot: RobotDescription) -> Defects:
     if path is None:
         path = default_defects_path(robot)
         if not path.exists():
-            raise DefectsError(f"no shipped defects file for robot {robot.name!r} ({path}); "
-                               f"write one and pass it as --rig twin:DEFECTS.toml")
-        shown = f"lab/rig/defects/{path.name}"          # recorded relative to the repository
+            raise DefectsError(
+                f"no shipped defects file for robot {robot.name!r} ({path}); "
+                f"write one and pass it as --rig twin:DEFECTS.toml"
+            )
+        shown = f"lab/rig/defects/{path.name}"  # recorded relative to the repository
     path = Path(path)
     data = read_toml(path, DefectsError, "defects file")
     try:
@@ -195,14 +224,22 @@ def load_defects(path: str | Path | None, robot: RobotDescription) -> Defects:
 
 def as_built_robot(robot: RobotDescription, defects: Defects) -> RobotDescription:
     """The description with every cable's via points moved by its ``via_shift_m``."""
-    cables = tuple(dataclasses.replace(c, via_points_m=c.via_points_m + d.via_shift_m)
-                   for c, d in zip(robot.cables, defects.cables))
+    cables = tuple(
+        dataclasses.replace(c, via_points_m=c.via_points_m + d.via_shift_m)
+        for c, d in zip(robot.cables, defects.cables)
+    )
     for i, c in enumerate(cables):
         r = np.hypot(c.via_points_m[:, 1], c.via_points_m[:, 2])
-        if np.any(r > robot.radius_m) or np.any(c.via_points_m[:, 0] <= 0) or np.any(
-                c.via_points_m[:, 0] > robot.length_m) or np.any(np.diff(c.via_points_m[:, 0]) <= 0):
-            raise DefectsError(f"field 'cables[{i}].via_shift_m' moves eyelets of {c.name!r} out of the body "
-                               f"(radius {robot.radius_m} m, 0 < x <= {robot.length_m} m, increasing x)")
+        if (
+            np.any(r > robot.radius_m)
+            or np.any(c.via_points_m[:, 0] <= 0)
+            or np.any(c.via_points_m[:, 0] > robot.length_m)
+            or np.any(np.diff(c.via_points_m[:, 0]) <= 0)
+        ):
+            raise DefectsError(
+                f"field 'cables[{i}].via_shift_m' moves eyelets of {c.name!r} out of the body "
+                f"(radius {robot.radius_m} m, 0 < x <= {robot.length_m} m, increasing x)"
+            )
     return dataclasses.replace(robot, cables=cables)
 
 
@@ -212,8 +249,9 @@ def youngs_modulus_per_tet(robot: RobotDescription, defects: Defects, tet_centro
     return robot.youngs_modulus_pa * defects.softness * (1.0 + defects.gradient * s)
 
 
-def as_built_fem(robot: RobotDescription, defects: Defects, *, n_rings: int | None = None,
-                 n_axial: int | None = None) -> ArmFEM:
+def as_built_fem(
+    robot: RobotDescription, defects: Defects, *, n_rings: int | None = None, n_axial: int | None = None
+) -> ArmFEM:
     """The FEM of the as-built arm (moved eyelets, softer graded foam, slack cables).
 
     Mesh resolution: the arguments, else the defects file's ``[emulator]``, else the
@@ -224,11 +262,17 @@ def as_built_fem(robot: RobotDescription, defects: Defects, *, n_rings: int | No
     mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
     centroids = mesh.X_W[mesh.tets].mean(axis=1)
     try:
-        return ArmFEM(built, mesh, youngs_modulus_pa=youngs_modulus_per_tet(robot, defects, centroids),
-                      cable_slack_m=defects.slack_m)
-    except ValueError as err:   # an eyelet between the polygonal mesh boundary and the radius
-        raise DefectsError(f"as-built eyelets do not fit the {n_rings}-ring mesh, whose polygonal section "
-                           f"is smaller than the radius: {err}; shift them less, or use more rings") from None
+        return ArmFEM(
+            built,
+            mesh,
+            youngs_modulus_pa=youngs_modulus_per_tet(robot, defects, centroids),
+            cable_slack_m=defects.slack_m,
+        )
+    except ValueError as err:  # an eyelet between the polygonal mesh boundary and the radius
+        raise DefectsError(
+            f"as-built eyelets do not fit the {n_rings}-ring mesh, whose polygonal section "
+            f"is smaller than the radius: {err}; shift them less, or use more rings"
+        ) from None
 
 
 class EquilibriumCache:
@@ -245,7 +289,7 @@ class EquilibriumCache:
         self.fem = fem
         self.max_entries = int(max_entries)
         self._r = fem.robot.spool_radius_m
-        self._entries: OrderedDict[tuple, tuple] = OrderedDict()   # key -> (u_eff, q, dq_du, p_tip_W)
+        self._entries: OrderedDict[tuple, tuple] = OrderedDict()  # key -> (u_eff, q, dq_du, p_tip_W)
         self.n_solves = 0
         self.solve_time_s = 0.0
 
@@ -277,7 +321,7 @@ class EquilibriumCache:
             sol = solve_static(self.fem, u_eff, start[1] + start[2] @ (u_eff - start[0]), **kw)
             if sol.converged:
                 return sol
-        sol = solve_static(self.fem, u_eff, **kw)       # cold start from rest
+        sol = solve_static(self.fem, u_eff, **kw)  # cold start from rest
         if sol.converged:
             return sol
         # Continuation from rest in small steps for a far, hard command.
@@ -287,6 +331,8 @@ class EquilibriumCache:
             if not prev.converged:
                 break
         if not prev.converged:
-            raise LabRuntimeError(f"as-built FEM: no equilibrium found for effective motor angles "
-                               f"{u_eff.tolist()} rad ({prev.status}, residual {prev.grad_norm_n:.3g} N)")
+            raise LabRuntimeError(
+                f"as-built FEM: no equilibrium found for effective motor angles "
+                f"{u_eff.tolist()} rad ({prev.status}, residual {prev.grad_norm_n:.3g} N)"
+            )
         return prev

@@ -18,6 +18,7 @@ Everything downstream (capture protocol, trajectory tracking) uses only this int
 hardware. Frames are timestamped on the rig's clock (seconds): wall time on hardware,
 a virtual clock on the emulated rigs, which therefore run much faster than real time.
 """
+
 from __future__ import annotations
 
 import abc
@@ -45,6 +46,7 @@ class MocapError(RigError):
 class MocapFrame:
     """One motion-capture frame: time ``t_s`` (s, rig clock) and tip marker ``p_tip_W``
     (3,) m in the robot frame W; all-NaN when the marker was not seen in this frame."""
+
     t_s: float
     p_tip_W: np.ndarray
 
@@ -115,7 +117,7 @@ class Rig(abc.ABC):
             self._closed = True
             self._close()
 
-    def _close(self) -> None:
+    def _close(self) -> None:  # noqa: B027 (a hook: rigs with hardware override it)
         pass
 
     def __enter__(self):

@@ -5,6 +5,7 @@ one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. ``python -m lab capture``
 (:mod:`lab.cli.capture`) adds the grid, the rig and the dataset.
 """
+
 from __future__ import annotations
 
 import time
@@ -20,8 +21,26 @@ from lab.rig.protocol import Protocol, measure
 
 def journal_columns(n_motors: int) -> list[str]:
     u = [f"u{i}" for i in range(n_motors)]
-    return (["index", *u, "x", "y", "z", "settled", "t_start_s", "t_command_s", "t_arrived_s", "t_done_s",
-             "n_readings", "deviation_m", "n_frames", "n_invalid_frames"] + [f"present_{c}" for c in u] + ["session"])
+    return (
+        [
+            "index",
+            *u,
+            "x",
+            "y",
+            "z",
+            "settled",
+            "t_start_s",
+            "t_command_s",
+            "t_arrived_s",
+            "t_done_s",
+            "n_readings",
+            "deviation_m",
+            "n_frames",
+            "n_invalid_frames",
+        ]
+        + [f"present_{c}" for c in u]
+        + ["session"]
+    )
 
 
 @dataclass
@@ -31,6 +50,7 @@ class Capture:
     of the reset to the record, ``settle_s`` from the command to the record,
     ``n_frames``, ``n_invalid_frames``, ``deviation_m``, ``session``), and the journal's
     notes (``session`` / ``session-end`` lines as (tag, dict))."""
+
     u_motor: np.ndarray
     p_tip_W: np.ndarray
     settled: np.ndarray
@@ -58,8 +78,16 @@ class Capture:
         return 3600.0 * len(self.sample_s) / self.robot_time_s if self.robot_time_s > 0 else float("nan")
 
 
-def capture(rig: Rig, commands, journal_path, protocol: Protocol = Protocol(), *, header: dict | None = None,
-            session_info: dict | None = None, progress: bool = False) -> Capture:
+def capture(
+    rig: Rig,
+    commands,
+    journal_path,
+    protocol: Protocol = Protocol(),
+    *,
+    header: dict | None = None,
+    session_info: dict | None = None,
+    progress: bool = False,
+) -> Capture:
     """Capture ``commands`` (N, m) rad, in this order, into the journal at ``journal_path``.
 
     Resumes a journal with the same ``header`` (extra JSON-able identity: robot, rig,
@@ -77,9 +105,13 @@ def capture(rig: Rig, commands, journal_path, protocol: Protocol = Protocol(), *
     if commands.ndim != 2 or commands.shape[1] != m:
         raise InputError(f"commands must have shape (N, {m}), got {commands.shape}")
     for u in commands:
-        rig.robot.check_command(u)                         # fail before moving anything
-    full_header = {"kind": "lab.capture", **(header or {}), "protocol": protocol.as_dict(),
-                   "commands": {"n": len(commands), "sha256": _sha256(commands)}}
+        rig.robot.check_command(u)  # fail before moving anything
+    full_header = {
+        "kind": "lab.capture",
+        **(header or {}),
+        "protocol": protocol.as_dict(),
+        "commands": {"n": len(commands), "sha256": _sha256(commands)},
+    }
     cols = journal_columns(m)
     with Journal.open(journal_path, full_header, cols) as journal:
         done = len(journal.rows)
@@ -87,36 +119,66 @@ def capture(rig: Rig, commands, journal_path, protocol: Protocol = Protocol(), *
             if int(row["index"]) != i or not np.array_equal([row[f"u{j}"] for j in range(m)], commands[i]):
                 raise JournalError(f"{journal_path}: line for sample {i} does not match the command list")
         session = len(journal.notes_tagged("session")) + 1
-        journal.note("session", {"session": session, "started": _now(), "resumed_at": done,
-                                 "rig": rig.describe(), **(session_info or {})})
+        journal.note(
+            "session",
+            {"session": session, "started": _now(), "resumed_at": done, "rig": rig.describe(), **(session_info or {})},
+        )
         wall0, status = time.perf_counter(), "complete"
         bar = tqdm(total=len(commands), initial=done, unit="sample", disable=not progress, smoothing=0.05)
         try:
             for i in range(done, len(commands)):
                 s = measure(rig, commands[i], protocol)
-                journal.append({"index": i, **{f"u{j}": s.u_motor[j] for j in range(m)},
-                                "x": s.p_tip_W[0], "y": s.p_tip_W[1], "z": s.p_tip_W[2], "settled": int(s.settled),
-                                "t_start_s": s.t_start_s, "t_command_s": s.t_command_s, "t_arrived_s": s.t_arrived_s,
-                                "t_done_s": s.t_done_s, "n_readings": s.n_readings, "deviation_m": s.deviation_m,
-                                "n_frames": s.n_frames, "n_invalid_frames": s.n_invalid_frames,
-                                **{f"present_u{j}": s.u_present[j] for j in range(m)}, "session": session})
+                journal.append(
+                    {
+                        "index": i,
+                        **{f"u{j}": s.u_motor[j] for j in range(m)},
+                        "x": s.p_tip_W[0],
+                        "y": s.p_tip_W[1],
+                        "z": s.p_tip_W[2],
+                        "settled": int(s.settled),
+                        "t_start_s": s.t_start_s,
+                        "t_command_s": s.t_command_s,
+                        "t_arrived_s": s.t_arrived_s,
+                        "t_done_s": s.t_done_s,
+                        "n_readings": s.n_readings,
+                        "deviation_m": s.deviation_m,
+                        "n_frames": s.n_frames,
+                        "n_invalid_frames": s.n_invalid_frames,
+                        **{f"present_u{j}": s.u_present[j] for j in range(m)},
+                        "session": session,
+                    }
+                )
                 bar.update(1)
         except BaseException as err:
             status = f"stopped: {type(err).__name__}: {err}"
             raise
         finally:
             bar.close()
-            journal.note("session-end", {"session": session, "ended": _now(), "status": status,
-                                         "new_samples": len(journal.rows) - done,
-                                         "wall_s": time.perf_counter() - wall0})
+            journal.note(
+                "session-end",
+                {
+                    "session": session,
+                    "ended": _now(),
+                    "status": status,
+                    "new_samples": len(journal.rows) - done,
+                    "wall_s": time.perf_counter() - wall0,
+                },
+            )
         rows, notes = journal.rows, journal.notes
     col = {c: np.array([r[c] for r in rows]) for c in cols}
-    return Capture(u_motor=np.column_stack([col[f"u{j}"] for j in range(m)]),
-                   p_tip_W=np.column_stack([col["x"], col["y"], col["z"]]), settled=col["settled"].astype(bool),
-                   sample_s=col["t_done_s"] - col["t_start_s"], settle_s=col["t_done_s"] - col["t_command_s"],
-                   deviation_m=col["deviation_m"], n_frames=col["n_frames"].astype(int),
-                   n_invalid_frames=col["n_invalid_frames"].astype(int), session=col["session"].astype(int),
-                   notes=notes, new_samples=len(rows) - done)
+    return Capture(
+        u_motor=np.column_stack([col[f"u{j}"] for j in range(m)]),
+        p_tip_W=np.column_stack([col["x"], col["y"], col["z"]]),
+        settled=col["settled"].astype(bool),
+        sample_s=col["t_done_s"] - col["t_start_s"],
+        settle_s=col["t_done_s"] - col["t_command_s"],
+        deviation_m=col["deviation_m"],
+        n_frames=col["n_frames"].astype(int),
+        n_invalid_frames=col["n_invalid_frames"].astype(int),
+        session=col["session"].astype(int),
+        notes=notes,
+        new_samples=len(rows) - done,
+    )
 
 
 def _sha256(a: np.ndarray) -> str:
@@ -128,4 +190,4 @@ def _sha256(a: np.ndarray) -> str:
 def _now() -> str:
     import datetime as dt
 
-    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds")

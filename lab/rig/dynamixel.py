@@ -24,11 +24,12 @@ servo: a broadcast write, then a read-back from each servo; the message says whe
 torque off was confirmed. A failing serial port (adapter unplugged) is a ``ServoError``
 too.
 """
+
 from __future__ import annotations
 
 import math
 import termios
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import serial
@@ -69,8 +70,18 @@ from lab.rig.dynamixel_units import (
     velocity_units,
 )
 
-__all__ = ["XM430Bus", "ServoConfig", "ticks_from_u", "u_from_ticks", "velocity_units", "RAD_PER_TICK",
-           "TICKS_PER_REV", "SDK_BAUD_RATES", "X_SERIES_MODELS", "IO_ERRORS"]
+__all__ = [
+    "XM430Bus",
+    "ServoConfig",
+    "ticks_from_u",
+    "u_from_ticks",
+    "velocity_units",
+    "RAD_PER_TICK",
+    "TICKS_PER_REV",
+    "SDK_BAUD_RATES",
+    "X_SERIES_MODELS",
+    "IO_ERRORS",
+]
 
 # what pyserial raises when the adapter goes away (termios.error is no OSError)
 IO_ERRORS = (serial.SerialException, OSError, termios.error)
@@ -102,9 +113,17 @@ class XM430Bus:
     Raises ``ServoError`` (port closed, torque off) if any of it fails.
     """
 
-    def __init__(self, port: str, baud_rate: int, servos: Sequence[ServoConfig], *,
-                 profile_velocity_rad_s: float, u_max_rad: float = math.pi,
-                 start_margin_rad: float = 0.5, latency_timer_ms: float = 16.0):
+    def __init__(
+        self,
+        port: str,
+        baud_rate: int,
+        servos: Sequence[ServoConfig],
+        *,
+        profile_velocity_rad_s: float,
+        u_max_rad: float = math.pi,
+        start_margin_rad: float = 0.5,
+        latency_timer_ms: float = 16.0,
+    ):
         self.servos = tuple(servos)
         self.ids = [s.dxl_id for s in self.servos]
         if not self.ids or len(set(self.ids)) != len(self.ids) or not all(0 <= i <= 252 for i in self.ids):
@@ -122,11 +141,11 @@ class XM430Bus:
         self.profile_velocity_units = velocity_units(profile_velocity_rad_s)
         self.model_numbers: dict[int, int] = {}
         self._closed = False
-        self._unconfirmed_at_fail: list[int] | None = None     # torque-off result of the last failure
+        self._unconfirmed_at_fail: list[int] | None = None  # torque-off result of the last failure
         self._ph = PacketHandler(2.0)
         self._port = _PortHandler(self.port_name, latency_timer_ms)
         try:
-            ok = self._port.setBaudRate(self.baud_rate)      # opens the port
+            ok = self._port.setBaudRate(self.baud_rate)  # opens the port
         except IO_ERRORS as err:
             self._closed = True
             raise ServoError(f"cannot open serial port {self.port_name}: {err}") from None
@@ -148,23 +167,33 @@ class XM430Bus:
         for s in self.servos:
             model, result, error = self._sdk(self._ph.ping, self._port, s.dxl_id)
             if result != COMM_SUCCESS:
-                self._fail(s.dxl_id, f"ping on {self.port_name} at {self.baud_rate} baud",
-                           self._ph.getTxRxResult(result) + " (check power, wiring, ID and baud rate)")
+                self._fail(
+                    s.dxl_id,
+                    f"ping on {self.port_name} at {self.baud_rate} baud",
+                    self._ph.getTxRxResult(result) + " (check power, wiring, ID and baud rate)",
+                )
             self._check(s.dxl_id, "ping", result, error)
             if model not in X_SERIES_MODELS:
-                self._fail(s.dxl_id, "model check", f"model number {model} is not an X-series servo "
-                           f"with the XM430 control table ({sorted(X_SERIES_MODELS)})")
+                self._fail(
+                    s.dxl_id,
+                    "model check",
+                    f"model number {model} is not an X-series servo "
+                    f"with the XM430 control table ({sorted(X_SERIES_MODELS)})",
+                )
             self.model_numbers[s.dxl_id] = model
         for s in self.servos:
             self.write_register(s.dxl_id, *TORQUE_ENABLE, 0)
             if self.read_register(s.dxl_id, *OPERATING_MODE) != EXTENDED_POSITION_MODE:
-                self.write_register(s.dxl_id, *OPERATING_MODE, EXTENDED_POSITION_MODE)   # EEPROM: only if needed
+                self.write_register(s.dxl_id, *OPERATING_MODE, EXTENDED_POSITION_MODE)  # EEPROM: only if needed
             limit = self.read_register(s.dxl_id, *VELOCITY_LIMIT)
             if self.profile_velocity_units > limit:
-                self._fail(s.dxl_id, "profile velocity check",
-                           f"{self.profile_velocity_rad_s} rad/s ({self.profile_velocity_units} units of "
-                           f"{RPM_PER_VELOCITY_UNIT} rev/min) exceeds the servo's Velocity Limit (address 44) of "
-                           f"{limit} units = {limit * RPM_PER_VELOCITY_UNIT * 2 * math.pi / 60:.2f} rad/s")
+                self._fail(
+                    s.dxl_id,
+                    "profile velocity check",
+                    f"{self.profile_velocity_rad_s} rad/s ({self.profile_velocity_units} units of "
+                    f"{RPM_PER_VELOCITY_UNIT} rev/min) exceeds the servo's Velocity Limit (address 44) of "
+                    f"{limit} units = {limit * RPM_PER_VELOCITY_UNIT * 2 * math.pi / 60:.2f} rad/s",
+                )
             self.write_register(s.dxl_id, *PROFILE_VELOCITY, self.profile_velocity_units)
         ticks = self.read_present_ticks()
         turns = np.rint((ticks - self.zero_ticks) / TICKS_PER_REV).astype(np.int64)
@@ -172,9 +201,12 @@ class XM430Bus:
         u = self.u_from_ticks(ticks)
         for s, u_i in zip(self.servos, u):
             if not -start_margin_rad <= u_i <= u_max_rad + start_margin_rad:
-                self._fail(s.dxl_id, "start-up check",
-                           f"spool at u = {u_i:.3f} rad, outside [{-start_margin_rad}, {u_max_rad + start_margin_rad}] "
-                           "rad: check zero_offset_ticks and direction, or unwind the spool by hand")
+                self._fail(
+                    s.dxl_id,
+                    "start-up check",
+                    f"spool at u = {u_i:.3f} rad, outside [{-start_margin_rad}, {u_max_rad + start_margin_rad}] "
+                    "rad: check zero_offset_ticks and direction, or unwind the spool by hand",
+                )
 
     # --- conversions ----------------------------------------------------------------
     def ticks_from_u(self, u_rad) -> np.ndarray:
@@ -288,8 +320,11 @@ class XM430Bus:
 
     def _fail(self, dxl_id, what: str, message: str):
         unconfirmed = self._unconfirmed_at_fail = self.torque_off()
-        note = ("torque is off on every servo" if not unconfirmed else
-                f"torque off NOT confirmed for servo IDs {unconfirmed}: switch off servo power")
+        note = (
+            "torque is off on every servo"
+            if not unconfirmed
+            else f"torque off NOT confirmed for servo IDs {unconfirmed}: switch off servo power"
+        )
         who = "servo bus" if dxl_id is None else f"servo ID {dxl_id}{self._cable(dxl_id)}"
         raise ServoError(f"{who} on {self.port_name}: {what} failed: {message} [{note}]")
 
@@ -303,8 +338,9 @@ class XM430Bus:
 
         def is_off(dxl_id):
             return self._read_raw(dxl_id, *TORQUE_ENABLE)[0] == 0
+
         try:
-            self._port.is_using = False      # an interrupted exchange may have left it set
+            self._port.is_using = False  # an interrupted exchange may have left it set
             self._ph.write1ByteTxOnly(self._port, BROADCAST_ID, TORQUE_ENABLE[0], 0)
             for dxl_id in self.ids:
                 if not is_off(dxl_id):

@@ -5,6 +5,7 @@ Ticks: 4096 per revolution; ``u = direction * (ticks - zero_ticks) * 2 pi / 4096
 ``direction`` = +1 if increasing ticks wind the cable in (u >= 0 contracts the cable by
 ``spool_radius_m * u``). Velocity: units of 0.229 rev/min.
 """
+
 from __future__ import annotations
 
 import math
@@ -16,9 +17,26 @@ TICKS_PER_REV = 4096
 RAD_PER_TICK = 2 * math.pi / TICKS_PER_REV
 RPM_PER_VELOCITY_UNIT = 0.229
 EXTENDED_POSITION_MODE = 4
-GOAL_LIMIT_TICKS = 1_048_575          # extended position mode range of the goal
-SDK_BAUD_RATES = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 500000, 576000, 921600,
-                  1000000, 1152000, 2000000, 2500000, 3000000, 3500000, 4000000)
+GOAL_LIMIT_TICKS = 1_048_575  # extended position mode range of the goal
+SDK_BAUD_RATES = (
+    9600,
+    19200,
+    38400,
+    57600,
+    115200,
+    230400,
+    460800,
+    500000,
+    576000,
+    921600,
+    1000000,
+    1152000,
+    2000000,
+    2500000,
+    3000000,
+    3500000,
+    4000000,
+)
 
 # XM430 control table (ROBOTIS e-Manual): (address, size in bytes)
 OPERATING_MODE = (11, 1)
@@ -29,21 +47,35 @@ PROFILE_VELOCITY = (112, 4)
 GOAL_POSITION = (116, 4)
 PRESENT_POSITION = (132, 4)
 
-HARDWARE_ERROR_BITS = {0: "input voltage", 2: "overheating", 3: "motor encoder",
-                       4: "electrical shock", 5: "overload"}
+HARDWARE_ERROR_BITS = {0: "input voltage", 2: "overheating", 3: "motor encoder", 4: "electrical shock", 5: "overload"}
 # X-series servos sharing the XM430 addresses used here (model number -> name); extend
 # this table for another model with the same addresses 11, 44, 64, 70, 112, 116, 132.
-X_SERIES_MODELS = {1000: "XH430-W350", 1001: "XD430-T350", 1010: "XH430-W210", 1011: "XD430-T210",
-                   1020: "XM430-W350", 1030: "XM430-W210", 1040: "XH430-V350", 1050: "XH430-V210",
-                   1060: "XL430-W250", 1070: "XC430-W150", 1080: "XC430-W240", 1100: "XH540-W270",
-                   1110: "XH540-W150", 1120: "XM540-W270", 1130: "XM540-W150", 1270: "XW430-T333",
-                   1280: "XW430-T200"}
+X_SERIES_MODELS = {
+    1000: "XH430-W350",
+    1001: "XD430-T350",
+    1010: "XH430-W210",
+    1011: "XD430-T210",
+    1020: "XM430-W350",
+    1030: "XM430-W210",
+    1040: "XH430-V350",
+    1050: "XH430-V210",
+    1060: "XL430-W250",
+    1070: "XC430-W150",
+    1080: "XC430-W240",
+    1100: "XH540-W270",
+    1110: "XH540-W150",
+    1120: "XM540-W270",
+    1130: "XM540-W150",
+    1270: "XW430-T333",
+    1280: "XW430-T200",
+}
 
 
 @dataclass(frozen=True)
 class ServoConfig:
     """One motor: its bus ``dxl_id``, ``direction`` (+1/-1), ``zero_offset_ticks`` and the
     ``cable`` it pulls (for messages)."""
+
     dxl_id: int
     direction: int = 1
     zero_offset_ticks: int = 0
@@ -59,7 +91,7 @@ def ticks_from_u(u_rad, zero_ticks, direction) -> np.ndarray:
 def u_from_ticks(ticks, zero_ticks, direction) -> np.ndarray:
     """Motor angles (n,) rad for present positions ``ticks`` (n,)."""
     d_ticks = np.asarray(ticks, dtype=np.int64) - np.asarray(zero_ticks, dtype=np.int64)
-    return np.asarray(direction, dtype=float) * d_ticks * RAD_PER_TICK + 0.0   # no -0.0
+    return np.asarray(direction, dtype=float) * d_ticks * RAD_PER_TICK + 0.0  # no -0.0
 
 
 def velocity_units(omega_rad_s: float) -> int:

@@ -19,6 +19,7 @@ profile velocity, start-up angle check), then enables torque holding the present
   SIGKILL: no Python cleanup runs) or a lost USB link, which leave the servos holding
   their last goal; cut servo power then.
 """
+
 from __future__ import annotations
 
 import atexit
@@ -36,6 +37,7 @@ from lab.rig.optitrack import OptiTrackStream
 
 class HardwareRig(Rig):
     """The physical robot behind the rig interface (wall clock, real servos and mocap)."""
+
     kind = "hardware"
 
     def __init__(self, robot: RobotDescription, config: HardwareConfig):
@@ -49,9 +51,15 @@ class HardwareRig(Rig):
         atexit.register(self.close)
         try:
             self._mocap = OptiTrackStream(config.natnet, clock=self.now)
-            self._bus = XM430Bus(config.port, config.baud_rate, config.servos,
-                                 profile_velocity_rad_s=config.profile_velocity_rad_s, u_max_rad=robot.u_max_rad,
-                                 start_margin_rad=config.start_margin_rad, latency_timer_ms=config.latency_timer_ms)
+            self._bus = XM430Bus(
+                config.port,
+                config.baud_rate,
+                config.servos,
+                profile_velocity_rad_s=config.profile_velocity_rad_s,
+                u_max_rad=robot.u_max_rad,
+                start_margin_rad=config.start_margin_rad,
+                latency_timer_ms=config.latency_timer_ms,
+            )
             self._bus.torque_on()
             self._poll()
         except BaseException as err:
@@ -59,7 +67,7 @@ class HardwareRig(Rig):
             raise
 
     @classmethod
-    def from_config(cls, path: str | Path, robot: RobotDescription) -> "HardwareRig":
+    def from_config(cls, path: str | Path, robot: RobotDescription) -> HardwareRig:
         """Rig from a TOML file (``lab/rigs/hardware-example.toml`` documents the format)."""
         return cls(robot, load_hardware_config(path, robot))
 
@@ -115,18 +123,29 @@ class HardwareRig(Rig):
 
     def describe(self) -> dict:
         c, bus, mocap = self.config, self._bus, self._mocap
-        out = {**super().describe(), "config": c.source, "serial_port": c.port, "baud_rate": c.baud_rate,
-               "servo_ids": [s.dxl_id for s in c.servos], "directions": [s.direction for s in c.servos],
-               "profile_velocity_rad_s": c.profile_velocity_rad_s,
-               "mocap_server": f"{c.natnet.server_address}:{c.natnet.command_port}",
-               "mocap_transmission": "multicast" if c.natnet.multicast else "unicast", "failure": self.failure}
+        out = {
+            **super().describe(),
+            "config": c.source,
+            "serial_port": c.port,
+            "baud_rate": c.baud_rate,
+            "servo_ids": [s.dxl_id for s in c.servos],
+            "directions": [s.direction for s in c.servos],
+            "profile_velocity_rad_s": c.profile_velocity_rad_s,
+            "mocap_server": f"{c.natnet.server_address}:{c.natnet.command_port}",
+            "mocap_transmission": "multicast" if c.natnet.multicast else "unicast",
+            "failure": self.failure,
+        }
         if bus is not None:
             out["servo_models"] = [X_SERIES_MODELS.get(bus.model_numbers.get(i), "?") for i in bus.ids]
             out["zero_ticks"] = [int(z) for z in bus.zero_ticks]
         if mocap is not None and hasattr(mocap, "R_WM"):
-            out |= {"natnet_version": str(mocap.server_info.nat_net_protocol_version),
-                    "R_WM": mocap.R_WM.tolist(), "t_WM_m": mocap.t_WM_m.tolist(),
-                    "base_fit_rms_m": mocap.base_fit_rms_m, "frames_received": mocap.frames_received,
-                    "frames_dropped": mocap.frames_dropped,
-                    "measured_frame_rate_hz": None if np.isnan(rate := mocap.measured_rate_hz) else rate}
+            out |= {
+                "natnet_version": str(mocap.server_info.nat_net_protocol_version),
+                "R_WM": mocap.R_WM.tolist(),
+                "t_WM_m": mocap.t_WM_m.tolist(),
+                "base_fit_rms_m": mocap.base_fit_rms_m,
+                "frames_received": mocap.frames_received,
+                "frames_dropped": mocap.frames_dropped,
+                "measured_frame_rate_hz": None if np.isnan(rate := mocap.measured_rate_hz) else rate,
+            }
         return out

@@ -18,6 +18,7 @@ them out one at a time as ``MocapFrame(t_s, p_tip_W)``:
   off, wrong unicast/multicast setting), or the tip stays occluded longer than
   ``max_occlusion_s``. When the queue is full the oldest frame is dropped and counted.
 """
+
 from __future__ import annotations
 
 import collections
@@ -34,6 +35,7 @@ from lab.rig.base import MocapError, MocapFrame
 class MarkerRef:
     """One marker: ``marker`` in ``marker_set`` | ``labeled_marker_id`` | ``rigid_body``
     (name) | ``rigid_body_id`` -- exactly one of them."""
+
     marker: str | None = None
     marker_set: str | None = None
     labeled_marker_id: int | None = None
@@ -53,12 +55,13 @@ class MarkerRef:
 @dataclass(frozen=True)
 class NatNetConfig:
     """Connection and marker settings (SI units; ``length_unit_m`` is Motive's unit in m)."""
+
     server_address: str
     local_address: str
     multicast: bool
     tip: MarkerRef
     base_markers: tuple
-    base_positions_W_m: np.ndarray          # (k, 3) m, one row per base marker
+    base_positions_W_m: np.ndarray  # (k, 3) m, one row per base marker
     multicast_address: str = "239.255.42.99"
     command_port: int = 1510
     data_port: int = 1511
@@ -116,8 +119,10 @@ class OptiTrackStream:
         import natnet  # the real client package (pure Python, NatNet 2-4)
 
         self.config, self._clock = config, clock
-        self._where = f"NatNet server {config.server_address}:{config.command_port} " \
-                      f"({'multicast' if config.multicast else 'unicast'})"
+        self._where = (
+            f"NatNet server {config.server_address}:{config.command_port} "
+            f"({'multicast' if config.multicast else 'unicast'})"
+        )
         self._cond = threading.Condition()
         self._queue: collections.deque = collections.deque(maxlen=config.queue_frames)
         self._pickers = None
@@ -127,18 +132,24 @@ class OptiTrackStream:
         self.frames_received = self.frames_dropped = 0
         self._t_first = self._t_latest = None
         self._client = natnet.NatNetClient(
-            server_ip_address=config.server_address, local_ip_address=config.local_address,
-            multicast_address=config.multicast_address, command_port=config.command_port,
-            data_port=config.data_port, use_multicast=config.multicast)
+            server_ip_address=config.server_address,
+            local_ip_address=config.local_address,
+            multicast_address=config.multicast_address,
+            command_port=config.command_port,
+            data_port=config.data_port,
+            use_multicast=config.multicast,
+        )
         self._client.on_data_frame_received_event.handlers.append(self._on_frame)
         self._client.on_data_description_received_event.handlers.append(self._on_descriptions)
         try:
             try:
                 self._client.connect(timeout=config.connect_timeout_s)
             except (TimeoutError, OSError, natnet.NatNetError) as err:
-                raise MocapError(f"cannot connect to {self._where} within {config.connect_timeout_s} s: "
-                                 f"{type(err).__name__} {err} (is Motive streaming, are the addresses, ports "
-                                 "and transmission type right?)") from None
+                raise MocapError(
+                    f"cannot connect to {self._where} within {config.connect_timeout_s} s: "
+                    f"{type(err).__name__} {err} (is Motive streaming, are the addresses, ports "
+                    "and transmission type right?)"
+                ) from None
             self.server_info = self._client.server_info
             self._client.run_async()
             self._pickers = self._resolve()
@@ -169,7 +180,7 @@ class OptiTrackStream:
                 self._t_first = t_s if self._t_first is None else self._t_first
                 self._t_latest = t_s
                 self._cond.notify_all()
-        except BaseException as err:     # noqa: BLE001 - reported by next_frame
+        except BaseException as err:  # noqa: BLE001 - reported by next_frame
             with self._cond:
                 self._handler_error = err
                 self._cond.notify_all()
@@ -187,8 +198,10 @@ class OptiTrackStream:
                 if ref.marker_set not in sets:
                     raise MocapError(f"{self._where} has no marker set {ref.marker_set!r}; it has {sorted(sets)}")
                 if ref.marker not in sets[ref.marker_set]:
-                    raise MocapError(f"marker set {ref.marker_set!r} has no marker {ref.marker!r}; "
-                                     f"it has {list(sets[ref.marker_set])}")
+                    raise MocapError(
+                        f"marker set {ref.marker_set!r} has no marker {ref.marker!r}; "
+                        f"it has {list(sets[ref.marker_set])}"
+                    )
                 index = list(sets[ref.marker_set]).index(ref.marker)
             elif ref.rigid_body is not None:
                 bodies = {rb.name: rb.id_num for rb in d.rigid_bodies}
@@ -202,11 +215,12 @@ class OptiTrackStream:
         deadline = time.monotonic() + self.config.connect_timeout_s
         with self._cond:
             while self._descriptions is None:
-                self._client.request_modeldef()          # UDP: ask again until answered
+                self._client.request_modeldef()  # UDP: ask again until answered
                 self._cond.wait(timeout=min(0.5, max(0.0, deadline - time.monotonic())))
                 if self._descriptions is None and time.monotonic() >= deadline:
-                    raise MocapError(f"{self._where} sent no model definitions within "
-                                     f"{self.config.connect_timeout_s} s")
+                    raise MocapError(
+                        f"{self._where} sent no model definitions within {self.config.connect_timeout_s} s"
+                    )
             return self._descriptions
 
     def _calibrate(self) -> tuple[np.ndarray, np.ndarray, float]:
@@ -223,9 +237,11 @@ class OptiTrackStream:
         p_M = np.mean(seen, axis=0)
         R, t, rms = fit_rigid_transform(p_M, c.base_positions_W_m)
         if rms > c.max_base_fit_rms_m:
-            raise MocapError(f"base markers do not match their configured positions in W: fit RMS "
-                             f"{rms * 1e3:.1f} mm > {c.max_base_fit_rms_m * 1e3:.1f} mm (check marker names/IDs, "
-                             "base_markers positions and length_unit)")
+            raise MocapError(
+                f"base markers do not match their configured positions in W: fit RMS "
+                f"{rms * 1e3:.1f} mm > {c.max_base_fit_rms_m * 1e3:.1f} mm (check marker names/IDs, "
+                "base_markers positions and length_unit)"
+            )
         return R, t, rms
 
     # --- frames ---------------------------------------------------------------------
@@ -233,8 +249,9 @@ class OptiTrackStream:
         timeout = self.config.frame_timeout_s
         with self._cond:
             if not self._cond.wait_for(lambda: self._queue or self._handler_error or self._closed, timeout):
-                raise MocapError(f"no motion-capture frame from {self._where} for {timeout} s "
-                                 "(server gone or streaming stopped)")
+                raise MocapError(
+                    f"no motion-capture frame from {self._where} for {timeout} s (server gone or streaming stopped)"
+                )
             if self._handler_error is not None:
                 raise MocapError(f"could not read a NatNet frame: {self._handler_error!r}")
             if self._closed:
@@ -249,8 +266,10 @@ class OptiTrackStream:
             self._t_last_valid = t_s
             return MocapFrame(t_s, self.R_WM @ tip_M + self.t_WM_m)
         if t_s - self._t_last_valid > self.config.max_occlusion_s:
-            raise MocapError(f"tip {self.config.tip} occluded for {t_s - self._t_last_valid:.2f} s "
-                             f"(limit {self.config.max_occlusion_s} s)")
+            raise MocapError(
+                f"tip {self.config.tip} occluded for {t_s - self._t_last_valid:.2f} s "
+                f"(limit {self.config.max_occlusion_s} s)"
+            )
         return MocapFrame(t_s, np.full(3, np.nan))
 
     @property

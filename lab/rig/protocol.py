@@ -22,6 +22,7 @@ the motors arrive, as a script with a fixed pause would.
 
 :func:`lab.rig.capture.capture` runs the protocol over a list of commands with a journal.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -35,6 +36,7 @@ from lab.rig.base import MocapError, Rig, RigError
 @dataclass(frozen=True)
 class Protocol:
     """Capture settings (SI units); the defaults are the protocol of the shipped data."""
+
     wait: bool = True
     reset: bool = True
     n_previous: int = 20
@@ -48,8 +50,14 @@ class Protocol:
     max_occlusion_s: float = 2.0
 
     def __post_init__(self):
-        for name in ("reading_period_s", "settle_tol_m", "settle_timeout_s", "motor_tol_rad",
-                     "motion_timeout_s", "max_occlusion_s"):
+        for name in (
+            "reading_period_s",
+            "settle_tol_m",
+            "settle_timeout_s",
+            "motor_tol_rad",
+            "motion_timeout_s",
+            "max_occlusion_s",
+        ):
             if not getattr(self, name) > 0:
                 raise InputError(f"protocol field '{name}' must be positive, got {getattr(self, name)!r}")
         if self.n_previous < 1 or self.dwell_s < 0 or self.reset_u_rad < 0:
@@ -66,14 +74,14 @@ class SettleDetector:
     def __init__(self, n_previous: int = 20, tol_m: float = 1e-4):
         self.n_previous, self.tol_m = int(n_previous), float(tol_m)
         self._history: list[np.ndarray] = []
-        self.deviation_m = np.inf    # |current - mean(previous)| at the last update, m
+        self.deviation_m = np.inf  # |current - mean(previous)| at the last update, m
 
     def update(self, reading_W: np.ndarray) -> bool:
         """Add a reading (3,) m; True when settled."""
         reading_W = np.asarray(reading_W, dtype=float)
         if not np.all(np.isfinite(reading_W)):
             return False
-        previous = self._history[-self.n_previous:]
+        previous = self._history[-self.n_previous :]
         self._history.append(reading_W)
         if len(previous) < self.n_previous:
             return False
@@ -85,6 +93,7 @@ class SettleDetector:
 class Sample:
     """One recorded sample: command ``u_motor`` (m,) rad, tip ``p_tip_W`` (3,) m, present
     motor angles ``u_present`` (m,) rad, times on the rig clock (s), settle statistics."""
+
     u_motor: np.ndarray
     p_tip_W: np.ndarray
     u_present: np.ndarray
@@ -120,8 +129,10 @@ class _Watcher:
             else:
                 self.n_invalid += 1
                 if frame.t_s - self._t_seen > self.protocol.max_occlusion_s:
-                    raise MocapError(f"tip marker not seen for {frame.t_s - self._t_seen:.1f} s "
-                                     f"(limit {self.protocol.max_occlusion_s} s)")
+                    raise MocapError(
+                        f"tip marker not seen for {frame.t_s - self._t_seen:.1f} s "
+                        f"(limit {self.protocol.max_occlusion_s} s)"
+                    )
         return np.mean(points, axis=0) if points else np.full(3, np.nan)
 
     def arrived(self, goal: np.ndarray) -> bool:
@@ -133,8 +144,10 @@ class _Watcher:
         t0 = self.rig.now()
         while not self.arrived(goal):
             if self.rig.now() - t0 > self.protocol.motion_timeout_s:
-                raise RigError(f"motors did not reach {goal.tolist()} rad within {self.protocol.motion_timeout_s} s "
-                               f"(present {self.rig.present_u().tolist()} rad)")
+                raise RigError(
+                    f"motors did not reach {goal.tolist()} rad within {self.protocol.motion_timeout_s} s "
+                    f"(present {self.rig.present_u().tolist()} rad)"
+                )
             self.read()
 
 
@@ -144,8 +157,8 @@ def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
     t_start = rig.now()
     if protocol.reset:
         m = rig.robot.n_cables
-        watch.go_to(np.full(m, protocol.reset_u_rad))     # contract all together ...
-        watch.go_to(np.zeros(m))                          # ... and release
+        watch.go_to(np.full(m, protocol.reset_u_rad))  # contract all together ...
+        watch.go_to(np.zeros(m))  # ... and release
     goal = rig.send(u_motor)
     t_command = rig.now()
     detector = SettleDetector(protocol.n_previous, protocol.settle_tol_m)
@@ -160,14 +173,29 @@ def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
             if watch.arrived(goal):
                 t_arrived = rig.now()
             elif rig.now() - t_command > protocol.motion_timeout_s:
-                raise RigError(f"motors did not reach {goal.tolist()} rad within {protocol.motion_timeout_s} s "
-                               f"(present {rig.present_u().tolist()} rad)")
+                raise RigError(
+                    f"motors did not reach {goal.tolist()} rad within {protocol.motion_timeout_s} s "
+                    f"(present {rig.present_u().tolist()} rad)"
+                )
         if protocol.wait:
             settled = detector.update(reading)
-            if t_arrived is not None and (settled or (rig.now() - t_command > protocol.settle_timeout_s
-                                                      and last_valid is not None)):
-                break                                     # settled, or flagged (settled = False)
+            if t_arrived is not None and (
+                settled or (rig.now() - t_command > protocol.settle_timeout_s and last_valid is not None)
+            ):
+                break  # settled, or flagged (settled = False)
         elif t_arrived is not None and rig.now() - t_arrived >= protocol.dwell_s and valid:
-            break                                         # fixed pause: settling not checked
-    return Sample(goal, last_valid, rig.present_u(), bool(settled), t_start, t_command, t_arrived, rig.now(),
-                  n_readings, detector.deviation_m if protocol.wait else float("nan"), watch.n_frames, watch.n_invalid)
+            break  # fixed pause: settling not checked
+    return Sample(
+        goal,
+        last_valid,
+        rig.present_u(),
+        bool(settled),
+        t_start,
+        t_command,
+        t_arrived,
+        rig.now(),
+        n_readings,
+        detector.deviation_m if protocol.wait else float("nan"),
+        watch.n_frames,
+        watch.n_invalid,
+    )

@@ -4,6 +4,7 @@ This is the paper's "Sim Robot": no lag, no hysteresis, no noise. Each command i
 solved by ``solve_static``, warm-started from the previous equilibrium, so a trajectory
 of nearby commands costs a few Newton iterations per point.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,15 +17,16 @@ from lab.rig.base import MocapFrame, Rig
 
 class SimRig(Rig):
     """Quasi-static nominal FEM behind the rig interface (virtual clock, exact tip)."""
+
     kind = "sim"
 
     def __init__(self, robot: RobotDescription, fem: ArmFEM | None = None, frame_rate_hz: float = 120.0):
         super().__init__(robot, frame_rate_hz)
         self.fem = fem if fem is not None else ArmFEM(robot)
         self._t_s = 0.0
-        self.solve_time_s = 0.0   # total FEM time spent, for reports
+        self.solve_time_s = 0.0  # total FEM time spent, for reports
         self._q = self.fem.rest_q()
-        self._send(np.zeros(robot.n_cables))   # start hanging under gravity, cables at rest
+        self._send(np.zeros(robot.n_cables))  # start hanging under gravity, cables at rest
 
     def _send(self, u_motor: np.ndarray) -> None:
         sol = solve_static(self.fem, u_motor, self._q)

@@ -24,6 +24,7 @@ emulators drive it. From a command to the tip:
 ``next_frame()`` (``frame_rate_hz``), and observes the tip through ``MocapModel``:
 Gaussian noise and occlusion bursts (NaN frames). Deterministic for a given seed.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,14 @@ class AsBuiltBody(Body):
     :class:`Defects`, a TOML path, or ``None`` for the robot's shipped default;
     ``n_rings``/``n_axial`` override the FEM mesh (coarse meshes for tests)."""
 
-    def __init__(self, robot: RobotDescription, defects: Defects | str | None = None, *,
-                 n_rings: int | None = None, n_axial: int | None = None):
+    def __init__(
+        self,
+        robot: RobotDescription,
+        defects: Defects | str | None = None,
+        *,
+        n_rings: int | None = None,
+        n_axial: int | None = None,
+    ):
         self.robot = robot
         self.defects = defects if isinstance(defects, Defects) else load_defects(defects, robot)
         self.fem = as_built_fem(robot, self.defects, n_rings=n_rings, n_axial=n_axial)
@@ -63,7 +70,7 @@ class AsBuiltBody(Body):
         self._t0, self._u0, self._goal, self._v = 0.0, zero.copy(), zero.copy(), self.profile_velocity_rad_s
         self._y0, self._p0, self._p1, self._T = zero.copy(), p_rest, p_rest, 0.0
         self._t = 0.0
-        self._z = np.stack([p_rest, p_rest])          # lag modes (2, 3), settled at rest
+        self._z = np.stack([p_rest, p_rest])  # lag modes (2, 3), settled at rest
 
     # ---------------------------------------------------------------- Body interface
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
@@ -134,7 +141,7 @@ class AsBuiltBody(Body):
             raise InputError(f"time went backwards: {t_s} s after {self._t} s")
         t_ramp_end = self._t0 + self._T
         while t_s > self._t:
-            if self._t < t_ramp_end:     # equilibrium moving linearly
+            if self._t < t_ramp_end:  # equilibrium moving linearly
                 t_b, slope = min(t_s, t_ramp_end), (self._p1 - self._p0) / self._T
             else:
                 t_b, slope = t_s, 0.0
@@ -154,21 +161,23 @@ class MocapModel:
 
     _BLOCK = 4096
 
-    def __init__(self, frame_rate_hz: float, noise_sigma_m: float, dropout_rate_hz: float,
-                 dropout_max_frames: int, seed: int = 0):
+    def __init__(
+        self, frame_rate_hz: float, noise_sigma_m: float, dropout_rate_hz: float, dropout_max_frames: int, seed: int = 0
+    ):
         self.noise_sigma_m = float(noise_sigma_m)
         self.p_burst_start = float(dropout_rate_hz) / float(frame_rate_hz)
         self.dropout_max_frames = int(dropout_max_frames)
         self._rng = np.random.default_rng(seed)
         self._i = self._BLOCK
-        self._left = 0            # frames still occluded in the current burst
+        self._left = 0  # frames still occluded in the current burst
         self._burst_ended = False  # a burst ended last frame: this one is seen
         self.n_frames = self.n_dropped = 0
 
     @classmethod
-    def from_defects(cls, defects: Defects, seed: int = 0) -> "MocapModel":
-        return cls(defects.frame_rate_hz, defects.noise_sigma_m, defects.dropout_rate_hz,
-                   defects.dropout_max_frames, seed)
+    def from_defects(cls, defects: Defects, seed: int = 0) -> MocapModel:
+        return cls(
+            defects.frame_rate_hz, defects.noise_sigma_m, defects.dropout_rate_hz, defects.dropout_max_frames, seed
+        )
 
     def observe(self, p_true_W: np.ndarray) -> np.ndarray:
         """One frame's measurement (3,) m of the true marker position, or NaN (3,)."""
@@ -198,22 +207,29 @@ class TwinRig(Rig):
     default); ``seed``: motion-capture noise and dropouts; ``body``: an existing
     :class:`AsBuiltBody` to drive (its defects are then used).
     """
+
     kind = "twin"
 
-    def __init__(self, robot: RobotDescription, defects: Defects | str | None = None, seed: int = 0, *,
-                 body: AsBuiltBody | None = None):
+    def __init__(
+        self,
+        robot: RobotDescription,
+        defects: Defects | str | None = None,
+        seed: int = 0,
+        *,
+        body: AsBuiltBody | None = None,
+    ):
         self.body = body if body is not None else AsBuiltBody(robot, defects)
         self.defects = self.body.defects
         super().__init__(robot, self.defects.frame_rate_hz)
         self.seed = int(seed)
         self.mocap = MocapModel.from_defects(self.defects, self.seed)
         self._frame = 0
-        self._t_start_s = self.body.time_s       # a reused body may already be ahead
+        self._t_start_s = self.body.time_s  # a reused body may already be ahead
 
     def _send(self, u_motor: np.ndarray) -> None:
         try:
             self.body.command(u_motor, self._body_time())
-        except RuntimeError as err:               # the as-built FEM found no equilibrium
+        except RuntimeError as err:  # the as-built FEM found no equilibrium
             raise RigError(f"twin: {err}") from err
 
     def present_u(self) -> np.ndarray:
@@ -232,6 +248,9 @@ class TwinRig(Rig):
 
     def describe(self) -> dict:
         d, fem = self.defects, self.body.fem
-        return {**super().describe(), "seed": self.seed,
-                "defects": {"path": d.path, "sha256": d.sha256, "values": d.source},
-                "mesh": {"n_nodes": int(fem.mesh.n_nodes), "n_tets": int(len(fem.mesh.tets))}}
+        return {
+            **super().describe(),
+            "seed": self.seed,
+            "defects": {"path": d.path, "sha256": d.sha256, "values": d.source},
+            "mesh": {"n_nodes": int(fem.mesh.n_nodes), "n_tets": int(len(fem.mesh.tets))},
+        }

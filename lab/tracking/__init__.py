@@ -26,4 +26,21 @@ from lab.tracking.track import (
     write_result,
 )
 
-__all__ = ["TRACK_PROTOCOL", "REQUIRED_KEYS", "TrackResultError", "TrackResult", "run_trajectory", "write_result", "read_result", "make_solver", "SHAPES", "PAPER_CM", "CONDITIONS", "COLUMNS", "Table1Error", "read_table1", "update_table1", "render_markdown"]
+__all__ = [
+    "TRACK_PROTOCOL",
+    "REQUIRED_KEYS",
+    "TrackResultError",
+    "TrackResult",
+    "run_trajectory",
+    "write_result",
+    "read_result",
+    "make_solver",
+    "SHAPES",
+    "PAPER_CM",
+    "CONDITIONS",
+    "COLUMNS",
+    "Table1Error",
+    "read_table1",
+    "update_table1",
+    "render_markdown",
+]

@@ -25,6 +25,7 @@ The result file (:func:`write_result`, JSON, atomic) is a public contract. Keys:
 
 Not-a-number values are written as JSON ``null``.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -58,6 +59,7 @@ class TrackResult:
     """One trajectory run. Arrays: ``targets_W``, ``achieved_W``, ``predicted_W`` (N, 3) m;
     ``commands`` (N, m) rad; ``ik_residual_m``, ``settle_wait_s`` (N,); ``reachable``,
     ``settled`` (N,) bool; ``ik_iterations`` (N,). ``timings`` in seconds, ``info`` free-form."""
+
     trajectory: str
     targets_W: np.ndarray
     commands: np.ndarray
@@ -88,27 +90,48 @@ class TrackResult:
     def to_json(self) -> dict:
         """The JSON document described in the module docstring."""
         return {
-            "format_version": FORMAT_VERSION, "kind": KIND, "trajectory": self.trajectory,
+            "format_version": FORMAT_VERSION,
+            "kind": KIND,
+            "trajectory": self.trajectory,
             "units": {"positions": "m", "commands": "rad", "errors": "m", "timings": "s"},
-            "targets": self.targets_W, "commands": self.commands, "achieved": self.achieved_W,
-            "errors_m": self.errors_m, "mean_error_m": self.mean_error_m, "max_error_m": self.max_error_m,
-            "timings": self.timings, "predicted": self.predicted_W, "ik_residual_m": self.ik_residual_m,
-            "reachable": self.reachable, "ik_iterations": self.ik_iterations, "settled": self.settled,
-            "settle_wait_s": self.settle_wait_s, "n_unreachable": int(np.sum(~self.reachable)),
-            "n_not_settled": int(np.sum(~self.settled)), "info": self.info,
+            "targets": self.targets_W,
+            "commands": self.commands,
+            "achieved": self.achieved_W,
+            "errors_m": self.errors_m,
+            "mean_error_m": self.mean_error_m,
+            "max_error_m": self.max_error_m,
+            "timings": self.timings,
+            "predicted": self.predicted_W,
+            "ik_residual_m": self.ik_residual_m,
+            "reachable": self.reachable,
+            "ik_iterations": self.ik_iterations,
+            "settled": self.settled,
+            "settle_wait_s": self.settle_wait_s,
+            "n_unreachable": int(np.sum(~self.reachable)),
+            "n_not_settled": int(np.sum(~self.settled)),
+            "info": self.info,
         }
 
 
-def run_trajectory(rig: Rig, solver: IKSolver, targets_W, *, name: str = "custom",
-                   protocol: Protocol = TRACK_PROTOCOL, u0=None, progress=None) -> TrackResult:
+def run_trajectory(
+    rig: Rig,
+    solver: IKSolver,
+    targets_W,
+    *,
+    name: str = "custom",
+    protocol: Protocol = TRACK_PROTOCOL,
+    u0=None,
+    progress=None,
+) -> TrackResult:
     """IK for all ``targets_W`` (N, 3) m, then send each command to ``rig`` and record the
     settled tip with ``protocol`` (:class:`lab.rig.protocol.Protocol`, default
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
     ``progress(i, n)`` is called after each point. The rig is left open (the caller owns it)."""
     targets = np.atleast_2d(check_targets(targets_W))
     if solver.commands.n != rig.robot.n_cables:
-        raise InputError(f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} "
-                         f"has {rig.robot.n_cables}")
+        raise InputError(
+            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
+        )
     t0 = time.perf_counter()
     plan = solver.follow(targets, u0)
     t_ik = time.perf_counter() - t0
@@ -120,20 +143,47 @@ def run_trajectory(rig: Rig, solver: IKSolver, targets_W, *, name: str = "custom
         if progress is not None:
             progress(i + 1, len(targets))
     t_rig = time.perf_counter() - t1
-    timings = {"ik_total_s": t_ik, "ik_per_target_mean_s": float(np.mean(plan.time_s)),
-               "ik_per_target_median_s": float(np.median(plan.time_s)),
-               "ik_per_target_max_s": float(np.max(plan.time_s)), "rig_wall_s": t_rig,
-               "settle_mean_s": float(np.mean(waits)), "total_s": time.perf_counter() - t0}
-    info = {"rig": rig.describe(), "robot": rig.robot.name, "robot_sha256": rig.robot.sha256,
-            "solver": {"method": solver.method, "tol_m": solver.tol_m, "reach_tol_m": solver.reach_tol_m,
-                       "reg_weight": solver.reg_weight,
-                       "posture_weight": solver.posture_weight, "u_posture": solver.u_posture.tolist(),
-                       "polish": solver.polish, "max_iter": solver.max_iter},
-            "protocol": protocol.as_dict(),
-            "code_version": code_version(),
-            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
-    return TrackResult(name, targets, plan.u_motor, achieved, plan.p_pred_W, plan.residual_m, plan.reachable,
-                       plan.iterations, settled, waits, timings, info)
+    timings = {
+        "ik_total_s": t_ik,
+        "ik_per_target_mean_s": float(np.mean(plan.time_s)),
+        "ik_per_target_median_s": float(np.median(plan.time_s)),
+        "ik_per_target_max_s": float(np.max(plan.time_s)),
+        "rig_wall_s": t_rig,
+        "settle_mean_s": float(np.mean(waits)),
+        "total_s": time.perf_counter() - t0,
+    }
+    info = {
+        "rig": rig.describe(),
+        "robot": rig.robot.name,
+        "robot_sha256": rig.robot.sha256,
+        "solver": {
+            "method": solver.method,
+            "tol_m": solver.tol_m,
+            "reach_tol_m": solver.reach_tol_m,
+            "reg_weight": solver.reg_weight,
+            "posture_weight": solver.posture_weight,
+            "u_posture": solver.u_posture.tolist(),
+            "polish": solver.polish,
+            "max_iter": solver.max_iter,
+        },
+        "protocol": protocol.as_dict(),
+        "code_version": code_version(),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+    }
+    return TrackResult(
+        name,
+        targets,
+        plan.u_motor,
+        achieved,
+        plan.p_pred_W,
+        plan.residual_m,
+        plan.reachable,
+        plan.iterations,
+        settled,
+        waits,
+        timings,
+        info,
+    )
 
 
 def _plain(obj):
@@ -175,13 +225,25 @@ def read_result(path: str | Path) -> dict:
     if not isinstance(doc, dict) or missing:
         raise TrackResultError(f"{path}: not a track result (missing {missing})")
     for key in ("targets", "commands", "achieved", "errors_m"):
-        doc[key] = np.array([np.nan if v is None else v for v in doc[key]] if key == "errors_m"
-                            else [[np.nan if v is None else v for v in row] for row in doc[key]], dtype=float)
+        doc[key] = np.array(
+            [np.nan if v is None else v for v in doc[key]]
+            if key == "errors_m"
+            else [[np.nan if v is None else v for v in row] for row in doc[key]],
+            dtype=float,
+        )
     return doc
 
 
-def make_solver(robot, model=None, *, fem=None, method: str = "lm", reg_weight: float = 0.0,
-                posture_weight: float = 0.0, seed_levels: int | None = None) -> IKSolver:
+def make_solver(
+    robot,
+    model=None,
+    *,
+    fem=None,
+    method: str = "lm",
+    reg_weight: float = 0.0,
+    posture_weight: float = 0.0,
+    seed_levels: int | None = None,
+) -> IKSolver:
     """IK solver for ``robot`` through ``model`` (anything with ``predict_and_jacobian`` and a
     batched ``predict``; cold starts seeded from a ``seed_levels`` grid of its predictions)
     or, when ``model`` is None, Soft IK through the FEM ``fem`` (cold starts at the centre).
@@ -195,12 +257,19 @@ def make_solver(robot, model=None, *, fem=None, method: str = "lm", reg_weight: 
     if model is None:
         if fem is None:
             raise InputError("need a model or an FEM (Soft IK) to solve the IK")
-        return IKSolver(FEMForwardMap(fem), commands, method, reg_weight=reg_weight,
-                        posture_weight=posture_weight)
+        return IKSolver(FEMForwardMap(fem), commands, method, reg_weight=reg_weight, posture_weight=posture_weight)
     if getattr(model, "n_u", robot.n_cables) != robot.n_cables or getattr(model, "n_y", 3) != 3:
-        raise InputError(f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
-                         f"{robot.name} has {robot.n_cables} cables and a 3-D tip")
+        raise InputError(
+            f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
+            f"{robot.name} has {robot.n_cables} cables and a 3-D tip"
+        )
     if seed_levels is None:
         seed_levels = 7 if robot.n_cables <= 3 else 4
-    return IKSolver(model, commands, method, reg_weight=reg_weight, posture_weight=posture_weight,
-                    seeds=grid_seeds(model, commands, seed_levels))
+    return IKSolver(
+        model,
+        commands,
+        method,
+        reg_weight=reg_weight,
+        posture_weight=posture_weight,
+        seeds=grid_seeds(model, commands, seed_levels),
+    )

@@ -21,6 +21,7 @@ The page costs about 180 bytes per piece and frame (8 kB per frame for the six-c
 arm with 20 body segments) on top of about 1.2 MB (mostly meshcat's JavaScript):
 pass fewer frames for long trajectories.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,7 +41,7 @@ from lab.viz.arm import (
 )
 
 TARGET_RGB = (0.0, 0.0, 0.0)
-ACHIEVED_RGB = (1.0, 0.41, 0.71)        # pink: the achieved path of Fig. 5
+ACHIEVED_RGB = (1.0, 0.41, 0.71)  # pink: the achieved path of Fig. 5
 CABLE_RADIUS_M = 0.0012
 MARKER_RADIUS_M = 0.004
 
@@ -71,7 +72,7 @@ def rotation_from_y(d) -> np.ndarray:
     frames does not twist the pieces; d antiparallel to y turns about x."""
     d = np.asarray(d, float) / np.linalg.norm(d)
     v, c = np.cross([0.0, 1.0, 0.0], d), d[1]
-    if c < -1 + 1e-6:          # 1/(1+c) would lose accuracy: mirror the problem by pi about x
+    if c < -1 + 1e-6:  # 1/(1+c) would lose accuracy: mirror the problem by pi about x
         return np.diag([1.0, -1.0, -1.0]) @ rotation_from_y(d * [1, -1, -1])
     K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
     return np.eye(3) + K + K @ K / (1 + c)
@@ -87,7 +88,7 @@ def segment_transforms(points, radius_m: float) -> np.ndarray:
     for i, (a, b) in enumerate(zip(p[:-1], p[1:])):
         length = np.linalg.norm(b - a)
         R = rotation_from_y(b - a) if length > 0 else np.eye(3)
-        T[i, :3, :3] = R * [radius_m, length, radius_m]          # R @ diag(r, L, r)
+        T[i, :3, :3] = R * [radius_m, length, radius_m]  # R @ diag(r, L, r)
         T[i, :3, 3] = (a + b) / 2
     return T
 
@@ -96,18 +97,23 @@ def segment_transforms(points, radius_m: float) -> np.ndarray:
 class ArmPieces:
     """Transforms (4, 4) of the unit cylinders: ``body`` (S, 4, 4), one (K, 4, 4)
     array per cable in ``cables``; ``tip_W`` (3,) m."""
+
     body: np.ndarray
     cables: list
     tip_W: np.ndarray
 
 
-def arm_pieces(fem, q=None, n_segments: int = 20, *, cable_radius_m: float = CABLE_RADIUS_M,
-               embedding=None) -> ArmPieces:
+def arm_pieces(
+    fem, q=None, n_segments: int = 20, *, cable_radius_m: float = CABLE_RADIUS_M, embedding=None
+) -> ArmPieces:
     """The rigid pieces of the arm at ``q`` (n_free,) (None: rest)."""
     x = fem.X_W if q is None else fem.to_nodes(np.asarray(q, float))
     axis = centreline(fem, q, n_segments, embedding)
-    return ArmPieces(segment_transforms(axis, fem.robot.radius_m),
-                     [segment_transforms(c.points(x), cable_radius_m) for c in fem.cables], fem.tip(x))
+    return ArmPieces(
+        segment_transforms(axis, fem.robot.radius_m),
+        [segment_transforms(c.points(x), cable_radius_m) for c in fem.cables],
+        fem.tip(x),
+    )
 
 
 # ------------------------------------------------------------------ animation
@@ -132,9 +138,11 @@ def _quaternion_xyzw(R) -> list:
 def _unit_cylinder(radial_segments: int, open_ended: bool):
     """meshcat ``Cylinder`` of radius 1 and height 1 along y, with the three.js
     options meshcat does not expose (facets around, no end discs)."""
+
     class UnitCylinder(_meshcat().geometry.Cylinder):
         def lower(self, object_data):
             return {**super().lower(object_data), "radialSegments": radial_segments, "openEnded": open_ended}
+
     return UnitCylinder(1.0, 1.0)
 
 
@@ -142,16 +150,29 @@ def _key_transform(frame, T, position_only: bool = False) -> None:
     """Animate a piece to T (4, 4): position, quaternion and scale as three tracks
     (meshcat's frame.set_transform keeps no scale and takes the quaternion of R S)."""
     frame.set_property("position", "vector3", T[:3, 3].tolist())
-    if position_only:                         # markers: a sphere needs no turning
+    if position_only:  # markers: a sphere needs no turning
         return
     s = np.linalg.norm(T[:3, :3], axis=0)
     frame.set_property("quaternion", "quaternion", _quaternion_xyzw(T[:3, :3] / np.where(s > 0, s, 1)))
     frame.set_property("scale", "vector3", s.tolist())
 
 
-def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float = 10.0, prefix: str = "anim",
-                n_segments: int = 20, n_color_levels: int = 7, foam_opacity: float = 0.4, play: bool = True,
-                repetitions: int = 1, paths: bool = True):
+def animate_arm(
+    vis,
+    fem,
+    q_frames,
+    u_frames=None,
+    *,
+    targets_W=None,
+    fps: float = 10.0,
+    prefix: str = "anim",
+    n_segments: int = 20,
+    n_color_levels: int = 7,
+    foam_opacity: float = 0.4,
+    play: bool = True,
+    repetitions: int = 1,
+    paths: bool = True,
+):
     """Draw the arm under ``vis[prefix]`` and animate it through the states
     ``q_frames`` (T, n_free) m, shown at ``fps`` frames per second.
 
@@ -168,6 +189,7 @@ def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float
     Raises ValueError on bad shapes or values."""
     g = _meshcat().geometry
     from meshcat.animation import Animation
+
     q = _check_frames("q_frames", q_frames, (None, fem.n_free))
     n_frames = len(q)
     u = None if u_frames is None else _check_frames("u_frames", u_frames, (n_frames, fem.robot.n_cables))
@@ -184,8 +206,11 @@ def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float
     level_u = np.linspace(0.0, u_max, n_levels)
     colors = cable_colors(n_levels, None if u is None else level_u, u_max)
     # levels[t, c]: the colour level shown for cable c in frame t
-    levels = (np.zeros((n_frames, fem.robot.n_cables), int) if u is None
-              else np.rint(np.clip(u / u_max, 0, 1) * (n_levels - 1)).astype(int))
+    levels = (
+        np.zeros((n_frames, fem.robot.n_cables), int)
+        if u is None
+        else np.rint(np.clip(u / u_max, 0, 1) * (n_levels - 1)).astype(int)
+    )
 
     root = vis[prefix]
     # The body segments are open tubes, closed by two thin discs at the base and tip:
@@ -194,16 +219,16 @@ def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float
     tube, disc, cable_geom = _unit_cylinder(48, True), _unit_cylinder(48, False), _unit_cylinder(12, False)
     body_mat = g.MeshLambertMaterial(color=_hex(FOAM_RGB), opacity=foam_opacity, side=0)
     level_mats = [g.MeshLambertMaterial(color=_hex(c)) for c in colors]
-    moving = {}                               # path -> (T, 4, 4) transforms over the frames
-    body = np.array([p.body for p in pieces])                     # (T, S, 4, 4)
+    moving = {}  # path -> (T, 4, 4) transforms over the frames
+    body = np.array([p.body for p in pieces])  # (T, S, 4, 4)
     for i in range(body.shape[1]):
         root[f"body/{i:02d}"].set_object(tube, body_mat)
         moving[f"body/{i:02d}"] = body[:, i]
     for name, T, end in (("base", body[:, 0], -0.5), ("end", body[:, -1], 0.5)):
         root[f"body/{name}"].set_object(disc, body_mat)
         cap = T.copy()
-        cap[:, :3, 3] += end * T[:, :3, 1]                         # centred on the axis end
-        cap[:, :3, 1] *= 1e-4 / np.linalg.norm(T[:, :3, 1], axis=1, keepdims=True)   # 0.1 mm thick
+        cap[:, :3, 3] += end * T[:, :3, 1]  # centred on the axis end
+        cap[:, :3, 1] *= 1e-4 / np.linalg.norm(T[:, :3, 1], axis=1, keepdims=True)  # 0.1 mm thick
         moving[f"body/{name}"] = cap
     for c, route in enumerate(fem.robot.cables):
         for k in range(len(pieces[0].cables[c])):
@@ -221,12 +246,13 @@ def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float
         moving[name][:, :3, 3] = pos
     if paths and targets is not None:
         for name, pts, rgb in (("target_path", targets, TARGET_RGB), ("tip_path", markers["tip"][0], ACHIEVED_RGB)):
-            root[name].set_object(g.Line(g.PointsGeometry(np.ascontiguousarray(pts.T, np.float32)),
-                                         g.LineBasicMaterial(color=_hex(rgb))))
+            root[name].set_object(
+                g.Line(g.PointsGeometry(np.ascontiguousarray(pts.T, np.float32)), g.LineBasicMaterial(color=_hex(rgb)))
+            )
 
     anim = Animation(default_framerate=fps)
     for path, Ts in moving.items():
-        root[path].set_transform(Ts[0])       # the still scene: frame 0
+        root[path].set_transform(Ts[0])  # the still scene: frame 0
         for t, T in enumerate(Ts):
             _key_transform(anim.at_frame(root, t)[path], T, position_only=path in markers)
     for c, route in enumerate(fem.robot.cables):
@@ -239,14 +265,14 @@ def animate_arm(vis, fem, q_frames, u_frames=None, *, targets_W=None, fps: float
             for j in range(n_levels):
                 for t in sorted({*change.tolist(), n_frames - 1}):
                     anim.at_frame(root, t)[f"cables/{route.name}/{k:02d}/u{j}"].set_property(
-                        "visible", "boolean", bool(levels[t, c] == j))
-    if n_frames > 1:                          # a clip of duration 0 makes three.js wrap time to NaN
+                        "visible", "boolean", bool(levels[t, c] == j)
+                    )
+    if n_frames > 1:  # a clip of duration 0 makes three.js wrap time to NaN
         vis.set_animation(anim, play=play, repetitions=repetitions)
     return anim
 
 
-def animation_html(fem, q_frames, u_frames=None, *, targets_W=None, view: bool = True, camera_W=None,
-                   **kwargs) -> str:
+def animation_html(fem, q_frames, u_frames=None, *, targets_W=None, view: bool = True, camera_W=None, **kwargs) -> str:
     """Self-contained HTML page (meshcat JavaScript embedded, no network needed) of
     :func:`animate_arm`, from a fresh visualizer that is stopped afterwards.
     ``view``: white background, no grid/axes, camera at ``camera_W`` (3,) m
@@ -263,6 +289,8 @@ def notebook_iframe(page_html: str, height_px: int = 400) -> str:
     ``vis.render_static()`` wraps it: works on remote kernels and offline, and its
     styles stay out of the notebook page."""
     srcdoc_escape = _meshcat().visualizer.srcdoc_escape
-    return (f'<div style="height: {height_px}px; width: 100%; overflow-x: auto; overflow-y: hidden; '
-            f'resize: both"><iframe srcdoc="{srcdoc_escape(page_html)}" '
-            f'style="width: 100%; height: 100%; border: none"></iframe></div>')
+    return (
+        f'<div style="height: {height_px}px; width: 100%; overflow-x: auto; overflow-y: hidden; '
+        f'resize: both"><iframe srcdoc="{srcdoc_escape(page_html)}" '
+        f'style="width: 100%; height: 100%; border: none"></iframe></div>'
+    )

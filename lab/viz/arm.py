@@ -16,6 +16,7 @@ geometry (frame W, metres). Two back ends draw it:
 Cables are coloured by their motor command u in [0, u_max] rad (like Fig. 2 of the
 paper) when ``u_motor`` is given, else drawn in a neutral grey.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -25,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-FOAM_RGB = (0.95, 0.72, 0.30)          # warm foam yellow-orange
-CABLE_RGB = (0.25, 0.25, 0.25)         # cables without a command
+FOAM_RGB = (0.95, 0.72, 0.30)  # warm foam yellow-orange
+CABLE_RGB = (0.25, 0.25, 0.25)  # cables without a command
 TIP_RGB = (0.85, 0.10, 0.10)
-CMAP = "cool"                          # cyan (u = 0) to magenta (u_max): both stand out on the foam
+CMAP = "cool"  # cyan (u = 0) to magenta (u_max): both stand out on the foam
 UNITS = {"m": 1.0, "cm": 100.0, "mm": 1000.0}
 
 
@@ -37,6 +38,7 @@ class ArmGeometry:
     """Drawable geometry in frame W, metres: node positions ``nodes_W`` (N, 3),
     outward-wound surface ``triangles`` (F, 3) indexing ``nodes_W``, one polyline
     (K+1, 3) per cable in ``cables_W`` (anchor, then via points), tip ``tip_W`` (3,)."""
+
     nodes_W: np.ndarray
     triangles: np.ndarray
     cables_W: list
@@ -56,6 +58,7 @@ def cable_colors(n_cables: int, u_motor=None, u_max: float = 1.0, cmap: str = CM
     if u_motor is None:
         return np.tile(CABLE_RGB, (n_cables, 1))
     import matplotlib
+
     u = np.clip(np.asarray(u_motor, float) / u_max, 0.0, 1.0)
     return np.asarray(matplotlib.colormaps[cmap](u))[:, :3]
 
@@ -79,7 +82,7 @@ def _hex(rgb) -> int:
 def meshcat_visualizer():
     """``with meshcat_visualizer() as vis:`` a fresh ``meshcat.Visualizer`` (own zmq
     server subprocess on 127.0.0.1), always stopped on exit."""
-    with contextlib.redirect_stdout(io.StringIO()):      # it prints its URL
+    with contextlib.redirect_stdout(io.StringIO()):  # it prints its URL
         vis = _meshcat().Visualizer()
     try:
         yield vis
@@ -101,11 +104,12 @@ def stop_visualizer(vis) -> None:
                 stream.close()
 
 
-def set_view(vis, camera_W=(0.06, -0.26, 0.08), background_rgb=(1.0, 1.0, 1.0),
-             grid: bool = False, axes: bool = False) -> None:
+def set_view(
+    vis, camera_W=(0.06, -0.26, 0.08), background_rgb=(1.0, 1.0, 1.0), grid: bool = False, axes: bool = False
+) -> None:
     """Camera at ``camera_W`` (3,) m, looking at the origin (the base; meshcat 0.3.2
     orbits about the world origin), a uniform background, grid/axes on or off."""
-    x, y, z = camera_W     # the default camera sits in a frame rotated +90 deg about x
+    x, y, z = camera_W  # the default camera sits in a frame rotated +90 deg about x
     vis["/Cameras/default/rotated/<object>"].set_property("position", [x, z, -y])
     vis["/Background"].set_property("top_color", list(background_rgb))
     vis["/Background"].set_property("bottom_color", list(background_rgb))
@@ -113,28 +117,42 @@ def set_view(vis, camera_W=(0.06, -0.26, 0.08), background_rgb=(1.0, 1.0, 1.0),
     vis["/Axes"].set_property("visible", axes)
 
 
-def update_scene(vis, fem, q=None, u_motor=None, *, prefix: str = "arm", u_max: float | None = None,
-                 foam_opacity: float = 0.4) -> ArmGeometry:
+def update_scene(
+    vis, fem, q=None, u_motor=None, *, prefix: str = "arm", u_max: float | None = None, foam_opacity: float = 0.4
+) -> ArmGeometry:
     """Draw (or redraw) the arm at ``q`` under ``vis[prefix]``: foam surface, cables
     coloured by ``u_motor`` (rad, over [0, ``u_max``], default the robot's u_max),
     tip sphere. Every call sets the geometry anew. Returns the geometry drawn."""
     g, tf = _meshcat().geometry, _meshcat().transformations
     geo = arm_geometry(fem, q)
     root = vis[prefix]
-    root["foam"].set_object(g.TriangularMeshGeometry(geo.nodes_W, geo.triangles),
-                            g.MeshLambertMaterial(color=_hex(FOAM_RGB), opacity=foam_opacity))
+    root["foam"].set_object(
+        g.TriangularMeshGeometry(geo.nodes_W, geo.triangles),
+        g.MeshLambertMaterial(color=_hex(FOAM_RGB), opacity=foam_opacity),
+    )
     u_max = fem.robot.u_max_rad if u_max is None else u_max
     colors = cable_colors(len(geo.cables_W), u_motor, u_max)
     for route, pts, rgb in zip(fem.robot.cables, geo.cables_W, colors):
-        root["cables"][route.name].set_object(g.Line(
-            g.PointsGeometry(np.ascontiguousarray(pts.T, dtype=np.float32)),
-            g.LineBasicMaterial(color=_hex(rgb))))           # WebGL lines are 1 px wide
+        root["cables"][route.name].set_object(
+            g.Line(
+                g.PointsGeometry(np.ascontiguousarray(pts.T, dtype=np.float32)), g.LineBasicMaterial(color=_hex(rgb))
+            )
+        )  # WebGL lines are 1 px wide
     root["tip"].set_transform(tf.translation_matrix(geo.tip_W))
     return geo
 
 
-def meshcat_scene(fem, q=None, vis=None, u_motor=None, *, prefix: str = "arm", view: bool = True,
-                  tip_radius_m: float = 0.004, **kwargs):
+def meshcat_scene(
+    fem,
+    q=None,
+    vis=None,
+    u_motor=None,
+    *,
+    prefix: str = "arm",
+    view: bool = True,
+    tip_radius_m: float = 0.004,
+    **kwargs,
+):
     """Draw the arm at ``q`` in ``vis`` (a new ``meshcat.Visualizer`` if None: stop
     it with :func:`stop_visualizer`). ``view``: also apply :func:`set_view` (white
     background, no grid/axes, camera framing the 20 cm arm from the front-left).
@@ -166,8 +184,19 @@ def notebook_html(vis, height_px: int = 400) -> str:
 
 
 # ------------------------------------------------------------------------- matplotlib
-def plot_arm(ax, fem, q=None, u_motor=None, *, unit: str = "cm", dims=(0, 1, 2), u_max=None,
-             foam_alpha: float = 0.25, linewidth: float = 2.0, geometry: ArmGeometry | None = None):
+def plot_arm(
+    ax,
+    fem,
+    q=None,
+    u_motor=None,
+    *,
+    unit: str = "cm",
+    dims=(0, 1, 2),
+    u_max=None,
+    foam_alpha: float = 0.25,
+    linewidth: float = 2.0,
+    geometry: ArmGeometry | None = None,
+):
     """Draw the arm at ``q`` on ``ax``: a 3-D axes (``dims`` = (0, 1, 2)) or, with two
     ``dims`` such as (0, 2), its projection on a 2-D axes. Coordinates in ``unit``
     ("m", "cm", "mm"). Cables coloured by ``u_motor`` (rad) over [0, ``u_max``].
@@ -175,12 +204,17 @@ def plot_arm(ax, fem, q=None, u_motor=None, *, unit: str = "cm", dims=(0, 1, 2),
     ``computed_zorder=False`` the cables and tip stay on top of the foam."""
     from matplotlib.collections import PolyCollection
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
     geo = arm_geometry(fem, q) if geometry is None else geometry
     s, d = UNITS[unit], list(dims)
-    tris = s * geo.nodes_W[geo.triangles][:, :, d]                      # (F, 3, len(d))
+    tris = s * geo.nodes_W[geo.triangles][:, :, d]  # (F, 3, len(d))
     poly = (Poly3DCollection if len(d) == 3 else PolyCollection)(
-        tris, facecolor=(*FOAM_RGB, foam_alpha), edgecolor=(*FOAM_RGB, min(1.0, 2 * foam_alpha)),
-        linewidth=0.2, zorder=1)
+        tris,
+        facecolor=(*FOAM_RGB, foam_alpha),
+        edgecolor=(*FOAM_RGB, min(1.0, 2 * foam_alpha)),
+        linewidth=0.2,
+        zorder=1,
+    )
     ax.add_collection3d(poly) if len(d) == 3 else ax.add_collection(poly)
     u_max = fem.robot.u_max_rad if u_max is None else u_max
     for pts, rgb in zip(geo.cables_W, cable_colors(len(geo.cables_W), u_motor, u_max)):
@@ -206,19 +240,27 @@ def plot_arm_views(fem, q=None, u_motor=None, *, unit: str = "cm", u_max=None, f
     import matplotlib.pyplot as plt
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
+
     geo = arm_geometry(fem, q)
     fig = plt.figure(figsize=figsize, layout="constrained")
     grid = fig.add_gridspec(1, 3, width_ratios=(1.3, 1, 1))
     ax3 = fig.add_subplot(grid[0], projection="3d", computed_zorder=False)
     ax_xz, ax_yz = fig.add_subplot(grid[1]), fig.add_subplot(grid[2])
-    for ax, dims, title in ((ax3, (0, 1, 2), "3-D view"), (ax_xz, (0, 2), "side view (x-z)"),
-                            (ax_yz, (1, 2), "front view (y-z)")):
+    for ax, dims, title in (
+        (ax3, (0, 1, 2), "3-D view"),
+        (ax_xz, (0, 2), "side view (x-z)"),
+        (ax_yz, (1, 2), "front view (y-z)"),
+    ):
         plot_arm(ax, fem, q, u_motor, unit=unit, dims=dims, u_max=u_max, geometry=geo)
         ax.set_title(title)
-    ax3.set_box_aspect((1, 1, 1), zoom=0.85)            # equal: plot_arm made the limits a cube
+    ax3.set_box_aspect((1, 1, 1), zoom=0.85)  # equal: plot_arm made the limits a cube
     ax3.locator_params(nbins=4)
     if u_motor is not None:
         u_max = fem.robot.u_max_rad if u_max is None else u_max
-        fig.colorbar(ScalarMappable(Normalize(0.0, u_max), CMAP), ax=[ax3, ax_xz, ax_yz],
-                     label="motor command u [rad]", shrink=0.8)
+        fig.colorbar(
+            ScalarMappable(Normalize(0.0, u_max), CMAP),
+            ax=[ax3, ax_xz, ax_yz],
+            label="motor command u [rad]",
+            shrink=0.8,
+        )
     return fig, (ax3, ax_xz, ax_yz)

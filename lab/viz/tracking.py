@@ -7,13 +7,14 @@ its own colour (:data:`CABLE_COLORS`, the same in every panel), used for its com
 curve ``u_c`` over the trajectory and for its position in a small cross-section key.
 Both functions take :class:`lab.tracking.track.TrackResult` objects and return the figure.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 #: One colour per cable (cable i -> CABLE_COLORS[i % 6]); tab10's first six.
 CABLE_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
-TARGET_COLOR = "#e377c2"          # the paper draws targets in pink (Fig. 4)
+TARGET_COLOR = "#e377c2"  # the paper draws targets in pink (Fig. 4)
 ACHIEVED_COLOR = "0.15"
 
 
@@ -60,8 +61,14 @@ def _plane(ax, result, a: int, b: int, label: bool = True) -> None:
 def _equal_3d(ax, points_cm: np.ndarray, zoom: float) -> None:
     """Equal scales on a 3-D axes: a cube around ``points_cm`` (N, 3), axis labels in cm."""
     mid, half = (points_cm.max(0) + points_cm.min(0)) / 2, 0.55 * np.ptp(points_cm, axis=0).max()
-    ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
-           zlim=(mid[2] - half, mid[2] + half), xlabel="x [cm]", ylabel="y [cm]", zlabel="z [cm]")
+    ax.set(
+        xlim=(mid[0] - half, mid[0] + half),
+        ylim=(mid[1] - half, mid[1] + half),
+        zlim=(mid[2] - half, mid[2] + half),
+        xlabel="x [cm]",
+        ylabel="y [cm]",
+        zlabel="z [cm]",
+    )
     ax.set_box_aspect((1, 1, 1), zoom=zoom)
 
 
@@ -76,8 +83,11 @@ def plot_tracking_row(results: dict, robot, title: str = ""):
     for k, (name, res) in enumerate(results.items()):
         ax = fig.add_subplot(grid[0, k])
         _plane(ax, res, 1, 2)
-        ax.set_title(f"{name}: mean error {100 * res.mean_error_m:.4f} cm\n(max {100 * res.max_error_m:.4f} cm, "
-                     f"{len(res.targets_W)} targets)", fontsize=10)
+        ax.set_title(
+            f"{name}: mean error {100 * res.mean_error_m:.4f} cm\n(max {100 * res.max_error_m:.4f} cm, "
+            f"{len(res.targets_W)} targets)",
+            fontsize=10,
+        )
         if k == 0:
             ax.legend(fontsize=8, loc="lower left")
             _cable_key(ax.inset_axes([0.8, 0.8, 0.2, 0.2]), robot)
@@ -106,7 +116,7 @@ def plot_helix(result, robot, title: str = ""):
         ax = fig.add_subplot(grid[0, k + 1])
         _plane(ax, result, a, b, label=k == 0)
         ax.set_title(name)
-    ax.set_aspect("auto")                      # the helix is only ~1 cm deep along x
+    ax.set_aspect("auto")  # the helix is only ~1 cm deep along x
     ax.set_title("side view (x-z), x stretched")
     ax_u = fig.add_subplot(grid[1, :2])
     plot_commands(ax_u, result, robot)
@@ -136,8 +146,7 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
         ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
         _equal_3d(ax, np.vstack([t, p]), zoom=0.8)
         ax.view_init(elev=20, azim=-50)
-        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm",
-                     fontsize=9)
+        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm", fontsize=9)
         if k == 0:
             ax.legend(fontsize=8, loc="upper left")
     if title:

@@ -9,14 +9,26 @@
 * ``EmulatedBench`` (``bench.py``): all of it together plus a matching rig config;
   ``python -m lab.rig.emulators --config-out RIG.toml`` serves it until interrupted.
 """
+
 from lab.rig.emulators.bench import EmulatedBench, default_specs, kinematic_body_for
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
 from lab.rig.emulators.natnet_server import (
-           MocapScene,
-           NatNetServerEmulator,
-           multicast_loopback_works,
+    MocapScene,
+    NatNetServerEmulator,
+    multicast_loopback_works,
 )
 from lab.rig.emulators.xm430 import FAULTS, EmulatedXM430Bus, ServoSpec
 
-__all__ = ["EmulatedBench", "EmulatedXM430Bus", "FAULTS", "KinematicBody", "LiveBody", "MocapScene",
-           "NatNetServerEmulator", "ServoSpec", "default_specs", "kinematic_body_for", "multicast_loopback_works"]
+__all__ = [
+    "EmulatedBench",
+    "EmulatedXM430Bus",
+    "FAULTS",
+    "KinematicBody",
+    "LiveBody",
+    "MocapScene",
+    "NatNetServerEmulator",
+    "ServoSpec",
+    "default_specs",
+    "kinematic_body_for",
+    "multicast_loopback_works",
+]

@@ -6,6 +6,7 @@
 The body is a ``KinematicBody`` (tip linear in the motor angles); the servos and the
 NatNet server are the same emulators the tests use.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,8 +27,11 @@ def main(argv=None) -> int:
     robot = load_robot(args.robot)
     with EmulatedBench(robot, multicast=args.multicast, noise_m=args.noise_mm * 1e-3) as bench:
         path = bench.write_config(args.config_out)
-        print(f"servos on {bench.bus.port}, NatNet on 127.0.0.1:{bench.mocap.command_port}; "
-              f"config written to {path}. Ctrl-C or SIGTERM stops.", flush=True)
+        print(
+            f"servos on {bench.bus.port}, NatNet on 127.0.0.1:{bench.mocap.command_port}; "
+            f"config written to {path}. Ctrl-C or SIGTERM stops.",
+            flush=True,
+        )
         stop = threading.Event()
         signal.signal(signal.SIGTERM, lambda *_: stop.set())
         try:

@@ -8,6 +8,7 @@ the emulated robot. The servos' physical truth (``specs``) is deliberately untid
 arbitrary zero ticks, one mirrored motor, one zero a turn away from where the servo
 reports it at power-up; the configuration carries the matching calibration.
 """
+
 from __future__ import annotations
 
 import json
@@ -29,8 +30,10 @@ def default_specs(n_motors: int) -> list[ServoSpec]:
     """IDs 1..n; zero ticks 1000, 5000 (reported a turn lower at power-up), 3100, ...;
     every second motor mirrored."""
     zeros = [1000, 5000, 3100, 700, 2500, 3900]
-    return [ServoSpec(i + 1, zero_tick=zeros[i % len(zeros)] + 4096 * (i // len(zeros)),
-                      direction=1 if i % 2 == 0 else -1) for i in range(n_motors)]
+    return [
+        ServoSpec(i + 1, zero_tick=zeros[i % len(zeros)] + 4096 * (i // len(zeros)), direction=1 if i % 2 == 0 else -1)
+        for i in range(n_motors)
+    ]
 
 
 def kinematic_body_for(robot: RobotDescription, gain_m_per_rad: float = 0.02) -> KinematicBody:
@@ -51,9 +54,19 @@ def _toml(value) -> str:
 class EmulatedBench:
     """Emulated servos and motion capture around ``body`` (a ``Body``); context manager."""
 
-    def __init__(self, robot: RobotDescription, body: Body | None = None, *, specs=None,
-                 scene: MocapScene = MocapScene(), natnet_version=(3, 1), multicast: bool = False,
-                 noise_m: float = 0.0, frame_rate_hz: float = 120.0, seed: int = 0):
+    def __init__(
+        self,
+        robot: RobotDescription,
+        body: Body | None = None,
+        *,
+        specs=None,
+        scene: MocapScene = MocapScene(),
+        natnet_version=(3, 1),
+        multicast: bool = False,
+        noise_m: float = 0.0,
+        frame_rate_hz: float = 120.0,
+        seed: int = 0,
+    ):
         self.robot = robot
         self.body = body if body is not None else kinematic_body_for(robot)
         self.live = LiveBody(self.body)
@@ -63,14 +76,20 @@ class EmulatedBench:
         self.scene = scene
         self.bus = EmulatedXM430Bus(self.specs, body=self.live)
         try:
-            self.mocap = NatNetServerEmulator(self.live.p_tip_W, scene, version=natnet_version,
-                                              multicast=multicast, noise_m=noise_m,
-                                              frame_rate_hz=frame_rate_hz, seed=seed)
+            self.mocap = NatNetServerEmulator(
+                self.live.p_tip_W,
+                scene,
+                version=natnet_version,
+                multicast=multicast,
+                noise_m=noise_m,
+                frame_rate_hz=frame_rate_hz,
+                seed=seed,
+            )
         except BaseException:
             self.bus.stop()
             raise
 
-    def start(self) -> "EmulatedBench":
+    def start(self) -> EmulatedBench:
         self.bus.start()
         self.mocap.start()
         return self
@@ -91,23 +110,47 @@ class EmulatedBench:
     def config_text(self, servos: dict | None = None, mocap: dict | None = None) -> str:
         """TOML of a hardware configuration for this bench; ``servos``/``mocap`` override
         fields of those tables (for tests of bad settings)."""
-        s = {"port": self.bus.port, "baud_rate": self.specs[0].baud_rate, "profile_velocity_rad_s": 3.0,
-             "latency_timer_ms": 100.0, "poll_interval_s": 0.05} | (servos or {})
-        m = {"server_address": self.mocap.host, "local_address": self.mocap.host,
-             "transmission": "multicast" if self.mocap.multicast else "unicast",
-             "multicast_address": self.mocap.multicast_address, "command_port": self.mocap.command_port,
-             "data_port": self.mocap.data_port, "length_unit": "mm" if self.scene.length_unit_m == 1e-3 else "m",
-             "frame_rate_hz": self.mocap.frame_rate_hz, "connect_timeout_s": 3.0, "frame_timeout_s": 0.5,
-             "max_occlusion_s": 0.5, "calibration_frames": 12, "marker_set": self.scene.marker_set} | (mocap or {})
+        s = {
+            "port": self.bus.port,
+            "baud_rate": self.specs[0].baud_rate,
+            "profile_velocity_rad_s": 3.0,
+            "latency_timer_ms": 100.0,
+            "poll_interval_s": 0.05,
+        } | (servos or {})
+        m = {
+            "server_address": self.mocap.host,
+            "local_address": self.mocap.host,
+            "transmission": "multicast" if self.mocap.multicast else "unicast",
+            "multicast_address": self.mocap.multicast_address,
+            "command_port": self.mocap.command_port,
+            "data_port": self.mocap.data_port,
+            "length_unit": "mm" if self.scene.length_unit_m == 1e-3 else "m",
+            "frame_rate_hz": self.mocap.frame_rate_hz,
+            "connect_timeout_s": 3.0,
+            "frame_timeout_s": 0.5,
+            "max_occlusion_s": 0.5,
+            "calibration_frames": 12,
+            "marker_set": self.scene.marker_set,
+        } | (mocap or {})
         lines = ["format_version = 1", "", "[servos]"] + [f"{k} = {_toml(v)}" for k, v in s.items()]
         for spec, cable in zip(self.specs, self.robot.cables):
-            lines += ["", "[[servos.motor]]", f"cable = {_toml(cable.name)}", f"id = {spec.dxl_id}",
-                      f"direction = {spec.direction}", f"zero_offset_ticks = {spec.zero_tick}"]
+            lines += [
+                "",
+                "[[servos.motor]]",
+                f"cable = {_toml(cable.name)}",
+                f"id = {spec.dxl_id}",
+                f"direction = {spec.direction}",
+                f"zero_offset_ticks = {spec.zero_tick}",
+            ]
         lines += ["", "[mocap]"] + [f"{k} = {_toml(v)}" for k, v in m.items()]
         lines += ["", "[mocap.tip]", f"marker = {_toml(self.scene.tip_marker)}"]
         for name, p in zip(self.scene.base_markers, self.scene.base_positions_W_m):
-            lines += ["", "[[mocap.base_markers]]", f"marker = {_toml(name)}",
-                      f"position_W_m = {_toml([float(c) for c in p])}"]
+            lines += [
+                "",
+                "[[mocap.base_markers]]",
+                f"marker = {_toml(name)}",
+                f"position_W_m = {_toml([float(c) for c in p])}",
+            ]
         return "\n".join(lines) + "\n"
 
     def write_config(self, path: str | Path, **overrides) -> Path:

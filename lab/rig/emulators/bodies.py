@@ -11,6 +11,7 @@ command, so its motors move at the speed the driver configured.
 without the FEM: each motor turns toward its goal at a fixed speed, and the tip moves
 linearly with the motor angles, ``p_tip_W = p_rest_W + J_W @ u_present``.
 """
+
 from __future__ import annotations
 
 import threading

@@ -10,6 +10,7 @@ its size in bytes after its count/type; 4.1 also appends a precision timestamp t
 frame suffix (the ``natnet`` 0.3.0 client does not read it and so takes its first two
 bytes as the frame parameters; harmless, as they are zero here).
 """
+
 from __future__ import annotations
 
 import struct
@@ -37,6 +38,7 @@ def message(message_id: int, payload: bytes) -> bytes:
 @dataclass(frozen=True)
 class RigidBodyState:
     """A rigid body in one frame: ``id_num``, position (3,), quaternion (qx, qy, qz, qw)."""
+
     id_num: int
     pos: tuple
     quat: tuple = (0.0, 0.0, 0.0, 1.0)
@@ -47,6 +49,7 @@ class RigidBodyState:
 @dataclass(frozen=True)
 class LabeledMarkerState:
     """A labeled marker: ``id_num`` = (model id << 16) | marker index, position (3,)."""
+
     id_num: int
     pos: tuple
     size: float = 0.014
@@ -57,13 +60,14 @@ class LabeledMarkerState:
 @dataclass(frozen=True)
 class Frame:
     """One frame of data; positions in the mocap frame and unit."""
+
     frame_number: int
     timestamp_s: float
-    marker_sets: list = field(default_factory=list)        # [(name, [(x, y, z), ...])]
-    unlabeled: list = field(default_factory=list)          # [(x, y, z)]
-    rigid_bodies: list = field(default_factory=list)       # [RigidBodyState]
-    labeled: list = field(default_factory=list)            # [LabeledMarkerState]
-    stamp_ticks: int = 0                                    # high-resolution clock, ticks
+    marker_sets: list = field(default_factory=list)  # [(name, [(x, y, z), ...])]
+    unlabeled: list = field(default_factory=list)  # [(x, y, z)]
+    rigid_bodies: list = field(default_factory=list)  # [RigidBodyState]
+    labeled: list = field(default_factory=list)  # [LabeledMarkerState]
+    stamp_ticks: int = 0  # high-resolution clock, ticks
 
 
 def _check(version) -> tuple[int, int]:
@@ -81,9 +85,16 @@ def _list(version, count: int, body: bytes) -> bytes:
     return head + body
 
 
-def server_info(version, *, app_name: str = "Motive", app_version=(2, 3, 7, 1),
-                multicast: bool = False, multicast_address: str = "239.255.42.99",
-                data_port: int = 1511, clock_hz: int = 10_000_000) -> bytes:
+def server_info(
+    version,
+    *,
+    app_name: str = "Motive",
+    app_version=(2, 3, 7, 1),
+    multicast: bool = False,
+    multicast_address: str = "239.255.42.99",
+    data_port: int = 1511,
+    clock_hz: int = 10_000_000,
+) -> bytes:
     """NAT_SERVERINFO: application name (256 bytes), versions, clock, connection info."""
     v = _check(version)
     name = app_name.encode("utf-8")[:255].ljust(256, b"\0")
@@ -105,7 +116,7 @@ def model_def(version, marker_sets=(), rigid_bodies=()) -> bytes:
         body = _s(name) + struct.pack("<ii3f", id_num, parent, *offset)
         body += struct.pack("<I", len(markers))
         body += b"".join(struct.pack("<3f", *m) for m in markers)
-        body += b"".join(struct.pack("<i", k + 1) for k in range(len(markers)))    # active labels
+        body += b"".join(struct.pack("<i", k + 1) for k in range(len(markers)))  # active labels
         if v >= (4, 0):
             body += b"".join(_s(f"Marker{k + 1}") for k in range(len(markers)))
         items.append((1, body))
@@ -122,24 +133,28 @@ def frame_of_data(version, frame: Frame) -> bytes:
     """NAT_FRAMEOFDATA for ``frame``."""
     v = _check(version)
     out = struct.pack("<I", frame.frame_number)
-    sets = b"".join(_s(name) + struct.pack("<I", len(ps)) + b"".join(struct.pack("<3f", *p) for p in ps)
-                    for name, ps in frame.marker_sets)
+    sets = b"".join(
+        _s(name) + struct.pack("<I", len(ps)) + b"".join(struct.pack("<3f", *p) for p in ps)
+        for name, ps in frame.marker_sets
+    )
     out += _list(v, len(frame.marker_sets), sets)
     out += _list(v, len(frame.unlabeled), b"".join(struct.pack("<3f", *p) for p in frame.unlabeled))
-    rbs = b"".join(struct.pack("<I3f4ffH", rb.id_num, *rb.pos, *rb.quat, rb.mean_error, int(rb.tracking_valid))
-                   for rb in frame.rigid_bodies)
+    rbs = b"".join(
+        struct.pack("<I3f4ffH", rb.id_num, *rb.pos, *rb.quat, rb.mean_error, int(rb.tracking_valid))
+        for rb in frame.rigid_bodies
+    )
     out += _list(v, len(frame.rigid_bodies), rbs)
-    out += _list(v, 0, b"")                                    # skeletons
+    out += _list(v, 0, b"")  # skeletons
     if v >= (4, 1):
-        out += _list(v, 0, b"")                                # assets
+        out += _list(v, 0, b"")  # assets
     lms = b"".join(struct.pack("<I3ffHf", m.id_num, *m.pos, m.size, m.param, m.residual) for m in frame.labeled)
     out += _list(v, len(frame.labeled), lms)
-    out += _list(v, 0, b"")                                    # force plates
-    out += _list(v, 0, b"")                                    # devices
-    out += struct.pack("<IId", 0, 0, frame.timestamp_s)        # timecode, subframe, timestamp
+    out += _list(v, 0, b"")  # force plates
+    out += _list(v, 0, b"")  # devices
+    out += struct.pack("<IId", 0, 0, frame.timestamp_s)  # timecode, subframe, timestamp
     out += struct.pack("<QQQ", frame.stamp_ticks, frame.stamp_ticks, frame.stamp_ticks)
     if v >= (4, 1):
-        out += struct.pack("<II", 0, 0)                        # precision timestamp s, fraction
-    out += struct.pack("<H", 0)                                # params: not recording
-    out += struct.pack("<i", 0)                                # end of data
+        out += struct.pack("<II", 0, 0)  # precision timestamp s, fraction
+    out += struct.pack("<H", 0)  # params: not recording
+    out += struct.pack("<i", 0)  # end of data
     return message(NAT_FRAMEOFDATA, out)

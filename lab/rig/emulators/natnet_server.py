@@ -19,6 +19,7 @@ Faults: ``occlude_tip(True)`` hides the tip; ``freeze()`` makes the server disap
 (no frames, no answers; the sockets stay bound as when a network cable is pulled);
 ``stop()`` closes everything.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,8 @@ import socket
 import struct
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -46,15 +47,16 @@ def _rotation_z_up_to_y_up(yaw_deg: float) -> np.ndarray:
 class MocapScene:
     """What the cameras see: marker names, the base markers' positions in W (m), the
     placement of W in the mocap frame M (``p_M = R_MW p_W + t_MW_m``) and the unit."""
+
     marker_set: str = "soft_arm"
     tip_marker: str = "tip"
     base_markers: tuple = ("base_1", "base_2", "base_3")
     base_positions_W_m: tuple = ((-0.01, 0.03, 0.03), (-0.01, -0.035, 0.02), (-0.01, 0.0, -0.04))
     R_MW: np.ndarray = field(default_factory=lambda: _rotation_z_up_to_y_up(30.0))
     t_MW_m: tuple = (0.40, 0.90, -0.20)
-    tip_rigid_body: tuple | None = ("tip_body", 7)        # (name, id) or None
+    tip_rigid_body: tuple | None = ("tip_body", 7)  # (name, id) or None
     marker_set_model_id: int = 1
-    length_unit_m: float = 1.0                            # 1e-3 streams millimetres
+    length_unit_m: float = 1.0  # 1e-3 streams millimetres
 
     def to_mocap(self, p_W_m: np.ndarray) -> np.ndarray:
         """(k, 3) m in W -> (k, 3) in M, in the streamed unit."""
@@ -73,10 +75,21 @@ class NatNetServerEmulator:
 
     CLIENT_TIMEOUT_S = 10.0
 
-    def __init__(self, tip_W_m: Callable[[float], np.ndarray], scene: MocapScene = MocapScene(), *,
-                 version=(3, 1), frame_rate_hz: float = 120.0, multicast: bool = False,
-                 multicast_address: str = "239.255.42.99", command_port: int = 0, data_port: int = 0,
-                 noise_m: float = 0.0, seed: int = 0, host: str = "127.0.0.1"):
+    def __init__(
+        self,
+        tip_W_m: Callable[[float], np.ndarray],
+        scene: MocapScene = MocapScene(),
+        *,
+        version=(3, 1),
+        frame_rate_hz: float = 120.0,
+        multicast: bool = False,
+        multicast_address: str = "239.255.42.99",
+        command_port: int = 0,
+        data_port: int = 0,
+        noise_m: float = 0.0,
+        seed: int = 0,
+        host: str = "127.0.0.1",
+    ):
         self.tip_W_m, self.scene = tip_W_m, scene
         self.version = nn._check(version)
         self.frame_rate_hz = float(frame_rate_hz)
@@ -109,7 +122,7 @@ class NatNetServerEmulator:
         self.frames_sent = 0
 
     # --- lifecycle and faults -------------------------------------------------------
-    def start(self) -> "NatNetServerEmulator":
+    def start(self) -> NatNetServerEmulator:
         for target, name in ((self._serve_commands, "natnet-cmd"), (self._stream, "natnet-data")):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
@@ -147,8 +160,9 @@ class NatNetServerEmulator:
 
     # --- messages -------------------------------------------------------------------
     def server_info(self) -> bytes:
-        return nn.server_info(self.version, multicast=self.multicast, multicast_address=self.multicast_address,
-                              data_port=self.data_port)
+        return nn.server_info(
+            self.version, multicast=self.multicast, multicast_address=self.multicast_address, data_port=self.data_port
+        )
 
     def model_def(self) -> bytes:
         s = self.scene
@@ -161,22 +175,33 @@ class NatNetServerEmulator:
 
     def frame(self, frame_number: int, t_s: float) -> bytes:
         s = self.scene
-        p_W = np.vstack([np.asarray(self.tip_W_m(t_s), dtype=float).reshape(1, 3),
-                         np.asarray(s.base_positions_W_m, dtype=float)])
+        p_W = np.vstack(
+            [np.asarray(self.tip_W_m(t_s), dtype=float).reshape(1, 3), np.asarray(s.base_positions_W_m, dtype=float)]
+        )
         p_M = s.to_mocap(p_W)
         if self.noise_m > 0:
             p_M = p_M + self._rng.normal(0.0, self.noise_m / s.length_unit_m, p_M.shape)
         pts = [tuple(map(float, p)) for p in p_M]
         hidden = self._occluded
         set_pts = ([(0.0, 0.0, 0.0)] if hidden else pts[:1]) + pts[1:]
-        labeled = [nn.LabeledMarkerState((s.marker_set_model_id << 16) | (k + 1), p)
-                   for k, p in enumerate(pts) if not (hidden and k == 0)]
+        labeled = [
+            nn.LabeledMarkerState((s.marker_set_model_id << 16) | (k + 1), p)
+            for k, p in enumerate(pts)
+            if not (hidden and k == 0)
+        ]
         rbs = []
         if s.tip_rigid_body is not None:
-            rbs.append(nn.RigidBodyState(s.tip_rigid_body[1], (0.0, 0.0, 0.0) if hidden else pts[0],
-                                         tracking_valid=not hidden))
-        frame = nn.Frame(frame_number, t_s, marker_sets=[(s.marker_set, set_pts), ("all", set_pts)],
-                         rigid_bodies=rbs, labeled=labeled, stamp_ticks=int(t_s * 1e7))
+            rbs.append(
+                nn.RigidBodyState(s.tip_rigid_body[1], (0.0, 0.0, 0.0) if hidden else pts[0], tracking_valid=not hidden)
+            )
+        frame = nn.Frame(
+            frame_number,
+            t_s,
+            marker_sets=[(s.marker_set, set_pts), ("all", set_pts)],
+            rigid_bodies=rbs,
+            labeled=labeled,
+            stamp_ticks=int(t_s * 1e7),
+        )
         return nn.frame_of_data(self.version, frame)
 
     # --- threads --------------------------------------------------------------------
@@ -184,12 +209,12 @@ class NatNetServerEmulator:
         while not self._stop.is_set():
             try:
                 data, addr = self._cmd.recvfrom(65536)
-            except (socket.timeout, BlockingIOError):
+            except (TimeoutError, BlockingIOError):
                 continue
             except OSError:
                 if self._stop.is_set():
                     return
-                continue          # e.g. ICMP unreachable from a client that went away
+                continue  # e.g. ICMP unreachable from a client that went away
             if self._frozen.is_set() or len(data) < 4:
                 continue
             message_id = struct.unpack_from("<H", data)[0]
@@ -212,7 +237,7 @@ class NatNetServerEmulator:
                 self._cmd.sendto(reply, addr)
             except OSError:
                 return
-        with self._lock:   # registered only after the server info went out: frames come after it
+        with self._lock:  # registered only after the server info went out: frames come after it
             if message_id == nn.NAT_CONNECT or (message_id == nn.NAT_KEEPALIVE and addr in self._clients):
                 self._clients[addr] = time.monotonic()
             elif message_id == nn.NAT_DISCONNECT:
@@ -223,7 +248,7 @@ class NatNetServerEmulator:
         next_t = time.monotonic()
         while not self._stop.wait(max(0.0, next_t - time.monotonic())):
             next_t += period
-            if time.monotonic() - next_t > period:          # fell behind: skip, do not burst
+            if time.monotonic() - next_t > period:  # fell behind: skip, do not burst
                 next_t = time.monotonic() + period
             if self._frozen.is_set():
                 continue

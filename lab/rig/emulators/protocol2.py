@@ -15,6 +15,7 @@ initial value 0, no reflection) over every byte before the CRC, stuffing include
 A status packet is an instruction packet with INST = 0x55 whose first parameter is the
 error byte.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -69,9 +70,14 @@ def unstuff(body: bytes) -> bytes:
     i = 0
     while i < len(body):
         out.append(body[i])
-        if body[i] == 0xFD and out[-3:-1] == b"\xff\xff" and len(out) >= 3 \
-                and i + 1 < len(body) and body[i + 1] == 0xFD:
-            i += 1   # skip the stuffing byte
+        if (
+            body[i] == 0xFD
+            and out[-3:-1] == b"\xff\xff"
+            and len(out) >= 3
+            and i + 1 < len(body)
+            and body[i + 1] == 0xFD
+        ):
+            i += 1  # skip the stuffing byte
         i += 1
     return bytes(out)
 
@@ -93,6 +99,7 @@ def status(dxl_id: int, error: int, data: bytes = b"", *, corrupt_crc: bool = Fa
 @dataclass(frozen=True)
 class Packet:
     """A received packet: ``crc_ok`` False when the CRC did not match (params unusable)."""
+
     dxl_id: int
     instruction: int
     params: bytes
@@ -117,14 +124,14 @@ class PacketReader:
         while True:
             start = self._buf.find(HEADER)
             if start < 0:
-                del self._buf[:max(0, len(self._buf) - 3)]   # keep a possible partial header
+                del self._buf[: max(0, len(self._buf) - 3)]  # keep a possible partial header
                 return packets
             del self._buf[:start]
             if len(self._buf) < 7:
                 return packets
             length = self._buf[5] | (self._buf[6] << 8)
             if length < 3 or length > self.MAX_LENGTH:
-                del self._buf[:4]   # not a real header: resynchronise
+                del self._buf[:4]  # not a real header: resynchronise
                 continue
             total = 7 + length
             if len(self._buf) < total:

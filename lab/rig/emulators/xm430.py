@@ -25,6 +25,7 @@ Faults (``inject_fault``): ``"silent"`` (obeys, never answers), ``"disconnected"
 ``"overload"`` (hardware error status bit 5: torque off, alert bit on every answer, until
 REBOOT). ``count`` limits a fault to that many occurrences. ``unplug()`` closes the pty.
 """
+
 from __future__ import annotations
 
 import array
@@ -82,7 +83,7 @@ class EmulatedXM430Bus:
         self.packets = 0
 
     # --- lifecycle ------------------------------------------------------------------
-    def start(self) -> "EmulatedXM430Bus":
+    def start(self) -> EmulatedXM430Bus:
         self._thread = threading.Thread(target=self._serve, name="xm430-bus", daemon=True)
         self._thread.start()
         if self.body is not None:
@@ -104,7 +105,7 @@ class EmulatedXM430Bus:
                 pass
         self._master = self._slave = -1
 
-    unplug = stop   # the USB adapter pulled out: the SDK's next read/write fails
+    unplug = stop  # the USB adapter pulled out: the SDK's next read/write fails
 
     def __enter__(self):
         return self.start()
@@ -128,8 +129,15 @@ class EmulatedXM430Bus:
         with self._lock:
             s = self.servo(dxl_id)
             s.advance(self.now())
-            names = ("torque_enable", "operating_mode", "profile_velocity", "goal_position",
-                     "present_position", "hardware_error_status", "moving")
+            names = (
+                "torque_enable",
+                "operating_mode",
+                "profile_velocity",
+                "goal_position",
+                "present_position",
+                "hardware_error_status",
+                "moving",
+            )
             return {n: s.get(n) for n in names} | {"u_goal_rad": s.u_goal_rad()}
 
     def inject_fault(self, dxl_id: int, fault: str, count: int | None = None) -> None:
@@ -153,7 +161,7 @@ class EmulatedXM430Bus:
         """Baud rate the SDK set on the port (Linux termios2), None where unreadable."""
         try:
             buf = array.array("i", [0] * 64)
-            fcntl.ioctl(self._slave, 0x802C542A, buf)   # TCGETS2: c_ispeed at word 9
+            fcntl.ioctl(self._slave, 0x802C542A, buf)  # TCGETS2: c_ispeed at word 9
             return int(buf[9])
         except OSError:
             return None
@@ -194,7 +202,7 @@ class EmulatedXM430Bus:
             u, t_s, speed = item
             try:
                 self.body.command(u, t_s=t_s, profile_velocity_rad_s=speed if speed > 0 else None)
-            except Exception as err:      # noqa: BLE001 - kept for the test that drives the bus
+            except Exception as err:  # noqa: BLE001 - kept for the test that drives the bus
                 self.body_error = err
             finally:
                 self._body_queue.task_done()
@@ -235,7 +243,7 @@ class EmulatedXM430Bus:
         noisy = [s for s in targets if self._take_fault(s, "crc_error")]
         if not pkt.crc_ok or (noisy and not broadcast):
             return [r for s in targets if (r := self._reply(s, p2.ERR_CRC | s.alert))]
-        targets = [s for s in targets if s not in noisy]   # a broadcast still reaches the others
+        targets = [s for s in targets if s not in noisy]  # a broadcast still reaches the others
         out: list[bytes | None] = []
         prm = pkt.params
         word = lambda i: prm[i] | (prm[i + 1] << 8)  # noqa: E731
@@ -260,14 +268,14 @@ class EmulatedXM430Bus:
             for i in range(4, len(prm) - n, n + 1):
                 for s in targets:
                     if s.dxl_id == prm[i]:
-                        s.write(addr, prm[i + 1:i + 1 + n], t)
+                        s.write(addr, prm[i + 1 : i + 1 + n], t)
         elif pkt.instruction == p2.SYNC_READ and broadcast and len(prm) >= 4:
             addr, n = word(0), word(2)
             for dxl_id in prm[4:]:
                 s = next((s for s in targets if s.dxl_id == dxl_id), None)
                 reply = None if s is None else self._reply(s, *s.read(addr, n, t), kind="read")
                 if reply is None:
-                    break            # the servos after a missing answer wait for it in vain
+                    break  # the servos after a missing answer wait for it in vain
                 out.append(reply)
         elif pkt.instruction == p2.REBOOT and not broadcast:
             for s in targets:

@@ -15,6 +15,7 @@ velocity (units of 0.229 rev/min; 0 = the no-load speed) on the bus clock; relea
 The present position register is ``theta`` plus an offset chosen at power-up/REBOOT so
 that it reads within one turn (0..4095), as an X-series servo does.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,38 +26,63 @@ from lab.rig.emulators import protocol2 as p2
 
 TICKS_PER_REV = 4096
 RPM_PER_VELOCITY_UNIT = 0.229
-BAUD_BY_REGISTER = {0: 9600, 1: 57600, 2: 115200, 3: 1_000_000, 4: 2_000_000,
-                    5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
+BAUD_BY_REGISTER = {0: 9600, 1: 57600, 2: 115200, 3: 1_000_000, 4: 2_000_000, 5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
 FAULTS = ("silent", "disconnected", "bad_crc", "crc_error", "overload")
 OVERLOAD_BIT = 0x20
 
 # XM430 control table (ROBOTIS e-Manual): address -> (name, size, writable, default)
 FIELDS = {
-    0: ("model_number", 2, False, 1020), 2: ("model_information", 4, False, 0),
-    6: ("firmware_version", 1, False, 48), 7: ("id", 1, True, 1), 8: ("baud_rate", 1, True, 1),
-    9: ("return_delay_time", 1, True, 250), 10: ("drive_mode", 1, True, 0),
-    11: ("operating_mode", 1, True, 3), 12: ("secondary_id", 1, True, 255),
-    13: ("protocol_type", 1, True, 2), 20: ("homing_offset", 4, True, 0),
-    24: ("moving_threshold", 4, True, 10), 31: ("temperature_limit", 1, True, 80),
-    32: ("max_voltage_limit", 2, True, 160), 34: ("min_voltage_limit", 2, True, 95),
-    36: ("pwm_limit", 2, True, 885), 38: ("current_limit", 2, True, 1193),
-    44: ("velocity_limit", 4, True, 200), 48: ("max_position_limit", 4, True, 4095),
-    52: ("min_position_limit", 4, True, 0), 63: ("shutdown", 1, True, 52),
-    64: ("torque_enable", 1, True, 0), 65: ("led", 1, True, 0),
-    68: ("status_return_level", 1, True, 2), 69: ("registered_instruction", 1, False, 0),
-    70: ("hardware_error_status", 1, False, 0), 76: ("velocity_i_gain", 2, True, 1920),
-    78: ("velocity_p_gain", 2, True, 100), 80: ("position_d_gain", 2, True, 0),
-    82: ("position_i_gain", 2, True, 0), 84: ("position_p_gain", 2, True, 800),
-    88: ("feedforward_2nd_gain", 2, True, 0), 90: ("feedforward_1st_gain", 2, True, 0),
-    98: ("bus_watchdog", 1, True, 0), 100: ("goal_pwm", 2, True, 885),
-    102: ("goal_current", 2, True, 1193), 104: ("goal_velocity", 4, True, 0),
-    108: ("profile_acceleration", 4, True, 0), 112: ("profile_velocity", 4, True, 0),
-    116: ("goal_position", 4, True, 0), 120: ("realtime_tick", 2, False, 0),
-    122: ("moving", 1, False, 0), 123: ("moving_status", 1, False, 0),
-    124: ("present_pwm", 2, False, 0), 126: ("present_current", 2, False, 0),
-    128: ("present_velocity", 4, False, 0), 132: ("present_position", 4, False, 0),
-    136: ("velocity_trajectory", 4, False, 0), 140: ("position_trajectory", 4, False, 0),
-    144: ("present_input_voltage", 2, False, 120), 146: ("present_temperature", 1, False, 35),
+    0: ("model_number", 2, False, 1020),
+    2: ("model_information", 4, False, 0),
+    6: ("firmware_version", 1, False, 48),
+    7: ("id", 1, True, 1),
+    8: ("baud_rate", 1, True, 1),
+    9: ("return_delay_time", 1, True, 250),
+    10: ("drive_mode", 1, True, 0),
+    11: ("operating_mode", 1, True, 3),
+    12: ("secondary_id", 1, True, 255),
+    13: ("protocol_type", 1, True, 2),
+    20: ("homing_offset", 4, True, 0),
+    24: ("moving_threshold", 4, True, 10),
+    31: ("temperature_limit", 1, True, 80),
+    32: ("max_voltage_limit", 2, True, 160),
+    34: ("min_voltage_limit", 2, True, 95),
+    36: ("pwm_limit", 2, True, 885),
+    38: ("current_limit", 2, True, 1193),
+    44: ("velocity_limit", 4, True, 200),
+    48: ("max_position_limit", 4, True, 4095),
+    52: ("min_position_limit", 4, True, 0),
+    63: ("shutdown", 1, True, 52),
+    64: ("torque_enable", 1, True, 0),
+    65: ("led", 1, True, 0),
+    68: ("status_return_level", 1, True, 2),
+    69: ("registered_instruction", 1, False, 0),
+    70: ("hardware_error_status", 1, False, 0),
+    76: ("velocity_i_gain", 2, True, 1920),
+    78: ("velocity_p_gain", 2, True, 100),
+    80: ("position_d_gain", 2, True, 0),
+    82: ("position_i_gain", 2, True, 0),
+    84: ("position_p_gain", 2, True, 800),
+    88: ("feedforward_2nd_gain", 2, True, 0),
+    90: ("feedforward_1st_gain", 2, True, 0),
+    98: ("bus_watchdog", 1, True, 0),
+    100: ("goal_pwm", 2, True, 885),
+    102: ("goal_current", 2, True, 1193),
+    104: ("goal_velocity", 4, True, 0),
+    108: ("profile_acceleration", 4, True, 0),
+    112: ("profile_velocity", 4, True, 0),
+    116: ("goal_position", 4, True, 0),
+    120: ("realtime_tick", 2, False, 0),
+    122: ("moving", 1, False, 0),
+    123: ("moving_status", 1, False, 0),
+    124: ("present_pwm", 2, False, 0),
+    126: ("present_current", 2, False, 0),
+    128: ("present_velocity", 4, False, 0),
+    132: ("present_position", 4, False, 0),
+    136: ("velocity_trajectory", 4, False, 0),
+    140: ("position_trajectory", 4, False, 0),
+    144: ("present_input_voltage", 2, False, 120),
+    146: ("present_temperature", 1, False, 35),
 }
 ADDR = {name: addr for addr, (name, *_rest) in FIELDS.items()}
 TABLE_SIZE = 147
@@ -72,13 +98,14 @@ class ServoSpec:
     ``direction``: +1 if increasing ticks wind the cable in; ``start_tick``: spool angle at
     power-up (default ``zero_tick``, the robot at rest); speeds in rad/s of the spool.
     """
+
     dxl_id: int
     zero_tick: int = 2048
     direction: int = 1
     start_tick: int | None = None
-    model_number: int = 1020           # XM430-W350
+    model_number: int = 1020  # XM430-W350
     baud_rate: int = 57600
-    max_speed_rad_s: float = 4.8       # no-load speed, 46 rev/min
+    max_speed_rad_s: float = 4.8  # no-load speed, 46 rev/min
     backdrive_speed_rad_s: float = 1.0
 
 
@@ -91,7 +118,7 @@ class EmulatedServo:
             raise InputError(f"servo spec needs an ID in 0..252 and direction +-1, got {spec}")
         self.spec = spec
         self.table = bytearray(TABLE_SIZE)
-        for addr, (name, size, _w, default) in FIELDS.items():
+        for addr, (_name, size, _w, default) in FIELDS.items():
             self._set(addr, size, default)
         self._set(ADDR["id"], 1, spec.dxl_id)
         self._set(ADDR["model_number"], 2, spec.model_number)
@@ -108,14 +135,21 @@ class EmulatedServo:
 
     # --- registers ------------------------------------------------------------------
     def _set(self, addr: int, size: int, value: int) -> None:
-        self.table[addr:addr + size] = int(value).to_bytes(size, "little", signed=value < 0)
+        self.table[addr : addr + size] = int(value).to_bytes(size, "little", signed=value < 0)
 
     def get(self, name: str) -> int:
         addr = ADDR[name]
         size = FIELDS[addr][1]
-        signed = name in ("homing_offset", "goal_position", "present_position", "present_velocity",
-                          "goal_velocity", "present_current", "present_pwm")
-        return int.from_bytes(self.table[addr:addr + size], "little", signed=signed)
+        signed = name in (
+            "homing_offset",
+            "goal_position",
+            "present_position",
+            "present_velocity",
+            "goal_velocity",
+            "present_current",
+            "present_pwm",
+        )
+        return int.from_bytes(self.table[addr : addr + size], "little", signed=signed)
 
     @property
     def dxl_id(self) -> int:
@@ -146,7 +180,7 @@ class EmulatedServo:
     def target_theta(self) -> float:
         if self.torque_enabled:
             return float(self.get("goal_position") - self.encoder_offset)
-        return float(self.spec.zero_tick)      # released: the foam pulls the cable back
+        return float(self.spec.zero_tick)  # released: the foam pulls the cable back
 
     def speed_ticks_s(self) -> float:
         if not self.torque_enabled:
@@ -165,8 +199,7 @@ class EmulatedServo:
 
     def _refresh(self, t_s: float, velocity_ticks_s: float) -> None:
         self._set(ADDR["present_position"], 4, round(self.theta) + self.encoder_offset)
-        self._set(ADDR["present_velocity"], 4,
-                  round(velocity_ticks_s * 60 / TICKS_PER_REV / RPM_PER_VELOCITY_UNIT))
+        self._set(ADDR["present_velocity"], 4, round(velocity_ticks_s * 60 / TICKS_PER_REV / RPM_PER_VELOCITY_UNIT))
         moving = abs(self.target_theta() - self.theta) > self.get("moving_threshold")
         self._set(ADDR["moving"], 1, int(moving))
         self._set(ADDR["realtime_tick"], 2, int(t_s * 1000) % 32768)
@@ -187,7 +220,7 @@ class EmulatedServo:
         self.advance(t_s)
         if length == 0 or addr + length > TABLE_SIZE:
             return p2.ERR_ACCESS | self.alert, b""
-        return self.alert, bytes(self.table[addr:addr + length])
+        return self.alert, bytes(self.table[addr : addr + length])
 
     def write(self, addr: int, data: bytes, t_s: float) -> int:
         """Apply a write; returns the error byte (nothing is written on an error)."""
@@ -197,7 +230,7 @@ class EmulatedServo:
             return p2.ERR_ACCESS | self.alert
         new = bytearray(self.table)
         new[addr:end] = data
-        for f_addr, (name, size, writable, _d) in FIELDS.items():
+        for f_addr, (_name, size, writable, _d) in FIELDS.items():
             if f_addr + size <= addr or f_addr >= end:
                 continue
             if not writable:
@@ -207,8 +240,11 @@ class EmulatedServo:
         gaps = [a for a in range(addr, end) if not any(f <= a < f + FIELDS[f][1] for f in FIELDS)]
         if gaps:
             return p2.ERR_ACCESS | self.alert
-        value = lambda name, signed=False: int.from_bytes(  # noqa: E731
-            new[ADDR[name]:ADDR[name] + FIELDS[ADDR[name]][1]], "little", signed=signed)
+        value = (
+            lambda name, signed=False: int.from_bytes(  # noqa: E731
+                new[ADDR[name] : ADDR[name] + FIELDS[ADDR[name]][1]], "little", signed=signed
+            )
+        )
         if value("operating_mode") not in (0, 1, 3, 4, 5, 16):
             return p2.ERR_DATA_RANGE | self.alert
         goal = value("goal_position", signed=True)
@@ -222,11 +258,9 @@ class EmulatedServo:
             return p2.ERR_DATA_LIMIT | self.alert
         torque_on_request = value("torque_enable") == 1 and not self.torque_enabled
         if torque_on_request and self.get("hardware_error_status"):
-            new[ADDR["torque_enable"]] = 0      # refused until REBOOT; the alert bit says why
+            new[ADDR["torque_enable"]] = 0  # refused until REBOOT; the alert bit says why
         self.table[:] = new
         if torque_on_request and self.torque_enabled:
             self._set(ADDR["goal_position"], 4, round(self.theta) + self.encoder_offset)
         self._refresh(t_s, 0.0)
         return self.alert
-
-
