@@ -12,7 +12,12 @@
 #                                       `rm -rf .venv` for a clean rebuild)
 #   * up to date                     -> nothing to do (a hash comparison)
 #
-# The last built state is a SHA-256 of environment.txt kept in
+# The repository itself is installed editable into .venv (`pip install -e .`, no
+# build isolation, so no network: setuptools and wheel come from environment.txt);
+# `import lab` and the `lab` command then work from any directory, e.g. notebook
+# kernels started in notebooks/.
+#
+# The last built state is a SHA-256 of environment.txt and pyproject.toml kept in
 # .venv/.environment.sha256. Set LAB_PYTHON to use another interpreter than
 # python3 for creating the venv (the pins are for Python 3.11).
 
@@ -36,7 +41,7 @@ _lab_venv_ok() {
 _lab_bootstrap() {
     local venv="$LAB_ROOT/.venv" req="$LAB_ROOT/environment.txt"
     local py="${LAB_PYTHON:-python3}" want site
-    want="$(_lab_sha256 "$req")" || return 1
+    want="$(_lab_sha256 "$req")-$(_lab_sha256 "$LAB_ROOT/pyproject.toml")" || return 1
     _lab_venv_ok "$venv" "$want" && return 0
 
     # Serialise concurrent bootstraps (two scripts started at once) by locking
@@ -69,10 +74,10 @@ _lab_bootstrap() {
     "$venv/bin/python" -m ipykernel install --sys-prefix --name lab-venv \
         --display-name "Python 3 (lab .venv)" >/dev/null || return 1
 
-    # Make the repo root importable (`import lab`) from any working directory,
-    # e.g. notebook kernels started in notebooks/. Only this venv sees it.
+    # The repository, editable (replaces the lab_repo_root.pth of older .venvs).
     site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')" || return 1
-    printf '%s\n' "$LAB_ROOT" >"$site/lab_repo_root.pth" || return 1
+    rm -f "$site/lab_repo_root.pth"
+    "$venv/bin/python" -m pip install --quiet --no-deps --no-build-isolation -e "$LAB_ROOT" >&2 || return 1
 
     printf '%s\n' "$want" >"$venv/.environment.sha256" || return 1
     echo "lab: .venv is ready" >&2

@@ -19,16 +19,39 @@ def test_error_classes():
     assert issubclass(RigError, LabRuntimeError) and issubclass(RigError, LabError)
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["simulate", "--robot", "no-such-robot", "--out", "{tmp}/o.csv"], "unknown robot 'no-such-robot'"),
-    (["train", "{tmp}/missing.csv", "--out", "{tmp}/m.npz"], "dataset not found"),
-    (["train", "{tmp}", "--out", "{tmp}/m.npz"], "{tmp}"),                        # a directory as the data
-    (["track", "--model", "{tmp}/none.npz", "--trajectory", "circle", "--out", "{tmp}/r.json"], "model file not found"),
-    (["track", "--soft-ik", "--rig", "warp", "--trajectory", "circle", "--n-rings", "1", "--n-axial", "6",
-      "--out", "{tmp}/r.json"], "unknown rig 'warp'"),
-    (["capture", "--rig", "twin:{tmp}/none.toml", "--grid", "2", "--out", "{tmp}/c.csv", "--no-progress"],
-     "defects file not found"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["simulate", "--robot", "no-such-robot", "--out", "{tmp}/o.csv"], "unknown robot 'no-such-robot'"),
+        (["train", "{tmp}/missing.csv", "--out", "{tmp}/m.npz"], "dataset not found"),
+        (["train", "{tmp}", "--out", "{tmp}/m.npz"], "{tmp}"),  # a directory as the data
+        (
+            ["track", "--model", "{tmp}/none.npz", "--trajectory", "circle", "--out", "{tmp}/r.json"],
+            "model file not found",
+        ),
+        (
+            [
+                "track",
+                "--soft-ik",
+                "--rig",
+                "warp",
+                "--trajectory",
+                "circle",
+                "--n-rings",
+                "1",
+                "--n-axial",
+                "6",
+                "--out",
+                "{tmp}/r.json",
+            ],
+            "unknown rig 'warp'",
+        ),
+        (
+            ["capture", "--rig", "twin:{tmp}/none.toml", "--grid", "2", "--out", "{tmp}/c.csv", "--no-progress"],
+            "defects file not found",
+        ),
+    ],
+)
 def test_bad_input_exits_2_without_traceback(argv, words, tmp_path, capsys):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     assert main(argv) == 2
@@ -40,18 +63,22 @@ def test_bad_input_exits_2_without_traceback(argv, words, tmp_path, capsys):
 def _failing_command(exc):
     def run(args):
         raise exc
+
     return run
 
 
-@pytest.mark.parametrize("exc, code", [
-    (RigError("servo 2 stopped answering"), 1),
-    (LabRuntimeError("solver failed"), 1),
-    (InputError("field robot.length_m must be positive"), 2),
-    (FileNotFoundError(errno.ENOENT, "No such file or directory", "x.csv"), 2),
-    (PermissionError(errno.EACCES, "Permission denied", "/ro/out.csv"), 2),
-    (IsADirectoryError(errno.EISDIR, "Is a directory", "out"), 2),
-    (OSError(errno.ENOSPC, "No space left on device", "out.csv"), 1),
-])
+@pytest.mark.parametrize(
+    "exc, code",
+    [
+        (RigError("servo 2 stopped answering"), 1),
+        (LabRuntimeError("solver failed"), 1),
+        (InputError("field robot.length_m must be positive"), 2),
+        (FileNotFoundError(errno.ENOENT, "No such file or directory", "x.csv"), 2),
+        (PermissionError(errno.EACCES, "Permission denied", "/ro/out.csv"), 2),
+        (IsADirectoryError(errno.EISDIR, "Is a directory", "out"), 2),
+        (OSError(errno.ENOSPC, "No space left on device", "out.csv"), 1),
+    ],
+)
 def test_exit_code_follows_the_error(exc, code, monkeypatch, capsys):
     monkeypatch.setattr(cli.train, "run", _failing_command(exc))
     assert main(["train", "d.csv", "--out", "m.npz"]) == code
@@ -64,8 +91,11 @@ def test_exit_code_follows_the_error(exc, code, monkeypatch, capsys):
 @pytest.mark.parametrize("where", ["before", "after"])
 def test_debug_shows_the_traceback(where, monkeypatch, capsys):
     monkeypatch.setattr(cli.train, "run", _failing_command(RigError("servo 2 stopped answering")))
-    argv = ["--debug", "train", "d.csv", "--out", "m.npz"] if where == "before" else \
-        ["train", "d.csv", "--out", "m.npz", "--debug"]
+    argv = (
+        ["--debug", "train", "d.csv", "--out", "m.npz"]
+        if where == "before"
+        else ["train", "d.csv", "--out", "m.npz", "--debug"]
+    )
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert "Traceback" in err and "RigError: servo 2 stopped answering" in err and "error: servo 2" in err
@@ -78,8 +108,12 @@ def test_unexpected_errors_keep_their_traceback(monkeypatch):
 
 
 def test_python_m_lab_exit_code_and_message(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "lab", "train", str(tmp_path / "none.csv"), "--out", str(tmp_path / "m.npz")],
-                       capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-m", "lab", "train", str(tmp_path / "none.csv"), "--out", str(tmp_path / "m.npz")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 2 and "dataset not found" in r.stderr and "Traceback" not in r.stderr
 
 

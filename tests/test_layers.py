@@ -18,8 +18,21 @@ LAB = Path(__file__).resolve().parent.parent / "lab"
 
 #: The pipeline, lowest first: description -> fem (mesh, energy, statics) -> data -> model
 #: (learn) -> IK and trajectories (control) -> rig -> tracking; drawing and the CLI on top.
-LAYERS = ["lab", "errors", "files", "description", "fem", "data", "learn", "control", "rig", "tracking", "viz",
-          "cli", "__main__"]
+LAYERS = [
+    "lab",
+    "errors",
+    "files",
+    "description",
+    "fem",
+    "data",
+    "learn",
+    "control",
+    "rig",
+    "tracking",
+    "viz",
+    "cli",
+    "__main__",
+]
 SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "tracking", "viz", "cli"]
 
 
@@ -80,8 +93,13 @@ def test_imports_run_down_the_pipeline():
 
 def test_control_does_not_import_learn():
     # IK takes any forward map with a Jacobian; it must not depend on the MLP.
-    bad = [f"{a} imports {b}" for a, deps in graph().items() if a.startswith("lab.control")
-           for b in deps if b.startswith("lab.learn")]
+    bad = [
+        f"{a} imports {b}"
+        for a, deps in graph().items()
+        if a.startswith("lab.control")
+        for b in deps
+        if b.startswith("lab.learn")
+    ]
     assert not bad, bad
 
 
@@ -93,7 +111,7 @@ def find_cycle(g: dict[str, set[str]]) -> list[str] | None:
         stack.append(n)
         for m in sorted(g[n]):
             if state.get(m) == 1:
-                return stack[stack.index(m):] + [m]
+                return stack[stack.index(m) :] + [m]
             if m not in state and (c := visit(m)):
                 return c
         state[n] = 2
@@ -117,8 +135,10 @@ def test_cycle_finder_finds_a_cycle():
 
 
 def test_import_reader_resolves_relative_and_function_level_imports(tmp_path, monkeypatch):
-    src = ("from .energy import ArmFEM\nfrom ..description import load_robot\n"
-           "def f():\n    from lab.learn import mlp\n    import lab.data.dataset\n")
+    src = (
+        "from .energy import ArmFEM\nfrom ..description import load_robot\n"
+        "def f():\n    from lab.learn import mlp\n    import lab.data.dataset\n"
+    )
     f = tmp_path / "x.py"
     f.write_text(src)
     assert lab_imports(f, "lab.fem.x") == {"lab.fem.energy", "lab.description", "lab.learn.mlp", "lab.data.dataset"}
