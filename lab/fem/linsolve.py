@@ -7,8 +7,12 @@ Backends, picked by ``benchmarks/bench_fem.py`` on this project's meshes:
   indefinite mode, so it factorises the exact (possibly indefinite) Hessian;
 * ``"splu"`` — SciPy's SuperLU, always available, the fallback.
 
-``LAB_LINEAR_SOLVER`` selects one by name; the default is the first that imports.
+``LAB_LINEAR_SOLVER`` selects one by name; the default is PARDISO where MKL loads. Where
+it cannot (Apple-silicon Macs, a broken MKL), the default falls back to SciPy with one
+:class:`SolverFallbackWarning` per process, naming the reason; the results agree to
+round-off, only slower. ``LAB_LINEAR_SOLVER=splu`` chooses SciPy and silences it.
 """
+
 from __future__ import annotations
 
 import os
@@ -24,6 +28,31 @@ class SingularMatrixError(LabRuntimeError):
     pass
 
 
+class SolverFallbackWarning(RuntimeWarning):
+    """PARDISO (MKL) could not be used; the SciPy solver is used instead."""
+
+
+#: Why PARDISO cannot be used in this process (None: not known to fail).
+_pardiso_problem: str | None = None
+_warned = False
+
+
+def _fall_back(reason: str) -> None:
+    """Remember that PARDISO failed and say so once per process."""
+    global _pardiso_problem, _warned
+    _pardiso_problem = reason
+    if not _warned:
+        _warned = True
+        import warnings
+
+        warnings.warn(
+            f"MKL PARDISO is unavailable ({reason}); using SciPy's SuperLU instead (same results, slower). "
+            "Set LAB_LINEAR_SOLVER=splu to choose it and silence this warning.",
+            SolverFallbackWarning,
+            stacklevel=3,
+        )
+
+
 class _SuperLU:
     name = "splu"
     n_negative = None  # LU does not report the inertia
@@ -31,8 +60,9 @@ class _SuperLU:
     def __init__(self, H: sp.csr_matrix):
         try:
             # The matrix is symmetric: an ordering of A + A^T keeps the fill low.
-            self._lu = spla.splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                 options={"SymmetricMode": True})
+            self._lu = spla.splu(
+                H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
         except RuntimeError as err:  # "Factor is exactly singular"
             raise SingularMatrixError(str(err)) from None
 
@@ -50,10 +80,11 @@ class _Pardiso:
     the cost of analysis + factorisation on the default mesh. This drives pypardiso's
     ``PyPardisoSolver`` through its phase interface (pinned pypardiso 0.4.7).
     """
+
     name = "pardiso"
     _solver = None
-    _generation = 0      # which factorisation the shared handle holds
-    _pattern = None      # (indptr, indices) the stored symbolic analysis belongs to
+    _generation = 0  # which factorisation the shared handle holds
+    _pattern = None  # (indptr, indices) the stored symbolic analysis belongs to
 
     def __init__(self, H: sp.csr_matrix):
         import pypardiso
@@ -65,7 +96,7 @@ class _Pardiso:
         self._factorize()
         # Inertia from the LDL^T factorisation: tells an indefinite Hessian apart.
         self.n_negative = int(self._solver.get_iparm(23))
-        self.n_perturbed = int(self._solver.get_iparm(14))   # pivots PARDISO had to perturb
+        self.n_perturbed = int(self._solver.get_iparm(14))  # pivots PARDISO had to perturb
         if int(self._solver.get_iparm(30)) != 0:
             raise SingularMatrixError("PARDISO found a zero pivot")
 
@@ -75,9 +106,8 @@ class _Pardiso:
         solver, A = self._solver, self._A
         solver._check_A(A)
         known = _Pardiso._pattern
-        same = (known is not None and np.array_equal(known[0], A.indptr)
-                and np.array_equal(known[1], A.indices))
-        solver.set_phase(22 if same else 12)     # numerical only, or analysis + numerical
+        same = known is not None and np.array_equal(known[0], A.indptr) and np.array_equal(known[1], A.indices)
+        solver.set_phase(22 if same else 12)  # numerical only, or analysis + numerical
         try:
             solver._call_pardiso(A, np.zeros((A.shape[0], 1)))
         except pypardiso.pardiso_wrapper.PyPardisoError as err:
@@ -103,14 +133,12 @@ class _Pardiso:
 
 
 def _available() -> list[str]:
-    names = []
-    try:
-        import pypardiso  # noqa: F401
-
-        names.append("pardiso")
-    except ImportError:
-        pass
-    return names + ["splu"]
+    if _pardiso_problem is None:
+        try:
+            import pypardiso  # noqa: F401
+        except Exception as err:  # ImportError, or OSError when MKL's libraries do not load
+            _fall_back(f"import pypardiso failed: {type(err).__name__}: {err}")
+    return (["pardiso"] if _pardiso_problem is None else []) + ["splu"]
 
 
 BACKENDS = {"splu": _SuperLU, "pardiso": _Pardiso}
@@ -126,5 +154,17 @@ def default_backend() -> str:
 
 
 def factorize(H: sp.csr_matrix, backend: str | None = None):
-    """Factorise a sparse symmetric matrix; raises SingularMatrixError if singular."""
-    return BACKENDS[backend or default_backend()](H)
+    """Factorise a sparse symmetric matrix; raises SingularMatrixError if singular.
+
+    With the default backend, a PARDISO that fails at its first use (MKL not loadable)
+    falls back to SciPy for the rest of the process, with one warning."""
+    name = backend or default_backend()
+    if name != "pardiso" or backend is not None or os.environ.get("LAB_LINEAR_SOLVER"):
+        return BACKENDS[name](H)
+    try:
+        return _Pardiso(H)
+    except SingularMatrixError:
+        raise
+    except Exception as err:  # e.g. OSError: MKL's libraries do not load on this machine
+        _fall_back(f"PARDISO failed: {type(err).__name__}: {err}")
+        return _SuperLU(H)

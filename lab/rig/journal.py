@@ -13,21 +13,27 @@ next one starts, so killing the writer loses at most the line being written. Suc
 torn last line (no newline) is cut off when the journal is reopened; any other
 malformed line is an error. Reopening compares the header with the one given and
 refuses to continue a journal made with different settings, naming the fields that
-differ. An exclusive lock (``flock``) stops two processes appending at once.
+differ. An exclusive lock (the file ``JOURNAL.lock`` beside it) stops two processes appending at once.
 """
+
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 from pathlib import Path
 
 import numpy as np
+from filelock import FileLock, Timeout
 
 from lab.errors import InputError
 from lab.files import atomic_write_text
 
 MAGIC = "# lab.journal 1 "
+
+
+def lock_path(journal_path: str | Path) -> Path:
+    """The lock file of a journal: ``JOURNAL.lock`` beside it (left behind, harmless)."""
+    return Path(f"{journal_path}.lock")
 
 
 class JournalError(InputError):
@@ -62,34 +68,42 @@ class Journal:
         return [info for t, info in self.notes if t == tag]
 
     @classmethod
-    def open(cls, path: str | Path, header: dict, columns: list[str]) -> "Journal":
+    def open(cls, path: str | Path, header: dict, columns: list[str]) -> Journal:
         """Open (or create) the journal at ``path`` for appending records with ``columns``.
 
         Raises :class:`JournalError` if another process holds it, if its header differs
         from ``header`` (JSON-able) or its columns from ``columns``, or if a line is corrupt.
         """
         path = Path(path)
-        header = json.loads(json.dumps(header))            # normalise (tuples -> lists)
+        header = json.loads(json.dumps(header))  # normalise (tuples -> lists)
         if not path.exists():
             atomic_write_text(path, MAGIC + json.dumps(header, sort_keys=True) + "\n" + ",".join(columns) + "\n")
-        fh = open(path, "r+", newline="")
+        # a portable lock file beside the journal (filelock; fcntl does not exist on Windows)
+        lock = FileLock(lock_path(path), timeout=0)
         try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.close()
+            lock.acquire()
+        except Timeout:
             raise JournalError(f"{path} is being written by another process") from None
+        try:
+            fh = open(path, "r+", newline="")
+        except BaseException:
+            lock.release()
+            raise
         try:
             rows, notes = cls._read(path, fh, header, columns)
         except BaseException:
             fh.close()
+            lock.release()
             raise
         fh.seek(0, os.SEEK_END)
-        return cls(path, fh, list(columns), rows, notes)
+        journal = cls(path, fh, list(columns), rows, notes)
+        journal._lock = lock
+        return journal
 
     @staticmethod
     def _read(path: Path, fh, header: dict, columns: list[str]) -> tuple[list[dict], list]:
         text = fh.read()
-        if not text.endswith("\n"):                          # torn last line: cut it off
+        if not text.endswith("\n"):  # torn last line: cut it off
             cut = text.rfind("\n") + 1
             fh.truncate(cut)
             fh.flush()
@@ -99,12 +113,15 @@ class Journal:
         if len(lines) < 2 or not lines[0].startswith(MAGIC):
             raise JournalError(f"{path}: not a lab journal (first line must start with {MAGIC.strip()!r})")
         try:
-            old = json.loads(lines[0][len(MAGIC):])
+            old = json.loads(lines[0][len(MAGIC) :])
         except json.JSONDecodeError as err:
             raise JournalError(f"{path}: corrupt header: {err}") from None
         if old != header:
-            raise JournalError(f"{path} was started with different settings: " + "; ".join(_diff(old, header))
-                               + ". Continue it with the same settings, or write to another file.")
+            raise JournalError(
+                f"{path} was started with different settings: "
+                + "; ".join(_diff(old, header))
+                + ". Continue it with the same settings, or write to another file."
+            )
         if lines[1].split(",") != list(columns):
             raise JournalError(f"{path}: columns are {lines[1]!r}, expected {','.join(columns)!r}")
         rows, notes = [], []
@@ -150,7 +167,10 @@ class Journal:
 
     def close(self) -> None:
         if not self._fh.closed:
-            self._fh.close()          # releases the lock
+            self._fh.close()
+        lock = getattr(self, "_lock", None)
+        if lock is not None and lock.is_locked:
+            lock.release()
 
     def __enter__(self):
         return self

@@ -13,17 +13,19 @@ CSV columns: ``condition``, ``circle_cm``, ``square_cm``, ``rose_cm`` (ours; emp
 not measured), ``paper_circle_cm``, ``paper_square_cm``, ``paper_rose_cm``, ``n_points``,
 ``source`` (what produced the row), ``updated`` (UTC date).
 """
+
 from __future__ import annotations
 
 import contextlib
 import csv
 import datetime as _dt
-import fcntl
 import hashlib
 import io
 import math
 import tempfile
 from pathlib import Path
+
+from filelock import FileLock
 
 from lab.errors import InputError
 from lab.files import atomic_write_text
@@ -37,8 +39,14 @@ PAPER_CM = {
 }
 #: Row order: the paper's, then ours.
 CONDITIONS = (*PAPER_CM, "Soft IK + Sim Robot")
-COLUMNS = ("condition", *(f"{s}_cm" for s in SHAPES), *(f"paper_{s}_cm" for s in SHAPES),
-           "n_points", "source", "updated")
+COLUMNS = (
+    "condition",
+    *(f"{s}_cm" for s in SHAPES),
+    *(f"paper_{s}_cm" for s in SHAPES),
+    "n_points",
+    "source",
+    "updated",
+)
 
 
 class Table1Error(InputError):
@@ -60,8 +68,14 @@ def read_table1(csv_path: str | Path) -> dict[str, dict]:
     return {r["condition"]: r for r in rows}
 
 
-def update_table1(results_cm: dict[str, dict[str, float]], csv_path: str | Path, md_path: str | Path,
-                  *, source: str, n_points: dict[str, int] | None = None) -> dict[str, dict]:
+def update_table1(
+    results_cm: dict[str, dict[str, float]],
+    csv_path: str | Path,
+    md_path: str | Path,
+    *,
+    source: str,
+    n_points: dict[str, int] | None = None,
+) -> dict[str, dict]:
     """Set the rows of the conditions in ``results_cm`` ({condition: {shape: mean error in cm}},
     any subset of :data:`SHAPES`), keep every other row, rewrite both files. ``source`` says
     what produced the rows (e.g. the notebook); ``n_points`` ({shape: N}) is recorded."""
@@ -76,13 +90,18 @@ def update_table1(results_cm: dict[str, dict[str, float]], csv_path: str | Path,
     csv_path.parent.mkdir(parents=True, exist_ok=True)
     with _locked(csv_path):
         rows = read_table1(csv_path)
-        today = _dt.datetime.now(_dt.timezone.utc).date().isoformat()
+        today = _dt.datetime.now(_dt.UTC).date().isoformat()
         points = ";".join(f"{s}={n}" for s, n in (n_points or {}).items())
         for cond, values in results_cm.items():
             paper = PAPER_CM.get(cond, {})
-            rows[cond] = {"condition": cond, **{f"{s}_cm": _cell(values.get(s)) for s in SHAPES},
-                          **{f"paper_{s}_cm": _cell(paper.get(s)) for s in SHAPES},
-                          "n_points": points, "source": source, "updated": today}
+            rows[cond] = {
+                "condition": cond,
+                **{f"{s}_cm": _cell(values.get(s)) for s in SHAPES},
+                **{f"paper_{s}_cm": _cell(paper.get(s)) for s in SHAPES},
+                "n_points": points,
+                "source": source,
+                "updated": today,
+            }
         order = [c for c in CONDITIONS if c in rows] + sorted(c for c in rows if c not in CONDITIONS)
         buf = io.StringIO()
         writer = csv.DictWriter(buf, COLUMNS, lineterminator="\n")
@@ -95,16 +114,26 @@ def update_table1(results_cm: dict[str, dict[str, float]], csv_path: str | Path,
 
 def render_markdown(rows: list[dict]) -> str:
     """Markdown table: ours and the paper's side by side per trajectory (cm, 3 decimals)."""
+
     def fmt(v):
         return f"{float(v):.3f}" if v not in ("", None) else "–"
+
     head = ["condition"] + [f"{s} ({who})" for s in SHAPES for who in ("ours", "paper")]
-    lines = ["# Table I: mean distance from target in cm for trajectory following", "",
-             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = [
+        "# Table I: mean distance from target in cm for trajectory following",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
     for r in rows:
         cells = [r["condition"]] + [fmt(r[f"{p}{s}_cm"]) for s in SHAPES for p in ("", "paper_")]
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Sources: " + "; ".join(f"{r['condition']}: {r['source']} ({r['updated']}, "
-                                         f"points {r['n_points'] or '?'})" for r in rows), ""]
+    lines += [
+        "",
+        "Sources: "
+        + "; ".join(f"{r['condition']}: {r['source']} ({r['updated']}, points {r['n_points'] or '?'})" for r in rows),
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -113,9 +142,6 @@ def _locked(csv_path: Path):
     """Exclusive lock for updating ``csv_path`` (a lock file in the temporary directory,
     named after the table's absolute path, so nothing is left beside the figures)."""
     key = hashlib.sha256(str(csv_path.resolve()).encode()).hexdigest()[:16]
-    with open(Path(tempfile.gettempdir()) / f"lab-table1-{key}.lock", "a") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    # filelock: portable (fcntl does not exist on Windows)
+    with FileLock(Path(tempfile.gettempdir()) / f"lab-table1-{key}.lock"):
+        yield
