@@ -123,3 +123,27 @@ def test_every_command_has_its_module():
     assert set(sub.choices) == set(cli.COMMANDS) == {"simulate", "train", "splits", "track", "capture"}
     for name, module in cli.COMMANDS.items():
         assert module.__name__ == f"lab.cli.{name}" and callable(module.add_parser) and callable(module.run)
+
+
+@pytest.mark.parametrize("sig, code", [("SIGTERM", 143), ("SIGHUP", 129)])
+def test_sigterm_and_sighup_stop_like_ctrl_c(sig, code, monkeypatch, capsys):
+    import os
+    import signal
+    import time
+
+    cleaned = []
+
+    def run(args):
+        try:
+            os.kill(os.getpid(), getattr(signal, sig))
+            time.sleep(5)  # the signal arrives here
+        finally:
+            cleaned.append(True)  # what a rig's close() (torque off) does
+        return 0
+
+    before = signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(cli.train, "run", run)
+    assert main(["train", "d.csv", "--out", "m.npz"]) == code
+    err = capsys.readouterr().err
+    assert cleaned == [True] and f"interrupted by {sig}" in err and "Traceback" not in err
+    assert signal.getsignal(signal.SIGTERM) is before  # handlers restored

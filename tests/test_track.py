@@ -159,10 +159,10 @@ def test_rig_is_closed_on_errors(model_file, tmp_path, monkeypatch, capsys):
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
     monkeypatch.setattr("lab.tracking.track.measure", boom)
-    with pytest.raises(KeyboardInterrupt):
-        main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
-              "--out", str(tmp_path / "r.json")])
-    assert closed == [True, True]
+    # Ctrl-C: the rig is closed, a clean message, exit code 130 (no KeyboardInterrupt traceback)
+    assert main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
+                 "--out", str(tmp_path / "r.json")]) == 130
+    assert closed == [True, True] and "interrupted" in capsys.readouterr().err
 
 
 def test_result_file_nan_and_errors(tmp_path, three_cable, coarse_fem):

@@ -8,7 +8,9 @@ One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` 
 ``error: <message>`` and exits with its code -- 2 for bad input (a file, a field, an
 argument), 1 for a runtime or hardware failure. An operating-system error on a file the
 user named (missing, not permitted, a directory) is bad input too (2); other OS errors
-(disk full, I/O) exit 1. No traceback is printed for any of these
+(disk full, I/O) exit 1. Ctrl-C, SIGTERM and SIGHUP stop the command cleanly (rigs
+closed with torque off, journals flushed) and exit with 128 + the signal number (130,
+143, 129; :mod:`.signals`). No traceback is printed for any of these
 unless ``--debug`` is given; an unexpected exception still shows its traceback.
 """
 
@@ -19,6 +21,7 @@ import sys
 import traceback
 
 from lab.cli import capture, simulate, splits, track, train
+from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
 __all__ = ["main", "build_parser", "COMMANDS"]
@@ -53,11 +56,19 @@ def _os_error_message(err: OSError) -> str:
 
 
 def main(argv=None) -> int:
-    """Run one command; returns the exit code (0 success, 1 runtime failure, 2 bad input)."""
+    """Run one command; returns the exit code: 0 success, 1 runtime failure, 2 bad input,
+    128 + the signal number when interrupted (130 for Ctrl-C)."""
     args = build_parser().parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        return args.func(args)
+        with interrupts_as_keyboard():
+            return args.func(args)
+    except KeyboardInterrupt as err:  # Ctrl-C, SIGTERM, SIGHUP: the command has cleaned up
+        if args.debug:
+            traceback.print_exc()
+        what = f"by {err.args[0]}" if isinstance(err, Terminated) else "(Ctrl-C)"
+        print(f"interrupted {what}; stopped cleanly", file=sys.stderr)
+        return exit_code(err)
     except (LabError, OSError) as err:
         if isinstance(err, LabError):
             code, message = err.exit_code, str(err)

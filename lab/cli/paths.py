@@ -1,0 +1,69 @@
+"""Checks every command makes on the files it is given, before it starts any work.
+
+* :func:`check_paths` refuses an output that is one of the command's inputs, or that
+  collides with another of its outputs (sidecars and journals included), comparing
+  resolved paths -- so ``train D.csv --out D.csv`` can never overwrite the data;
+* :func:`check_writable` makes sure an output can be written where it is asked for (not a
+  directory, a parent that is a directory, a writable place), so that a long run never
+  fails at its very end with all its work lost.
+
+Both raise :class:`lab.errors.InputError` (exit code 2) naming the flag and the path.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from lab.errors import InputError
+
+__all__ = ["check_paths", "check_writable", "dataset_outputs"]
+
+
+def _key(path) -> Path:
+    return Path(os.path.abspath(os.path.expanduser(str(path)))).resolve()
+
+
+def dataset_outputs(flag: str, path) -> dict:
+    """The files a dataset output ``path`` writes: the CSV and its ``.json`` sidecar."""
+    return {flag: path, f"{flag} sidecar": f"{path}.json"}
+
+
+def check_paths(inputs: dict, outputs: dict) -> None:
+    """``inputs`` / ``outputs``: {what (e.g. "--out", "DATA"): path or None}. Raises
+    InputError if an output is an input or two outputs are the same file."""
+    ins = {what: _key(p) for what, p in inputs.items() if p is not None}
+    seen: dict[Path, str] = {}
+    for what, p in outputs.items():
+        if p is None:
+            continue
+        key = _key(p)
+        for in_what, in_key in ins.items():
+            if key == in_key:
+                raise InputError(
+                    f"{what} {p} is the input {in_what}: refusing to overwrite an input; choose another path"
+                )
+        if key in seen:
+            raise InputError(f"{what} {p} is the same file as {seen[key]}: choose different paths")
+        seen[key] = what
+
+
+def check_writable(path, what: str = "--out") -> None:
+    """Raise InputError unless a file can be written (atomically) at ``path``: it is not a
+    directory, its parent is (or can be made) a directory, and that directory is writable."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{what} {path} is a directory; give a file name")
+    parent = p.parent if str(p.parent) else Path(".")
+    for ancestor in [parent, *parent.parents]:
+        if ancestor.exists():
+            if not ancestor.is_dir():
+                raise InputError(f"{what} {path}: {ancestor} is a file, not a directory")
+            break
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=f".{p.name}.", suffix=".probe"):
+            pass
+    except OSError as err:
+        raise InputError(f"{what} {path}: cannot write in {parent} ({err.strerror or err})") from None
