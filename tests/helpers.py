@@ -14,15 +14,38 @@ def wait_until(predicate, timeout_s=5.0, what="condition"):
         time.sleep(0.01)
 
 
+def fd_jacobian(f, x, h=1e-6):
+    """Central differences ``(f(x + h e_j) - f(x - h e_j)) / 2h`` for every unit vector e_j of
+    the *last* axis of ``x``: shape ``f(x).shape + (n,)``, so ``J[..., i, j] = d f_i / d x_j``.
+
+    The one finite-difference helper of the test suite: every analytic derivative (energy,
+    cables, sensitivities, network and IK Jacobians) is checked against it. Leading axes
+    of ``x`` are a batch: all rows move together, which gives the per-row Jacobians of a
+    row-wise function (a batched network). ``x`` itself is never modified."""
+    x = np.asarray(x, dtype=float)
+    cols = []
+    for j in range(x.shape[-1]):
+        d = np.zeros(x.shape[-1])
+        d[j] = h
+        cols.append((np.asarray(f(x + d), dtype=float) - np.asarray(f(x - d), dtype=float)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+def fd_derivative(f, x, h=1e-6):
+    """Central differences of an elementwise function: ``(f(x + h) - f(x - h)) / 2h``."""
+    x = np.asarray(x, dtype=float)
+    return (np.asarray(f(x + h), dtype=float) - np.asarray(f(x - h), dtype=float)) / (2 * h)
+
+
 def fd_parameter_jacobian(model, u, h=1e-6):
     """Central-difference d y / d theta (N * n_y, n_params) of an MLP, parameters restored."""
-    theta, cols = model.get_params(), []
-    for i in range(len(theta)):
-        d = np.zeros_like(theta)
-        d[i] = h
-        model.set_params(theta + d)
-        y_plus = model.predict(u)
-        model.set_params(theta - d)
-        cols.append(((y_plus - model.predict(u)) / (2 * h)).ravel())
-    model.set_params(theta)
-    return np.stack(cols, axis=1)
+    theta = model.get_params()
+
+    def predict(th):
+        model.set_params(th)
+        return model.predict(u).ravel()
+
+    try:
+        return fd_jacobian(predict, theta, h)
+    finally:
+        model.set_params(theta)

@@ -2,13 +2,10 @@
 import numpy as np
 import pytest
 import torch
+from helpers import fd_derivative, fd_jacobian
 from lab.fem.cables import spring
 from lab.fem.elasticity import NeoHookean, project_psd
 from lab.fem.mesh import cylinder_mesh
-
-
-def _fd_gradient(f, x, h):
-    return np.array([(f(x + h * e) - f(x - h * e)) / (2 * h) for e in np.eye(len(x))])
 
 
 @pytest.fixture
@@ -20,7 +17,7 @@ def state(coarse_fem):
 
 def test_total_gradient_matches_finite_differences(state):
     fem, q, u = state
-    g_fd = _fd_gradient(lambda z: fem.energy(z, u), q, 1e-7)
+    g_fd = fd_jacobian(lambda z: fem.energy(z, u), q, 1e-7)
     g = fem.gradient(q, u)
     assert np.abs(g - g_fd).max() < 1e-6 * np.abs(g).max()
 
@@ -28,8 +25,7 @@ def test_total_gradient_matches_finite_differences(state):
 def test_total_hessian_matches_finite_differences(state):
     fem, q, u = state
     H = fem.hessian(q, u).toarray()
-    H_fd = np.column_stack([(fem.gradient(q + 1e-7 * e, u) - fem.gradient(q - 1e-7 * e, u)) / 2e-7
-                            for e in np.eye(fem.n_free)])
+    H_fd = fd_jacobian(lambda z: fem.gradient(z, u), q, 1e-7)
     assert np.abs(H - H_fd).max() < 1e-6 * np.abs(H).max()
     assert np.abs(H - H.T).max() < 1e-12 * np.abs(H).max()
 
@@ -37,8 +33,7 @@ def test_total_hessian_matches_finite_differences(state):
 def test_mixed_derivative_matches_finite_differences(state):
     fem, q, u = state
     B = fem.mixed_derivative(q, u)
-    B_fd = np.column_stack([(fem.gradient(q, u + 1e-6 * e) - fem.gradient(q, u - 1e-6 * e)) / 2e-6
-                            for e in np.eye(3)])
+    B_fd = fd_jacobian(lambda v: fem.gradient(q, v), u, 1e-6)
     assert np.abs(B - B_fd).max() < 1e-6 * np.abs(B).max()
     assert np.abs(B).max() > 0  # the cables are taut in this state
 
@@ -98,8 +93,8 @@ def test_spring_is_one_sided_and_smooth():
     beyond = d > eps
     assert np.allclose(T[beyond], k * (d[beyond] - eps / 2))  # a linear spring shifted by eps/2
     h = 1e-9
-    assert np.allclose((spring(d + h, k, eps)[0] - spring(d - h, k, eps)[0]) / (2 * h), T, atol=1e-6)
-    assert np.allclose((spring(d + h, k, eps)[1] - spring(d - h, k, eps)[1]) / (2 * h), S, atol=1e-2)
+    assert np.allclose(fd_derivative(lambda z: spring(z, k, eps)[0], d, h), T, atol=1e-6)
+    assert np.allclose(fd_derivative(lambda z: spring(z, k, eps)[1], d, h), S, atol=1e-2)
 
 
 def test_cable_length_derivatives(coarse_fem):
@@ -124,11 +119,9 @@ def test_cable_length_derivatives(coarse_fem):
         pts = np.vstack([anchor, p_flat.reshape(-1, 3)])
         return np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()
 
-    g_fd = _fd_gradient(length_p, p.ravel(), 1e-7)
+    g_fd = fd_jacobian(length_p, p.ravel(), 1e-7)
     assert np.allclose(dL_dp.ravel(), g_fd, atol=1e-7)
-    H_fd = np.column_stack([(_fd_gradient(length_p, p.ravel() + 1e-5 * e, 1e-7)
-                             - _fd_gradient(length_p, p.ravel() - 1e-5 * e, 1e-7)) / 2e-5
-                            for e in np.eye(p.size)])
+    H_fd = fd_jacobian(lambda z: fd_jacobian(length_p, z, 1e-7), p.ravel(), 1e-5)
     assert np.allclose(d2L, H_fd, atol=1e-3 * np.abs(d2L).max())
 
 
@@ -142,7 +135,7 @@ def test_energy_with_gradient_and_cable_jacobian(state):
     assert np.allclose(d, fem.cable_lengths(x) - fem.cable_targets(u), rtol=0, atol=1e-15)
     def lengths(z):
         return fem.cable_lengths(fem.to_nodes(z))
-    A_fd = np.array([(lengths(q + 1e-7 * e) - lengths(q - 1e-7 * e)) / 2e-7 for e in np.eye(fem.n_free)])
+    A_fd = fd_jacobian(lengths, q, 1e-7).T
     assert np.abs(A - A_fd).max() < 1e-6
     # The nodal gradient (B^T of the stresses) is the element gradients summed at the nodes.
     g_el = fem.elastic.gradient(x)

@@ -1,4 +1,5 @@
 """Inverse kinematics: exact projection onto the allowed commands, both solvers, edge cases, Soft IK."""
+from helpers import fd_jacobian
 import itertools
 
 import numpy as np
@@ -199,9 +200,7 @@ def test_soft_ik_on_a_coarse_mesh(coarse_fem, cset):
     u0 = np.array([1.0, 0.4, 0.2])
     y0, J = fmap.predict_and_jacobian(u0)
     h = 1e-5
-    J_fd = np.column_stack([(solve_static(coarse_fem, u0 + h * e, tol_step_m=1e-11).p_tip_W
-                             - solve_static(coarse_fem, u0 - h * e, tol_step_m=1e-11).p_tip_W) / (2 * h)
-                            for e in np.eye(3)])
+    J_fd = fd_jacobian(lambda v: solve_static(coarse_fem, v, tol_step_m=1e-11).p_tip_W, u0, h)
     np.testing.assert_allclose(J, J_fd, atol=1e-5 * np.abs(J_fd).max())
     u_star = np.array([1.6, 1.0, 1.3])                  # every cable taut: a unique answer
     assert np.all(np.abs(fmap.predict_and_jacobian(u_star)[1]).max(axis=0) > 1e-3)

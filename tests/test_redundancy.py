@@ -1,4 +1,5 @@
 """Frozen motors (the six-cable arm without its second stage) and motor-path smoothness."""
+from helpers import fd_jacobian
 import numpy as np
 import pytest
 from lab.control.command_set import CommandSet
@@ -35,8 +36,7 @@ def test_frozen_map_is_the_full_map_with_fixed_motors(six_net):
     y, J = fm.predict_and_jacobian(u_free[0])
     assert J.shape == (3, 3)
     h = 1e-6
-    J_fd = np.column_stack([(fm.predict(u_free[0] + h * e) - fm.predict(u_free[0] - h * e)) / (2 * h)
-                            for e in np.eye(3)])
+    J_fd = fd_jacobian(fm.predict, u_free[0], h)
     np.testing.assert_allclose(J, J_fd, rtol=1e-6, atol=1e-10)
     np.testing.assert_allclose(y, six_net.predict(full[0]))
 

@@ -1,3 +1,4 @@
+from helpers import fd_jacobian
 import dataclasses
 
 import numpy as np
@@ -12,10 +13,9 @@ def test_sensitivity_matches_finite_differences(default_fem):
     u = np.array([2.0, 1.0, 0.5])
     sol = solve_static(fem, u, sensitivity=True)
     h = 1e-5
-    J_fd = np.column_stack([(solve_static(fem, u + h * e, sol.q).p_tip_W - solve_static(fem, u - h * e, sol.q).p_tip_W)
-                            / (2 * h) for e in np.eye(3)])
+    J_fd = fd_jacobian(lambda v: solve_static(fem, v, sol.q).p_tip_W, u, h)
     assert np.abs(sol.J_tip_u - J_fd).max() < 1e-6 * np.abs(J_fd).max()
-    dq_fd = (solve_static(fem, u + h * np.eye(3)[0], sol.q).q - solve_static(fem, u - h * np.eye(3)[0], sol.q).q) / (2 * h)
+    dq_fd = fd_jacobian(lambda v: solve_static(fem, np.array([v[0], *u[1:]]), sol.q).q, u[:1], h)[:, 0]
     assert np.abs(sol.dq_du[:, 0] - dq_fd).max() < 1e-6 * np.abs(dq_fd).max()
     # A projected (PSD) Hessian is *not* good enough for sensitivities:
     from lab.fem.linsolve import factorize
