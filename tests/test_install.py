@@ -81,22 +81,13 @@ def test_wheel_installs_and_runs_outside_the_repository(wheel, tmp_path):
     # install's finder lives in a .pth of ours that a plain path entry does not run.
     ours = {sysconfig.get_paths()["purelib"], *site.getsitepackages()}
     (fresh_site / "borrowed.pth").write_text("\n".join(p for p in sorted(ours) if Path(p).resolve() != ROOT) + "\n")
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--no-deps",
-            "--no-index",
-            "--prefix",
-            str(venv),
-            str(wheel),
-        ],
-        check=True,
-        timeout=300,
-    )
+    # `pip --python` installs into the fresh environment only; `pip install --prefix` would
+    # first uninstall the editable install from this interpreter's environment.
+    pip = [sys.executable, "-m", "pip", "--python", str(py), "install", "--quiet", "--no-deps", "--no-index"]
+    subprocess.run([*pip, str(wheel)], check=True, timeout=300)
+    import importlib.metadata
+
+    assert importlib.metadata.version("softarm-lab")  # this environment's own install is untouched
     script = venv / "bin" / "lab"
     assert script.exists()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
@@ -110,9 +101,9 @@ def test_wheel_installs_and_runs_outside_the_repository(wheel, tmp_path):
         check=True,
     ).stdout.strip()
     assert Path(where).is_relative_to(venv), f"imported lab from {where}, not from the wheel"
+    assert script.read_text().splitlines()[0] == f"#!{py}"
     r = subprocess.run(
         [
-            str(py),
             str(script),
             "simulate",
             "--robot",

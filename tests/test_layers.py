@@ -174,5 +174,10 @@ def test_errors_derive_from_lab_error():
             continue
         mod = importlib.import_module(info.name)
         for name, obj in vars(mod).items():
-            if inspect.isclass(obj) and obj.__module__ == mod.__name__ and issubclass(obj, Exception):
+            if (
+                inspect.isclass(obj)
+                and obj.__module__ == mod.__name__
+                and issubclass(obj, Exception)
+                and not issubclass(obj, Warning)
+            ):
                 assert issubclass(obj, LabError), f"{info.name}.{name} does not derive from LabError"
