@@ -1,4 +1,4 @@
-"""Training the forward model: data splits, MATLAB-faithful Levenberg-Marquardt, one entry point.
+"""MATLAB-faithful Levenberg-Marquardt (``trainlm``) for the forward model.
 
 The paper trained its networks with MATLAB's Deep Learning Toolbox (``feedforwardnet`` +
 ``trainlm``). :func:`train_lm` reproduces ``trainlm`` with its parameters
@@ -26,10 +26,9 @@ Errors ``e = y(u) - y_data`` are in the data's units (metres), the performance i
 When there are more parameters than residuals the identical step is computed in the
 kernel form ``dtheta = -J^T (J J^T + mu N_e I)^{-1} e`` (cheaper: an N_e x N_e system).
 
-Splits follow MATLAB ``dividerand``: a random permutation, ``round(ratio * N)`` samples
-for validation and test, the rest for training. :func:`train` does split + init + fit
-with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
-datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
+Splits (``dividerand``) are in :mod:`lab.learn.split`; :func:`lab.learn.train.train` does
+split + init + fit with one seeded random stream. Adam and L-BFGS for large datasets live
+in :mod:`lab.learn.gradient`; error metrics in :mod:`lab.learn.metrics`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""How accurate is the learned model? Error metrics, workspace size, repeated-split studies.
+"""How accurate is the learned model? Error metrics and the workspace size.
 
 Metrics, for predicted ``y_hat`` and measured ``y`` tip positions (N, 3) in metres:
 
@@ -10,14 +10,7 @@ Metrics, for predicted ``y_hat`` and measured ``y`` tip positions (N, 3) in metr
 of all measured tip positions of the dataset, ``|max_i y_i - min_i y_i|`` (m). The paper
 does not define it; its 4.42 mm = 1.6 % implies a size of about 0.28 m.
 
-Studies (each run independent and seeded, optionally on joblib/loky workers with one BLAS
-thread each; results do not depend on the number of workers):
-
-* :func:`evaluate_splits` -- the paper's Section V-A.3 test: train the same architecture
-  on ``n_splits`` random splits (90/10 train/test) and report each test error;
-* :func:`size_sweep` -- Section VI-A / Figure 6: two hidden layers of ``width`` neurons,
-  ``n_runs`` random 80/10/10 splits per width. Run ``r`` uses the same split for every
-  width, so the widths are compared on the same data.
+The repeated-split and network-size studies that use them are in :mod:`lab.learn.studies`.
 """
 
 from __future__ import annotations
