@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_open", "atomic_write_text", "json_default", "code_version"]
+__all__ = ["atomic_open", "atomic_write_text", "atomic_write_group", "json_default", "code_version"]
 
 
 @contextlib.contextmanager
@@ -40,6 +40,31 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (see :func:`atomic_open`)."""
     with atomic_open(path) as fh:
         fh.write(text)
+
+
+def atomic_write_group(files: dict) -> None:
+    """Write several files that belong together (a dataset and its sidecar) all or none:
+    every one is written to a temporary file first and only when all of them are complete
+    are they renamed over their targets, in the order given (put the primary file last).
+    ``files``: {path: str or bytes}. On any failure (a full disk, say) the temporaries are
+    removed and every target is left as it was."""
+    tmps = []
+    try:
+        for path, content in files.items():
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+            tmps.append((tmp, path))
+            with open(tmp, "wb") as fh:
+                fh.write(content.encode() if isinstance(content, str) else content)
+                fh.flush()
+                os.fsync(fh.fileno())
+        for tmp, path in tmps:
+            os.replace(tmp, path)
+    finally:
+        for tmp, _ in tmps:
+            if tmp.exists():
+                tmp.unlink()
 
 
 def json_default(obj):

@@ -12,13 +12,15 @@ Both raise :class:`lab.errors.InputError` (exit code 2) naming the flag and the 
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import tempfile
 from pathlib import Path
 
 from lab.errors import InputError
 
-__all__ = ["check_paths", "check_writable", "dataset_outputs"]
+__all__ = ["check_paths", "check_writable", "dataset_outputs", "existing", "output_lock", "ignore_file_size_signal"]
 
 
 def _key(path) -> Path:
@@ -67,3 +69,35 @@ def check_writable(path, what: str = "--out") -> None:
             pass
     except OSError as err:
         raise InputError(f"{what} {path}: cannot write in {parent} ({err.strerror or err})") from None
+
+
+def existing(arg) -> str | None:
+    """``arg`` if it names an existing file or directory (a robot given by path), else None."""
+    return str(arg) if arg is not None and Path(str(arg)).exists() else None
+
+
+@contextlib.contextmanager
+def output_lock(path, what: str = "--out"):
+    """Hold ``PATH.lock`` while a command writes ``path``: a second run with the same output
+    is refused at once (InputError) instead of both working to the end and colliding."""
+    from filelock import FileLock, Timeout
+
+    lock_file = Path(f"{path}.lock")
+    lock = FileLock(lock_file, timeout=0)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise InputError(f"{what} {path} is being written by another run (lock {lock_file}); wait for it") from None
+    try:
+        yield
+    finally:
+        lock.release()
+        with contextlib.suppress(OSError):
+            lock_file.unlink()
+
+
+def ignore_file_size_signal() -> None:
+    """Let a write past the file-size limit (``ulimit -f``) fail with an OSError that is
+    reported and cleaned up, instead of SIGXFSZ killing the process mid-write."""
+    if hasattr(signal, "SIGXFSZ"):
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import shutil
 import sys
 
+from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
 from lab.data.simulation import default_jobs
 
 
@@ -49,18 +49,24 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.data.dataset import write_dataset
-    from lab.data.designs import (
-        grid_chunks,
-        grid_commands,
-        nearest_neighbour_chunks,
-        sobol_commands,
-    )
-    from lab.data.simulation import simulate
     from lab.description import load_robot
+
+    checkpoint = args.checkpoint or f"{args.out}.chunks"
+    check_paths({"--robot": existing(args.robot)}, {**dataset_outputs("--out", args.out), "--checkpoint": checkpoint})
+    check_writable(args.out)
+    ignore_file_size_signal()
+    robot = load_robot(args.robot)
+    with output_lock(args.out):
+        return _simulate(args, robot, checkpoint)
+
+
+def _simulate(args, robot, checkpoint) -> int:
+    from lab.data.chunkstore import clear_checkpoint, remove_checkpoint
+    from lab.data.dataset import write_dataset
+    from lab.data.designs import grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
+    from lab.data.simulation import simulate
     from lab.fem.linsolve import default_backend
 
-    robot = load_robot(args.robot)
     n_rings, n_axial = args.n_rings or robot.n_rings, args.n_axial or robot.n_axial
     if args.sobol is not None:
         u = sobol_commands(robot, args.sobol, seed=args.seed)
@@ -75,9 +81,8 @@ def run(args) -> int:
         f"{robot.name}: {len(u)} safe commands, mesh n_rings={n_rings} n_axial={n_axial}, {args.jobs} worker(s)",
         file=sys.stderr,
     )
-    checkpoint = args.checkpoint or f"{args.out}.chunks"
     if args.restart:
-        shutil.rmtree(checkpoint, ignore_errors=True)
+        clear_checkpoint(checkpoint)  # only the checkpoint's own files, never anything else
     res = simulate(
         robot,
         u,
@@ -115,7 +120,7 @@ def run(args) -> int:
         "command": "python -m lab " + shlex.join(sys.argv[1:]),
     }
     write_dataset(args.out, u, res["p_tip_W"], meta)
-    shutil.rmtree(checkpoint, ignore_errors=True)  # the dataset now holds every chunk
+    remove_checkpoint(checkpoint)  # the dataset now holds every chunk
     print(
         f"wrote {len(u)} samples to {args.out} in {res['wall_s']:.1f} s "
         f"(mean {res['iterations'].mean():.2f} Newton iterations)",

@@ -7,6 +7,12 @@ chunks that are missing. ``DIR/manifest.json`` holds a fingerprint of the run (r
 hash, mesh, the commands and the chunking); a directory left by a different run is
 refused rather than mixed in. Chunk results do not depend on where or when they ran,
 so a resumed run gives the same numbers as an uninterrupted one. No pickle.
+
+The store never deletes what it did not write. It creates its directory only when the
+first chunk is saved (a run that fails earlier leaves nothing behind) and marks a
+directory it made with ``DIR/.lab-checkpoint``; :meth:`ChunkStore.remove` deletes its own
+files (manifest, chunks, marker) and then the directory only if it made it and it is
+empty. A directory holding anything else is refused at once.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
+import re
 import zipfile
 from pathlib import Path
 
@@ -48,38 +54,79 @@ def fingerprint(robot_sha256: str, n_rings: int, n_axial: int, u_motor: np.ndarr
     }
 
 
+MARKER = ".lab-checkpoint"
+MANIFEST = "manifest.json"
+_OURS = re.compile(r"^(manifest\.json|\.lab-checkpoint|chunk_\d{5}\.npz|\.chunk_\d{5}\.tmp\d+\.npz)$")
+
+
+def foreign_files(directory: str | Path) -> list[str]:
+    """Names in ``directory`` that a checkpoint never writes (empty if it does not exist)."""
+    d = Path(directory)
+    if not d.exists():
+        return []
+    if not d.is_dir():
+        return [d.name]
+    return sorted(p.name for p in d.iterdir() if not _OURS.match(p.name))
+
+
+def _refuse_foreign(directory: Path) -> None:
+    foreign = foreign_files(directory)
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (" ..." if len(foreign) > 5 else "")
+        raise CheckpointError(
+            f"checkpoint directory {directory} holds files that are not a lab checkpoint's ({shown}); "
+            "choose another --checkpoint directory (nothing was deleted)"
+        )
+
+
 class ChunkStore:
     """Chunk results under ``directory`` for the run identified by ``fingerprint``."""
 
     def __init__(self, directory: str | Path, fp: dict):
         self.directory = Path(directory)
-        self.directory.mkdir(parents=True, exist_ok=True)
-        manifest = self.directory / "manifest.json"
+        self.fingerprint = fp
+        if self.directory.exists() and not self.directory.is_dir():
+            raise CheckpointError(f"checkpoint {self.directory} is a file, not a directory")
+        _refuse_foreign(self.directory)
+        manifest = self.directory / MANIFEST
         if manifest.exists():
             try:
                 old = json.loads(manifest.read_text())
             except json.JSONDecodeError as err:
-                raise CheckpointError(f"{manifest}: corrupt manifest ({err}); delete {self.directory}") from None
+                raise CheckpointError(
+                    f"{manifest}: corrupt manifest ({err}); --restart discards this checkpoint"
+                ) from None
             if old != fp:
                 diff = sorted(k for k in set(old) | set(fp) if old.get(k) != fp.get(k))
                 raise CheckpointError(
                     f"checkpoint {self.directory} belongs to another run (differs in {', '.join(diff)}); "
-                    f"delete it, or restart from scratch"
+                    "--restart discards it, or choose another --checkpoint"
                 )
-        else:
-            atomic_write_text(manifest, json.dumps(fp, indent=2) + "\n")
 
     def _path(self, i: int) -> Path:
         return self.directory / f"chunk_{i:05d}.npz"
 
+    def _ensure(self) -> None:
+        """Create the directory (marked as ours) and the manifest before the first chunk."""
+        if not self.directory.exists():
+            self.directory.mkdir(parents=True)
+            (self.directory / MARKER).write_text(json.dumps({"kind": "lab.checkpoint"}) + "\n")
+        if not (self.directory / MANIFEST).exists():
+            atomic_write_text(self.directory / MANIFEST, json.dumps(self.fingerprint, indent=2) + "\n")
+
     def save(self, i: int, result: dict) -> None:
         """Store chunk ``i``'s result (keys ``order``, ``u_motor``, ``p_tip_W``, ...)."""
+        self._ensure()
         tmp = self.directory / f".chunk_{i:05d}.tmp{os.getpid()}.npz"
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **{k: np.asarray(result[k]) for k in _FIELDS})
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, self._path(i))
+        try:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **{k: np.asarray(result[k]) for k in _FIELDS})
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, self._path(i))
+        finally:
+            if tmp.exists():
+                tmp.unlink()
 
     def load(self, orders: list, u_motor: np.ndarray) -> dict[int, dict]:
         """Results of the chunks already finished, checked against the expected commands.
@@ -97,10 +144,40 @@ class ChunkStore:
                 path.unlink()
                 continue
             if not (np.array_equal(res["order"], order) and np.array_equal(res["u_motor"], u_motor[order])):
-                raise CheckpointError(f"{path} does not hold chunk {i} of this run; delete {self.directory}")
+                raise CheckpointError(f"{path} does not hold chunk {i} of this run; --restart discards it")
             done[i] = res
         return done
 
+    def clear(self) -> None:
+        """Delete this store's own files (manifest, chunks, temporaries), keeping the directory."""
+        clear_checkpoint(self.directory)
+
     def remove(self) -> None:
-        """Delete the checkpoint directory (after the dataset has been written)."""
-        shutil.rmtree(self.directory, ignore_errors=True)
+        """Delete the store's own files and, if the store made it, its empty directory."""
+        remove_checkpoint(self.directory)
+
+
+def clear_checkpoint(directory: str | Path) -> None:
+    """Delete a checkpoint's own files in ``directory`` (``--restart``); nothing else."""
+    d = Path(directory)
+    _refuse_foreign(d)
+    if d.is_dir():
+        for p in d.iterdir():
+            if _OURS.match(p.name) and p.name != MARKER:
+                p.unlink()
+
+
+def remove_checkpoint(directory: str | Path) -> None:
+    """After the dataset has been written: delete the checkpoint's own files, then the
+    directory if lab made it (marker) and nothing else is in it."""
+    d = Path(directory)
+    if not d.is_dir():
+        return
+    clear_checkpoint(d)
+    marker = d / MARKER
+    if marker.exists():
+        marker.unlink()
+        try:
+            d.rmdir()  # only if empty: never anybody else's files
+        except OSError:
+            pass

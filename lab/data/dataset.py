@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import datetime as _dt
+import hashlib
 import io
 import json
 from pathlib import Path
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from lab.errors import InputError
-from lab.files import atomic_write_text, code_version, json_default
+from lab.files import atomic_write_group, code_version, json_default
 
 FORMAT_VERSION = 1
 
@@ -51,9 +52,10 @@ def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, me
         "code_version": code_version(),
         **metadata,
     }
-    # Sidecar first: a CSV never exists without its metadata.
-    atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=json_default) + "\n")
-    atomic_write_text(path, buf.getvalue())
+    data = buf.getvalue().encode()
+    meta["csv_sha256"] = hashlib.sha256(data).hexdigest()  # read_dataset checks the pair belongs together
+    # Both written completely before either replaces an old file; the CSV renamed last.
+    atomic_write_group({sidecar_path(path): json.dumps(meta, indent=2, default=json_default) + "\n", path: data})
 
 
 def sidecar_path(path: str | Path) -> Path:
@@ -68,6 +70,8 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
     path = Path(path)
     if not path.exists():
         raise DatasetError(f"dataset not found: {path}")
+    if path.is_dir():
+        raise DatasetError(f"{path} is a directory, not a dataset CSV")
     meta = {}
     side = sidecar_path(path)
     if side.exists():
@@ -75,14 +79,20 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
             meta = json.loads(side.read_text())
         except json.JSONDecodeError as err:
             raise DatasetError(f"{side}: corrupt metadata JSON: {err}") from None
+        if not isinstance(meta, dict):
+            raise DatasetError(f"{side}: the metadata must be a JSON object, not {type(meta).__name__}")
         version = meta.get("format_version")
         if not isinstance(version, int) or version > FORMAT_VERSION:
             raise DatasetError(
                 f"{side}: format_version {version!r} is not supported "
                 f"(this code reads up to {FORMAT_VERSION}); update the package"
             )
-    with open(path, newline="") as fh:
-        rows = list(csv.reader(fh))
+    raw = path.read_bytes()
+    try:
+        text = raw.decode()
+    except UnicodeDecodeError:
+        raise DatasetError(f"{path}: not a text CSV file") from None
+    rows = list(csv.reader(io.StringIO(text, newline="")))
     if not rows:
         raise DatasetError(f"{path}: empty file")
     header = rows[0]
@@ -102,4 +112,9 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
         raise DatasetError(f"{path}: line {bad} has a NaN or infinite value")
     if meta.get("n_samples") not in (None, len(data)):
         raise DatasetError(f"{path}: {len(data)} rows but the sidecar says {meta['n_samples']} (truncated?)")
+    if "csv_sha256" in meta and hashlib.sha256(raw).hexdigest() != meta["csv_sha256"]:
+        raise DatasetError(
+            f"{path}: the data does not match its sidecar {side.name} (edited, cut short or a stale sidecar: "
+            "its csv_sha256 differs); regenerate the dataset with the command in the sidecar"
+        )
     return data[:, :m], data[:, m:], meta

@@ -1,4 +1,4 @@
-"""Simulated (u, y) data: which motor commands to sample, and solving them all.
+"""Which motor commands to sample, and the walks (chunks) they are solved in.
 
 Samplers give safe motor commands (N, m) in radians:
 
@@ -6,13 +6,10 @@ Samplers give safe motor commands (N, m) in radians:
   (the paper's 7x7x7 grid), minus what the safety rule forbids;
 * :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only.
 
-:func:`simulate` solves the statics of every command. The work is cut into chunks
-that depend only on the commands (never on the number of workers); each chunk walks
-its commands in an order where neighbours are close and warm-starts every solve from
-a prediction built from the equilibria already solved in that walk
-(:mod:`lab.fem.warmstart`). Chunks run on joblib worker processes, and since each chunk's
-computation is the same wherever it runs, a parallel run gives exactly the serial
-run's numbers.
+Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands into
+walks whose neighbours are close, so that :func:`lab.data.simulation.simulate` can
+warm-start each solve from the last; they depend only on the commands, never on the
+number of workers.
 """
 
 from __future__ import annotations

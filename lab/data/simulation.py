@@ -1,10 +1,4 @@
-"""Simulated (u, y) data: which motor commands to sample, and solving them all.
-
-Samplers give safe motor commands (N, m) in radians:
-
-* :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
-  (the paper's 7x7x7 grid), minus what the safety rule forbids;
-* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only.
+"""Simulated (u, y) data: solving the statics of every sampled command (:mod:`lab.data.designs`).
 
 :func:`simulate` solves the statics of every command. The work is cut into chunks
 that depend only on the commands (never on the number of workers); each chunk walks

@@ -12,7 +12,7 @@ from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
 from lab.learn.model_io import ModelFileError, read_model, save_model
-from lab.learn.split import Split, divide_random
+from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
 from lab.learn.studies import (
     evaluate_splits,
     run_seeds,
@@ -32,6 +32,8 @@ __all__ = [
     "save_model",
     "read_model",
     "Split",
+    "check_enough_data",
+    "minimum_samples",
     "divide_random",
     "mse",
     "LMOptions",

@@ -1,35 +1,10 @@
-"""Training the forward model: data splits, MATLAB-faithful Levenberg-Marquardt, one entry point.
-
-The paper trained its networks with MATLAB's Deep Learning Toolbox (``feedforwardnet`` +
-``trainlm``). :func:`train_lm` reproduces ``trainlm`` with its parameters
-
-    mu = 1e-3, mu_dec = 0.1, mu_inc = 10, mu_max = 1e10, epochs = 1000,
-    max_fail = 6, min_grad = 1e-6 (the paper's value; MATLAB's default is 1e-7), goal = 0
-
-and its semantics, epoch by epoch:
-
-1. **Stop checks**, in MATLAB's order: performance goal met, maximum epoch reached,
-   gradient ``2 |J^T e| / N_e`` below ``min_grad``, ``mu >= mu_max``, or ``max_fail``
-   consecutive validation failures. Whatever the reason, the network returned is the
-   **best one seen**: lowest validation MSE (lowest training MSE without a validation set).
-2. **Step**: solve ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` (Cholesky). If the
-   training MSE decreases, accept and set ``mu <- max(mu * mu_dec, 1e-20)``; otherwise
-   ``mu <- mu * mu_inc`` and retry, until ``mu > mu_max``. A matrix that is not
-   numerically positive definite counts as a failed trial (MATLAB: singular-matrix warning).
-3. **Validation**: MSE on the validation set; lower than the best so far -> new best and
-   ``val_fail = 0``; higher -> ``val_fail += 1``; equal -> unchanged.
-
-Errors ``e = y(u) - y_data`` are in the data's units (metres), the performance is MATLAB's
-``mse`` (mean over samples *and* coordinates, ``N_e = N * n_y`` elements), as with
-``feedforwardnet``'s default ``performParam.normalization = 'none'``. The Jacobian
-``J = d y / d theta`` comes in closed form from :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
-When there are more parameters than residuals the identical step is computed in the
-kernel form ``dtheta = -J^T (J J^T + mu N_e I)^{-1} e`` (cheaper: an N_e x N_e system).
+"""Dividing a dataset into training, validation and test sets, and how much data that needs.
 
 Splits follow MATLAB ``dividerand``: a random permutation, ``round(ratio * N)`` samples
-for validation and test, the rest for training. :func:`train` does split + init + fit
-with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
-datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
+for validation and test, the rest for training (:func:`divide_random`).
+:func:`check_enough_data` refuses data too small for a split -- one row, identical rows,
+fewer distinct commands than a fit needs -- with the minimum in the message, before any
+training starts (a degenerate model would otherwise be written with exit code 0).
 """
 
 from __future__ import annotations
@@ -69,3 +44,38 @@ def divide_random(n: int, ratios=(0.7, 0.15, 0.15), seed: int | np.random.Genera
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     perm = rng.permutation(n)
     return Split(np.sort(perm[:n_train]), np.sort(perm[n_train : n_train + n_val]), np.sort(perm[n_train + n_val :]))
+
+
+def _sizes(n: int, ratios) -> tuple[int, int, int]:
+    r = np.asarray(ratios, dtype=float)
+    r = r / r.sum()
+    n_val, n_test = int(round(r[1] * n)), int(round(r[2] * n))
+    return n - n_val - n_test, n_val, n_test
+
+
+def minimum_samples(n_inputs: int, ratios) -> int:
+    """The fewest samples a split ``ratios`` of an ``n_inputs``-input dataset may have: the
+    training set needs ``n_inputs + 1`` samples (an affine map is the least a network must
+    fit) and every set the ratios ask for needs at least one."""
+    r = np.asarray(ratios, dtype=float)
+    for n in range(1, 100_000):
+        n_train, n_val, n_test = _sizes(n, r)
+        if n_train >= n_inputs + 1 and (n_val >= 1 or r[1] == 0) and (n_test >= 1 or r[2] == 0):
+            return n
+    raise InputError(f"split ratios {tuple(ratios)} never give usable sets")
+
+
+def check_enough_data(u: np.ndarray, ratios) -> None:
+    """Raise InputError unless the commands ``u`` (N, n_u) can be split by ``ratios`` into
+    usable sets: at least :func:`minimum_samples` samples and as many *distinct* commands."""
+    u = np.asarray(u, dtype=float)
+    divide_random(max(len(u), 1), ratios)  # validates the ratios themselves
+    need = minimum_samples(u.shape[1], ratios)
+    distinct = len(np.unique(u, axis=0)) if len(u) else 0
+    if len(u) < need or distinct < need:
+        what = f"{len(u)} samples" + (f" ({distinct} distinct commands)" if distinct < len(u) else "")
+        raise InputError(
+            f"{what} are too few to train on with split {tuple(float(x) for x in ratios)}: "
+            f"need at least {need} samples with distinct commands ({u.shape[1] + 1} to train on, "
+            "one for each validation or test set asked for)"
+        )

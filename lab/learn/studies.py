@@ -1,23 +1,15 @@
-"""How accurate is the learned model? Error metrics, workspace size, repeated-split studies.
+"""Studies of the learned model's accuracy: repeated random splits and network size.
 
-Metrics, for predicted ``y_hat`` and measured ``y`` tip positions (N, 3) in metres:
-
-* ``mse_m2`` -- MATLAB ``mse``: mean over samples *and* coordinates of the squared error (m^2);
-* ``mean_distance_m`` -- mean Euclidean distance ``|y_hat_i - y_i|`` (m), the paper's
-  "average Euclidean distance between the predicted and measured tip position".
-
-**Workspace size** (for relative errors): the diagonal of the axis-aligned bounding box
-of all measured tip positions of the dataset, ``|max_i y_i - min_i y_i|`` (m). The paper
-does not define it; its 4.42 mm = 1.6 % implies a size of about 0.28 m.
-
-Studies (each run independent and seeded, optionally on joblib/loky workers with one BLAS
-thread each; results do not depend on the number of workers):
+Each run is independent and seeded, optionally on joblib/loky workers with one BLAS
+thread each; results do not depend on the number of workers:
 
 * :func:`evaluate_splits` -- the paper's Section V-A.3 test: train the same architecture
   on ``n_splits`` random splits (90/10 train/test) and report each test error;
 * :func:`size_sweep` -- Section VI-A / Figure 6: two hidden layers of ``width`` neurons,
   ``n_runs`` random 80/10/10 splits per width. Run ``r`` uses the same split for every
   width, so the widths are compared on the same data.
+
+Metrics are in :mod:`lab.learn.metrics`.
 """
 
 from __future__ import annotations
@@ -28,6 +20,7 @@ import io
 import numpy as np
 
 from lab.files import atomic_write_text
+from lab.learn.split import check_enough_data
 
 
 def run_seeds(seed: int, n: int) -> list[int]:
@@ -72,6 +65,7 @@ def evaluate_splits(
     Row keys: hidden, n_params, seed, epochs, best_epoch, stop_reason, wall_s and, for each
     of train/validation/test, ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m``
     (NaN for an empty set). ``train_kwargs`` go to :func:`lab.learn.train.train`."""
+    check_enough_data(u, ratios)  # before any worker starts
     jobs = [(u, y, tuple(hidden), ratios, s, train_kwargs) for s in run_seeds(seed, n_splits)]
     rows = _run_all(jobs, n_jobs)
     for i, row in enumerate(rows):

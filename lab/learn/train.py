@@ -1,35 +1,10 @@
-"""Training the forward model: data splits, MATLAB-faithful Levenberg-Marquardt, one entry point.
+"""One entry point for training the forward model: split, initialise, fit.
 
-The paper trained its networks with MATLAB's Deep Learning Toolbox (``feedforwardnet`` +
-``trainlm``). :func:`train_lm` reproduces ``trainlm`` with its parameters
-
-    mu = 1e-3, mu_dec = 0.1, mu_inc = 10, mu_max = 1e10, epochs = 1000,
-    max_fail = 6, min_grad = 1e-6 (the paper's value; MATLAB's default is 1e-7), goal = 0
-
-and its semantics, epoch by epoch:
-
-1. **Stop checks**, in MATLAB's order: performance goal met, maximum epoch reached,
-   gradient ``2 |J^T e| / N_e`` below ``min_grad``, ``mu >= mu_max``, or ``max_fail``
-   consecutive validation failures. Whatever the reason, the network returned is the
-   **best one seen**: lowest validation MSE (lowest training MSE without a validation set).
-2. **Step**: solve ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` (Cholesky). If the
-   training MSE decreases, accept and set ``mu <- max(mu * mu_dec, 1e-20)``; otherwise
-   ``mu <- mu * mu_inc`` and retry, until ``mu > mu_max``. A matrix that is not
-   numerically positive definite counts as a failed trial (MATLAB: singular-matrix warning).
-3. **Validation**: MSE on the validation set; lower than the best so far -> new best and
-   ``val_fail = 0``; higher -> ``val_fail += 1``; equal -> unchanged.
-
-Errors ``e = y(u) - y_data`` are in the data's units (metres), the performance is MATLAB's
-``mse`` (mean over samples *and* coordinates, ``N_e = N * n_y`` elements), as with
-``feedforwardnet``'s default ``performParam.normalization = 'none'``. The Jacobian
-``J = d y / d theta`` comes in closed form from :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
-When there are more parameters than residuals the identical step is computed in the
-kernel form ``dtheta = -J^T (J J^T + mu N_e I)^{-1} e`` (cheaper: an N_e x N_e system).
-
-Splits follow MATLAB ``dividerand``: a random permutation, ``round(ratio * N)`` samples
-for validation and test, the rest for training. :func:`train` does split + init + fit
-with one seeded random stream, so a seed fixes everything. Adam and L-BFGS for large
-datasets live in :mod:`lab.learn.gradient`; error metrics and studies in :mod:`lab.learn.studies`.
+:func:`train` draws a ``dividerand`` split (:mod:`lab.learn.split`) and Nguyen-Widrow
+initial weights (:func:`lab.learn.mlp.init_mlp`) from one seeded random stream, so a seed
+fixes everything, then fits with MATLAB-faithful Levenberg-Marquardt
+(:mod:`lab.learn.lm`, the default) or Adam / L-BFGS (:mod:`lab.learn.gradient`), and
+records what is needed to reproduce the run in the model's metadata.
 """
 
 from __future__ import annotations
@@ -43,7 +18,7 @@ from lab.errors import InputError
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP, init_mlp
-from lab.learn.split import Split, divide_random
+from lab.learn.split import Split, check_enough_data, divide_random
 
 ALGORITHMS = ("lm", "adam", "lbfgs")
 
@@ -96,6 +71,7 @@ def train(
         raise InputError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
     if epochs is not None and epochs < 1:
         raise InputError(f"epochs must be positive, got {epochs}")
+    check_enough_data(u, ratios)
     rng = np.random.default_rng(seed)
     split = divide_random(len(u), ratios, rng)
     model = init_mlp(u, y, hidden, activation, rng)
