@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal
+from lab.cli.signals import exit_code
 from lab.errors import LabError
 
 
@@ -113,6 +115,13 @@ def run(args) -> int:
     from lab.rig.protocol import Protocol
 
     journal = Path(args.journal) if args.journal else Path(args.out).with_suffix(".journal.csv")
+    check_paths(
+        {"--robot": existing(args.robot), "--rig": existing(args.rig.partition(":")[2] or None)},
+        {**dataset_outputs("--out", args.out), "--journal": journal},
+    )
+    check_writable(args.out)
+    check_writable(journal, "--journal")
+    ignore_file_size_signal()
     try:
         robot = load_robot(args.robot)
         grid = grid_commands(robot, args.grid)
@@ -158,12 +167,14 @@ def run(args) -> int:
                 progress=not args.no_progress,
             )
         wall_s = time.perf_counter() - t0
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as err:  # Ctrl-C, SIGTERM, SIGHUP: the rig is closed (torque off)
+        why = f" by {err.args[0]}" if err.args else ""
         print(
-            f"interrupted; every sample captured so far is in {journal}: run the same command again to continue",
+            f"interrupted{why}; the rig was closed and every sample captured so far is in {journal}: "
+            "run the same command again to continue",
             file=sys.stderr,
         )
-        return 130
+        return exit_code(err)
     except (LabError, OSError):
         # the message itself is printed by lab.cli.main; the exit code follows the error
         if journal.exists():

@@ -6,6 +6,7 @@ import argparse
 import shlex
 import sys
 
+from lab.cli.paths import check_paths, check_writable
 from lab.data.simulation import default_jobs
 from lab.errors import InputError
 
@@ -43,6 +44,8 @@ def run(args) -> int:
     from lab.learn.metrics import workspace_size_m
     from lab.learn.studies import evaluate_splits, summarize, write_csv
 
+    check_paths({"DATA": args.data, "DATA sidecar": f"{args.data}.json"}, {"--out": args.out})
+    check_writable(args.out)
     u, y, _ = read_dataset(args.data)
     if any(h < 1 for h in args.hidden) or args.n_splits < 1 or args.jobs < 1:
         raise InputError("--hidden widths, --n-splits and --jobs must be positive")

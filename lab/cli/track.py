@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.cli.paths import check_paths, check_writable, existing
 from lab.errors import InputError
-from lab.tracking.track import make_solver, run_trajectory, write_result
+from lab.tracking.track import PointLog, make_solver, run_trajectory, write_result
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -69,6 +70,18 @@ def run(args) -> int:
 
     if (args.model is None) == (not args.soft_ik):
         raise InputError("give exactly one of --model MODEL.npz and --soft-ik")
+    points = Path(f"{args.out}.points.csv")
+    rig_file = args.rig.partition(":")[2] or None
+    check_paths(
+        {
+            "--model": args.model,
+            "--trajectory": existing(args.trajectory),
+            "--robot": existing(args.robot),
+            "--rig": existing(rig_file),
+        },
+        {"--out": args.out, "--out points": points},
+    )
+    check_writable(args.out)
     robot = load_robot(args.robot)
     targets = load_trajectory(args.trajectory, args.n_points)
     mesh = {"n_rings": args.n_rings, "n_axial": args.n_axial}
@@ -86,9 +99,20 @@ def run(args) -> int:
         posture_weight=args.posture_weight,
     )
     name = args.trajectory if args.trajectory in BUILTIN + SIX_CABLE else Path(args.trajectory).name
-    # a rig failure (RigError, exit 1) reaches lab.cli.main after the rig was closed (torque off)
-    with SimRig(robot, fem) if args.rig == "sim" else make_rig(args.rig, robot, seed=args.seed) as rig:
-        result = run_trajectory(rig, solver, targets, name=name)
+    # Each measured point goes to OUT.points.csv at once: a run that is interrupted or fails
+    # (a RigError, exit 1, reaches lab.cli.main after the rig was closed: torque off) keeps them.
+    log = PointLog(points, robot.n_cables)
+    try:
+        with SimRig(robot, fem) if args.rig == "sim" else make_rig(args.rig, robot, seed=args.seed) as rig:
+            result = run_trajectory(rig, solver, targets, name=name, on_point=log.append)
+    except BaseException:
+        log.close()
+        if log.n_points:
+            print(f"(the {log.n_points} points measured so far are in {points})", file=sys.stderr)
+        else:
+            points.unlink()
+        raise
+    log.close()
     write_result(
         args.out,
         result,
@@ -98,6 +122,7 @@ def run(args) -> int:
             "command": "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:])),
         },
     )
+    points.unlink()  # the result file holds every point now
     t = result.timings
     print(
         f"{name}: {len(targets)} targets, mean error {100 * result.mean_error_m:.4f} cm, max "

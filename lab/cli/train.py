@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from lab.cli.paths import check_paths, check_writable
 from lab.errors import InputError
 
 
@@ -54,6 +55,10 @@ def run(args) -> int:
     from lab.learn.metrics import workspace_size_m
     from lab.learn.train import train
 
+    check_paths({"DATA": args.data, "DATA sidecar": f"{args.data}.json"}, {"--out": args.out, "--report": args.report})
+    check_writable(args.out)
+    if args.report:
+        check_writable(args.report, "--report")
     u, y, meta = read_dataset(args.data)
     if any(h < 1 for h in args.hidden):
         raise InputError(f"--hidden widths must be positive, got {args.hidden}")

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -113,6 +114,34 @@ class TrackResult:
         }
 
 
+class PointLog:
+    """Append-only CSV of the points measured so far (one fsynced line each), so that a run
+    that is interrupted or fails keeps what it measured. Columns: ``i, target_x, target_y,
+    target_z`` (m), ``u0..u{m-1}`` (rad), ``x, y, z`` (m, achieved), ``settled``, ``wait_s``."""
+
+    def __init__(self, path: str | Path, n_motors: int):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._fh = open(self.path, "w", newline="")
+        self.n_points = 0
+        cols = ["i", "target_x", "target_y", "target_z", *(f"u{j}" for j in range(n_motors)), "x", "y", "z"]
+        self._write(",".join([*cols, "settled", "wait_s"]))
+
+    def _write(self, line: str) -> None:
+        self._fh.write(line + "\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def append(self, i: int, target_W, u_motor, sample) -> None:
+        values = [*np.asarray(target_W, float), *np.asarray(u_motor, float), *np.asarray(sample.p_tip_W, float)]
+        wait = sample.t_done_s - sample.t_command_s
+        self._write(",".join([str(i), *(repr(float(v)) for v in values), str(int(sample.settled)), repr(wait)]))
+        self.n_points += 1
+
+    def close(self) -> None:
+        self._fh.close()
+
+
 def run_trajectory(
     rig: Rig,
     solver: IKSolver,
@@ -122,11 +151,14 @@ def run_trajectory(
     protocol: Protocol = TRACK_PROTOCOL,
     u0=None,
     progress=None,
+    on_point=None,
 ) -> TrackResult:
     """IK for all ``targets_W`` (N, 3) m, then send each command to ``rig`` and record the
     settled tip with ``protocol`` (:class:`lab.rig.protocol.Protocol`, default
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
-    ``progress(i, n)`` is called after each point. The rig is left open (the caller owns it)."""
+    ``progress(i, n)`` is called after each point, ``on_point(i, target_W, u_motor, sample)``
+    with what was measured there (e.g. :meth:`PointLog.append`, so an interrupted run keeps
+    its measurements). The rig is left open (the caller owns it)."""
     targets = np.atleast_2d(check_targets(targets_W))
     if solver.commands.n != rig.robot.n_cables:
         raise InputError(
@@ -140,6 +172,8 @@ def run_trajectory(
     for i, u in enumerate(plan.u_motor):
         s = measure(rig, u, protocol)
         achieved[i], settled[i], waits[i] = s.p_tip_W, s.settled, s.t_done_s - s.t_command_s
+        if on_point is not None:
+            on_point(i, targets[i], u, s)
         if progress is not None:
             progress(i + 1, len(targets))
     t_rig = time.perf_counter() - t1
