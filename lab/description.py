@@ -12,6 +12,7 @@ checked and a bad file raises :class:`DescriptionError` naming the field.
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import json
 import math
@@ -123,6 +124,50 @@ class RobotDescription:
         return u
 
 
+def check_fields(table, allowed, where: str, error: type[Exception] = None) -> dict:
+    """Refuse a table that is not a table, or that has a field not in ``allowed`` -- a
+    misspelt field would otherwise be ignored silently -- naming the closest valid name.
+    ``where`` names the table (``"material"``, ``"cables[1]"``; ``""`` for the top level).
+    Shared by the robot, defects and hardware-config readers. Returns ``table``."""
+    error = error or DescriptionError
+    label = f"[{where}]" if where else "the top level"
+    if not isinstance(table, dict):
+        raise error(f"{label} must be a table, got {type(table).__name__} {table!r}")
+    for key in table:
+        if key not in allowed:
+            close = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.6)
+            hint = f"did you mean '{close[0]}'?" if close else f"known fields: {', '.join(sorted(allowed))}"
+            raise error(f"{label} has no field '{key}' ({hint})")
+    return table
+
+
+#: The fields of each table of a robot description (optional ones included).
+ROBOT_FIELDS = {
+    "": {
+        "format_version",
+        "name",
+        "summary",
+        "body",
+        "material",
+        "mounting",
+        "mesh",
+        "actuation",
+        "cables",
+        "tip_marker",
+        "safety",
+    },
+    "body": {"shape", "length_m", "radius_m"},
+    "material": {"model", "youngs_modulus_pa", "poisson_ratio", "density_kg_m3"},
+    "mounting": {"gravity_m_s2"},
+    "mesh": {"n_rings", "n_axial"},
+    "actuation": {"spool_radius_m", "u_max_rad", "cable_stiffness_n_m", "slack_smoothing_m"},
+    "cables": {"name", "angle_deg", "offset_m", "stations_m", "via_points_m", "anchor_m"},
+    "tip_marker": {"position_m"},
+    "safety": {"limits"},
+    "safety.limits": {"cables", "max_sum_over_u_max"},
+}
+
+
 def _get(table: dict, key: str, where: str, kind=float, positive: bool = False):
     if key not in table:
         raise DescriptionError(f"missing field '{where}.{key}'")
@@ -161,18 +206,24 @@ def _vec3(table: dict, key: str, where: str) -> np.ndarray:
 
 def _table(data: dict, key: str) -> dict:
     t = data.get(key)
-    if not isinstance(t, dict):
+    if t is None:
         raise DescriptionError(f"missing table [{key}]")
-    return t
+    return check_fields(t, ROBOT_FIELDS[key], key)
+
+
+def _points(entry: dict, key: str, where: str) -> np.ndarray:
+    try:
+        return np.asarray(entry[key], dtype=float)
+    except (TypeError, ValueError):
+        raise DescriptionError(f"field '{where}.{key}' must hold numbers, got {entry[key]!r}") from None
 
 
 def _cable(entry: dict, i: int, length: float, radius: float) -> Cable:
     where = f"cables[{i}]"
-    if not isinstance(entry, dict):
-        raise DescriptionError(f"{where} must be a table")
+    check_fields(entry, ROBOT_FIELDS["cables"], where)
     name = _get(entry, "name", where, str)
     if "via_points_m" in entry:
-        pts = np.asarray(entry["via_points_m"], dtype=float)
+        pts = _points(entry, "via_points_m", where)
         if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
             raise DescriptionError(f"field '{where}.via_points_m' must be a non-empty list of [x, y, z]")
     else:
@@ -182,7 +233,9 @@ def _cable(entry: dict, i: int, length: float, radius: float) -> Cable:
             raise DescriptionError(
                 f"field '{where}.stations_m' must be a non-empty list of x positions (or give '{where}.via_points_m')"
             )
-        xs = np.asarray(entry["stations_m"], dtype=float)
+        xs = _points(entry, "stations_m", where)
+        if xs.ndim != 1:
+            raise DescriptionError(f"field '{where}.stations_m' must be a list of numbers")
         pts = np.column_stack(
             [xs, np.full_like(xs, offset * math.cos(angle)), np.full_like(xs, offset * math.sin(angle))]
         )
@@ -200,6 +253,7 @@ def _cable(entry: dict, i: int, length: float, radius: float) -> Cable:
 
 def parse_robot(data: dict) -> RobotDescription:
     """Validate a parsed TOML document (a dict) and build the description."""
+    check_fields(data, ROBOT_FIELDS[""], "")
     version = data.get("format_version")
     if version != FORMAT_VERSION:
         raise DescriptionError(f"field 'format_version' must be {FORMAT_VERSION}, got {version!r}")
@@ -239,10 +293,24 @@ def parse_robot(data: dict) -> RobotDescription:
         raise DescriptionError(f"cables[].name must be unique, got {names}")
 
     p_tip = _vec3(_table(data, "tip_marker"), "position_m", "tip_marker")
+    # The marker must be on the body, or embedding it in the mesh fails later, far from here.
+    tol = 1e-6 * length
+    if not (-tol <= p_tip[0] <= length + tol) or np.hypot(p_tip[1], p_tip[2]) > radius + tol:
+        raise DescriptionError(
+            f"field 'tip_marker.position_m' {p_tip.tolist()} lies outside the body "
+            f"(0 <= x <= body.length_m = {length}, sqrt(y^2 + z^2) <= body.radius_m = {radius})"
+        )
 
     limits = []
-    for i, lim in enumerate(_table(data, "safety").get("limits", [])):
+    entries = _table(data, "safety").get("limits", [])
+    if not isinstance(entries, list):
+        raise DescriptionError(
+            f"field 'safety.limits' must be a list of tables ([[safety.limits]]), got {type(entries).__name__} "
+            f"{entries!r}"
+        )
+    for i, lim in enumerate(entries):
         where = f"safety.limits[{i}]"
+        check_fields(lim, ROBOT_FIELDS["safety.limits"], where)
         idx = lim.get("cables")
         if not isinstance(idx, list) or not idx or not all(isinstance(j, int) and 0 <= j < len(cables) for j in idx):
             raise DescriptionError(f"field '{where}.cables' must list cable indices in 0..{len(cables) - 1}")

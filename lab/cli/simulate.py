@@ -66,8 +66,11 @@ def _simulate(args, robot, checkpoint) -> int:
     from lab.data.designs import grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
     from lab.data.simulation import simulate
     from lab.fem.linsolve import default_backend
+    from lab.fem.mesh import check_mesh_size
 
-    n_rings, n_axial = args.n_rings or robot.n_rings, args.n_axial or robot.n_axial
+    n_rings = robot.n_rings if args.n_rings is None else args.n_rings
+    n_axial = robot.n_axial if args.n_axial is None else args.n_axial
+    check_mesh_size(n_rings, n_axial)  # before any work: refuse what cannot fit in memory
     if args.sobol is not None:
         u = sobol_commands(robot, args.sobol, seed=args.seed)
         chunks = nearest_neighbour_chunks(u, size=args.chunk_size)

@@ -44,7 +44,9 @@ class ArmFEM:
     ):
         self.robot = robot
         if mesh is None:
-            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings or robot.n_rings, n_axial or robot.n_axial)
+            n_rings = robot.n_rings if n_rings is None else n_rings
+            n_axial = robot.n_axial if n_axial is None else n_axial
+            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
         self.mesh = mesh
         E = robot.youngs_modulus_pa if youngs_modulus_pa is None else youngs_modulus_pa
         self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
@@ -64,10 +66,10 @@ class ArmFEM:
         slack = np.zeros(robot.n_cables) if cable_slack_m is None else np.asarray(cable_slack_m, float)
         self.cables = []
         for cable, s in zip(robot.cables, slack):
-            nodes, weights = barycentric(mesh, cable.via_points_m)
+            nodes, weights = _embed(mesh, cable.via_points_m, f"cable '{cable.name}' via point")
             route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
             self.cables.append(CableRoute(cable.anchor_m, nodes, weights, route.length(mesh.X_W), float(s)))
-        self.tip_nodes, self.tip_weights = (a[0] for a in barycentric(mesh, robot.p_tip_marker_W))
+        self.tip_nodes, self.tip_weights = (a[0] for a in _embed(mesh, robot.p_tip_marker_W, "the tip marker"))
         self._build_pattern()
         dof_to_free = np.full(3 * mesh.n_nodes, -1)
         dof_to_free[self.free_dofs] = np.arange(self.n_free)
@@ -226,3 +228,21 @@ class ArmFEM:
         r = unique // self.n_free
         self._indices = (unique % self.n_free).astype(np.int32)
         self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)
+
+
+def _embed(mesh: TetMesh, points_W, what: str):
+    """:func:`barycentric` weights of ``points_W`` (m), naming the point that is outside."""
+    points_W = np.atleast_2d(points_W)
+    try:
+        return barycentric(mesh, points_W)
+    except InputError:
+        for i, p in enumerate(points_W):
+            try:
+                barycentric(mesh, p)
+            except InputError:
+                which = f"{what} {i} " if len(points_W) > 1 else f"{what} "
+                raise InputError(
+                    f"{which}{np.round(p, 6).tolist()} m lies outside the mesh of the body (a faceted "
+                    "cylinder, slightly inside the description's radius): move it inwards in the description"
+                ) from None
+        raise

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lab.description import RobotDescription, read_toml
+from lab.description import RobotDescription, check_fields, read_toml
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.energy import ArmFEM
 from lab.fem.mesh import cylinder_mesh
@@ -121,15 +121,28 @@ def _vec3(table: dict, key: str, where: str) -> np.ndarray:
     return np.asarray(v, dtype=float)
 
 
+#: The fields of each table of a defects file.
+DEFECTS_FIELDS = {
+    "": {"format_version", "robot", "material", "cables", "lag", "motors", "mocap", "emulator"},
+    "material": {"softness", "gradient", "gradient_direction"},
+    "cables": {"name", "via_shift_m", "slack_m", "play_m"},
+    "lag": {"tau_fast_s", "tau_slow_s", "slow_fraction"},
+    "motors": {"ticks_per_rev", "profile_velocity_rad_s"},
+    "mocap": {"frame_rate_hz", "noise_sigma_m", "dropout_rate_hz", "dropout_max_frames"},
+    "emulator": {"n_rings", "n_axial"},
+}
+
+
 def _table(data: dict, key: str) -> dict:
     t = data.get(key)
-    if not isinstance(t, dict):
+    if t is None:
         raise DefectsError(f"missing table [{key}]")
-    return t
+    return check_fields(t, DEFECTS_FIELDS[key], key, DefectsError)
 
 
 def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) -> Defects:
     """Validate a parsed defects TOML document against ``robot`` and build :class:`Defects`."""
+    check_fields(data, DEFECTS_FIELDS[""], "", DefectsError)
     if data.get("format_version") != FORMAT_VERSION:
         raise DefectsError(f"field 'format_version' must be {FORMAT_VERSION}, got {data.get('format_version')!r}")
     if data.get("robot") != robot.name:
@@ -152,7 +165,8 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
     cables = []
     for i, (entry, cable) in enumerate(zip(entries, robot.cables)):
         where = f"cables[{i}]"
-        if not isinstance(entry, dict) or entry.get("name") != cable.name:
+        check_fields(entry, DEFECTS_FIELDS["cables"], where, DefectsError)
+        if entry.get("name") != cable.name:
             got = entry.get("name") if isinstance(entry, dict) else entry
             raise DefectsError(f"field '{where}.name' must be {cable.name!r} (the description's order), got {got!r}")
         cables.append(
@@ -169,9 +183,7 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
     if tau_slow < tau_fast:
         raise DefectsError(f"field 'lag.tau_slow_s' ({tau_slow}) must be >= 'lag.tau_fast_s' ({tau_fast})")
     motors, mocap = _table(data, "motors"), _table(data, "mocap")
-    emulator = data.get("emulator", {})
-    if not isinstance(emulator, dict):
-        raise DefectsError("[emulator] must be a table")
+    emulator = check_fields(data.get("emulator", {}), DEFECTS_FIELDS["emulator"], "emulator", DefectsError)
     mesh = {
         k: (_num(emulator, k, "emulator", lo=1, integer=True) if k in emulator else None)
         for k in ("n_rings", "n_axial")

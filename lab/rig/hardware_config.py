@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lab.description import RobotDescription, read_toml
+from lab.description import RobotDescription, check_fields, read_toml
 from lab.errors import InputError
 from lab.rig.dynamixel import SDK_BAUD_RATES, ServoConfig
 from lab.rig.optitrack import MarkerRef, NatNetConfig
@@ -70,11 +70,50 @@ def _field(table: dict, key: str, where: str, kind, default=_MISSING, *, positiv
     return kind(v)
 
 
+#: The fields of each table of a hardware config.
+CONFIG_FIELDS = {
+    "": {"format_version", "servos", "mocap"},
+    "servos": {
+        "port",
+        "baud_rate",
+        "profile_velocity_rad_s",
+        "latency_timer_ms",
+        "start_margin_rad",
+        "poll_interval_s",
+        "bus_watchdog_ms",
+        "motor",
+    },
+    "servos.motor": {"cable", "id", "direction", "zero_offset_ticks"},
+    "mocap": {
+        "server_address",
+        "local_address",
+        "transmission",
+        "multicast_address",
+        "command_port",
+        "data_port",
+        "length_unit",
+        "frame_rate_hz",
+        "connect_timeout_s",
+        "frame_timeout_s",
+        "max_occlusion_s",
+        "calibration_frames",
+        "max_base_fit_rms_m",
+        "queue_frames",
+        "marker_set",
+        "tip",
+        "base_markers",
+    },
+    "mocap.tip": {"marker", "marker_set", "labeled_marker_id", "rigid_body", "rigid_body_id"},
+    "mocap.base_markers": {"marker", "marker_set", "labeled_marker_id", "rigid_body", "rigid_body_id", "position_W_m"},
+}
+
+
 def _table(data: dict, key: str, where: str = "") -> dict:
     t = data.get(key)
-    if not isinstance(t, dict):
-        raise HardwareConfigError(f"missing table [{where + '.' if where else ''}{key}]")
-    return t
+    name = f"{where}.{key}" if where else key
+    if t is None:
+        raise HardwareConfigError(f"missing table [{name}]")
+    return check_fields(t, CONFIG_FIELDS[name], name, HardwareConfigError)
 
 
 def _address(table: dict, key: str, where: str, default=_MISSING) -> str:
@@ -105,6 +144,7 @@ def _motors(servos: dict, robot: RobotDescription) -> tuple:
     out = []
     for i, (entry, cable) in enumerate(zip(entries, names)):
         where = f"servos.motor[{i}]"
+        check_fields(entry, CONFIG_FIELDS["servos.motor"], where, HardwareConfigError)
         if _field(entry, "cable", where, str) != cable:
             raise HardwareConfigError(
                 f"field '{where}.cable' must be {cable!r} (the robot's cables in order: "
@@ -159,6 +199,7 @@ def _natnet(mocap: dict) -> NatNetConfig:
     refs, positions = [], []
     for i, entry in enumerate(bases):
         where = f"mocap.base_markers[{i}]"
+        check_fields(entry, CONFIG_FIELDS["mocap.base_markers"], where, HardwareConfigError)
         refs.append(_marker({k: v for k, v in entry.items() if k != "position_W_m"}, where, default_set))
         p = entry.get("position_W_m")
         if not (
@@ -196,6 +237,7 @@ def _natnet(mocap: dict) -> NatNetConfig:
 
 def parse_hardware_config(data: dict, robot: RobotDescription, source: str = "<dict>") -> HardwareConfig:
     """Validate a parsed TOML document for ``robot``."""
+    check_fields(data, CONFIG_FIELDS[""], "", HardwareConfigError)
     if data.get("format_version") != FORMAT_VERSION:
         raise HardwareConfigError(
             f"field 'format_version' must be {FORMAT_VERSION}, got {data.get('format_version')!r}"
