@@ -22,6 +22,7 @@ LAYERS = [
     "lab",
     "errors",
     "files",
+    "workers",
     "description",
     "fem",
     "data",

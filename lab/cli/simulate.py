@@ -7,7 +7,7 @@ import shlex
 import sys
 
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
-from lab.data.simulation import default_jobs
+from lab.workers import default_jobs
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:

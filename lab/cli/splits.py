@@ -7,8 +7,8 @@ import shlex
 import sys
 
 from lab.cli.paths import check_paths, check_writable
-from lab.data.simulation import default_jobs
 from lab.errors import InputError
+from lab.workers import default_jobs
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:

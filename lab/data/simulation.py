@@ -23,6 +23,7 @@ from lab.description import RobotDescription
 from lab.fem.energy import ArmFEM
 from lab.fem.statics import solve_static
 from lab.fem.warmstart import WalkPredictor
+from lab.workers import default_jobs, kill_local_workers, watch_parent  # noqa: F401  (default_jobs: re-exported)
 
 #: How many predictions (best first) a solve may start from before it accepts one where
 #: the exact Hessian is indefinite (each try costs one assembly and factorisation).
@@ -80,6 +81,7 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
 
 
 def _solve_indexed(i: int, robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray):
+    watch_parent()  # a worker exits once its run is gone (kill -9)
     return i, solve_chunk(robot, n_rings, n_axial, u_chunk)
 
 
@@ -155,7 +157,7 @@ def simulate(
                 bar.update(len(orders[i]))
     except BaseException:
         if scheduler is None and n_jobs != 1:
-            _kill_local_workers()  # do not leave them computing chunks nobody will collect
+            kill_local_workers()  # do not leave them computing chunks nobody will collect
         raise
     finally:
         stop.restore()
@@ -192,16 +194,3 @@ class _SigtermToExit:
         if self._previous is not None:
             signal.signal(signal.SIGTERM, self._previous)
             self._previous = None
-
-
-def _kill_local_workers() -> None:
-    """Kill the worker processes of joblib's (reusable) loky executor, if there is one."""
-    from joblib.externals.loky import reusable_executor
-
-    executor = getattr(reusable_executor, "_executor", None)  # loky's singleton (joblib 1.6)
-    if executor is not None:
-        executor.shutdown(wait=False, kill_workers=True)
-
-
-def default_jobs() -> int:
-    return max(1, len(os.sched_getaffinity(0)))

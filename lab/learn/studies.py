@@ -21,6 +21,7 @@ import numpy as np
 
 from lab.files import atomic_write_text
 from lab.learn.split import check_enough_data
+from lab.workers import kill_local_workers, watch_parent
 
 
 def run_seeds(seed: int, n: int) -> list[int]:
@@ -31,6 +32,7 @@ def run_seeds(seed: int, n: int) -> list[int]:
 def _one_run(u, y, hidden, ratios, seed, train_kwargs) -> dict:
     from lab.learn.train import train
 
+    watch_parent()  # a worker exits once its run is gone (kill -9)
     res = train(u, y, hidden, ratios=ratios, seed=seed, **train_kwargs)
     row = {
         "hidden": "-".join(map(str, hidden)),
@@ -53,8 +55,12 @@ def _run_all(jobs, n_jobs: int) -> list[dict]:
         return [_one_run(*job) for job in jobs]
     from joblib import Parallel, delayed, parallel_config
 
-    with parallel_config(backend="loky", inner_max_num_threads=1):
-        return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
+    try:
+        with parallel_config(backend="loky", inner_max_num_threads=1):
+            return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
+    except BaseException:  # Ctrl-C, SIGTERM (lab.cli): stop the workers, do not leave them training
+        kill_local_workers()
+        raise
 
 
 def evaluate_splits(
