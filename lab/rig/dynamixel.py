@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import termios
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -49,6 +50,8 @@ from dynamixel_sdk import (
 from lab.errors import InputError
 from lab.rig.base import ServoError
 from lab.rig.dynamixel_units import (
+    BUS_WATCHDOG,
+    BUS_WATCHDOG_UNIT_MS,
     EXTENDED_POSITION_MODE,
     GOAL_LIMIT_TICKS,
     GOAL_POSITION,
@@ -123,6 +126,7 @@ class XM430Bus:
         u_max_rad: float = math.pi,
         start_margin_rad: float = 0.5,
         latency_timer_ms: float = 16.0,
+        bus_watchdog_ms: float = 0.0,
     ):
         self.servos = tuple(servos)
         self.ids = [s.dxl_id for s in self.servos]
@@ -139,6 +143,12 @@ class XM430Bus:
         self.zero_ticks = np.array([s.zero_offset_ticks for s in self.servos], dtype=np.int64)
         self.profile_velocity_rad_s = float(profile_velocity_rad_s)
         self.profile_velocity_units = velocity_units(profile_velocity_rad_s)
+        # Bus Watchdog: a servo that hears nothing for this long stops by itself (the host died).
+        self.watchdog_units = (
+            0 if not bus_watchdog_ms else min(127, max(1, round(bus_watchdog_ms / BUS_WATCHDOG_UNIT_MS)))
+        )
+        self.watchdog_s = self.watchdog_units * BUS_WATCHDOG_UNIT_MS / 1000
+        self._t_io = time.monotonic()
         self.model_numbers: dict[int, int] = {}
         self._closed = False
         self._unconfirmed_at_fail: list[int] | None = None  # torque-off result of the last failure
@@ -225,6 +235,15 @@ class XM430Bus:
         for dxl_id in self.ids:
             if self.read_register(dxl_id, *TORQUE_ENABLE) != 1:
                 self._fail(dxl_id, "torque on", "torque enable did not stick")
+        self.arm_watchdog()
+
+    def arm_watchdog(self) -> None:
+        """(Re)start every servo's Bus Watchdog: clear a fired one (-1) and set the period.
+        With torque on, a servo that then hears no packet for ``watchdog_s`` stops by itself."""
+        if self.watchdog_units:
+            for dxl_id in self.ids:
+                self.write_register(dxl_id, *BUS_WATCHDOG, 0)
+                self.write_register(dxl_id, *BUS_WATCHDOG, self.watchdog_units)
 
     def write_goal_u(self, u_rad) -> np.ndarray:
         """Sync-write goal angles ``u_rad`` (n,) rad; returns the goal ticks sent."""
@@ -241,6 +260,10 @@ class XM430Bus:
         for dxl_id, t in zip(self.ids, ticks):
             if abs(int(t)) > GOAL_LIMIT_TICKS:
                 raise InputError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
+        if self.watchdog_units and time.monotonic() - self._t_io > 0.8 * self.watchdog_s:
+            # The bus was quiet long enough for the watchdog to fire, which locks the goals
+            # (a sync write gets no answer to say so): re-arm it before moving.
+            self.arm_watchdog()
         self._sync_write.clearParam()
         for dxl_id, t in zip(self.ids, ticks):
             self._sync_write.addParam(dxl_id, _bytes4(t))
@@ -292,7 +315,9 @@ class XM430Bus:
     # --- errors and shutdown --------------------------------------------------------
     def _sdk(self, fn, *args):
         try:
-            return fn(*args)
+            out = fn(*args)
+            self._t_io = time.monotonic()
+            return out
         except IO_ERRORS as err:
             self._fail(None, "serial I/O", f"port {self.port_name} failed: {err}")
 

@@ -59,6 +59,7 @@ class HardwareRig(Rig):
                 u_max_rad=robot.u_max_rad,
                 start_margin_rad=config.start_margin_rad,
                 latency_timer_ms=config.latency_timer_ms,
+                bus_watchdog_ms=config.bus_watchdog_ms,
             )
             self._bus.torque_on()
             self._poll()

@@ -41,6 +41,7 @@ class HardwareConfig:
     start_margin_rad: float
     poll_interval_s: float
     frame_rate_hz: float
+    bus_watchdog_ms: float
     natnet: NatNetConfig
 
 
@@ -235,6 +236,19 @@ def _natnet(mocap: dict) -> NatNetConfig:
     )
 
 
+#: Default Bus Watchdog period: servos whose host died (kill -9, a crash) stop within this.
+DEFAULT_BUS_WATCHDOG_MS = 500
+
+
+def _watchdog(servos: dict) -> float:
+    ms = _field(servos, "bus_watchdog_ms", "servos", float, DEFAULT_BUS_WATCHDOG_MS, nonneg=True)
+    if ms and not 20 <= ms <= 2540:
+        raise HardwareConfigError(
+            f"field 'servos.bus_watchdog_ms' must be 0 (off) or 20..2540 ms (the XM430 counts 20 ms units), got {ms}"
+        )
+    return ms
+
+
 def parse_hardware_config(data: dict, robot: RobotDescription, source: str = "<dict>") -> HardwareConfig:
     """Validate a parsed TOML document for ``robot``."""
     check_fields(data, CONFIG_FIELDS[""], "", HardwareConfigError)
@@ -257,6 +271,7 @@ def parse_hardware_config(data: dict, robot: RobotDescription, source: str = "<d
         start_margin_rad=_field(servos, "start_margin_rad", "servos", float, 0.5, nonneg=True),
         poll_interval_s=_field(servos, "poll_interval_s", "servos", float, 0.1, positive=True),
         frame_rate_hz=_field(mocap, "frame_rate_hz", "mocap", float, 120.0, positive=True),
+        bus_watchdog_ms=_watchdog(servos),
         natnet=_natnet(mocap),
     )
 

@@ -244,6 +244,13 @@ class EmulatedXM430Bus:
         if not pkt.crc_ok or (noisy and not broadcast):
             return [r for s in targets if (r := self._reply(s, p2.ERR_CRC | s.alert))]
         targets = [s for s in targets if s not in noisy]  # a broadcast still reaches the others
+        addressed = targets
+        if broadcast and pkt.instruction in (p2.SYNC_WRITE, p2.SYNC_READ) and len(pkt.params) >= 4:
+            n = pkt.params[2] | (pkt.params[3] << 8)
+            ids = pkt.params[4 :: n + 1] if pkt.instruction == p2.SYNC_WRITE else pkt.params[4:]
+            addressed = [s for s in targets if s.dxl_id in set(ids)]
+        for s in addressed:
+            s.heard(t)
         out: list[bytes | None] = []
         prm = pkt.params
         word = lambda i: prm[i] | (prm[i + 1] << 8)  # noqa: E731

@@ -9,6 +9,11 @@ position limits otherwise: error 6); the profile velocity may not exceed the vel
 limit (error 6); torque cannot be enabled while a hardware error is latched. When
 torque is enabled the goal is set to the present position, so the spool does not jump.
 
+Bus Watchdog (address 98, units of 20 ms, 0 = off): with torque on, when no instruction
+packet has reached the servo for the watchdog time, it stops where it is (the goal
+becomes the present position), the register reads -1 (255) and goal writes are refused
+with a data range error (error 4) until the register is written 0 again.
+
 The spool angle ``theta`` (ticks, multi-turn) turns toward the goal at the profile
 velocity (units of 0.229 rev/min; 0 = the no-load speed) on the bus clock; released
 (torque off), the foam pulls the cable back and the spool turns back to its rest angle.
@@ -29,6 +34,7 @@ RPM_PER_VELOCITY_UNIT = 0.229
 BAUD_BY_REGISTER = {0: 9600, 1: 57600, 2: 115200, 3: 1_000_000, 4: 2_000_000, 5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
 FAULTS = ("silent", "disconnected", "bad_crc", "crc_error", "overload")
 OVERLOAD_BIT = 0x20
+WATCHDOG_UNIT_S = 0.020
 
 # XM430 control table (ROBOTIS e-Manual): address -> (name, size, writable, default)
 FIELDS = {
@@ -131,6 +137,7 @@ class EmulatedServo:
         self.encoder_offset = 0
         self.fault: str | None = None
         self.fault_count: int | None = None
+        self.last_heard = t_s
         self.power_up(t_s)
 
     # --- registers ------------------------------------------------------------------
@@ -189,7 +196,25 @@ class EmulatedServo:
         pv = self.get("profile_velocity")
         return v_max if pv == 0 else min(v_max, pv * RPM_PER_VELOCITY_UNIT / 60 * TICKS_PER_REV)
 
+    def heard(self, t_s: float) -> None:
+        """An instruction packet for this servo arrived at ``t_s`` (the Bus Watchdog's input)."""
+        self._check_watchdog(t_s)
+        self.last_heard = max(self.last_heard, t_s)
+
+    def _check_watchdog(self, t_s: float) -> None:
+        wd = int.from_bytes(self.table[ADDR["bus_watchdog"] : ADDR["bus_watchdog"] + 1], "little", signed=True)
+        t_trip = self.last_heard + WATCHDOG_UNIT_S * wd
+        if 1 <= wd <= 127 and self.torque_enabled and t_s > t_trip:
+            self.advance(t_trip)  # the spool moved until the watchdog fired ...
+            self._set(ADDR["goal_position"], 4, round(self.theta) + self.encoder_offset)  # ... and stops there
+            self._set(ADDR["bus_watchdog"], 1, 0xFF)
+
+    @property
+    def watchdog_tripped(self) -> bool:
+        return self.get("bus_watchdog") == 0xFF
+
     def advance(self, t_s: float) -> None:
+        self._check_watchdog(t_s)
         dt = max(0.0, t_s - self.t_last)
         self.t_last = max(self.t_last, t_s)
         err = self.target_theta() - self.theta
@@ -254,6 +279,11 @@ class EmulatedServo:
             goal_ok = value("min_position_limit") <= goal <= value("max_position_limit")
         if addr < ADDR["goal_position"] + 4 and end > ADDR["goal_position"] and not goal_ok:
             return p2.ERR_DATA_LIMIT | self.alert
+        goals = (ADDR["goal_pwm"], ADDR["goal_position"] + 4)
+        if self.watchdog_tripped and addr < goals[1] and end > goals[0] and value("bus_watchdog") == 0xFF:
+            return p2.ERR_DATA_RANGE | self.alert  # goals are locked until the watchdog is cleared
+        if not (value("bus_watchdog") <= 127 or value("bus_watchdog") == 0xFF):
+            return p2.ERR_DATA_RANGE | self.alert
         if value("profile_velocity") > value("velocity_limit"):
             return p2.ERR_DATA_LIMIT | self.alert
         torque_on_request = value("torque_enable") == 1 and not self.torque_enabled

@@ -1,0 +1,150 @@
+"""The XM430 Bus Watchdog: servos whose host died stop by themselves.
+
+The emulated servo implements the watchdog as the e-Manual describes it (address 98,
+20 ms units; fired: stops, reads -1, goals locked until cleared); the driver arms it
+after torque on and re-arms it after a quiet bus; a ``track`` process killed with
+``kill -9`` on the emulated hardware leaves servos that stop within the watchdog time.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from helpers import wait_until
+
+from lab.control import circle, write_trajectory_csv
+from lab.rig.emulators import EmulatedBench
+from lab.rig.emulators import protocol2 as p2
+from lab.rig.emulators.xm430_servo import ADDR, EmulatedServo, ServoSpec
+
+
+def _servo(t=0.0):
+    s = EmulatedServo(ServoSpec(dxl_id=1), t)
+    s.write(ADDR["operating_mode"], b"\x04", t)  # extended position mode, as the driver sets it
+    s.write(ADDR["profile_velocity"], (20).to_bytes(4, "little"), t)  # slow: 0.48 rad/s
+    s.write(ADDR["torque_enable"], b"\x01", t)
+    return s
+
+
+def test_emulated_servo_stops_when_the_watchdog_fires():
+    s = _servo()
+    start = s.get("present_position")
+    s.write(ADDR["bus_watchdog"], b"\x05", 0.0)  # 100 ms
+    s.heard(0.0)
+    assert s.write(ADDR["goal_position"], (start + 4000).to_bytes(4, "little"), 0.0) == 0
+    s.advance(0.05)
+    assert s.get("bus_watchdog") == 5 and s.get("moving") == 1
+    s.advance(0.5)  # nothing heard since t = 0: fired at 0.1 s
+    stopped = s.get("present_position")
+    assert s.get("bus_watchdog") == 0xFF and s.get("goal_position") == stopped
+    moved_by_trip = (stopped - start) / 4096 * 2 * np.pi
+    assert 0.04 < moved_by_trip < 0.06  # 0.48 rad/s for 0.1 s
+    s.advance(2.0)
+    assert s.get("present_position") == stopped and s.get("moving") == 0
+    # goals are locked until the watchdog is cleared
+    s.heard(2.0)
+    assert s.write(ADDR["goal_position"], (start + 4000).to_bytes(4, "little"), 2.0) & 0x7F == p2.ERR_DATA_RANGE
+    assert s.write(ADDR["bus_watchdog"], b"\x00", 2.0) == 0
+    assert s.write(ADDR["goal_position"], (start + 4000).to_bytes(4, "little"), 2.0) == 0
+
+
+def test_emulated_servo_keeps_going_while_it_hears_packets():
+    s = _servo()
+    s.write(ADDR["bus_watchdog"], b"\x05", 0.0)
+    for k in range(1, 20):
+        s.heard(0.08 * k)  # every 80 ms < 100 ms
+    assert s.get("bus_watchdog") == 5
+    assert s.write(ADDR["bus_watchdog"], bytes([200]), 2.0) & 0x7F == p2.ERR_DATA_RANGE  # 128..254 are invalid
+
+
+def test_driver_arms_and_rearms_the_watchdog(three_cable, tmp_path):
+    from lab.rig.hardware import HardwareRig
+
+    with EmulatedBench(three_cable) as bench:
+        cfg = bench.write_config(tmp_path / "rig.toml", servos={"bus_watchdog_ms": 100})
+        with HardwareRig.from_config(cfg, three_cable) as rig:
+            assert [bench.bus.servo(s.dxl_id).get("bus_watchdog") for s in bench.specs] == [5, 5, 5]
+            time.sleep(0.4)  # a quiet bus: every watchdog fires
+            assert all(
+                bench.bus.servo(s.dxl_id).watchdog_tripped
+                or bench.bus.state(s.dxl_id)
+                and bench.bus.servo(s.dxl_id).watchdog_tripped
+                for s in bench.specs
+            )
+            u = np.array([0.3, 0.2, 0.1])
+            rig.send(u)  # re-armed before the goals are written: the arm moves again
+            wait_until(lambda: np.allclose(rig.present_u(), u, atol=0.01), 10, "servos at the new goal")
+            assert [bench.bus.servo(s.dxl_id).get("bus_watchdog") for s in bench.specs] == [5, 5, 5]
+
+
+def test_config_watchdog_field(three_cable, tmp_path):
+    from lab.rig.hardware_config import HardwareConfigError, load_hardware_config
+
+    with EmulatedBench(three_cable) as bench:
+        assert load_hardware_config(bench.write_config(tmp_path / "a.toml"), three_cable).bus_watchdog_ms == 500
+        with pytest.raises(HardwareConfigError, match="bus_watchdog_ms"):
+            load_hardware_config(bench.write_config(tmp_path / "b.toml", servos={"bus_watchdog_ms": 5}), three_cable)
+
+
+def _env():
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    return env
+
+
+@pytest.mark.parametrize("how", ["kill-9", "sigterm"])
+def test_killed_track_process_leaves_the_servos_stopped(how, three_cable, tmp_path):
+    """A `track` on the emulated hardware killed mid-trajectory: with SIGTERM the rig closes
+    (torque off, exit 143); with kill -9 nothing runs, and the Bus Watchdog stops the servos."""
+    write_trajectory_csv(tmp_path / "traj.csv", circle(200))
+    model = os.path.join(os.path.dirname(__file__), "..", "data", "model_sim_three_cable.npz")
+    with EmulatedBench(three_cable) as bench:
+        cfg = bench.write_config(tmp_path / "rig.toml", servos={"bus_watchdog_ms": 200, "profile_velocity_rad_s": 0.5})
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "lab",
+                "track",
+                "--model",
+                model,
+                "--trajectory",
+                str(tmp_path / "traj.csv"),
+                "--rig",
+                f"hardware:{cfg}",
+                "--out",
+                str(tmp_path / "r.json"),
+            ],
+            cwd=tmp_path,
+            env=_env(),
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            points = tmp_path / "r.json.points.csv"
+            wait_until(lambda: points.exists() and len(points.read_text().splitlines()) >= 2, 120, "a measured point")
+            ids = [s.dxl_id for s in bench.specs]
+            if how == "kill-9":
+                proc.kill()
+                proc.wait()
+                t_kill = time.monotonic()
+                time.sleep(0.2 + 0.3)  # the watchdog period plus margin
+                before = [bench.bus.state(i)["present_position"] for i in ids]
+                time.sleep(0.5)
+                after = [bench.bus.state(i)["present_position"] for i in ids]
+                assert before == after, "servos still moving after the watchdog time"
+                assert all(bench.bus.servo(i).watchdog_tripped for i in ids)
+                assert time.monotonic() - t_kill < 5
+            else:
+                proc.send_signal(signal.SIGTERM)
+                _, err = proc.communicate(timeout=60)
+                assert proc.returncode == 143, err
+                assert "interrupted by SIGTERM" in err and "points measured so far" in err
+                assert [bench.bus.state(i)["torque_enable"] for i in ids] == [0, 0, 0]
+        finally:
+            if proc.poll() is None:
+                proc.kill()
