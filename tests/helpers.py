@@ -1,5 +1,6 @@
 """Small helpers shared by several test modules (imported as ``from helpers import ...``;
 pytest puts tests/ on sys.path)."""
+
 import time
 
 import numpy as np

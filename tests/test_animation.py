@@ -4,16 +4,16 @@ meshcat animation built from them, and the page played in headless Chromium."""
 import numpy as np
 import pytest
 import test_viz
-from lab.fem.statics import solve_static
 from test_viz import _pixel_counts, _screenshot, require_chromium
 
-from lab.viz import animation as A
-from lab.viz import arm as viz
 from lab.description import load_robot
 from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
+from lab.viz import animation as A
+from lab.viz import arm as viz
 
-U_UP = np.array([3.0, 0.0, 0.0])             # top cable at u_max: the arm bends up
-ENDS = np.array([[0.0, -0.5, 0.0, 1.0], [0.0, 0.5, 0.0, 1.0]])   # unit cylinder's axis ends
+U_UP = np.array([3.0, 0.0, 0.0])  # top cable at u_max: the arm bends up
+ENDS = np.array([[0.0, -0.5, 0.0, 1.0], [0.0, 0.5, 0.0, 1.0]])  # unit cylinder's axis ends
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_rotation_from_y():
     rng = np.random.default_rng(0)
     dirs = [*rng.normal(size=(20, 3)), [0, 1, 0], [0, -1, 0], [1, 0, 0], [0, -1, 1e-9], [1e-5, -1, 0]]
     for d in dirs:
-        R = A.rotation_from_y(np.multiply(d, 3.0))                 # any length
+        R = A.rotation_from_y(np.multiply(d, 3.0))  # any length
         np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
         assert np.linalg.det(R) == pytest.approx(1.0)
         np.testing.assert_allclose(R @ [0, 1, 0], d / np.linalg.norm(d), atol=1e-12)
@@ -48,10 +48,13 @@ def test_rest_body_is_straight_along_x(coarse_fem):
     p = A.arm_pieces(fem, None, n)
     L, r = fem.robot.length_m, fem.robot.radius_m
     x = np.linspace(0, L, n + 1)
-    np.testing.assert_allclose(_ends(p.body), np.stack([np.column_stack([x, 0 * x, 0 * x])[:-1],
-                                                        np.column_stack([x, 0 * x, 0 * x])[1:]], 1), atol=1e-12)
-    np.testing.assert_allclose(p.body[:, :3, 1], np.tile([L / n, 0, 0], (n, 1)), atol=1e-12)   # y -> +x
-    np.testing.assert_allclose(np.linalg.norm(p.body[:, :3, [0, 2]], axis=1), r)               # radius
+    np.testing.assert_allclose(
+        _ends(p.body),
+        np.stack([np.column_stack([x, 0 * x, 0 * x])[:-1], np.column_stack([x, 0 * x, 0 * x])[1:]], 1),
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(p.body[:, :3, 1], np.tile([L / n, 0, 0], (n, 1)), atol=1e-12)  # y -> +x
+    np.testing.assert_allclose(np.linalg.norm(p.body[:, :3, [0, 2]], axis=1), r)  # radius
     np.testing.assert_allclose(p.tip_W, fem.robot.p_tip_marker_W)
 
 
@@ -66,13 +69,14 @@ def test_pieces_follow_centreline_and_cables(coarse_fem, bent_q):
     np.testing.assert_allclose(np.linalg.norm(p.body[:, :3, 1], axis=1), lengths)
     # ... with the body radius across, and no shear (orthogonal axes).
     G = np.einsum("pki,pkj->pij", p.body[:, :3, :3], p.body[:, :3, :3])
-    np.testing.assert_allclose(G, np.array([np.diag([fem.robot.radius_m**2, l**2, fem.robot.radius_m**2])
-                                            for l in lengths]), atol=1e-15)
+    np.testing.assert_allclose(
+        G, np.array([np.diag([fem.robot.radius_m**2, l**2, fem.robot.radius_m**2]) for l in lengths]), atol=1e-15
+    )
     # The centreline is the deformed axis: base clamped at the origin, the tip marker
     # (at the end-face centre) at its end, and at the mesh's layers the axis nodes.
     np.testing.assert_allclose(axis[0], 0, atol=1e-15)
     np.testing.assert_allclose(axis[-1], fem.tip(x), atol=1e-12)
-    assert axis[-1, 2] > 0.05 and np.all(np.diff(axis[:, 2]) > -1e-4)            # bent upwards
+    assert axis[-1, 2] > 0.05 and np.all(np.diff(axis[:, 2]) > -1e-4)  # bent upwards
     on_axis = np.flatnonzero(np.hypot(fem.X_W[:, 1], fem.X_W[:, 2]) < 1e-12)
     layers = A.centreline(fem, bent_q, len(on_axis) - 1)
     np.testing.assert_allclose(layers, x[on_axis[np.argsort(fem.X_W[on_axis, 0])]], atol=1e-12)
@@ -128,8 +132,11 @@ def test_animation_has_every_piece_in_every_frame(robot, coarse_fem, bent_q, six
         for c, route in enumerate(routes):
             shown = [j for j in range(n_lev) if _value_at(clips[f"cables/{route.name}/00/u{j}"].tracks["visible"], t)]
             assert shown == [round(u[t, c] / fem.robot.u_max_rad * (n_lev - 1))], (t, route.name)
-    assert [_value_at(clips[f"cables/{routes[0].name}/00/u3"].tracks["visible"], t) for t in range(3)] \
-        == [False, False, True]
+    assert [_value_at(clips[f"cables/{routes[0].name}/00/u3"].tracks["visible"], t) for t in range(3)] == [
+        False,
+        False,
+        True,
+    ]
 
 
 def test_single_frame_without_commands_or_targets(coarse_fem, bent_q):
@@ -192,8 +199,9 @@ def test_animation_plays_in_chromium(coarse_fem, bent_q, tmp_path):
     q = np.array([fem.rest_q(), fem.rest_q(), bent_q])
     u = np.array([np.zeros(3), np.zeros(3), U_UP])
     tips = np.array([fem.tip(fem.to_nodes(qi)) for qi in q])
-    pages = {play: A.animation_html(fem, q, u, targets_W=tips + [0, 0, 0.01], fps=0.5, play=play)
-             for play in (True, False)}
+    pages = {
+        play: A.animation_html(fem, q, u, targets_W=tips + [0, 0, 0.01], fps=0.5, play=play) for play in (True, False)
+    }
 
     def shot(play, budget_ms):
         flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
@@ -205,9 +213,9 @@ def test_animation_plays_in_chromium(coarse_fem, bent_q, tmp_path):
     (early, tip_early), (late, tip_late), (still, tip_still) = shot(True, 1000), shot(True, 10000), shot(False, 10000)
     print(f"early {early} tip {tip_early}\nlate {late} tip {tip_late}\nstill {still} tip {tip_still}")
     for counts, tip in ((early, tip_early), (late, tip_late), (still, tip_still)):
-        assert counts["foam"] > 5000 and counts["foam"] > 0.5 * counts["drawn"], counts   # the body
-        assert counts["cyan"] > 30, counts                                               # cables at u = 0
-        assert tip[2] > 20, tip                                                          # the tip marker
+        assert counts["foam"] > 5000 and counts["foam"] > 0.5 * counts["drawn"], counts  # the body
+        assert counts["cyan"] > 30, counts  # cables at u = 0
+        assert tip[2] > 20, tip  # the tip marker
     # At rest no cable is pulled; at the end the top cable shows u_max (magenta) and
     # the tip has risen on screen (the arm bends ~9 cm up: > 60 px here).
     assert early["magenta"] < 100 and still["magenta"] < 100, (early, still)

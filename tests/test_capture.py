@@ -1,4 +1,5 @@
 """The capture protocol: settle detection, reset, the append-only resumable journal, CLI."""
+
 import json
 import subprocess
 import sys
@@ -17,8 +18,9 @@ from lab.rig.protocol import Protocol, SettleDetector, measure
 from lab.rig.sim import SimRig
 from lab.rig.twin import AsBuiltBody, TwinRig
 
-COMMANDS = np.array([[0.0, 0.0, 0.0], [1.5, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.0, 2.5],
-                     [3.0, 1.0, 0.0]])
+COMMANDS = np.array(
+    [[0.0, 0.0, 0.0], [1.5, 0.0, 0.0], [0.0, 3.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.0, 2.5], [3.0, 1.0, 0.0]]
+)
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +45,7 @@ class StopAfter(SimRig):
     n_sent, n = 0, None
 
     def __init__(self, robot, fem, n):
-        super().__init__(robot, fem)       # sends the rest command, not counted
+        super().__init__(robot, fem)  # sends the rest command, not counted
         self.n = n
 
     def _send(self, u):
@@ -56,6 +58,7 @@ class StopAfter(SimRig):
 
 class ScriptedRig(Rig):
     """Motors arrive at once; the tip is ``tip(t)`` (NaN = occluded)."""
+
     kind = "scripted"
 
     def __init__(self, robot, tip):
@@ -88,13 +91,13 @@ def test_settle_detector_is_the_papers_test():
     det, tau, dt = SettleDetector(20, 1e-4), 2.0, 0.1
     x = [0.01 * np.exp(-k * dt / tau) for k in range(400)]
     k_settled = next(k for k in range(400) if det.update(np.array([x[k], 0, 0])))
-    dev = [abs(x[k] - np.mean(x[k - 20:k])) for k in range(20, 400)]
+    dev = [abs(x[k] - np.mean(x[k - 20 : k])) for k in range(20, 400)]
     assert k_settled == 20 + next(i for i, d in enumerate(dev) if d <= 1e-4)
     assert det.deviation_m <= 1e-4
 
 
 def test_unsettled_sample_is_flagged_and_occlusion_is_an_error(three_cable):
-    creeping = ScriptedRig(three_cable, lambda t: [0.2, 0.0, 1e-3 * t])       # 1 mm/s forever
+    creeping = ScriptedRig(three_cable, lambda t: [0.2, 0.0, 1e-3 * t])  # 1 mm/s forever
     s = measure(creeping, [0.5, 0, 0], Protocol(reset=False, settle_timeout_s=5.0))
     assert not s.settled and 5.0 < s.t_done_s - s.t_command_s < 5.2
     assert s.p_tip_W[2] == pytest.approx(1e-3 * s.t_done_s, abs=1e-4)
@@ -110,8 +113,11 @@ def test_unsettled_sample_is_flagged_and_occlusion_is_an_error(three_cable):
 def test_protocol_measures_the_quasi_static_tip(three_cable, twin_defects, twin_body):
     rig = TwinRig(three_cable, seed=0, body=twin_body)
     errors = {}
-    for name, prot in (("protocol", Protocol()), ("no-wait", Protocol(wait=False)),
-                       ("no-reset", Protocol(reset=False))):
+    for name, prot in (
+        ("protocol", Protocol()),
+        ("no-wait", Protocol(wait=False)),
+        ("no-reset", Protocol(reset=False)),
+    ):
         e = []
         for u in COMMANDS[[2, 1, 4, 3, 5]]:
             s = measure(rig, u, prot)
@@ -120,9 +126,9 @@ def test_protocol_measures_the_quasi_static_tip(three_cable, twin_defects, twin_
                 assert s.settled and s.t_arrived_s >= s.t_command_s and s.t_done_s - s.t_command_s > 2.0
                 assert np.allclose(s.u_present, u, atol=2e-3)
         errors[name] = np.mean(e)
-    assert errors["protocol"] < 0.5e-3                  # residual creep + noise, sub-millimetre
+    assert errors["protocol"] < 0.5e-3  # residual creep + noise, sub-millimetre
     assert errors["no-wait"] > 10 * errors["protocol"]  # the foam is still creeping
-    assert errors["no-reset"] > 2 * errors["protocol"]    # history (play) shows
+    assert errors["no-reset"] > 2 * errors["protocol"]  # history (play) shows
 
 
 # ------------------------------------------------------------------ journal and resume
@@ -136,7 +142,7 @@ def test_resume_after_a_kill_gives_the_uninterrupted_dataset(three_cable, coarse
     resumed = capture(SimRig(three_cable, coarse_fem), COMMANDS, journal, header={"x": 1})
     assert resumed.new_samples == len(COMMANDS) - 2
     assert np.array_equal(resumed.u_motor, full.u_motor)
-    assert np.array_equal(resumed.p_tip_W[:2], full.p_tip_W[:2])            # from the journal, bit for bit
+    assert np.array_equal(resumed.p_tip_W[:2], full.p_tip_W[:2])  # from the journal, bit for bit
     # re-solved after the restart from another warm start: equal to the solver's tolerance
     assert np.abs(resumed.p_tip_W - full.p_tip_W).max() < 1e-6
     assert resumed.session.tolist() == [1, 1, 2, 2, 2, 2]
@@ -159,7 +165,7 @@ def test_resume_on_the_twin_keeps_old_samples_and_remeasures_the_rest(three_cabl
 
         def _send(self, u):
             self.n_sent += 1
-            if self.n_sent == 10:                 # first command of sample 3
+            if self.n_sent == 10:  # first command of sample 3
                 raise RuntimeError("power cut")
             super()._send(u)
 
@@ -167,8 +173,8 @@ def test_resume_on_the_twin_keeps_old_samples_and_remeasures_the_rest(three_cabl
         capture(fresh(Killed), COMMANDS, tmp_path / "j.csv")
     resumed = capture(fresh(), COMMANDS, tmp_path / "j.csv")
     assert np.array_equal(resumed.u_motor, COMMANDS) and resumed.new_samples == 3
-    assert np.array_equal(resumed.p_tip_W[:3], full.p_tip_W[:3])          # same seed, journaled: bit-identical
-    assert np.abs(resumed.p_tip_W[3:] - full.p_tip_W[3:]).max() < 5e-4    # re-measured: repeatable
+    assert np.array_equal(resumed.p_tip_W[:3], full.p_tip_W[:3])  # same seed, journaled: bit-identical
+    assert np.abs(resumed.p_tip_W[3:] - full.p_tip_W[3:]).max() < 5e-4  # re-measured: repeatable
 
 
 def test_torn_last_line_is_cut_and_recaptured(three_cable, coarse_fem, tmp_path):
@@ -177,7 +183,7 @@ def test_torn_last_line_is_cut_and_recaptured(three_cable, coarse_fem, tmp_path)
     text = path.read_text()
     rows = [i for i, ln in enumerate(text.splitlines()) if ln[:1].isdigit()]
     lines = text.splitlines()
-    torn = "\n".join(lines[:rows[-1]]) + "\n" + lines[rows[-1]][:25]    # killed while writing row 2
+    torn = "\n".join(lines[: rows[-1]]) + "\n" + lines[rows[-1]][:25]  # killed while writing row 2
     path.write_text(torn)
     again = capture(SimRig(three_cable, coarse_fem), COMMANDS[:3], path)
     assert again.new_samples == 1 and np.array_equal(again.p_tip_W[:2], full.p_tip_W[:2])
@@ -191,7 +197,7 @@ def test_journal_refuses_other_settings_corruption_and_a_second_writer(three_cab
         capture(SimRig(three_cable, coarse_fem), COMMANDS[:2], path, Protocol(wait=False))
     with pytest.raises(JournalError, match="commands.sha256"):
         capture(SimRig(three_cable, coarse_fem), COMMANDS[1:3], path)
-    header = json.loads(path.read_text().split("\n")[0][len("# lab.journal 1 "):])
+    header = json.loads(path.read_text().split("\n")[0][len("# lab.journal 1 ") :])
     cols = path.read_text().split("\n")[1].split(",")
     with Journal.open(path, header, cols):
         with pytest.raises(JournalError, match="another process"):
@@ -213,27 +219,36 @@ def test_unsafe_command_is_refused_before_anything_moves(three_cable, coarse_fem
 
 # ------------------------------------------------------------------ command line
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "lab", "capture", *args], capture_output=True,
-                          text=True, cwd=cwd, env={"PYTHONPATH": str(cwd), "OMP_NUM_THREADS": "1",
-                                                   "MKL_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
+    return subprocess.run(
+        [sys.executable, "-m", "lab", "capture", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env={"PYTHONPATH": str(cwd), "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"},
+    )
 
 
 def test_cli_end_to_end(three_cable, tmp_path):
     root = default_defects_path(three_cable).parents[2]
     defects = tmp_path / "coarse.toml"
-    defects.write_text(default_defects_path(three_cable).read_text().replace("# [emulator]", "[emulator]")
-                       .replace("# n_rings = 1", "n_rings = 2").replace("# n_axial = 6", "n_axial = 4"))
+    defects.write_text(
+        default_defects_path(three_cable)
+        .read_text()
+        .replace("# [emulator]", "[emulator]")
+        .replace("# n_rings = 1", "n_rings = 2")
+        .replace("# n_axial = 6", "n_axial = 4")
+    )
     out = tmp_path / "real.csv"
     args = ["--rig", f"twin:{defects}", "--grid", "2", "--out", str(out), "--seed", "3", "--no-progress"]
     r = _cli(*args, cwd=root)
     assert r.returncode == 0, r.stderr
     u, y, meta = read_dataset(out)
-    assert np.array_equal(u, grid_commands(three_cable, 2))                # grid order, 7 safe of 8
+    assert np.array_equal(u, grid_commands(three_cable, 2))  # grid order, 7 safe of 8
     assert meta["capture"]["n_unsettled"] == 0 and 150 < meta["capture"]["rate_samples_per_hour"] < 600
     assert meta["rig"]["kind"] == "twin" and meta["protocol"]["wait"] and meta["sampler"]["order"] == "shuffled"
     assert meta["command"].startswith("python -m lab capture --rig twin:")
     assert (tmp_path / "real.journal.csv").exists()
-    r = _cli(*args, cwd=root)                                               # complete: rewrites, adds nothing
+    r = _cli(*args, cwd=root)  # complete: rewrites, adds nothing
     assert r.returncode == 0 and "(0 new)" in r.stderr
     assert np.array_equal(read_dataset(out)[1], y)
     r = _cli(*args, "--no-reset", cwd=root)

@@ -3,11 +3,11 @@ import tomllib
 
 import numpy as np
 import pytest
-from lab.data.designs import grid_commands
-from lab.fem.statics import solve_static
 
+from lab.data.designs import grid_commands
 from lab.description import ROBOTS_DIR, DescriptionError, load_robot, parse_robot
 from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
 
 
 def _data(name="three-cable"):
@@ -30,18 +30,21 @@ def test_six_cable_grid_count():
     assert all(c.via_points_m[-1, 0] == pytest.approx(robot.length_m / 2) for c in short)
 
 
-@pytest.mark.parametrize("mutate, field", [
-    (lambda d: d["material"].pop("youngs_modulus_pa"), "material.youngs_modulus_pa"),
-    (lambda d: d["material"].update(youngs_modulus_pa=-5.0), "material.youngs_modulus_pa"),
-    (lambda d: d["material"].update(poisson_ratio=0.5), "material.poisson_ratio"),
-    (lambda d: d["actuation"].update(u_max_rad="3"), "actuation.u_max_rad"),
-    (lambda d: d["body"].update(length_m=float("nan")), "body.length_m"),
-    (lambda d: d["tip_marker"].update(position_m=[0.2, 0.0]), "tip_marker.position_m"),
-    (lambda d: d["cables"][1].update(offset_m=0.05), "cables[1]"),
-    (lambda d: d["cables"][0].update(stations_m=[0.08, 0.04]), "cables[0]"),
-    (lambda d: d["safety"]["limits"][0].update(cables=[0, 7]), "safety.limits[0].cables"),
-    (lambda d: d.update(format_version=99), "format_version"),
-])
+@pytest.mark.parametrize(
+    "mutate, field",
+    [
+        (lambda d: d["material"].pop("youngs_modulus_pa"), "material.youngs_modulus_pa"),
+        (lambda d: d["material"].update(youngs_modulus_pa=-5.0), "material.youngs_modulus_pa"),
+        (lambda d: d["material"].update(poisson_ratio=0.5), "material.poisson_ratio"),
+        (lambda d: d["actuation"].update(u_max_rad="3"), "actuation.u_max_rad"),
+        (lambda d: d["body"].update(length_m=float("nan")), "body.length_m"),
+        (lambda d: d["tip_marker"].update(position_m=[0.2, 0.0]), "tip_marker.position_m"),
+        (lambda d: d["cables"][1].update(offset_m=0.05), "cables[1]"),
+        (lambda d: d["cables"][0].update(stations_m=[0.08, 0.04]), "cables[0]"),
+        (lambda d: d["safety"]["limits"][0].update(cables=[0, 7]), "safety.limits[0].cables"),
+        (lambda d: d.update(format_version=99), "format_version"),
+    ],
+)
 def test_bad_description_names_the_field(mutate, field):
     data = _data()
     mutate(data)
@@ -72,8 +75,7 @@ def test_user_description_works_downstream(tmp_path):
     text = text.replace("length_m = 0.20", "length_m = 0.15").replace("0.16, 0.20]", "0.15]")
     text = text.replace("position_m = [0.20, 0.0, 0.0]", "position_m = [0.15, 0.0, 0.0]")
     text = text.replace("cables = [0, 1, 2]", "cables = [0, 1, 2, 3]")
-    text += ('\n[[cables]]\nname = "extra"\nangle_deg = 0.0\noffset_m = 0.012\n'
-             'stations_m = [0.05, 0.10, 0.15]\n')
+    text += '\n[[cables]]\nname = "extra"\nangle_deg = 0.0\noffset_m = 0.012\nstations_m = [0.05, 0.10, 0.15]\n'
     path = tmp_path / "mine.toml"
     path.write_text(text)
     robot = load_robot(path)

@@ -1,4 +1,5 @@
 """The XM430 driver on the real dynamixel_sdk against the emulated bus on a pty."""
+
 import math
 import random
 import time
@@ -9,7 +10,17 @@ from dynamixel_sdk import COMM_SUCCESS, PacketHandler, Protocol2PacketHandler
 from helpers import wait_until
 
 from lab.rig.base import ServoError
-from lab.rig.dynamixel import GOAL_POSITION, OPERATING_MODE, PRESENT_POSITION, RAD_PER_TICK, ServoConfig, XM430Bus, ticks_from_u, u_from_ticks, velocity_units
+from lab.rig.dynamixel import (
+    GOAL_POSITION,
+    OPERATING_MODE,
+    PRESENT_POSITION,
+    RAD_PER_TICK,
+    ServoConfig,
+    XM430Bus,
+    ticks_from_u,
+    u_from_ticks,
+    velocity_units,
+)
 from lab.rig.emulators import EmulatedXM430Bus, KinematicBody, LiveBody, ServoSpec
 from lab.rig.emulators import protocol2 as p2
 
@@ -17,7 +28,7 @@ CABLES = ["top", "lower-left", "lower-right"]
 # Physical truth: arbitrary zeros, servo 2 mirrored and reported a turn lower at power-up.
 SPECS = [ServoSpec(1, zero_tick=1000), ServoSpec(2, zero_tick=5000, direction=-1), ServoSpec(3, zero_tick=3100)]
 CONFIG = [ServoConfig(s.dxl_id, s.direction, s.zero_tick, c) for s, c in zip(SPECS, CABLES)]
-LATENCY_MS = 100.0     # reply timeout 2 x 100 + 2 ms: generous for a loaded CI machine
+LATENCY_MS = 100.0  # reply timeout 2 x 100 + 2 ms: generous for a loaded CI machine
 
 
 @pytest.fixture
@@ -28,8 +39,15 @@ def emu():
 
 
 def connect(emu, config=CONFIG, baud=57600, **kw):
-    return XM430Bus(emu.port, baud, config, profile_velocity_rad_s=kw.pop("pv", 3.0), u_max_rad=3.0,
-                    latency_timer_ms=LATENCY_MS, **kw)
+    return XM430Bus(
+        emu.port,
+        baud,
+        config,
+        profile_velocity_rad_s=kw.pop("pv", 3.0),
+        u_max_rad=3.0,
+        latency_timer_ms=LATENCY_MS,
+        **kw,
+    )
 
 
 @pytest.fixture
@@ -62,7 +80,7 @@ def test_byte_stuffing_matches_sdk_and_round_trips():
         raw = [0xFF, 0xFF, 0xFD, 0, 1, (len(body) + 3) & 0xFF, (len(body) + 3) >> 8, p2.WRITE, *body, 0, 0]
         stuffed = sdk.addStuffing(raw)
         n = stuffed[5] | (stuffed[6] << 8)
-        assert bytes(stuffed[8:5 + n]) == p2.stuff(body)
+        assert bytes(stuffed[8 : 5 + n]) == p2.stuff(body)
 
 
 def test_packet_reader_skips_noise_and_waits_for_split_packets():
@@ -91,6 +109,7 @@ def test_stuffed_values_cross_the_sdk_both_ways(emu):
 
 def _sdk_port(emu):
     from dynamixel_sdk import PortHandler
+
     port = PortHandler(emu.port)
     assert port.setBaudRate(57600)
     return port
@@ -99,14 +118,14 @@ def _sdk_port(emu):
 # --- conversions -----------------------------------------------------------------------
 def test_tick_conversion_signs_offsets_and_rounding():
     zero, direction = np.array([1000, 904, 3100]), np.array([1, -1, 1])
-    one_rad = round(1 / RAD_PER_TICK)      # 652 ticks
+    one_rad = round(1 / RAD_PER_TICK)  # 652 ticks
     assert ticks_from_u([1.0, 1.0, 0.0], zero, direction).tolist() == [1000 + one_rad, 904 - one_rad, 3100]
     assert u_from_ticks([1000, 904 + 2048, 3100 - 1024], zero, direction).tolist() == [0.0, -math.pi, -math.pi / 2]
-    assert not np.signbit(u_from_ticks([904], [904], [-1]))[0]      # no -0.0
+    assert not np.signbit(u_from_ticks([904], [904], [-1]))[0]  # no -0.0
     u = np.random.default_rng(0).uniform(0, 3, size=(100, 3))
     back = np.array([u_from_ticks(ticks_from_u(x, zero, direction), zero, direction) for x in u])
     assert np.max(np.abs(back - u)) <= RAD_PER_TICK / 2 + 1e-12
-    assert velocity_units(3.0) == 125 and velocity_units(1e-6) == 1     # 0.229 rev/min units
+    assert velocity_units(3.0) == 125 and velocity_units(1e-6) == 1  # 0.229 rev/min units
 
 
 # --- set-up and motion -----------------------------------------------------------------
@@ -115,7 +134,7 @@ def test_open_configures_every_servo(emu, bus):
         st = emu.state(s.dxl_id)
         assert (st["operating_mode"], st["profile_velocity"], st["torque_enable"]) == (4, 125, 0)
     assert bus.model_numbers == {1: 1020, 2: 1020, 3: 1020}
-    assert bus.zero_ticks.tolist() == [1000, 904, 3100]     # servo 2's zero unwrapped by one turn
+    assert bus.zero_ticks.tolist() == [1000, 904, 3100]  # servo 2's zero unwrapped by one turn
     assert np.allclose(bus.read_present_u(), 0.0)
 
 
@@ -124,11 +143,13 @@ def test_sync_write_moves_at_profile_velocity_and_sync_read_returns_it(emu, bus)
     assert torque(emu) == [1, 1, 1]
     u = np.array([2.0, 1.0, 0.5])
     t0 = time.monotonic()
-    bus.write_goal_u(u)     # a sync write gets no status packet: wait for the emulator to act on it
+    bus.write_goal_u(u)  # a sync write gets no status packet: wait for the emulator to act on it
     # the emulator's physical truth (zero, direction) gives back the commanded angles
-    wait_until(lambda: np.allclose([emu.state(s.dxl_id)["u_goal_rad"] for s in SPECS], u, atol=RAD_PER_TICK),
-               what="goals applied")
-    assert bus.read_present_u()[0] < 1.5              # 2 rad at 3 rad/s takes 0.67 s
+    wait_until(
+        lambda: np.allclose([emu.state(s.dxl_id)["u_goal_rad"] for s in SPECS], u, atol=RAD_PER_TICK),
+        what="goals applied",
+    )
+    assert bus.read_present_u()[0] < 1.5  # 2 rad at 3 rad/s takes 0.67 s
     wait_until(lambda: np.allclose(bus.read_present_u(), u, atol=RAD_PER_TICK), what="servos at goal")
     assert time.monotonic() - t0 > 0.5
 
@@ -140,7 +161,7 @@ def test_goal_reaches_the_body_with_physical_signs_and_speed():
             bus.torque_on()
             bus.write_goal_u([0.3, 1.2, 2.1])
             wait_until(lambda: np.allclose(body.u_goal_rad, [0.3, 1.2, 2.1], atol=RAD_PER_TICK), what="body goal")
-            assert body.profile_velocity_rad_s == pytest.approx(125 * 0.229 * 2 * math.pi / 60)   # 3.0 rad/s
+            assert body.profile_velocity_rad_s == pytest.approx(125 * 0.229 * 2 * math.pi / 60)  # 3.0 rad/s
             bus.torque_off()
             wait_until(lambda: np.allclose(body.u_goal_rad, 0.0), what="released body")
         assert emu.body_error is None
@@ -148,8 +169,11 @@ def test_goal_reaches_the_body_with_physical_signs_and_speed():
 
 def test_eeprom_write_with_torque_on_is_refused_and_torque_goes_off(emu, bus):
     bus.torque_on()
-    with pytest.raises(ServoError, match=r"servo ID 1 \(cable 'top'\).*not available to target address"
-                                         r".*torque is off on every servo"):
+    with pytest.raises(
+        ServoError,
+        match=r"servo ID 1 \(cable 'top'\).*not available to target address"
+        r".*torque is off on every servo",
+    ):
         bus.write_register(1, *OPERATING_MODE, 3)
     assert torque(emu) == [0, 0, 0]
 
@@ -184,8 +208,11 @@ def test_unusable_port_and_settings():
 
 
 def test_profile_velocity_above_the_velocity_limit_is_refused(emu):
-    with pytest.raises(ServoError, match=r"servo ID 1 .*6\.0 rad/s \(250 units.*Velocity Limit \(address 44\) of 200 units"
-                                         r" = 4\.80 rad/s"):
+    with pytest.raises(
+        ServoError,
+        match=r"servo ID 1 .*6\.0 rad/s \(250 units.*Velocity Limit \(address 44\) of 200 units"
+        r" = 4\.80 rad/s",
+    ):
         connect(emu, pv=6.0)
 
 
@@ -193,7 +220,7 @@ def test_start_up_angle_check_catches_a_wrong_direction():
     # spool at +1.5 rad, held there by friction (no back-driving while torque is off)
     specs = [ServoSpec(1, zero_tick=1000, start_tick=1000 + 978, backdrive_speed_rad_s=0.0)] + SPECS[1:]
     with EmulatedXM430Bus(specs) as emu:
-        connect(emu).close()                          # right calibration: accepted
+        connect(emu).close()  # right calibration: accepted
         wrong = [ServoConfig(1, -1, 1000, "top")] + CONFIG[1:]
         with pytest.raises(ServoError, match=r"servo ID 1 \(cable 'top'\).*start-up check.*u = -1.500"):
             connect(emu, wrong)
@@ -203,25 +230,33 @@ SYNC_READ = XM430Bus.read_present_u
 READ = lambda bus: bus.read_register(2, *PRESENT_POSITION)  # noqa: E731
 
 
-@pytest.mark.parametrize("fault, count, operation, message, unconfirmed, still_on", [
-    ("silent", None, SYNC_READ, "There is no status packet", [2], []),    # obeys the broadcast, cannot confirm
-    ("disconnected", None, SYNC_READ, "There is no status packet", [2], [2]),
-    ("bad_crc", 1, SYNC_READ, "Incorrect status packet", [], []),
-    ("crc_error", 1, READ, "CRC doesn't match", [], []),
-    ("crc_error", 1, SYNC_READ, "There is no status packet", [], []),      # a garbled broadcast is not answered
-    ("overload", None, SYNC_READ, "hardware error status 0x20: overload", [], []),
-])
-def test_each_fault_is_a_clear_error_and_torque_goes_off(emu, bus, fault, count, operation, message,
-                                                         unconfirmed, still_on):
+@pytest.mark.parametrize(
+    "fault, count, operation, message, unconfirmed, still_on",
+    [
+        ("silent", None, SYNC_READ, "There is no status packet", [2], []),  # obeys the broadcast, cannot confirm
+        ("disconnected", None, SYNC_READ, "There is no status packet", [2], [2]),
+        ("bad_crc", 1, SYNC_READ, "Incorrect status packet", [], []),
+        ("crc_error", 1, READ, "CRC doesn't match", [], []),
+        ("crc_error", 1, SYNC_READ, "There is no status packet", [], []),  # a garbled broadcast is not answered
+        ("overload", None, SYNC_READ, "hardware error status 0x20: overload", [], []),
+    ],
+)
+def test_each_fault_is_a_clear_error_and_torque_goes_off(
+    emu, bus, fault, count, operation, message, unconfirmed, still_on
+):
     bus.torque_on()
     bus.write_goal_u([0.5, 0.5, 0.5])
-    bus.read_present_u()     # a round trip: the sync write has been processed before the fault
+    bus.read_present_u()  # a round trip: the sync write has been processed before the fault
     emu.inject_fault(2, fault, count)
     with pytest.raises(ServoError, match=r"servo ID 2 \(cable 'lower-left'\)") as err:
         operation(bus)
     text = str(err.value)
     assert message in text
-    assert (f"NOT confirmed for servo IDs {unconfirmed}" in text) if unconfirmed else "torque is off on every servo" in text
+    assert (
+        (f"NOT confirmed for servo IDs {unconfirmed}" in text)
+        if unconfirmed
+        else "torque is off on every servo" in text
+    )
     on = [s.dxl_id for s, t in zip(SPECS, torque(emu)) if t]
     assert on == still_on
 

@@ -1,8 +1,10 @@
 """Every derivative of the energy against central finite differences and torch autograd."""
+
 import numpy as np
 import pytest
 import torch
 from helpers import fd_derivative, fd_jacobian
+
 from lab.fem.cables import spring
 from lab.fem.elasticity import NeoHookean, project_psd
 from lab.fem.mesh import cylinder_mesh
@@ -53,7 +55,7 @@ def test_neo_hookean_element_against_torch_autograd():
         xe = torch.tensor(x[mesh.tets[m]], dtype=torch.float64, requires_grad=True)
         G = torch.tensor(nh.G[m])
 
-        def energy(xe_flat):
+        def energy(xe_flat, G=G, m=m):  # bound now: called at once, inside this iteration
             F = xe_flat.reshape(4, 3).T @ G
             return nh.V[m] * _torch_psi(F, nh.mu[m], nh.lam[m])
 
@@ -133,8 +135,10 @@ def test_energy_with_gradient_and_cable_jacobian(state):
     assert np.array_equal(g, g2) and np.array_equal(d, d2) and np.array_equal(A, A2)
     x = fem.to_nodes(q)
     assert np.allclose(d, fem.cable_lengths(x) - fem.cable_targets(u), rtol=0, atol=1e-15)
+
     def lengths(z):
         return fem.cable_lengths(fem.to_nodes(z))
+
     A_fd = fd_jacobian(lengths, q, 1e-7).T
     assert np.abs(A - A_fd).max() < 1e-6
     # The nodal gradient (B^T of the stresses) is the element gradients summed at the nodes.

@@ -1,4 +1,5 @@
 """HardwareRig end to end: real SDK + real NatNet client against the emulated bench."""
+
 import copy
 import json
 import tomllib
@@ -54,29 +55,34 @@ def _motor(i, **kv):
     return lambda d: d["servos"]["motor"][i].update(kv)
 
 
-@pytest.mark.parametrize("mutate, field", [
-    (lambda d: d.update(format_version=2), "format_version"),
-    (lambda d: d["servos"].update(baud_rate=12345), "servos.baud_rate"),
-    (lambda d: d["servos"].pop("port"), "servos.port"),
-    (lambda d: d["servos"].update(profile_velocity_rad_s=-1.0), "servos.profile_velocity_rad_s"),
-    (_motor(1, direction=0), "servos.motor[1].direction"),
-    (_motor(0, cable="left"), "servos.motor[0].cable"),
-    (_motor(2, id=300), "servos.motor[2].id"),
-    (_motor(2, id=1), "servos.motor[].id must be distinct"),
-    (_motor(1, zero_offset_ticks=1.5), "servos.motor[1].zero_offset_ticks"),
-    (lambda d: d["servos"]["motor"].pop(), "has 2 entries but robot 'three-cable' has 3 cables"),
-    (lambda d: d["mocap"].update(transmission="broadcast"), "mocap.transmission"),
-    (lambda d: d["mocap"].update(server_address="motive.local"), "mocap.server_address"),
-    (lambda d: d["mocap"].update(command_port=70000), "mocap.command_port"),
-    (lambda d: d["mocap"].update(length_unit="cm"), "mocap.length_unit"),
-    (lambda d: d["mocap"].update(frame_timeout_s=0), "mocap.frame_timeout_s"),
-    (lambda d: d["mocap"]["tip"].update(rigid_body="tip"), "mocap.tip"),
-    (lambda d: d["mocap"].pop("marker_set"), "mocap.tip.marker' needs a marker set"),
-    (lambda d: d["mocap"]["base_markers"].pop(), "at least 3 markers"),
-    (lambda d: d["mocap"]["base_markers"][1].update(position_W_m=[0, 0]), "mocap.base_markers[1].position_W_m"),
-    (lambda d: [b.update(position_W_m=[0.0, 0.01 * i, 0.0]) for i, b in enumerate(d["mocap"]["base_markers"])],
-     "collinear"),
-])
+@pytest.mark.parametrize(
+    "mutate, field",
+    [
+        (lambda d: d.update(format_version=2), "format_version"),
+        (lambda d: d["servos"].update(baud_rate=12345), "servos.baud_rate"),
+        (lambda d: d["servos"].pop("port"), "servos.port"),
+        (lambda d: d["servos"].update(profile_velocity_rad_s=-1.0), "servos.profile_velocity_rad_s"),
+        (_motor(1, direction=0), "servos.motor[1].direction"),
+        (_motor(0, cable="left"), "servos.motor[0].cable"),
+        (_motor(2, id=300), "servos.motor[2].id"),
+        (_motor(2, id=1), "servos.motor[].id must be distinct"),
+        (_motor(1, zero_offset_ticks=1.5), "servos.motor[1].zero_offset_ticks"),
+        (lambda d: d["servos"]["motor"].pop(), "has 2 entries but robot 'three-cable' has 3 cables"),
+        (lambda d: d["mocap"].update(transmission="broadcast"), "mocap.transmission"),
+        (lambda d: d["mocap"].update(server_address="motive.local"), "mocap.server_address"),
+        (lambda d: d["mocap"].update(command_port=70000), "mocap.command_port"),
+        (lambda d: d["mocap"].update(length_unit="cm"), "mocap.length_unit"),
+        (lambda d: d["mocap"].update(frame_timeout_s=0), "mocap.frame_timeout_s"),
+        (lambda d: d["mocap"]["tip"].update(rigid_body="tip"), "mocap.tip"),
+        (lambda d: d["mocap"].pop("marker_set"), "mocap.tip.marker' needs a marker set"),
+        (lambda d: d["mocap"]["base_markers"].pop(), "at least 3 markers"),
+        (lambda d: d["mocap"]["base_markers"][1].update(position_W_m=[0, 0]), "mocap.base_markers[1].position_W_m"),
+        (
+            lambda d: [b.update(position_W_m=[0.0, 0.01 * i, 0.0]) for i, b in enumerate(d["mocap"]["base_markers"])],
+            "collinear",
+        ),
+    ],
+)
 def test_bad_config_names_the_field(three_cable, mutate, field):
     data = tomllib.loads(EXAMPLE.read_text())
     mutate(data)
@@ -99,9 +105,9 @@ def test_rig_moves_the_body_and_reads_its_tip_in_W(rig, bench):
     u = np.array([1.2, 0.4, 0.0])
     rig.send(u)
     frames = settle(rig, u)
-    assert np.allclose(body.u_goal_rad, u, atol=RAD_PER_TICK)       # signs and zeros right at the spools
+    assert np.allclose(body.u_goal_rad, u, atol=RAD_PER_TICK)  # signs and zeros right at the spools
     p_expected = body.p_rest_W + body.J_W @ u
-    assert np.allclose(frames[-1].p_tip_W, p_expected, atol=5e-5)   # tip in W through NatNet
+    assert np.allclose(frames[-1].p_tip_W, p_expected, atol=5e-5)  # tip in W through NatNet
     assert np.linalg.norm(frames[-1].p_tip_W - p_rest) > 0.01
     t = [f.t_s for f in frames]
     assert 0 < t[0] <= t[-1] <= rig.now()
@@ -114,7 +120,8 @@ def test_rig_on_natnet_4_1_multicast_in_millimetres_with_noise(three_cable, tmp_
     import dataclasses
 
     from lab.rig.emulators import MocapScene, multicast_loopback_works
-    multicast = multicast_loopback_works()      # unicast where the machine cannot
+
+    multicast = multicast_loopback_works()  # unicast where the machine cannot
     scene = dataclasses.replace(MocapScene(), length_unit_m=1e-3)
     with EmulatedBench(three_cable, scene=scene, natnet_version=(4, 1), multicast=multicast, noise_m=0.2e-3) as bench:
         cfg = bench.write_config(tmp_path / "rig.toml", mocap={"calibration_frames": 60})
@@ -150,7 +157,7 @@ def test_servo_fault_is_caught_while_only_frames_are_read(rig, bench):
     bench.bus.inject_fault(1, "silent")
     with pytest.raises(ServoError, match=r"servo ID 1 \(cable 'top'\).*no status packet"):
         rig.wait(2.0)
-    assert torque(bench) == [0, 0, 0]      # the silent servo still obeys the broadcast torque off
+    assert torque(bench) == [0, 0, 0]  # the silent servo still obeys the broadcast torque off
 
 
 def test_mocap_loss_stops_the_rig_with_torque_off(rig, bench):
@@ -191,6 +198,7 @@ def test_rig_drives_the_emulated_as_built_robot(three_cable, tmp_path):
     """The whole hardware path against the twin's AsBuiltBody (coarse FEM): foam lag and
     cable play included, the tip read through NatNet is the body's true tip."""
     from lab.rig.twin import AsBuiltBody
+
     body = AsBuiltBody(three_cable, n_rings=2, n_axial=8)
     with EmulatedBench(three_cable, body) as bench:
         with HardwareRig.from_config(bench.write_config(tmp_path / "rig.toml"), three_cable) as rig:
@@ -201,7 +209,7 @@ def test_rig_drives_the_emulated_as_built_robot(three_cable, tmp_path):
             rig.wait(2.0)
             bench.bus.wait_body()
             last = rig.wait(0.1)[-1]
-            p_true = bench.live.state()[1]        # read a few ms later; the foam still creeps ~3 mm/s
+            p_true = bench.live.state()[1]  # read a few ms later; the foam still creeps ~3 mm/s
             assert np.linalg.norm(last.p_tip_W - p_true) < 3e-4
             assert np.linalg.norm(last.p_tip_W - p_rest) > 0.02
             assert body.profile_velocity_rad_s == pytest.approx(3.0, abs=0.01)

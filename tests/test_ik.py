@@ -1,17 +1,18 @@
 """Inverse kinematics: exact projection onto the allowed commands, both solvers, edge cases, Soft IK."""
-from helpers import fd_jacobian
+
 import itertools
 
 import numpy as np
 import pytest
+from helpers import fd_jacobian
+
 from lab.control.command_set import CommandSet
-from lab.data.dataset import read_dataset
 from lab.control.ik import IKSolver, grid_seeds
 from lab.control.soft_ik import FEMForwardMap
-from lab.fem.statics import solve_static
 from lab.control.trajectories import circle
-
+from lab.data.dataset import read_dataset
 from lab.description import load_robot
+from lab.fem.statics import solve_static
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +62,7 @@ def test_projection_is_exact(cset, extra_rows):
     """Against the brute-force face enumeration, including points whose projection lies on
     the safety plane, a box face and both (edges, vertices)."""
     cs = cset
-    if extra_rows:          # a four-motor set with several overlapping limits
+    if extra_rows:  # a four-motor set with several overlapping limits
         A = np.array([[1, 1, 1, 1], [1, 0, 0, 1], [0, 1, 1, 0.5]])
         cs = CommandSet(np.zeros(4), np.full(4, 3.0), A, [7.0, 4.0, 3.5])
     rng = np.random.default_rng(1)
@@ -72,7 +73,7 @@ def test_projection_is_exact(cset, extra_rows):
         ref = brute_force_qp(cs, np.eye(cs.n), -v)
         np.testing.assert_allclose(p, ref, atol=1e-12)
         n_inside += cs.contains(v, 0.0)
-    assert n_inside < 50    # most points needed a real projection
+    assert n_inside < 50  # most points needed a real projection
 
 
 def test_qp_is_exact(cset):
@@ -110,9 +111,9 @@ def test_gd_and_lm_agree(small_model, cset):
     target = small_model.predict(u_star)
     a = IKSolver(small_model, cset, "lm").solve(target, u0=[1.0, 0.5, 1.8])
     b = IKSolver(small_model, cset, "gd", tol_m=1e-9).solve(target, u0=[1.0, 0.5, 1.8])
-    np.testing.assert_allclose(a.u_motor, u_star, atol=1e-4)      # |du| ~ tol_m / sigma_min(J)
+    np.testing.assert_allclose(a.u_motor, u_star, atol=1e-4)  # |du| ~ tol_m / sigma_min(J)
     np.testing.assert_allclose(b.u_motor, u_star, atol=1e-4)
-    assert b.iterations > 5 * a.iterations       # why LM is the default
+    assert b.iterations > 5 * a.iterations  # why LM is the default
 
 
 @pytest.mark.parametrize("method", ["lm", "gd"])
@@ -154,10 +155,10 @@ def test_bad_arguments_raise(small_model, cset):
 
 
 def test_warm_starts_reduce_iterations(small_model, cset):
-    targets = circle(200)[:40]                           # 1.1 mm apart
+    targets = circle(200)[:40]  # 1.1 mm apart
     solver = IKSolver(small_model, cset, "lm")
     warm = solver.follow(targets)
-    cold = [solver.solve(t) for t in targets]            # each from the centre of the command set
+    cold = [solver.solve(t) for t in targets]  # each from the centre of the command set
     assert warm.reachable.all() and all(r.reachable for r in cold)
     assert warm.iterations[1:].sum() < 0.8 * sum(r.iterations for r in cold[1:])
     assert warm.iterations[1:].max() <= 3
@@ -188,7 +189,7 @@ class Flaky:
 
 
 def test_failed_evaluations_are_rejected_steps(small_model, cset):
-    target = small_model.predict(np.array([2.5, 0.5, 0.5]))      # lies in the "failed" region
+    target = small_model.predict(np.array([2.5, 0.5, 0.5]))  # lies in the "failed" region
     res = IKSolver(Flaky(small_model), cset).solve(target, u0=[1.0, 0.5, 0.5])
     assert np.all(np.isfinite(res.u_motor)) and res.u_motor[0] <= 1.5 and not res.reachable
     with pytest.raises(ValueError, match="no finite tip at the start"):
@@ -202,13 +203,13 @@ def test_soft_ik_on_a_coarse_mesh(coarse_fem, cset):
     h = 1e-5
     J_fd = fd_jacobian(lambda v: solve_static(coarse_fem, v, tol_step_m=1e-11).p_tip_W, u0, h)
     np.testing.assert_allclose(J, J_fd, atol=1e-5 * np.abs(J_fd).max())
-    u_star = np.array([1.6, 1.0, 1.3])                  # every cable taut: a unique answer
+    u_star = np.array([1.6, 1.0, 1.3])  # every cable taut: a unique answer
     assert np.all(np.abs(fmap.predict_and_jacobian(u_star)[1]).max(axis=0) > 1e-3)
     target = solve_static(coarse_fem, u_star).p_tip_W
-    res = IKSolver(fmap, cset).solve(target)        # from the centre: every cable taut
+    res = IKSolver(fmap, cset).solve(target)  # from the centre: every cable taut
     assert res.status == "converged" and res.reachable
     np.testing.assert_allclose(res.u_motor, u_star, atol=1e-5)
-    achieved = solve_static(coarse_fem, res.u_motor).p_tip_W        # an independent, cold solve
+    achieved = solve_static(coarse_fem, res.u_motor).p_tip_W  # an independent, cold solve
     assert np.linalg.norm(achieved - target) < 1e-7
 
 
@@ -217,22 +218,69 @@ def test_qp_terminates_on_an_ill_conditioned_six_motor_step():
     # met during IK: after a full step the recomputed step was ~8e-13 rad, above the
     # "p = 0" threshold, and the active-set method repeated it until max_iter.
     cs = CommandSet.from_robot(load_robot("six-cable"))
-    H = np.array([[ 8.4910814132539686e-07,  2.6240080114553867e-06,  1.3293405923759361e-05, -3.6398180165999449e-05,
-   3.6364152697464370e-06,  2.1504658608878588e-05],
- [ 2.6240080114553867e-06,  3.6566898146432917e-04, -1.6029317316238826e-04, -4.4725639452051764e-04,
-   5.8667846134026816e-04, -2.5127878688192248e-04],
- [ 1.3293405923759361e-05, -1.6029317316238826e-04,  3.5083577609306641e-04, -4.2551539694975053e-04,
-  -2.7521303175971086e-04,  5.5531273578453744e-04],
- [-3.6398180165999449e-05, -4.4725639452051764e-04, -4.2551539694975053e-04,  2.2762849535406921e-03,
-  -7.8293815385428321e-04, -7.9398373031812808e-04],
- [ 3.6364152697464370e-06,  5.8667846134026816e-04, -2.7521303175971086e-04, -7.8293815385428321e-04,
-   9.7412477433812144e-04, -3.9744556757453410e-04],
- [ 2.1504658608878588e-05, -2.5127878688192248e-04,  5.5531273578453744e-04, -7.9398373031812808e-04,
-  -3.9744556757453410e-04,  9.1680406638634283e-04]])
-    c = np.array([-5.7946242107349099e-05, -8.1374377233171856e-04, -6.5239693750748361e-04,  3.2738333277760800e-03,
- -1.2537952669374830e-03, -1.0561744790605664e-03])
-    x0 = np.array([0.1293623260662785, 3.                , 3.                , 1.3903933433653302, 2.427650553501787 ,
- 2.412152510898937 ])
+    H = np.array(
+        [
+            [
+                8.4910814132539686e-07,
+                2.6240080114553867e-06,
+                1.3293405923759361e-05,
+                -3.6398180165999449e-05,
+                3.6364152697464370e-06,
+                2.1504658608878588e-05,
+            ],
+            [
+                2.6240080114553867e-06,
+                3.6566898146432917e-04,
+                -1.6029317316238826e-04,
+                -4.4725639452051764e-04,
+                5.8667846134026816e-04,
+                -2.5127878688192248e-04,
+            ],
+            [
+                1.3293405923759361e-05,
+                -1.6029317316238826e-04,
+                3.5083577609306641e-04,
+                -4.2551539694975053e-04,
+                -2.7521303175971086e-04,
+                5.5531273578453744e-04,
+            ],
+            [
+                -3.6398180165999449e-05,
+                -4.4725639452051764e-04,
+                -4.2551539694975053e-04,
+                2.2762849535406921e-03,
+                -7.8293815385428321e-04,
+                -7.9398373031812808e-04,
+            ],
+            [
+                3.6364152697464370e-06,
+                5.8667846134026816e-04,
+                -2.7521303175971086e-04,
+                -7.8293815385428321e-04,
+                9.7412477433812144e-04,
+                -3.9744556757453410e-04,
+            ],
+            [
+                2.1504658608878588e-05,
+                -2.5127878688192248e-04,
+                5.5531273578453744e-04,
+                -7.9398373031812808e-04,
+                -3.9744556757453410e-04,
+                9.1680406638634283e-04,
+            ],
+        ]
+    )
+    c = np.array(
+        [
+            -5.7946242107349099e-05,
+            -8.1374377233171856e-04,
+            -6.5239693750748361e-04,
+            3.2738333277760800e-03,
+            -1.2537952669374830e-03,
+            -1.0561744790605664e-03,
+        ]
+    )
+    x0 = np.array([0.1293623260662785, 3.0, 3.0, 1.3903933433653302, 2.427650553501787, 2.412152510898937])
     x = cs.solve_qp(H, c, x0=x0)
     assert cs.contains(x)
     np.testing.assert_allclose(x, brute_force_qp(cs, H, c), atol=1e-9)

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from lab.fem.mesh import barycentric, cylinder_mesh, load_mesh, save_mesh
 
 

@@ -1,15 +1,23 @@
 """lab.learn.mlp / lab.learn.model_io: forward pass, analytic Jacobians, normalisation, files."""
+
 import json
 import zipfile
 
 import numpy as np
 import pytest
 from helpers import fd_jacobian, fd_parameter_jacobian
+
 from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
 from lab.learn.model_io import ModelFileError
 
-ARCHS = [((), "tanh"), ((7,), "tanh"), ((6,), "logistic"), ((20, 20), "tanh"),
-         ((5, 8, 4), "logistic"), ((9, 3, 6, 5), "tanh")]
+ARCHS = [
+    ((), "tanh"),
+    ((7,), "tanh"),
+    ((6,), "logistic"),
+    ((20, 20), "tanh"),
+    ((5, 8, 4), "logistic"),
+    ((9, 3, 6, 5), "tanh"),
+]
 
 
 def random_mlp(rng, sizes, activation, scale=1.0):
@@ -18,8 +26,15 @@ def random_mlp(rng, sizes, activation, scale=1.0):
     biases = [0.5 * rng.standard_normal(m) for m in sizes[1:]]
     u_min = rng.uniform(-1.0, 0.5, sizes[0])
     y_min = rng.uniform(-0.1, 0.1, sizes[-1])
-    return MLP(weights, biases, u_min, u_min + rng.uniform(0.5, 3.0, sizes[0]),
-               y_min, y_min + rng.uniform(0.01, 0.2, sizes[-1]), activation)
+    return MLP(
+        weights,
+        biases,
+        u_min,
+        u_min + rng.uniform(0.5, 3.0, sizes[0]),
+        y_min,
+        y_min + rng.uniform(0.01, 0.2, sizes[-1]),
+        activation,
+    )
 
 
 def inputs(rng, model, n):
@@ -41,6 +56,7 @@ def torch_net(model):
         for W, b in zip(Ws[:-1], bs[:-1]):
             a = act(a @ W.T + b)
         return (a @ Ws[-1].T + bs[-1] + 1.0) / y_gain + y_min
+
     return f, Ws, bs
 
 
@@ -53,7 +69,7 @@ def test_forward_and_jacobian_match_torch_autograd(hidden, activation):
     u = inputs(rng, model, 40)
     f, _, _ = torch_net(model)
     u_t = torch.tensor(u, requires_grad=True)
-    J_torch = torch.func.vmap(torch.func.jacrev(f))(u_t).detach().numpy()          # (N, n_y, n_u)
+    J_torch = torch.func.vmap(torch.func.jacrev(f))(u_t).detach().numpy()  # (N, n_y, n_u)
     y, J = model.predict_and_jacobian(u)
     assert J.shape == (40, 2, 3)
     np.testing.assert_allclose(y, f(u_t).detach().numpy(), rtol=1e-12, atol=1e-14)
@@ -103,12 +119,14 @@ def test_parameter_jacobian_matches_torch_and_gradient_is_its_transpose_product(
     u = inputs(rng, model, 9)
     _, J = model.parameter_jacobian(u)
     f, Ws, bs = torch_net(model)
-    params = [p for wb in zip(Ws, bs) for p in wb]          # the order of get_params
+    params = [p for wb in zip(Ws, bs) for p in wb]  # the order of get_params
     for p in params:
         p.requires_grad_(True)
     y_t = f(torch.tensor(u)).reshape(-1)
-    rows = [torch.cat([g.reshape(-1) for g in torch.autograd.grad(y_t[r], params, retain_graph=True)])
-            for r in range(len(y_t))]
+    rows = [
+        torch.cat([g.reshape(-1) for g in torch.autograd.grad(y_t[r], params, retain_graph=True)])
+        for r in range(len(y_t))
+    ]
     np.testing.assert_allclose(J, torch.stack(rows).numpy(), rtol=1e-10, atol=1e-13)
     v = rng.standard_normal((9, 3))
     np.testing.assert_allclose(model.gradient(u, v), J.T @ v.ravel(), rtol=1e-11, atol=1e-13)
@@ -119,7 +137,7 @@ def test_params_round_trip_and_order():
     model = random_mlp(rng, (3, 4, 2), "tanh")
     theta = model.get_params()
     assert theta.shape == (model.n_params,) == (3 * 4 + 4 + 4 * 2 + 2,)
-    np.testing.assert_array_equal(theta[:12], model.weights[0].ravel())   # W_1 row-major, then b_1
+    np.testing.assert_array_equal(theta[:12], model.weights[0].ravel())  # W_1 row-major, then b_1
     np.testing.assert_array_equal(theta[12:16], model.biases[0])
     model.set_params(theta[::-1].copy())
     np.testing.assert_array_equal(model.get_params(), theta[::-1])
@@ -132,8 +150,12 @@ def test_mapminmax_normalisation_maps_data_ranges_to_unit_interval():
     u_min, u_max = np.array([0.0, -1.0]), np.array([3.0, 1.0])
     y_min, y_max = np.array([0.15, -0.08]), np.array([0.2, 0.08])
     model = MLP([np.eye(2)], [np.zeros(2)], u_min, u_max, y_min, y_max)
-    np.testing.assert_allclose(model.predict(np.stack([u_min, u_max, (u_min + u_max) / 2])),
-                               np.stack([y_min, y_max, (y_min + y_max) / 2]), rtol=1e-15, atol=1e-17)
+    np.testing.assert_allclose(
+        model.predict(np.stack([u_min, u_max, (u_min + u_max) / 2])),
+        np.stack([y_min, y_max, (y_min + y_max) / 2]),
+        rtol=1e-15,
+        atol=1e-17,
+    )
     np.testing.assert_allclose(model.jacobian(u_min), np.diag((y_max - y_min) / (u_max - u_min)), rtol=1e-15)
     np.testing.assert_array_equal(minmax_gain(np.array([1.0, 2.0]), np.array([1.0, 4.0])), [1.0, 1.0])
 
@@ -155,6 +177,7 @@ def test_init_is_deterministic_nguyen_widrow_and_normalises_to_the_data():
 
 # ---- files ----------------------------------------------------------------------------
 
+
 @pytest.fixture
 def saved(tmp_path):
     rng = np.random.default_rng(8)
@@ -175,10 +198,10 @@ def test_save_load_round_trip(saved, tmp_path):
     assert loaded.metadata["training"] == model.metadata["training"]
     assert loaded.metadata["normalisation"]["method"] == "mapminmax"
     assert "code_version" in loaded.metadata
-    with np.load(path, allow_pickle=False) as npz:             # plain arrays, JSON metadata
+    with np.load(path, allow_pickle=False) as npz:  # plain arrays, JSON metadata
         meta = json.loads(str(npz["metadata"]))
     assert meta["format_version"] == 1 and meta["architecture"]["layer_sizes"] == [3, 5, 4, 3]
-    assert [p.name for p in tmp_path.iterdir()] == ["m.npz"]   # no temporary file left behind
+    assert [p.name for p in tmp_path.iterdir()] == ["m.npz"]  # no temporary file left behind
 
 
 def rewrite(path, out, drop=(), **replace):
@@ -205,13 +228,16 @@ def test_missing_file(tmp_path):
 def test_truncated_and_corrupt_files(saved, tmp_path):
     _, path = saved
     data = path.read_bytes()
-    for name, content in (("truncated", data[: len(data) // 2]), ("empty", b""),
-                          ("garbage", b"not a zip file at all" * 10)):
+    for name, content in (
+        ("truncated", data[: len(data) // 2]),
+        ("empty", b""),
+        ("garbage", b"not a zip file at all" * 10),
+    ):
         bad = tmp_path / f"{name}.npz"
         bad.write_bytes(content)
         with pytest.raises(ModelFileError, match="corrupt or truncated"):
             load_model(bad)
-    flipped = bytearray(data)                                   # damage one member's bytes -> CRC error
+    flipped = bytearray(data)  # damage one member's bytes -> CRC error
     with zipfile.ZipFile(path) as zf:
         info = zf.getinfo("W1.npy")
     pos = info.header_offset + 30 + len(info.filename) + 100
@@ -231,8 +257,9 @@ def test_newer_format_and_bad_metadata(saved, tmp_path):
     with pytest.raises(ModelFileError, match="kind"):
         load_model(edit_meta(path, tmp_path / "k.npz", kind="lab.dataset"))
     with pytest.raises(ModelFileError, match="unknown activation 'relu'"):
-        load_model(edit_meta(path, tmp_path / "a.npz", architecture={"layer_sizes": [3, 5, 4, 3],
-                                                                        "activation": "relu"}))
+        load_model(
+            edit_meta(path, tmp_path / "a.npz", architecture={"layer_sizes": [3, 5, 4, 3], "activation": "relu"})
+        )
     with pytest.raises(ModelFileError, match="corrupt metadata JSON"):
         load_model(rewrite(path, tmp_path / "j.npz", metadata=np.array("{not json")))
 

@@ -1,4 +1,5 @@
 """OptiTrackStream on the real natnet client against the NatNet server emulator (loopback)."""
+
 import dataclasses
 import socket
 import time
@@ -23,11 +24,19 @@ def fixed_tip(_t):
 
 def config(server, tip=MarkerRef(marker="tip", marker_set="soft_arm"), scene=SCENE, **kw):
     bases = tuple(MarkerRef(marker=n, marker_set=scene.marker_set) for n in scene.base_markers)
-    return NatNetConfig("127.0.0.1", "127.0.0.1", server.multicast, tip, bases,
-                        np.array(scene.base_positions_W_m), command_port=server.command_port,
-                        data_port=server.data_port, multicast_address=server.multicast_address,
-                        length_unit_m=scene.length_unit_m,
-                        **({"calibration_frames": 12, "connect_timeout_s": 3.0, "frame_timeout_s": 1.0} | kw))
+    return NatNetConfig(
+        "127.0.0.1",
+        "127.0.0.1",
+        server.multicast,
+        tip,
+        bases,
+        np.array(scene.base_positions_W_m),
+        command_port=server.command_port,
+        data_port=server.data_port,
+        multicast_address=server.multicast_address,
+        length_unit_m=scene.length_unit_m,
+        **({"calibration_frames": 12, "connect_timeout_s": 3.0, "frame_timeout_s": 1.0} | kw),
+    )
 
 
 class Lab:
@@ -64,12 +73,12 @@ def lab():
 def test_kabsch_recovers_a_rigid_transform():
     rng = np.random.default_rng(3)
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    R = q * np.sign(np.linalg.det(q))                 # a proper rotation
+    R = q * np.sign(np.linalg.det(q))  # a proper rotation
     t = rng.normal(size=3)
     p = rng.normal(size=(4, 3))
     R_fit, t_fit, rms = fit_rigid_transform(p, p @ R.T + t)
     assert np.allclose(R_fit, R) and np.allclose(t_fit, t) and rms < 1e-12
-    mirrored = p * [1, 1, -1]                         # no rotation maps p onto its mirror image
+    mirrored = p * [1, 1, -1]  # no rotation maps p onto its mirror image
     R_m, _, rms_m = fit_rigid_transform(p, mirrored)
     assert np.linalg.det(R_m) == pytest.approx(1.0) and rms_m > 0.1
 
@@ -77,9 +86,14 @@ def test_kabsch_recovers_a_rigid_transform():
 @pytest.mark.parametrize("version", nn.SUPPORTED_VERSIONS)
 def test_emulator_packets_parse_with_the_real_client(version):
     V = Version(*version, 0, 0)
-    frame = nn.Frame(42, 3.5, marker_sets=[("soft_arm", [(1.0, 2.0, 3.0), (0.0, 0.0, 0.0)])],
-                     unlabeled=[(7.0, 8.0, 9.0)], rigid_bodies=[nn.RigidBodyState(7, (0.5, 0.25, 0.125))],
-                     labeled=[nn.LabeledMarkerState(65537, (1.0, 2.0, 3.0), param=nn.MARKER_OCCLUDED)])
+    frame = nn.Frame(
+        42,
+        3.5,
+        marker_sets=[("soft_arm", [(1.0, 2.0, 3.0), (0.0, 0.0, 0.0)])],
+        unlabeled=[(7.0, 8.0, 9.0)],
+        rigid_bodies=[nn.RigidBodyState(7, (0.5, 0.25, 0.125))],
+        labeled=[nn.LabeledMarkerState(65537, (1.0, 2.0, 3.0), param=nn.MARKER_OCCLUDED)],
+    )
     buf = PacketBuffer(nn.frame_of_data(version, frame))
     assert buf.read_uint16() == nn.NAT_FRAMEOFDATA and buf.read_uint16() == len(buf.data) - 4
     df = DataFrame.read_from_buffer(buf, V)
@@ -89,7 +103,9 @@ def test_emulator_packets_parse_with_the_real_client(version):
     assert df.rigid_bodies[0].id_num == 7 and df.rigid_bodies[0].pos == (0.5, 0.25, 0.125)
     assert df.rigid_bodies[0].tracking_valid is True
     assert df.labeled_markers[0].occluded and df.labeled_markers[0].model_id == 1
-    buf = PacketBuffer(nn.model_def(version, [("soft_arm", ["tip", "base_1"])], [("tip_body", 7, -1, (0, 0, 0), [(0.01, 0, 0)])]))
+    buf = PacketBuffer(
+        nn.model_def(version, [("soft_arm", ["tip", "base_1"])], [("tip_body", 7, -1, (0, 0, 0), [(0.01, 0, 0)])])
+    )
     buf.read_uint16(), buf.read_uint16()
     dd = DataDescriptions.read_from_buffer(buf, V)
     assert dd.marker_sets[0].marker_names == ("tip", "base_1") and dd.rigid_bodies[0].name == "tip_body"
@@ -108,7 +124,7 @@ def test_unicast_stream_gives_the_tip_in_W(lab, version):
     assert np.allclose(s.R_WM, SCENE.R_MW.T, atol=1e-6)
     frames = [s.next_frame() for _ in range(60)]
     assert all(f.valid for f in frames)
-    assert np.max(np.abs(np.array([f.p_tip_W for f in frames]) - TIP_W)) < 1e-6     # float32 on the wire
+    assert np.max(np.abs(np.array([f.p_tip_W for f in frames]) - TIP_W)) < 1e-6  # float32 on the wire
     t = np.array([f.t_s for f in frames])
     assert np.all(np.diff(t) >= 0)
     print(f"NatNet {version}: {s.measured_rate_hz:.1f} Hz received (server 120 Hz)")
@@ -123,8 +139,11 @@ def test_multicast_stream(lab):
     assert np.allclose(s.next_frame().p_tip_W, TIP_W, atol=1e-6)
 
 
-@pytest.mark.parametrize("tip", [MarkerRef(labeled_marker_id=(1 << 16) | 1), MarkerRef(rigid_body="tip_body"),
-                                 MarkerRef(rigid_body_id=7)], ids=str)
+@pytest.mark.parametrize(
+    "tip",
+    [MarkerRef(labeled_marker_id=(1 << 16) | 1), MarkerRef(rigid_body="tip_body"), MarkerRef(rigid_body_id=7)],
+    ids=str,
+)
 def test_other_ways_to_name_the_tip(lab, tip):
     srv = lab.server()
     s = lab.stream(config(srv, tip=tip))
@@ -143,9 +162,9 @@ def test_millimetres_and_noise(lab):
 
 
 def test_moving_tip_is_followed(lab):
-    srv = lab.server(tip=lambda t: TIP_W + [0.0, 0.05 * np.sin(8 * np.pi * t), 0.0])     # 4 Hz
+    srv = lab.server(tip=lambda t: TIP_W + [0.0, 0.05 * np.sin(8 * np.pi * t), 0.0])  # 4 Hz
     s = lab.stream(config(srv))
-    y = np.array([s.next_frame().p_tip_W[1] for _ in range(45)])                      # 1.5 periods
+    y = np.array([s.next_frame().p_tip_W[1] for _ in range(45)])  # 1.5 periods
     assert y.max() - y.min() > 0.04
 
 
@@ -157,7 +176,7 @@ def test_occlusion_gives_nan_frames_then_an_error(lab):
     srv.occlude_tip(True)
     while s.next_frame().valid:
         pass
-    srv.occlude_tip(False)                     # back before the limit: no error
+    srv.occlude_tip(False)  # back before the limit: no error
     while not s.next_frame().valid:
         pass
     srv.occlude_tip(True)
@@ -174,7 +193,9 @@ def test_server_that_disappears(lab):
     s.next_frame()
     srv.freeze()
     t0 = time.monotonic()
-    with pytest.raises(MocapError, match=r"no motion-capture frame from NatNet server 127\.0\.0\.1:\d+ \(unicast\) for 0\.3 s"):
+    with pytest.raises(
+        MocapError, match=r"no motion-capture frame from NatNet server 127\.0\.0\.1:\d+ \(unicast\) for 0\.3 s"
+    ):
         while True:
             s.next_frame()
     assert time.monotonic() - t0 < 3.0
@@ -205,11 +226,14 @@ def _unused_port():
         return s.getsockname()[1]
 
 
-@pytest.mark.parametrize("tip, message", [
-    (MarkerRef(marker="nose", marker_set="soft_arm"), r"has no marker 'nose'; it has \['tip', 'base_1'"),
-    (MarkerRef(marker="tip", marker_set="arm"), r"has no marker set 'arm'; it has \['all', 'soft_arm'\]"),
-    (MarkerRef(rigid_body="wand"), r"has no rigid body 'wand'; it has \['tip_body'\]"),
-])
+@pytest.mark.parametrize(
+    "tip, message",
+    [
+        (MarkerRef(marker="nose", marker_set="soft_arm"), r"has no marker 'nose'; it has \['tip', 'base_1'"),
+        (MarkerRef(marker="tip", marker_set="arm"), r"has no marker set 'arm'; it has \['all', 'soft_arm'\]"),
+        (MarkerRef(rigid_body="wand"), r"has no rigid body 'wand'; it has \['tip_body'\]"),
+    ],
+)
 def test_unknown_names_list_what_exists(lab, tip, message):
     srv = lab.server()
     with pytest.raises(MocapError, match=message):
@@ -219,7 +243,7 @@ def test_unknown_names_list_what_exists(lab, tip, message):
 def test_wrong_base_positions_are_refused(lab):
     srv = lab.server()
     cfg = config(srv)
-    swapped = cfg.base_positions_W_m[[1, 0, 2]]          # two base markers mislabelled
+    swapped = cfg.base_positions_W_m[[1, 0, 2]]  # two base markers mislabelled
     with pytest.raises(MocapError, match=r"fit RMS \d+\.\d mm > 3\.0 mm"):
         lab.stream(dataclasses.replace(cfg, base_positions_W_m=swapped))
 
@@ -233,4 +257,4 @@ def test_full_queue_drops_the_oldest_frames(lab):
         time.sleep(0.02)
     t_before = time.monotonic()
     first = s.next_frame()
-    assert first.t_s > t_before - 0.5          # what is left is recent
+    assert first.t_s > t_before - 0.5  # what is left is recent

@@ -1,13 +1,14 @@
 """Frozen motors (the six-cable arm without its second stage) and motor-path smoothness."""
-from helpers import fd_jacobian
+
 import numpy as np
 import pytest
+from helpers import fd_jacobian
+
 from lab.control.command_set import CommandSet
 from lab.control.ik import IKSolver
-from lab.learn.mlp import init_mlp
 from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
-
 from lab.description import load_robot
+from lab.learn.mlp import init_mlp
 
 FREE = [0, 2, 4]
 
@@ -26,7 +27,7 @@ def six_commands():
 
 
 def test_frozen_map_is_the_full_map_with_fixed_motors(six_net):
-    u_frozen = np.array([9.0, 0.7, 9.0, 1.3, 9.0, 0.2])      # entries at free indices are ignored
+    u_frozen = np.array([9.0, 0.7, 9.0, 1.3, 9.0, 0.2])  # entries at free indices are ignored
     fm = FrozenMotors(six_net, FREE, u_frozen)
     u_free = np.array([[0.5, 1.0, 2.0], [2.5, 0.1, 0.3]])
     full = fm.full(u_free)
@@ -48,7 +49,7 @@ def test_frozen_map_rejects_bad_motor_lists(six_net, bad):
 
 
 def test_frozen_commands_are_the_slice_of_the_allowed_set(six_commands):
-    u_frozen = np.array([0.0, 3.0, 0.0, 3.0, 0.0, 2.0])       # 8 rad of the 14.25 rad budget used
+    u_frozen = np.array([0.0, 3.0, 0.0, 3.0, 0.0, 2.0])  # 8 rad of the 14.25 rad budget used
     cs = frozen_commands(six_commands, FREE, u_frozen)
     assert cs.n == 3 and cs.b[0] == pytest.approx(six_commands.b[0] - 8.0)
     rng = np.random.default_rng(0)
@@ -96,7 +97,7 @@ def test_follow_polishes_away_the_regulariser_bias(six_net, six_commands):
     kw = dict(reg_weight=1e-5, posture_weight=1e-5, u_posture=np.full(6, 1.0))
     biased = IKSolver(six_net, six_commands, polish=False, **kw).follow(targets, u0=np.full(6, 1.5))
     exact = IKSolver(six_net, six_commands, **kw).follow(targets, u0=np.full(6, 1.5))
-    assert biased.residual_m.min() > 1e-5          # the regulariser alone pulls the tip off
+    assert biased.residual_m.min() > 1e-5  # the regulariser alone pulls the tip off
     assert exact.reachable.all() and exact.residual_m.max() < 1e-8
     assert all(r.iterations > b.iterations for r, b in zip(exact.results, biased.results))
 
@@ -106,17 +107,23 @@ def test_posture_term_pulls_the_redundant_solution_towards_the_posture(six_net, 
     u_posture = np.array([0.5, 2.5, 0.5, 2.5, 0.5, 2.5])
     dist = {}
     for wp in (0.0, 1e-6):
-        tr = IKSolver(six_net, six_commands, reg_weight=1e-6, posture_weight=wp,
-                      u_posture=u_posture).follow(targets, u0=np.full(6, 1.5))
+        tr = IKSolver(six_net, six_commands, reg_weight=1e-6, posture_weight=wp, u_posture=u_posture).follow(
+            targets, u0=np.full(6, 1.5)
+        )
         assert tr.reachable.all()
         dist[wp] = np.linalg.norm(tr.u_motor - u_posture, axis=1).mean()
     assert dist[1e-6] < 0.9 * dist[0.0], dist
 
 
-@pytest.mark.parametrize("kw, match", [({"posture_weight": -1.0}, "posture_weight"),
-                                       ({"posture_weight": np.nan}, "posture_weight"),
-                                       ({"u_posture": np.full(6, 3.0)}, "u_posture"),
-                                       ({"u_posture": np.ones(3)}, "u_posture")])
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"posture_weight": -1.0}, "posture_weight"),
+        ({"posture_weight": np.nan}, "posture_weight"),
+        ({"u_posture": np.full(6, 3.0)}, "u_posture"),
+        ({"u_posture": np.ones(3)}, "u_posture"),
+    ],
+)
 def test_bad_posture_settings_raise(six_net, six_commands, kw, match):
     with pytest.raises(ValueError, match=match):
         IKSolver(six_net, six_commands, **kw)

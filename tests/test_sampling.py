@@ -4,12 +4,12 @@ import sys
 
 import numpy as np
 import pytest
+
 from lab.data.dataset import DatasetError, read_dataset, write_dataset
 from lab.data.designs import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
 from lab.data.simulation import simulate
-from lab.fem.statics import solve_static
-
 from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
 
 
 def test_serpentine_walk_moves_one_step_at_a_time():
@@ -50,10 +50,12 @@ def test_parallel_run_is_identical_to_serial_and_to_cold_solves(three_cable, coa
     # between fresh processes, checked below; inside a long-lived test worker, alignment-
     # dependent SIMD paths in NumPy/MKL were seen to move the last bit, 7e-16 m.)
     assert np.abs(serial["p_tip_W"] - parallel["p_tip_W"]).max() < 1e-12
-    code = ("import sys, numpy as np; from lab.description import load_robot; "
-            "from lab.data import grid_chunks, grid_commands, simulate; r = load_robot('three-cable'); "
-            "u = grid_commands(r, 4); res = simulate(r, u, grid_chunks(r, u, target_size=16), n_rings=1, n_axial=6); "
-            "np.save(sys.argv[1], res['p_tip_W'])")
+    code = (
+        "import sys, numpy as np; from lab.description import load_robot; "
+        "from lab.data import grid_chunks, grid_commands, simulate; r = load_robot('three-cable'); "
+        "u = grid_commands(r, 4); res = simulate(r, u, grid_chunks(r, u, target_size=16), n_rings=1, n_axial=6); "
+        "np.save(sys.argv[1], res['p_tip_W'])"
+    )
     out = tmp_path / "serial.npy"
     subprocess.run([sys.executable, "-c", code, str(out)], check=True, timeout=300)
     assert np.array_equal(np.load(out), parallel["p_tip_W"])
@@ -98,8 +100,25 @@ def test_dataset_round_trip_and_corruption(tmp_path):
 
 def test_cli_simulate_writes_dataset_and_sidecar(tmp_path, three_cable):
     out = tmp_path / "sim.csv"
-    cmd = [sys.executable, "-m", "lab", "simulate", "--robot", "three-cable", "--grid", "3",
-           "--n-rings", "1", "--n-axial", "6", "--jobs", "1", "--no-progress", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "lab",
+        "simulate",
+        "--robot",
+        "three-cable",
+        "--grid",
+        "3",
+        "--n-rings",
+        "1",
+        "--n-axial",
+        "6",
+        "--jobs",
+        "1",
+        "--no-progress",
+        "--out",
+        str(out),
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     u, y, meta = read_dataset(out)
@@ -111,8 +130,9 @@ def test_cli_simulate_writes_dataset_and_sidecar(tmp_path, three_cable):
         assert meta[key]
     assert np.all(y[:, 0] > 0.1)  # tips in metres, near x = 20 cm
 
-    bad = subprocess.run(cmd[:5] + ["no-such-robot", "--out", str(tmp_path / "x.csv")],
-                         capture_output=True, text=True, timeout=60)
+    bad = subprocess.run(
+        cmd[:5] + ["no-such-robot", "--out", str(tmp_path / "x.csv")], capture_output=True, text=True, timeout=60
+    )
     assert bad.returncode == 2 and "unknown robot 'no-such-robot'" in bad.stderr
 
 
@@ -146,8 +166,25 @@ def test_cli_simulate_killed_midway_resumes_without_loss(tmp_path, three_cable):
     import time
 
     out = tmp_path / "sim.csv"
-    cmd = [sys.executable, "-m", "lab", "simulate", "--grid", "5", "--n-rings", "1", "--n-axial", "8",
-           "--chunk-size", "5", "--jobs", "1", "--no-progress", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "lab",
+        "simulate",
+        "--grid",
+        "5",
+        "--n-rings",
+        "1",
+        "--n-axial",
+        "8",
+        "--chunk-size",
+        "5",
+        "--jobs",
+        "1",
+        "--no-progress",
+        "--out",
+        str(out),
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     ckpt = tmp_path / "sim.csv.chunks"
     deadline = time.monotonic() + 120
@@ -175,8 +212,9 @@ def test_dask_local_cluster_gives_the_serial_numbers(three_cable):
     chunks = grid_chunks(three_cable, u, target_size=4)
     kw = dict(n_rings=1, n_axial=6)
     serial = simulate(three_cable, u, chunks, **kw)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      scheduler_port=0, dashboard_address=":0") as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", scheduler_port=0, dashboard_address=":0"
+    ) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         dask = simulate(three_cable, u, chunks, scheduler=cluster.scheduler_address, **kw)
     assert np.abs(dask["p_tip_W"] - serial["p_tip_W"]).max() < 1e-12
@@ -190,19 +228,37 @@ def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
 
     import psutil
 
-    cmd = [sys.executable, "-m", "lab", "simulate", "--grid", "7", "--n-rings", "1", "--n-axial", "10",
-           "--chunk-size", "64", "--jobs", "2", "--no-progress", "--out", str(tmp_path / "sim.csv")]
+    cmd = [
+        sys.executable,
+        "-m",
+        "lab",
+        "simulate",
+        "--grid",
+        "7",
+        "--n-rings",
+        "1",
+        "--n-axial",
+        "10",
+        "--chunk-size",
+        "64",
+        "--jobs",
+        "2",
+        "--no-progress",
+        "--out",
+        str(tmp_path / "sim.csv"),
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 120
     workers = []
     while time.monotonic() < deadline and proc.poll() is None:
-        workers = [p for p in psutil.Process(proc.pid).children(recursive=True)
-                   if "LokyProcess" in " ".join(p.cmdline())]
+        workers = [
+            p for p in psutil.Process(proc.pid).children(recursive=True) if "LokyProcess" in " ".join(p.cmdline())
+        ]
         if len(workers) == 2:
             break
         time.sleep(0.05)
     assert len(workers) == 2, "the run should have started its two workers"
-    time.sleep(1.0)                      # they are computing chunks now
+    time.sleep(1.0)  # they are computing chunks now
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=30) == 128 + signal.SIGTERM
     gone, alive = psutil.wait_procs(workers, timeout=10)
@@ -221,8 +277,11 @@ def test_walk_predictor_hermite_and_row_corrections(three_cable, coarse_fem):
     walk = [np.array([0, 1.0, u2]) for u2 in (0.5, 1.0, 1.5)] + [np.array([0, 1.5, u2]) for u2 in (1.5, 1.0)]
     for k, u in enumerate(walk):
         steps = [walk[j + 1] - walk[j] for j in (k - 1, k) if 0 <= j < len(walk) - 1]
-        pred.add(solve_static(fem, u, None if k == 0 else pred.ranked(u)[0][1], sensitivity="reuse",
-                              refine_du=np.array(steps)))
+        pred.add(
+            solve_static(
+                fem, u, None if k == 0 else pred.ranked(u)[0][1], sensitivity="reuse", refine_du=np.array(steps)
+            )
+        )
     exact = {}
 
     def err(u, q):
@@ -230,6 +289,7 @@ def test_walk_predictor_hermite_and_row_corrections(three_cable, coarse_fem):
         if key not in exact:
             exact[key] = solve_static(fem, u, tol_step_m=1e-11).q
         return np.abs(q - exact[key]).max()
+
     # Straight on along the first row: Hermite beats linear by far.
     u = np.array([0, 1.0, 2.0])
     names = {k: q for k, q, _ in pred.candidates(u)}
@@ -268,9 +328,9 @@ def test_walk_predictor_ranks_implausible_cable_states_last(coarse_fem, monkeypa
     best = solve_static(fem, u).q
     pred = WalkPredictor(fem)
     taut = pred._taut(best, u)
-    assert taut[1]                                          # pulled by motor 1
+    assert taut[1]  # pulled by motor 1
     true_ref = _Solved(ref_u, best, None, taut)
-    odd_ref = _Solved(ref_u, best, None, (taut[0], False, taut[2]))   # motor 1 did not move, yet it flips
+    odd_ref = _Solved(ref_u, best, None, (taut[0], False, taut[2]))  # motor 1 did not move, yet it flips
     worse = best + 1e-4 * np.random.default_rng(0).standard_normal(best.shape)
     monkeypatch.setattr(pred, "candidates", lambda u_: [("a", best, [odd_ref]), ("b", worse, [true_ref])])
     assert fem.energy(best, u) < fem.energy(worse, u)

@@ -1,11 +1,11 @@
-from helpers import fd_jacobian
 import dataclasses
 
 import numpy as np
 import pytest
-from lab.fem.statics import StaticSolveError, sensitivities, solve_static
+from helpers import fd_jacobian
 
 from lab.fem.energy import ArmFEM
+from lab.fem.statics import StaticSolveError, sensitivities, solve_static
 
 
 def test_sensitivity_matches_finite_differences(default_fem):
@@ -19,6 +19,7 @@ def test_sensitivity_matches_finite_differences(default_fem):
     assert np.abs(sol.dq_du[:, 0] - dq_fd).max() < 1e-6 * np.abs(dq_fd).max()
     # A projected (PSD) Hessian is *not* good enough for sensitivities:
     from lab.fem.linsolve import factorize
+
     dq_proj = -factorize(fem.hessian(sol.q, u, project=True)).solve(fem.mixed_derivative(sol.q, u))
     J_proj = fem.tip_matrix() @ dq_proj
     assert np.abs(J_proj - J_fd).max() > 100 * np.abs(sol.J_tip_u - J_fd).max()
@@ -133,8 +134,8 @@ def test_condensed_step_resolves_the_smoothed_cable_spring(default_fem, equilibr
 
     fem, (u, ref, D) = default_fem, equilibrium
     stretch = fem.cable_lengths(fem.to_nodes(ref.q)) - fem.cable_targets(u)
-    assert 0 < stretch[0] < fem.robot.slack_smoothing_m   # stiffness k d / eps: varies fast
-    q0 = ref.q + 1e-3 * D[:, 0]                            # ~40 um off, mostly in cable 0's stretch
+    assert 0 < stretch[0] < fem.robot.slack_smoothing_m  # stiffness k d / eps: varies fast
+    q0 = ref.q + 1e-3 * D[:, 0]  # ~40 um off, mostly in cable 0's stretch
     g, d, A = fem.gradient(q0, u, with_cables=True)
     H = fem.hessian(q0, u)
     dq, fac = newton_step(fem, H, g, d, A)
@@ -146,51 +147,53 @@ def test_condensed_step_resolves_the_smoothed_cable_spring(default_fem, equilibr
 
 def test_close_start_converges_with_one_factorisation_and_chord_steps(default_fem, equilibrium):
     fem, (u, ref, D) = default_fem, equilibrium
-    for amp in (3e-4, 1e-3):                               # 10 and 30 um from the equilibrium
+    for amp in (3e-4, 1e-3):  # 10 and 30 um from the equilibrium
         sol = solve_static(fem, u, ref.q + amp * D[:, 1])
         assert sol.factorizations == 1 and sol.iterations > 1
-        assert np.abs(sol.q - ref.q).max() < 1e-9          # far below tol_step_m = 1e-7
+        assert np.abs(sol.q - ref.q).max() < 1e-9  # far below tol_step_m = 1e-7
 
 
 def test_reused_sensitivity_is_refined_along_refine_du(default_fem, equilibrium):
     fem, (u, ref, D) = default_fem, equilibrium
-    q0 = ref.q + 3e-3 * D[:, 1]                            # the factorisation is ~1e-4 m off
+    q0 = ref.q + 3e-3 * D[:, 1]  # the factorisation is ~1e-4 m off
     plain = solve_static(fem, u, q0, sensitivity="reuse")
     refined = solve_static(fem, u, q0, sensitivity="reuse", refine_du=[[0.0, 0.5, 0.0]])
     assert plain.factorizations == refined.factorizations == 1
 
     def rel(sol, j):
         return np.abs(sol.dq_du[:, j] - D[:, j]).max() / np.abs(D[:, j]).max()
+
     assert rel(refined, 1) < 1e-3 and rel(refined, 1) < 0.02 * rel(plain, 1)
-    assert np.allclose(refined.dq_du[:, [0, 2]], plain.dq_du[:, [0, 2]])   # only along du
+    assert np.allclose(refined.dq_du[:, [0, 2]], plain.dq_du[:, [0, 2]])  # only along du
     assert np.allclose(refined.J_tip_u, fem.tip_matrix() @ refined.dq_du)
 
 
 def test_indefinite_start_is_reported_or_shifted(default_fem):
     fem = default_fem
-    q0 = fem.to_free(fem.mesh.X_W * [0.9, 1, 1])           # squashed 10 %: the Hessian is indefinite
+    q0 = fem.to_free(fem.mesh.X_W * [0.9, 1, 1])  # squashed 10 %: the Hessian is indefinite
     stop = solve_static(fem, [0, 0, 0], q0, stop_if_indefinite=True, raise_on_failure=False)
     assert stop.status == "indefinite" and not stop.converged and stop.factorizations == 1
     sol = solve_static(fem, [0, 0, 0], q0)
-    assert sol.converged and sol.projected_steps == 0      # diagonal shifts were enough
+    assert sol.converged and sol.projected_steps == 0  # diagonal shifts were enough
     assert np.abs(sol.p_tip_W - solve_static(fem, [0, 0, 0]).p_tip_W).max() < 1e-9
 
 
 def test_shifted_step():
     import scipy.sparse as sp
+
     from lab.fem.steps import SHIFTS, shifted_step
 
     n = 50
     rng = np.random.default_rng(5)
     off = sp.random(n, n, density=0.05, random_state=6) * 10.0
     H = (sp.diags(np.full(n, 1000.0)) + off + off.T).tocsr()
-    H.setdiag(H.diagonal() - np.r_[1000.5, np.zeros(n - 1)])   # one eigenvalue near -0.5
+    H.setdiag(H.diagonal() - np.r_[1000.5, np.zeros(n - 1)])  # one eigenvalue near -0.5
     g = rng.standard_normal(n)
     s = SHIFTS[0] * np.median(H.diagonal())
     expected = -np.linalg.solve(H.toarray() + s * np.eye(n), g)
     d, used = shifted_step(H.copy(), g)
     assert used == 1 and np.allclose(d, expected) and g @ d < 0
-    H.setdiag(H.diagonal() - np.r_[1000.0, np.zeros(n - 1)])    # far more negative than any shift
+    H.setdiag(H.diagonal() - np.r_[1000.0, np.zeros(n - 1)])  # far more negative than any shift
     assert shifted_step(H, g) == (None, len(SHIFTS))
 
 
@@ -204,5 +207,5 @@ def test_pardiso_solves_without_refinement_when_no_pivot_was_perturbed(default_f
     lu = factorize(H, "pardiso")
     b = np.random.default_rng(0).standard_normal(H.shape[0])
     x = lu.solve(b)
-    assert lu.n_perturbed == 0 and int(lu._solver.get_iparm(7)) == 0   # no refinement steps run
+    assert lu.n_perturbed == 0 and int(lu._solver.get_iparm(7)) == 0  # no refinement steps run
     assert np.linalg.norm(H @ x - b) < 1e-14 * abs(H).max() * np.linalg.norm(x)

@@ -1,25 +1,27 @@
 """Running a trajectory on a rig (settling, sim robot), the result file, the ``track`` CLI, Table I."""
+
 import json
 
 import numpy as np
 import pytest
+
+from lab.cli import main
 from lab.control.command_set import CommandSet
-from lab.data.dataset import read_dataset
 from lab.control.ik import IKSolver
 from lab.control.soft_ik import FEMForwardMap
-from lab.fem.statics import solve_static
-from lab.tracking.track import REQUIRED_KEYS, read_result, run_trajectory, write_result
 from lab.control.trajectories import circle, write_trajectory_csv
-
-from lab.tracking import table1
-from lab.cli import main
+from lab.data.dataset import read_dataset
+from lab.fem.statics import solve_static
 from lab.rig.base import MocapFrame, Rig, RigError
 from lab.rig.sim import SimRig
+from lab.tracking import table1
+from lab.tracking.track import REQUIRED_KEYS, read_result, run_trajectory, write_result
 
 
 class LaggingRig(Rig):
     """An emulated arm whose tip follows ``p = c + B u`` with a first-order lag (time
     constant 0.3 s) and 0.05 mm motion-capture noise, at 120 Hz; motors move instantly."""
+
     kind = "lagging"
 
     def __init__(self, robot, c, B):
@@ -62,8 +64,8 @@ def test_tracking_waits_for_a_lagging_tip(three_cable):
     solver = IKSolver(Linear(c, B), CommandSet.from_robot(three_cable))
     with LaggingRig(three_cable, c, B) as rig:
         res = run_trajectory(rig, solver, targets)
-    assert res.settled.all() and np.all(res.settle_wait_s >= 2.0)      # 20 readings of 0.1 s before
-    assert res.max_error_m < 1e-4                                       # vs ~5 mm steps between targets
+    assert res.settled.all() and np.all(res.settle_wait_s >= 2.0)  # 20 readings of 0.1 s before
+    assert res.max_error_m < 1e-4  # vs ~5 mm steps between targets
 
 
 def test_soft_ik_tracks_the_sim_robot_exactly(three_cable, coarse_fem):
@@ -97,8 +99,27 @@ COARSE = ["--n-rings", "1", "--n-axial", "6"]
 
 def test_track_cli_end_to_end(model_file, tmp_path):
     out = tmp_path / "circle.json"
-    assert main(["track", "--model", str(model_file), "--rig", "sim", "--robot", "three-cable",
-                 "--trajectory", "circle", "--n-points", "5", *COARSE, "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "track",
+                "--model",
+                str(model_file),
+                "--rig",
+                "sim",
+                "--robot",
+                "three-cable",
+                "--trajectory",
+                "circle",
+                "--n-points",
+                "5",
+                *COARSE,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     doc = json.loads(out.read_text())
     assert set(REQUIRED_KEYS) <= set(doc)
     assert np.shape(doc["targets"]) == (5, 3) and np.shape(doc["commands"]) == (5, 3)
@@ -120,24 +141,47 @@ def test_track_cli_six_cable_regularised(tmp_path):
     """The redundant arm through the shipped six-cable model: every target reached by the IK,
     the regulariser recorded, motor steps small between neighbouring targets."""
     out = tmp_path / "spiral.json"
-    assert main(["track", "--model", "data/model_sim_six_cable.npz", "--robot", "six-cable",
-                 "--trajectory", "six-spiral", "--n-points", "12", "--reg-weight", "1e-6",
-                 "--posture-weight", "1e-6", *COARSE, "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "track",
+                "--model",
+                "data/model_sim_six_cable.npz",
+                "--robot",
+                "six-cable",
+                "--trajectory",
+                "six-spiral",
+                "--n-points",
+                "12",
+                "--reg-weight",
+                "1e-6",
+                "--posture-weight",
+                "1e-6",
+                *COARSE,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     doc = json.loads(out.read_text())
     assert np.shape(doc["commands"]) == (12, 6) and doc["n_unreachable"] == 0
-    assert max(doc["ik_residual_m"]) < 1e-8                     # polished: no regulariser bias
+    assert max(doc["ik_residual_m"]) < 1e-8  # polished: no regulariser bias
     solver = doc["info"]["solver"]
     assert solver["reg_weight"] == 1e-6 and solver["posture_weight"] == 1e-6 and solver["polish"]
     assert solver["u_posture"] == [1.5] * 6
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--trajectory", "star"], "unknown trajectory"),
-    (["--trajectory", "circle", "--model", "missing.npz"], "not found"),
-    (["--trajectory", "circle", "--robot", "six-cable"], "6 cables"),
-    (["--trajectory", "circle", "--rig", "hardware"], "configuration file"),
-    (["--trajectory", "circle", "--rig", "twin", *COARSE], "mesh of --rig sim"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--trajectory", "star"], "unknown trajectory"),
+        (["--trajectory", "circle", "--model", "missing.npz"], "not found"),
+        (["--trajectory", "circle", "--robot", "six-cable"], "6 cables"),
+        (["--trajectory", "circle", "--rig", "hardware"], "configuration file"),
+        (["--trajectory", "circle", "--rig", "twin", *COARSE], "mesh of --rig sim"),
+    ],
+)
 def test_track_cli_bad_input(model_file, tmp_path, capsys, args, message):
     base = [] if "--model" in args else ["--model", str(model_file)]
     assert main(["track", *base, *args, "--n-points", "4", "--out", str(tmp_path / "r.json")]) == 2
@@ -151,17 +195,49 @@ def test_rig_is_closed_on_errors(model_file, tmp_path, monkeypatch, capsys):
 
     def fail(*args, **kwargs):
         raise RigError("servo 2 stopped answering")
+
     monkeypatch.setattr("lab.tracking.track.measure", fail)
-    assert main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
-                 "--out", str(tmp_path / "r.json")]) == 1
+    assert (
+        main(
+            [
+                "track",
+                "--model",
+                str(model_file),
+                "--trajectory",
+                "circle",
+                "--n-points",
+                "3",
+                *COARSE,
+                "--out",
+                str(tmp_path / "r.json"),
+            ]
+        )
+        == 1
+    )
     assert closed == [True] and "servo 2" in capsys.readouterr().err
 
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
+
     monkeypatch.setattr("lab.tracking.track.measure", boom)
     # Ctrl-C: the rig is closed, a clean message, exit code 130 (no KeyboardInterrupt traceback)
-    assert main(["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "3", *COARSE,
-                 "--out", str(tmp_path / "r.json")]) == 130
+    assert (
+        main(
+            [
+                "track",
+                "--model",
+                str(model_file),
+                "--trajectory",
+                "circle",
+                "--n-points",
+                "3",
+                *COARSE,
+                "--out",
+                str(tmp_path / "r.json"),
+            ]
+        )
+        == 130
+    )
     assert closed == [True, True] and "interrupted" in capsys.readouterr().err
 
 
@@ -169,9 +245,19 @@ def test_result_file_nan_and_errors(tmp_path, three_cable, coarse_fem):
     from lab.tracking.track import TrackResult, TrackResultError
 
     n = 2
-    res = TrackResult("t", np.zeros((n, 3)), np.zeros((n, 3)), np.array([[0.1, 0, 0], [np.nan] * 3]),
-                      np.zeros((n, 3)), np.zeros(n), np.ones(n, bool), np.ones(n, int), np.ones(n, bool),
-                      np.zeros(n), {"ik_total_s": 0.0})
+    res = TrackResult(
+        "t",
+        np.zeros((n, 3)),
+        np.zeros((n, 3)),
+        np.array([[0.1, 0, 0], [np.nan] * 3]),
+        np.zeros((n, 3)),
+        np.zeros(n),
+        np.ones(n, bool),
+        np.ones(n, int),
+        np.ones(n, bool),
+        np.zeros(n),
+        {"ik_total_s": 0.0},
+    )
     write_result(tmp_path / "r.json", res)
     doc = read_result(tmp_path / "r.json")
     assert np.isnan(doc["achieved"][1]).all() and np.isnan(doc["errors_m"][1])
@@ -182,14 +268,20 @@ def test_result_file_nan_and_errors(tmp_path, three_cable, coarse_fem):
 
 def test_table1_rows_merge(tmp_path):
     csv, md = tmp_path / "table1.csv", tmp_path / "table1.md"
-    table1.update_table1({"Sim Data + Sim Robot": {"circle": 0.003, "square": 0.004, "rose": 0.002},
-                          "Soft IK + Sim Robot": {"circle": 0.0, "square": 0.0, "rose": 0.0}},
-                         csv, md, source="notebook 04")
+    table1.update_table1(
+        {
+            "Sim Data + Sim Robot": {"circle": 0.003, "square": 0.004, "rose": 0.002},
+            "Soft IK + Sim Robot": {"circle": 0.0, "square": 0.0, "rose": 0.0},
+        },
+        csv,
+        md,
+        source="notebook 04",
+    )
     table1.update_table1({"Real Data + Real Robot": {"circle": 0.2, "rose": 0.3}}, csv, md, source="rig")
     rows = table1.read_table1(csv)
     assert list(rows) == ["Real Data + Real Robot", "Sim Data + Sim Robot", "Soft IK + Sim Robot"]
-    assert float(rows["Sim Data + Sim Robot"]["circle_cm"]) == 0.003             # kept
-    assert rows["Real Data + Real Robot"]["square_cm"] == ""                     # not measured
+    assert float(rows["Sim Data + Sim Robot"]["circle_cm"]) == 0.003  # kept
+    assert rows["Real Data + Real Robot"]["square_cm"] == ""  # not measured
     assert float(rows["Real Data + Real Robot"]["paper_rose_cm"]) == 0.22
     assert rows["Soft IK + Sim Robot"]["paper_circle_cm"] == ""
     table1.update_table1({"Sim Data + Sim Robot": {"circle": 0.005}}, csv, md, source="rerun")

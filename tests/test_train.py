@@ -1,4 +1,5 @@
-"""lab.learn (split, lm, gradient, train, metrics, studies) / `python -m lab train`: splits, LM semantics, errors, CLI."""
+"""lab.learn and `python -m lab train`: splits, LM semantics, errors, CLI."""
+
 import json
 import subprocess
 import sys
@@ -7,15 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from helpers import fd_parameter_jacobian
-from lab.data.dataset import read_dataset, write_dataset
-from lab.learn.studies import evaluate_splits, size_sweep, summarize
-from lab.learn.metrics import mean_distance_m, mse_m2, workspace_size_m
-from lab.learn.mlp import MLP, init_mlp, load_model
-from lab.learn.lm import LMOptions, train_lm
-from lab.learn.split import divide_random
-from lab.learn.train import train
 
 from lab.cli import main
+from lab.data.dataset import read_dataset, write_dataset
+from lab.learn.lm import LMOptions, train_lm
+from lab.learn.metrics import mean_distance_m, mse_m2, workspace_size_m
+from lab.learn.mlp import MLP, init_mlp, load_model
+from lab.learn.split import divide_random
+from lab.learn.studies import evaluate_splits, size_sweep, summarize
+from lab.learn.train import train
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "sim_three_cable.csv"
@@ -36,9 +37,10 @@ def smooth_problem(n=60, noise=0.05, seed=0):
 
 # ---- splits and metrics -----------------------------------------------------------------
 
+
 def test_divide_random_sizes_like_matlab_dividerand():
     s = divide_random(308, (0.8, 0.1, 0.1), seed=0)
-    assert s.sizes() == {"train": 246, "validation": 31, "test": 31}   # round(30.8) = 31 each
+    assert s.sizes() == {"train": 246, "validation": 31, "test": 31}  # round(30.8) = 31 each
     assert divide_random(308, (0.9, 0.0, 0.1), seed=0).sizes() == {"train": 277, "validation": 0, "test": 31}
     assert divide_random(308, (70, 15, 15), seed=0).sizes() == {"train": 216, "validation": 46, "test": 46}
     every = np.concatenate([s.train, s.validation, s.test])
@@ -57,7 +59,7 @@ def test_error_metrics_and_workspace_size():
     y = np.zeros((2, 3))
     y_hat = np.array([[3e-3, 4e-3, 0.0], [0.0, 0.0, 1e-3]])
     assert mean_distance_m(y_hat, y) == pytest.approx((5e-3 + 1e-3) / 2)
-    assert mse_m2(y_hat, y) == pytest.approx((9e-6 + 16e-6 + 1e-6) / 6)       # mean over 6 elements
+    assert mse_m2(y_hat, y) == pytest.approx((9e-6 + 16e-6 + 1e-6) / 6)  # mean over 6 elements
     box = np.array([[0.1, -0.05, 0.0], [0.2, 0.05, 0.0], [0.15, 0.0, 0.2]])
     assert workspace_size_m(box) == pytest.approx(np.sqrt(0.1**2 + 0.1**2 + 0.2**2))
 
@@ -65,10 +67,10 @@ def test_error_metrics_and_workspace_size():
 # ---- Levenberg-Marquardt semantics --------------------------------------------------------
 
 
-@pytest.mark.parametrize("hidden", [(3,), (30,)])   # primal (P < N_e) and kernel (P > N_e) forms
+@pytest.mark.parametrize("hidden", [(3,), (30,)])  # primal (P < N_e) and kernel (P > N_e) forms
 def test_first_lm_step_is_the_trainlm_formula_in_data_units(hidden):
     u, y = smooth_problem(n=20)
-    y = 0.01 * y + 0.1                                   # metres-sized outputs: units matter
+    y = 0.01 * y + 0.1  # metres-sized outputs: units matter
     model = init_mlp(u, y, hidden, seed=3)
     net, log = train_lm(model, u, y, options=LMOptions(epochs=1, min_grad=0))
     assert log.history["mu"][0] == 1e-3 and log.stop_reason == "max_epochs"
@@ -92,8 +94,8 @@ def test_mu_schedule_times_ten_on_failure_tenth_on_success():
     ratio = np.log10(log.history["mu"][1:] / log.history["mu"][:-1])
     # one accepted step per epoch: mu * 10^(rejected trials) * 0.1
     np.testing.assert_allclose(ratio, np.round(ratio), atol=1e-9)
-    assert ratio.min() == pytest.approx(-1) and ratio.max() >= 0       # both branches happened
-    assert np.all(np.diff(log.history["perf"]) < 0)                    # every epoch lowered the training MSE
+    assert ratio.min() == pytest.approx(-1) and ratio.max() >= 0  # both branches happened
+    assert np.all(np.diff(log.history["perf"]) < 0)  # every epoch lowered the training MSE
 
 
 def test_stops_at_mu_max_when_no_step_can_improve():
@@ -102,32 +104,32 @@ def test_stops_at_mu_max_when_no_step_can_improve():
     model = MLP([np.zeros((1, 1))], [np.zeros(1)], [-1.0], [1.0], [0.0], [4.0])
     _, log = train_lm(model, u, y, options=LMOptions(min_grad=-1.0))
     assert log.stop_reason == "mu_max" and log.epochs == 1
-    assert log.history["mu"][1] == pytest.approx(1e-3 * 10**14)     # x10 until above mu_max = 1e10
-    _, log = train_lm(model, u, y)                                     # gradient 0 <= min_grad comes first
+    assert log.history["mu"][1] == pytest.approx(1e-3 * 10**14)  # x10 until above mu_max = 1e10
+    _, log = train_lm(model, u, y)  # gradient 0 <= min_grad comes first
     assert log.stop_reason == "min_grad" and log.epochs == 0
 
 
 def test_validation_stop_returns_the_best_validation_weights():
     rng = np.random.default_rng(0)
-    u, y = rng.uniform(0, 1, (40, 2)), rng.standard_normal((40, 1))          # pure noise: overfits at once
+    u, y = rng.uniform(0, 1, (40, 2)), rng.standard_normal((40, 1))  # pure noise: overfits at once
     model = init_mlp(u, y, (10,), seed=1)
     net, log = train_lm(model, u[:30], y[:30], u[30:], y[30:], options=LMOptions(min_grad=0))
     h, best = log.history, log.best_epoch
     assert log.stop_reason == "validation"
     assert log.epochs == best + 6 and list(h["val_fail"][best:]) == list(range(7))
-    assert h["vperf"][best] == h["vperf"].min() and np.all(h["vperf"][best + 1:] > h["vperf"][best])
+    assert h["vperf"][best] == h["vperf"].min() and np.all(h["vperf"][best + 1 :] > h["vperf"][best])
     assert np.mean((net.predict(u[30:]) - y[30:]) ** 2) == pytest.approx(h["vperf"][best], rel=1e-12)
     assert np.mean((net.predict(u[:30]) - y[:30]) ** 2) == pytest.approx(h["perf"][best], rel=1e-12)
-    assert h["perf"][-1] < h["perf"][best]                           # not the last epoch's weights
+    assert h["perf"][-1] < h["perf"][best]  # not the last epoch's weights
 
 
 def test_kernel_form_and_chunked_primal_form_agree():
     u, y = smooth_problem(n=15)
-    model = init_mlp(u, y, (12,), seed=2)                                  # 50 parameters > 30 residuals
+    model = init_mlp(u, y, (12,), seed=2)  # 50 parameters > 30 residuals
     opts = dict(epochs=10, min_grad=0)
     _, kern = train_lm(model, u, y, options=LMOptions(**opts))
-    net_c, chunk = train_lm(model, u, y, options=LMOptions(max_jacobian_mb=1e-3, **opts))   # 1-sample chunks
-    assert kern.history["perf"][-1] < 1e-6 * kern.history["perf"][0]     # it does interpolate
+    net_c, chunk = train_lm(model, u, y, options=LMOptions(max_jacobian_mb=1e-3, **opts))  # 1-sample chunks
+    assert kern.history["perf"][-1] < 1e-6 * kern.history["perf"][0]  # it does interpolate
     np.testing.assert_allclose(kern.history["perf"], chunk.history["perf"], rtol=1e-6)
     np.testing.assert_array_equal(kern.history["mu"], chunk.history["mu"])
 
@@ -144,14 +146,15 @@ def test_train_is_deterministic_and_records_metadata(sim_data):
     assert meta["split"]["indices"]["test"] == a.split.test.tolist()
     assert len(meta["data_sha256"]) == 64 and meta["stop_reason"] in ("max_epochs", "min_grad", "validation")
     assert meta["errors"]["test"]["mean_distance_m"] == pytest.approx(
-        mean_distance_m(a.model.predict(u[a.split.test]), y[a.split.test]))
+        mean_distance_m(a.model.predict(u[a.split.test]), y[a.split.test])
+    )
 
 
 def test_lm_fits_the_simulated_arm_to_sub_millimetre(sim_data):
     u, y = sim_data
     res = train(u, y, (20, 20), ratios=(0.8, 0.1, 0.1), seed=0)
     size = workspace_size_m(y)
-    assert res.errors["test"]["mean_distance_m"] < 1e-3                  # < 1 mm (paper, real data: 4.42 mm)
+    assert res.errors["test"]["mean_distance_m"] < 1e-3  # < 1 mm (paper, real data: 4.42 mm)
     assert res.errors["test"]["mean_distance_m"] / size < 0.005
     assert res.errors["train"]["mse_m2"] < 1e-7
 
@@ -171,6 +174,7 @@ def test_adam_and_lbfgs_train(sim_data, algorithm, options):
 
 # ---- studies ----------------------------------------------------------------------------
 
+
 def test_evaluate_splits_and_size_sweep_are_reproducible(sim_data):
     u, y = sim_data
     rows = evaluate_splits(u, y, (4,), n_splits=3, seed=1, epochs=10)
@@ -179,9 +183,13 @@ def test_evaluate_splits_and_size_sweep_are_reproducible(sim_data):
     again = evaluate_splits(u, y, (4,), n_splits=3, seed=1, epochs=10, n_jobs=2)
     assert [r["test_mse_m2"] for r in again] == [r["test_mse_m2"] for r in rows]
     sweep = size_sweep(u, y, [2, 3], n_runs=2, seed=0, epochs=5)
-    assert [(r["width"], r["run"], r["hidden"]) for r in sweep] == [(2, 0, "2-2"), (2, 1, "2-2"),
-                                                                   (3, 0, "3-3"), (3, 1, "3-3")]
-    assert sweep[0]["seed"] == sweep[2]["seed"]                       # run r: same split for every width
+    assert [(r["width"], r["run"], r["hidden"]) for r in sweep] == [
+        (2, 0, "2-2"),
+        (2, 1, "2-2"),
+        (3, 0, "3-3"),
+        (3, 1, "3-3"),
+    ]
+    assert sweep[0]["seed"] == sweep[2]["seed"]  # run r: same split for every width
     stats = summarize(sweep, "width", "test_mean_distance_m")
     assert [s["width"] for s in stats] == [2, 3] and stats[0]["n"] == 2
     assert stats[0]["mean"] == pytest.approx(np.mean([r["test_mean_distance_m"] for r in sweep[:2]]))
@@ -189,10 +197,26 @@ def test_evaluate_splits_and_size_sweep_are_reproducible(sim_data):
 
 # ---- command line ---------------------------------------------------------------------------
 
+
 def test_cli_train_writes_model_and_report(tmp_path, capsys):
     out, report = tmp_path / "model.npz", tmp_path / "report.json"
-    rc = main(["train", str(DATA), "--hidden", "8", "8", "--out", str(out), "--report", str(report),
-               "--seed", "3", "--epochs", "30"])
+    rc = main(
+        [
+            "train",
+            str(DATA),
+            "--hidden",
+            "8",
+            "8",
+            "--out",
+            str(out),
+            "--report",
+            str(report),
+            "--seed",
+            "3",
+            "--epochs",
+            "30",
+        ]
+    )
     assert rc == 0
     printed = capsys.readouterr().out
     assert "test" in printed and "mean dist [mm]" in printed
@@ -225,12 +249,22 @@ def test_cli_train_bad_inputs_exit_2(tmp_path, capsys):
 
 def test_python_dash_m_lab_train(tmp_path):
     out = tmp_path / "m.npz"
-    proc = subprocess.run([sys.executable, "-m", "lab", "train", str(DATA), "--hidden", "5", "--epochs", "5",
-                           "--out", str(out)], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lab", "train", str(DATA), "--hidden", "5", "--epochs", "5", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "validation" in proc.stdout and out.exists()
-    proc = subprocess.run([sys.executable, "-m", "lab", "train", str(tmp_path / "none.csv"), "--out", str(out)],
-                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lab", "train", str(tmp_path / "none.csv"), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "error: dataset not found" in proc.stderr
 
 
@@ -238,19 +272,21 @@ def test_cli_splits_writes_one_row_per_split(tmp_path, capsys):
     import csv
 
     out = tmp_path / "splits.csv"
-    rc = main(["splits", str(DATA), "--hidden", "6", "--n-splits", "3", "--jobs", "1", "--seed", "4",
-               "--out", str(out)])
+    rc = main(
+        ["splits", str(DATA), "--hidden", "6", "--n-splits", "3", "--jobs", "1", "--seed", "4", "--out", str(out)]
+    )
     assert rc == 0
     printed = capsys.readouterr().out
     assert "test mean distance over 3 splits" in printed
     rows = list(csv.DictReader(out.open()))
     assert [int(r["split"]) for r in rows] == [0, 1, 2]
-    assert all(int(r["test_n"]) == 31 and r["validation_n"] == "0" for r in rows)   # 90/0/10 of 308
+    assert all(int(r["test_n"]) == 31 and r["validation_n"] == "0" for r in rows)  # 90/0/10 of 308
     assert rows[0]["command"].startswith("python -m lab splits")
     # The same numbers as the library call with the same seed.
     u, y, _ = read_dataset(DATA)
     ref = evaluate_splits(u, y, (6,), n_splits=3, seed=4)
-    np.testing.assert_allclose([float(r["test_mean_distance_m"]) for r in rows],
-                               [r["test_mean_distance_m"] for r in ref], rtol=1e-12)
+    np.testing.assert_allclose(
+        [float(r["test_mean_distance_m"]) for r in rows], [r["test_mean_distance_m"] for r in ref], rtol=1e-12
+    )
     assert f"{1e3 * np.mean([r['test_mean_distance_m'] for r in ref]):.4f} mm" in printed
     assert main(["splits", str(DATA), "--n-splits", "0", "--out", str(out)]) == 2

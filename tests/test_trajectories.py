@@ -1,4 +1,5 @@
 """Built-in target trajectories (shape, size, placement) and trajectory CSV files."""
+
 import numpy as np
 import pytest
 
@@ -12,29 +13,29 @@ def yz(points):
 def test_circle():
     p = T.circle(64)
     assert p.shape == (64, 3)
-    np.testing.assert_allclose(p[:, 0], T.CENTRE_W[0])                        # in the plane x = const
+    np.testing.assert_allclose(p[:, 0], T.CENTRE_W[0])  # in the plane x = const
     np.testing.assert_allclose(np.linalg.norm(yz(p), axis=1), 0.035)
     steps = np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)
-    np.testing.assert_allclose(steps, steps[0])                             # equally spaced, closed
+    np.testing.assert_allclose(steps, steps[0])  # equally spaced, closed
 
 
 def test_square():
     p = T.square(100, side_m=0.06)
     d = yz(p)
-    np.testing.assert_allclose(np.max(np.abs(d), axis=1), 0.03)              # every point on the perimeter
+    np.testing.assert_allclose(np.max(np.abs(d), axis=1), 0.03)  # every point on the perimeter
     corners = {(sy, sz) for sy in (-0.03, 0.03) for sz in (-0.03, 0.03)}
     hits = {tuple(np.round(q, 12)) for q in d if np.allclose(np.abs(q), 0.03)}
-    assert hits == corners                                                   # n % 4 == 0 hits all corners
+    assert hits == corners  # n % 4 == 0 hits all corners
     steps = np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)
     np.testing.assert_allclose(steps, 0.24 / 100)
-    np.testing.assert_allclose(np.ptp(p[:, 1:], axis=0), 0.06)              # 6 cm across
+    np.testing.assert_allclose(np.ptp(p[:, 1:], axis=0), 0.06)  # 6 cm across
 
 
 @pytest.mark.parametrize("k, petals", [(2, 4), (3, 3), (4, 8)])
 def test_rose_petals(k, petals):
     p = T.rose(720, radius_m=0.035, k=k)
     r = np.linalg.norm(yz(p), axis=1)
-    assert r.max() == pytest.approx(0.035, rel=1e-3) and r.min() < 1e-3     # through the centre
+    assert r.max() == pytest.approx(0.035, rel=1e-3) and r.min() < 1e-3  # through the centre
     tips = np.flatnonzero((r > np.roll(r, 1)) & (r >= np.roll(r, -1)) & (r > 0.03))
     assert len(tips) == petals
     with pytest.raises(T.TrajectoryError, match="positive integer"):
@@ -55,7 +56,7 @@ def test_builtins_are_paper_sized(name):
     p = T.builtin(name)
     assert len(p) == T.DEFAULT_POINTS[name]
     across = np.ptp(p[:, 1:], axis=0).max()
-    assert 0.059 <= across <= 0.10                                  # "around 6 cm to 10 cm across"
+    assert 0.059 <= across <= 0.10  # "around 6 cm to 10 cm across"
     assert np.all(np.isfinite(p))
 
 
@@ -80,15 +81,18 @@ def test_csv_round_trip(tmp_path):
     np.testing.assert_array_equal(T.load_trajectory("square", 8), T.square(8))
 
 
-@pytest.mark.parametrize("text, message", [
-    ("", "empty file"),
-    ("x,y\n0.1,0.2\n", "header must be x,y,z"),
-    ("x,y,z\n", "no points"),
-    ("x,y,z\n0.1,0.2\n", "line 2 has 2 fields"),
-    ("x,y,z\n0.1,0.0,0.0\n0.1,abc,0\n", "line 3 has a non-numeric value"),
-    ("x,y,z\n0.1,nan,0\n", "line 2 has a NaN"),
-    ("x,y,z\n184,0,-6\n", "must be in metres"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "empty file"),
+        ("x,y\n0.1,0.2\n", "header must be x,y,z"),
+        ("x,y,z\n", "no points"),
+        ("x,y,z\n0.1,0.2\n", "line 2 has 2 fields"),
+        ("x,y,z\n0.1,0.0,0.0\n0.1,abc,0\n", "line 3 has a non-numeric value"),
+        ("x,y,z\n0.1,nan,0\n", "line 2 has a NaN"),
+        ("x,y,z\n184,0,-6\n", "must be in metres"),
+    ],
+)
 def test_bad_csv_files(tmp_path, text, message):
     path = tmp_path / "bad.csv"
     path.write_text(text)
@@ -117,7 +121,9 @@ def test_six_cable_paths_shapes():
     assert saddle[:, 0].min() == pytest.approx(0.166) and saddle[:, 0].max() == pytest.approx(0.174)
     np.testing.assert_allclose(np.linalg.norm(saddle[:, 1:], axis=1), 0.06)
     spiral = T.builtin("six-spiral")
-    assert np.linalg.norm(spiral[0, 1:]) == pytest.approx(0.01) and np.linalg.norm(spiral[-1, 1:]) == pytest.approx(0.08)
+    assert np.linalg.norm(spiral[0, 1:]) == pytest.approx(0.01) and np.linalg.norm(spiral[-1, 1:]) == pytest.approx(
+        0.08
+    )
     assert spiral[0, 0] == pytest.approx(0.188) and spiral[-1, 0] == pytest.approx(0.160)
     assert len(T.load_trajectory("six-circle", 10)) == 10
     with pytest.raises(T.TrajectoryError, match="six-spiral"):
@@ -129,10 +135,9 @@ def test_six_cable_paths_need_the_second_stage_and_are_reachable_with_it():
     target is reached; with the short cables slack (first stage only) six-ring is not."""
     from lab.control.command_set import CommandSet
     from lab.control.ik import IKSolver, grid_seeds
-    from lab.learn.mlp import load_model
     from lab.control.redundancy import FrozenMotors, frozen_commands
-
     from lab.description import load_robot
+    from lab.learn.mlp import load_model
 
     six = load_robot("six-cable")
     model = load_model("data/model_sim_six_cable.npz")

@@ -3,16 +3,24 @@
 Everything runs on the coarse mesh (n_rings=1, n_axial=6) with defect files built from
 the shipped default, so each physical effect can be switched on alone.
 """
+
 import copy
 import math
 import tomllib
 
 import numpy as np
 import pytest
-from lab.fem.statics import solve_static
 
+from lab.fem.statics import solve_static
 from lab.rig import make_rig
-from lab.rig.asbuilt import DefectsError, as_built_fem, as_built_robot, default_defects_path, load_defects, parse_defects
+from lab.rig.asbuilt import (
+    DefectsError,
+    as_built_fem,
+    as_built_robot,
+    default_defects_path,
+    load_defects,
+    parse_defects,
+)
 from lab.rig.base import RigError
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
@@ -56,21 +64,24 @@ def test_shipped_defects_load(three_cable):
     assert d.sha256 == load_defects(default_defects_path(three_cable), three_cable).sha256
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda d: d["material"].update(softness=-1), "material.softness"),
-    (lambda d: d["material"].update(gradient=1.2), "material.gradient"),
-    (lambda d: d["material"].update(gradient_direction=[1, 0, 0]), "material.gradient_direction"),
-    (lambda d: d["cables"][1].update(name="left"), "cables[1].name"),
-    (lambda d: d["cables"][2].update(slack_m="3 mm"), "cables[2].slack_m"),
-    (lambda d: d["cables"][0].update(via_shift_m=[0, 0]), "cables[0].via_shift_m"),
-    (lambda d: d["cables"][0].update(via_shift_m=[0, 0, 0.01]), "cables[0].via_shift_m"),
-    (lambda d: d["lag"].update(tau_slow_s=0.1), "lag.tau_slow_s"),
-    (lambda d: d["lag"].pop("slow_fraction"), "lag.slow_fraction"),
-    (lambda d: d["motors"].update(ticks_per_rev=4096.5), "motors.ticks_per_rev"),
-    (lambda d: d.pop("mocap"), "[mocap]"),
-    (lambda d: d.update(robot="six-cable"), "robot"),
-    (lambda d: d["cables"].pop(), "[[cables]]"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda d: d["material"].update(softness=-1), "material.softness"),
+        (lambda d: d["material"].update(gradient=1.2), "material.gradient"),
+        (lambda d: d["material"].update(gradient_direction=[1, 0, 0]), "material.gradient_direction"),
+        (lambda d: d["cables"][1].update(name="left"), "cables[1].name"),
+        (lambda d: d["cables"][2].update(slack_m="3 mm"), "cables[2].slack_m"),
+        (lambda d: d["cables"][0].update(via_shift_m=[0, 0]), "cables[0].via_shift_m"),
+        (lambda d: d["cables"][0].update(via_shift_m=[0, 0, 0.01]), "cables[0].via_shift_m"),
+        (lambda d: d["lag"].update(tau_slow_s=0.1), "lag.tau_slow_s"),
+        (lambda d: d["lag"].pop("slow_fraction"), "lag.slow_fraction"),
+        (lambda d: d["motors"].update(ticks_per_rev=4096.5), "motors.ticks_per_rev"),
+        (lambda d: d.pop("mocap"), "[mocap]"),
+        (lambda d: d.update(robot="six-cable"), "robot"),
+        (lambda d: d["cables"].pop(), "[[cables]]"),
+    ],
+)
 def test_bad_defects_name_the_field(three_cable, shipped, edit, field):
     doc = copy.deepcopy(shipped)
     edit(doc)
@@ -124,8 +135,9 @@ def test_slack_shifts_the_command_by_slack_over_spool_radius(three_cable, clean,
     clean["cables"][1]["slack_m"] = 0.002
     fem = as_built_fem(three_cable, parse_defects(clean, three_cable))
     r = three_cable.spool_radius_m
-    assert np.allclose(solve_static(fem, [0, 1.5, 0]).p_tip_W,
-                       solve_static(coarse_fem, [0, 1.5 - 0.002 / r, 0]).p_tip_W, atol=1e-9)
+    assert np.allclose(
+        solve_static(fem, [0, 1.5, 0]).p_tip_W, solve_static(coarse_fem, [0, 1.5 - 0.002 / r, 0]).p_tip_W, atol=1e-9
+    )
     # within the dead zone the cable does nothing
     assert np.allclose(solve_static(fem, [0, 0.15, 0]).p_tip_W, solve_static(fem, [0, 0, 0]).p_tip_W, atol=1e-9)
 
@@ -148,7 +160,7 @@ def test_step_response_follows_the_two_time_constants(three_cable, clean):
     clean["lag"].update(tau_fast_s=0.4, tau_slow_s=2.5, slow_fraction=0.3)
     body = body_of(clean, three_cable)
     p0 = body.state(0.0)[1]
-    body.command(np.array([1.5, 0, 0]), 0.0)               # the motors take 0.15 ms
+    body.command(np.array([1.5, 0, 0]), 0.0)  # the motors take 0.15 ms
     p1 = body.quasi_static_tip([1.5, 0, 0])
     step = p1 - p0
     for t in (0.4, 1.0, 2.5, 6.0):
@@ -163,7 +175,7 @@ def test_step_response_follows_the_two_time_constants(three_cable, clean):
 
 
 def test_lag_is_integrated_exactly_whatever_the_call_times(three_cable, clean):
-    clean["motors"]["profile_velocity_rad_s"] = 1.0           # equilibrium ramps for 2 s
+    clean["motors"]["profile_velocity_rad_s"] = 1.0  # equilibrium ramps for 2 s
     clean["lag"].update(tau_fast_s=0.3, tau_slow_s=2.0)
     a, b = body_of(clean, three_cable), body_of(clean, three_cable)
     for body in (a, b):
@@ -184,7 +196,7 @@ def test_profile_velocity_and_quantisation(three_cable, clean):
     goal = np.array([1.0 + 0.3 * tick, 0.5, 0])
     body.command(goal, 0.0)
     u_mid = body.state(0.25)[0]
-    assert np.allclose(u_mid, [0.5, 0.5, 0], atol=tick)        # 2 rad/s for 0.25 s, both motors
+    assert np.allclose(u_mid, [0.5, 0.5, 0], atol=tick)  # 2 rad/s for 0.25 s, both motors
     u_end = body.state(1.0)[0]
     assert np.allclose(u_end / tick, np.rint(u_end / tick), atol=1e-9)
     assert np.allclose(u_end, np.rint(goal / tick) * tick)
@@ -197,14 +209,14 @@ def test_play_makes_a_hysteresis_loop_that_the_reset_erases(three_cable, clean):
         c["play_m"] = 0.0005
     body = body_of(clean, three_cable)
     t = 0.0
-    up, t = settled_tip(body, [1.5, 0, 0], t)                  # loading
+    up, t = settled_tip(body, [1.5, 0, 0], t)  # loading
     _, t = settled_tip(body, [3.0, 0, 0], t)
-    down, t = settled_tip(body, [1.5, 0, 0], t)                # unloading
-    assert down[2] > up[2] + 1e-3                              # the cable stays ahead when let out
+    down, t = settled_tip(body, [1.5, 0, 0], t)  # unloading
+    assert down[2] > up[2] + 1e-3  # the cable stays ahead when let out
     assert np.allclose(body.contraction_m, [0.015 + 0.0005, 0, 0])
     released, t = settled_tip(body, [0, 0, 0], t)
     virgin = AsBuiltBody(three_cable, parse_defects(clean, three_cable)).state(0.0)[1]
-    assert released[2] > virgin[2] + 5e-4                      # "never quite returns": slightly bent
+    assert released[2] > virgin[2] + 5e-4  # "never quite returns": slightly bent
     # The reset (all cables in by > 2 play, all out) makes the result independent of history.
     results = []
     for history in ([3.0, 0, 0], [0, 0, 0], [0.2, 2.5, 0.9]):
@@ -231,7 +243,7 @@ def test_mocap_noise_and_dropout_statistics():
     ok = obs[~lost] - p
     assert np.allclose(ok.std(axis=0), 2e-4, rtol=0.03) and np.all(np.abs(ok.mean(axis=0)) < 1e-5)
     p_start, mean_len = 2.0 / 120, 12.5
-    expected = p_start * mean_len / (1 + p_start * mean_len)    # a burst, then >= 1 seen frame
+    expected = p_start * mean_len / (1 + p_start * mean_len)  # a burst, then >= 1 seen frame
     assert lost.mean() == pytest.approx(expected, rel=0.1)
     edges = np.flatnonzero(np.diff(np.r_[0, lost.astype(int), 0]))
     bursts = edges[1::2] - edges[::2]
@@ -256,8 +268,13 @@ def test_twin_rig_frames_are_deterministic_per_seed(three_cable, clean):
 
 def test_twin_rig_interface(three_cable, clean, tmp_path):
     path = tmp_path / "coarse.toml"
-    path.write_text(default_defects_path(three_cable).read_text().replace("# [emulator]", "[emulator]")
-                    .replace("# n_rings = 1", "n_rings = 2").replace("# n_axial = 6", "n_axial = 6"))
+    path.write_text(
+        default_defects_path(three_cable)
+        .read_text()
+        .replace("# [emulator]", "[emulator]")
+        .replace("# n_rings = 1", "n_rings = 2")
+        .replace("# n_axial = 6", "n_axial = 6")
+    )
     with make_rig(f"twin:{path}", three_cable, seed=5) as rig:
         desc = rig.describe()
         assert desc["kind"] == "twin" and desc["seed"] == 5 and desc["defects"]["path"] == str(path)

@@ -10,16 +10,16 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pytest
-from lab.fem.statics import solve_static
 from PIL import Image
 
-from lab.viz import arm as viz
 from lab.description import load_robot
 from lab.fem.energy import ArmFEM
+from lab.fem.statics import solve_static
+from lab.viz import arm as viz
 
 matplotlib.use("Agg")
 CHROMIUM = Path("/usr/bin/chromium")
-U_BENT = np.array([3.0, 0.0, 0.0])          # top cable at u_max: arm bends up, tip ~(16, 0, 9) cm
+U_BENT = np.array([3.0, 0.0, 0.0])  # top cable at u_max: arm bends up, tip ~(16, 0, 9) cm
 
 
 @pytest.fixture(scope="module")
@@ -40,8 +40,9 @@ def test_arm_geometry_matches_mesh_and_cables(fem, bent_q):
     # a closed cylinder are on it: base and tip faces plus the mantle.
     assert rest.triangles.max() < fem.mesh.n_nodes
     r = np.hypot(fem.X_W[:, 1], fem.X_W[:, 2])
-    on_surface = (r > fem.robot.radius_m - 1e-9) | np.isclose(fem.X_W[:, 0], 0) \
-        | np.isclose(fem.X_W[:, 0], fem.robot.length_m)
+    on_surface = (
+        (r > fem.robot.radius_m - 1e-9) | np.isclose(fem.X_W[:, 0], 0) | np.isclose(fem.X_W[:, 0], fem.robot.length_m)
+    )
     np.testing.assert_array_equal(np.unique(rest.triangles), np.flatnonzero(on_surface))
 
     geo = viz.arm_geometry(fem, bent_q)
@@ -51,9 +52,9 @@ def test_arm_geometry_matches_mesh_and_cables(fem, bent_q):
     assert len(geo.cables_W) == fem.robot.n_cables
     for cable, pts, pts0 in zip(fem.robot.cables, geo.cables_W, rest.cables_W):
         assert pts.shape == (len(cable.via_points_m) + 1, 3)
-        np.testing.assert_allclose(pts[0], cable.anchor_m)                  # starts at the anchor
+        np.testing.assert_allclose(pts[0], cable.anchor_m)  # starts at the anchor
         np.testing.assert_allclose(pts0[1:], cable.via_points_m, atol=1e-12)  # rest: the eyelets
-    assert geo.tip_W[2] > 0.05                     # bent upwards
+    assert geo.tip_W[2] > 0.05  # bent upwards
 
 
 def test_cable_colors():
@@ -80,7 +81,7 @@ def test_meshcat_scene_update_and_stop(fem, bent_q):
     assert rest_html != bent_html
     assert iframe.count("<iframe srcdoc=") == 1 and "height: 300px" in iframe
 
-    with pytest.raises(RuntimeError, match="boom"):            # stopped on errors too
+    with pytest.raises(RuntimeError, match="boom"):  # stopped on errors too
         with viz.meshcat_visualizer() as vis:
             server = vis.window.server_proc
             raise RuntimeError("boom")
@@ -95,17 +96,18 @@ def _non_background_fraction(png: Path, background=(255, 255, 255), tol=30) -> f
 def test_plot_arm_views_draws(fem, bent_q, tmp_path):
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
+
     fig, (ax3, ax_xz, ax_yz) = viz.plot_arm_views(fem, bent_q, U_BENT)
     try:
         png = tmp_path / "views.png"
-        fig.savefig(png, dpi=60)                     # (3-D collections get their paths when drawn)
+        fig.savefig(png, dpi=60)  # (3-D collections get their paths when drawn)
         n_tris = len(fem.mesh.surface_triangles())
         for ax in (ax3, ax_xz, ax_yz):
             polys = [c for c in ax.collections if isinstance(c, PolyCollection)]
             assert len(polys) == 1 and len(polys[0].get_paths()) == n_tris
-            assert len(ax.lines) == fem.robot.n_cables + 1       # cables + tip marker
+            assert len(ax.lines) == fem.robot.n_cables + 1  # cables + tip marker
             assert ax.get_xlabel().endswith("[cm]")
-        assert len(fig.axes) == 4                                # 3 views + colour bar
+        assert len(fig.axes) == 4  # 3 views + colour bar
         # Projections in cm: the side view's tip marker is the tip in cm.
         tip = viz.arm_geometry(fem, bent_q).tip_W
         np.testing.assert_allclose(np.ravel(ax_xz.lines[-1].get_data()), 100 * tip[[0, 2]])
@@ -117,15 +119,24 @@ def test_plot_arm_views_draws(fem, bent_q, tmp_path):
 
 # ------------------------------------------------------------------ browser
 CHROMIUM_FLAGS = [
-    "--headless", "--no-sandbox",
+    "--headless",
+    "--no-sandbox",
     # WebGL in software: ANGLE on SwiftShader (no GPU, no display).
-    "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+    "--use-gl=angle",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
     # Nothing may go out: no background services, no DNS.
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-    "--disable-default-apps", "--disable-extensions", "--no-first-run", "--disable-quic",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-default-apps",
+    "--disable-extensions",
+    "--no-first-run",
+    "--disable-quic",
     "--host-resolver-rules=MAP * ~NOTFOUND",
-    "--hide-scrollbars", "--window-size=800,600",
-    "--virtual-time-budget=10000",         # let the page's scripts run and the scene render
+    "--hide-scrollbars",
+    "--window-size=800,600",
+    "--virtual-time-budget=10000",  # let the page's scripts run and the scene render
 ]
 
 
@@ -142,20 +153,26 @@ def _screenshot(html: str, tmp_path: Path, name: str) -> np.ndarray:
     page.write_text(html)
     profile = tmp_path / f"profile-{name}"
     profile.mkdir()
-    cmd = [*_no_network_prefix(), str(CHROMIUM), *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
-           f"--screenshot={png}", page.as_uri()]
+    cmd = [
+        *_no_network_prefix(),
+        str(CHROMIUM),
+        *CHROMIUM_FLAGS,
+        f"--user-data-dir={profile}",
+        f"--screenshot={png}",
+        page.as_uri(),
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
     assert run.returncode == 0 and png.exists(), f"chromium failed:\n{run.stderr[-3000:]}"
-    return np.asarray(Image.open(png).convert("RGB")).astype(int)[20:]   # below meshcat's GUI bar
+    return np.asarray(Image.open(png).convert("RGB")).astype(int)[20:]  # below meshcat's GUI bar
 
 
 def _pixel_counts(img: np.ndarray) -> dict:
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
     return {
-        "drawn": int(np.sum(np.abs(img - 255).sum(-1) > 30)),            # not the white background
-        "foam": int(np.sum((r - b > 60) & (g - b > 30) & (r >= g) & (r > 150))),   # warm yellow-orange
-        "magenta": int(np.sum((r - g > 60) & (b - g > 60))),             # cable at u = u_max
-        "cyan": int(np.sum((g - r > 60) & (b - r > 60))),                # cables at u = 0
+        "drawn": int(np.sum(np.abs(img - 255).sum(-1) > 30)),  # not the white background
+        "foam": int(np.sum((r - b > 60) & (g - b > 30) & (r >= g) & (r > 150))),  # warm yellow-orange
+        "magenta": int(np.sum((r - g > 60) & (b - g > 60))),  # cable at u = u_max
+        "cyan": int(np.sum((g - r > 60) & (b - r > 60))),  # cables at u = 0
     }
 
 
@@ -171,9 +188,9 @@ def require_chromium() -> None:
 @pytest.mark.browser
 def test_meshcat_scene_renders_in_chromium(fem, bent_q, tmp_path):
     require_chromium()
-    with viz.meshcat_visualizer() as vis:                   # a bare scene: meshcat's defaults only
+    with viz.meshcat_visualizer() as vis:  # a bare scene: meshcat's defaults only
         blank_html = viz.static_html(vis)
-    with viz.meshcat_visualizer() as vis:                   # our view settings, no arm
+    with viz.meshcat_visualizer() as vis:  # our view settings, no arm
         viz.set_view(vis)
         empty_html = viz.static_html(vis)
     with viz.meshcat_visualizer() as vis:
@@ -187,7 +204,7 @@ def test_meshcat_scene_renders_in_chromium(fem, bent_q, tmp_path):
     urls = set(re.findall(r"(?:https?|wss?)://[^\s\"'`)]*", arm_html))
     assert urls <= {"http://www.w3.org/1999/xhtml", "ws://${location.host}"}, urls
     page_script = arm_html.split("new MeshCat.Viewer(")[-1]
-    assert "connect" not in page_script and "fetch(\"data:" in page_script
+    assert "connect" not in page_script and 'fetch("data:' in page_script
 
     blank = _pixel_counts(_screenshot(blank_html, tmp_path, "blank"))
     empty = _pixel_counts(_screenshot(empty_html, tmp_path, "empty"))

@@ -123,7 +123,6 @@ class PointLog:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._fh = open(self.path, "w", newline="")
-        self.n_points = 0
         cols = ["i", "target_x", "target_y", "target_z", *(f"u{j}" for j in range(n_motors)), "x", "y", "z"]
         self._write(",".join([*cols, "settled", "wait_s"]))
 
@@ -136,7 +135,11 @@ class PointLog:
         values = [*np.asarray(target_W, float), *np.asarray(u_motor, float), *np.asarray(sample.p_tip_W, float)]
         wait = sample.t_done_s - sample.t_command_s
         self._write(",".join([str(i), *(repr(float(v)) for v in values), str(int(sample.settled)), repr(wait)]))
-        self.n_points += 1
+
+    @property
+    def n_points(self) -> int:
+        """Points on disk (complete lines), whatever interrupted the writing."""
+        return max(0, sum(1 for line in self.path.read_text().splitlines(keepends=True) if line.endswith("\n")) - 1)
 
     def close(self) -> None:
         self._fh.close()
