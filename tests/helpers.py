@@ -1,6 +1,7 @@
 """Small helpers shared by several test modules (imported as ``from helpers import ...``;
 pytest puts tests/ on sys.path)."""
 
+import os
 import time
 
 import numpy as np
@@ -50,3 +51,10 @@ def fd_parameter_jacobian(model, u, h=1e-6):
         return fd_jacobian(predict, theta, h)
     finally:
         model.set_params(theta)
+
+
+def subprocess_env() -> dict:
+    """The environment for a ``python -m lab`` subprocess: this one, one BLAS thread, no PYTHONPATH."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    return env

@@ -18,7 +18,6 @@ directory (a fresh temporary directory); the files below are made there by
 from __future__ import annotations
 
 import hashlib
-import os
 import shutil
 import subprocess
 import sys
@@ -27,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from helpers import subprocess_env
 
 from lab.control import circle, write_trajectory_csv
 from lab.data import read_dataset, write_dataset
@@ -80,8 +80,7 @@ def run_case(case: Case, d: Path, capsys=None, monkeypatch=None) -> str:
     argv = [_fill(a, d) for a in case.argv]
     before = {p: _digest(Path(_fill(p, d))) for p in case.unchanged}
     if case.subprocess or case.limit_file_kib:
-        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-        env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+        env = subprocess_env()
         pre = None
         if case.limit_file_kib:
             import resource

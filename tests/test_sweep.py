@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from filelock import FileLock
-from helpers import wait_until
+from helpers import subprocess_env, wait_until
 from sweep import COARSE, ROOT, Case, run_case
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
@@ -382,12 +382,6 @@ def test_sweep_covers_every_command():
 # --- mechanisms -------------------------------------------------------------------------------
 
 
-def _env():
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    return env
-
-
 def test_failed_run_does_not_poison_the_next(tmp_path, capsys, monkeypatch):
     from sweep import make_inputs
 
@@ -473,7 +467,7 @@ def test_workers_exit_when_the_run_is_killed(tmp_path):
             str(tmp_path / "o.csv"),
         ],
         cwd=tmp_path,
-        env=_env(),
+        env=subprocess_env(),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -521,7 +515,7 @@ def test_capture_stops_cleanly_on_sigterm_and_sighup(sig, code, tmp_path):
             str(tmp_path / "c.csv"),
         ],
         cwd=tmp_path,
-        env=_env(),
+        env=subprocess_env(),
         stderr=subprocess.PIPE,
         text=True,
     )

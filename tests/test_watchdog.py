@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import wait_until
+from helpers import subprocess_env, wait_until
 
 from lab.control import circle, write_trajectory_csv
 from lab.rig.emulators import EmulatedBench
@@ -87,12 +87,6 @@ def test_config_watchdog_field(three_cable, tmp_path):
             load_hardware_config(bench.write_config(tmp_path / "b.toml", servos={"bus_watchdog_ms": 5}), three_cable)
 
 
-def _env():
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    return env
-
-
 @pytest.mark.parametrize("how", ["kill-9", "sigterm"])
 def test_killed_track_process_leaves_the_servos_stopped(how, three_cable, tmp_path):
     """A `track` on the emulated hardware killed mid-trajectory: with SIGTERM the rig closes
@@ -117,7 +111,7 @@ def test_killed_track_process_leaves_the_servos_stopped(how, three_cable, tmp_pa
                 str(tmp_path / "r.json"),
             ],
             cwd=tmp_path,
-            env=_env(),
+            env=subprocess_env(),
             stderr=subprocess.PIPE,
             text=True,
         )
