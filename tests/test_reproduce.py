@@ -37,3 +37,33 @@ def test_hand_runs_write_build_figures(notebook):
     params = papermill.inspect_notebook(str(notebook))
     assert params["figures_dir"]["default"].strip("'\"") == "../build/figures"
     assert "n_jobs" in params or "jobs" not in params  # one name for worker counts
+
+
+def _compare():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("compare_tables", ROOT / "scripts" / "compare_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_compare_tables_reports_moved_cells(tmp_path, capsys):
+    compare = _compare()
+    ref, new = tmp_path / "ref", tmp_path / "new"
+    ref.mkdir(), new.mkdir()
+    head = "condition,circle_cm,square_cm,wall_s\n"
+    (ref / "t.csv").write_text(head + "Sim,0.50,0.40,1.0\nSoft IK,1.7e-07,2.1e-07,9.0\n")
+    (new / "t.csv").write_text(head + "Sim,0.5000001,0.40,55.0\nSoft IK,1.9e-07,2.0e-07,3.0\n")
+    assert compare.main([str(ref), str(new), "t.csv"]) == 0  # round-off, timings and near-zero noise
+    (new / "t.csv").write_text(head + "Sim,0.51,0.40,1.0\nSoft IK,1.7e-07,2.1e-07,9.0\n")
+    assert compare.main([str(ref), str(new), "t.csv"]) == 1
+    out = capsys.readouterr().out
+    assert "condition=Sim, circle_cm: 0.5 -> 0.51" in out and "square_cm" not in out.split("moved:")[-1]
+    (new / "t.csv").unlink()
+    assert compare.main([str(ref), str(new), "t.csv"]) == 1 and "missing" in capsys.readouterr().out
+
+
+def test_full_reproduce_compares_with_the_committed_tables():
+    text = (ROOT / "scripts" / "reproduce").read_text()
+    assert "compare_tables.py" in text and "table1.csv" in text and "table_model_ten_splits.csv" in text
