@@ -41,6 +41,7 @@ from lab.viz.tracking import (
     CABLE_COLORS,
     TARGET_COLOR,
     plot_commands,
+    plot_figure3,
     plot_helix,
     plot_paths_3d,
     plot_tracking_row,
@@ -82,6 +83,7 @@ __all__ = [
     "ACHIEVED_COLOR",
     "plot_commands",
     "plot_tracking_row",
+    "plot_figure3",
     "plot_helix",
     "plot_paths_3d",
 ]

@@ -32,7 +32,8 @@ def _cable_key(ax, robot) -> None:
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.set_title("cables (seen from the tip)", fontsize=7)
+    # the label goes below the key, so it never meets the panel's title above
+    ax.set_xlabel("cables, seen\nfrom the tip", fontsize=6, labelpad=1)
 
 
 def plot_commands(ax, result, robot, legend: bool = True) -> None:
@@ -90,8 +91,46 @@ def plot_tracking_row(results: dict, robot, title: str = ""):
         )
         if k == 0:
             ax.legend(fontsize=8, loc="lower left")
-            _cable_key(ax.inset_axes([0.8, 0.8, 0.2, 0.2]), robot)
+            _cable_key(ax.inset_axes([0.8, 0.1, 0.2, 0.2]), robot)  # lower right: empty for a circle
         plot_commands(fig.add_subplot(grid[1, k]), res, robot, legend=k == 0)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_figure3(rows: dict, title: str = ""):
+    """Figure 3 as in the paper: one row per condition, one column per trajectory, each panel
+    the y-z projection of the targets (pink) and the achieved tip (dark), with its mean
+    error. ``rows``: {condition: {trajectory name: TrackResult}}; every row has the same
+    trajectories. All panels share one scale (cm), so sizes and offsets compare across rows."""
+    import matplotlib.pyplot as plt
+
+    names = list(next(iter(rows.values())))
+    everything = np.vstack([100 * np.vstack([r.targets_W, r.achieved_W]) for rs in rows.values() for r in rs.values()])
+    lo, hi = everything[:, 1:].min(0), everything[:, 1:].max(0)
+    pad = 0.05 * (hi - lo).max()
+    fig, axes = plt.subplots(
+        len(rows),
+        len(names),
+        figsize=(3.6 * len(names), 3.5 * len(rows)),
+        squeeze=False,
+        layout="constrained",
+        sharex=True,
+        sharey=True,
+    )
+    for i, (condition, results) in enumerate(rows.items()):
+        for j, name in enumerate(names):
+            ax, res = axes[i, j], results[name]
+            _plane(ax, res, 1, 2, label=i == 0 and j == 0)
+            ax.set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad))
+            ax.set_title(f"{name}: {100 * res.mean_error_m:.2f} cm mean", fontsize=10)
+            if j == 0:
+                ax.set_ylabel(f"{condition}\nz [cm]")
+            else:
+                ax.set_ylabel("")
+            if i < len(rows) - 1:
+                ax.set_xlabel("")
+    axes[0, 0].legend(fontsize=8, loc="lower left")
     if title:
         fig.suptitle(title)
     return fig
