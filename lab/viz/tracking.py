@@ -175,15 +175,20 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
     paper's colours for this figure), centimetres, equal axis scales; the panel title gives
     the mean and max 3-D error. ``results``: {name: TrackResult}."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     n = len(results)
-    fig = plt.figure(figsize=(4.6 * n, 4.8), layout="constrained")
+    ncols = 2 if n == 4 else min(n, 3)  # four paths: a 2 x 2 grid of roomy panels
+    nrows = -(-n // ncols)
+    fig = plt.figure(figsize=(5.6 * ncols, 5.2 * nrows), layout="constrained")
     for k, (name, res) in enumerate(results.items()):
-        ax = fig.add_subplot(1, n, k + 1, projection="3d")
+        ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d")
         t, p = 100 * res.targets_W, 100 * res.achieved_W
         ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
         ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
-        _equal_3d(ax, np.vstack([t, p]), zoom=0.8)
+        _equal_3d(ax, np.vstack([t, p]), zoom=0.85)
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(5))  # fewer ticks: no colliding labels
         ax.view_init(elev=20, azim=-50)
         ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm", fontsize=9)
         if k == 0:
