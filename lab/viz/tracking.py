@@ -123,7 +123,7 @@ def plot_figure3(rows: dict, title: str = ""):
             ax, res = axes[i, j], results[name]
             _plane(ax, res, 1, 2, label=i == 0 and j == 0)
             ax.set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad))
-            ax.set_title(f"{name}: {100 * res.mean_error_m:.2f} cm mean", fontsize=10)
+            ax.set_title(f"{name}: {100 * res.mean_error_m:.2g} cm mean", fontsize=10)
             if j == 0:
                 ax.set_ylabel(f"{condition}\nz [cm]")
             else:
