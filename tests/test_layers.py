@@ -31,6 +31,7 @@ LAYERS = [
     "rig",
     "tracking",
     "viz",
+    "course",
     "cli",
     "__main__",
 ]

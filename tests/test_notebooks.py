@@ -54,6 +54,14 @@ if NOTEBOOKS:
             progress_bar=False,
         )
 
+        # Every exercise's reference solution passes its grader (lab.course.grade).
+        import json
+
+        for cell in json.loads((tmp_path / notebook.name).read_text())["cells"]:
+            if "grader" in cell.get("metadata", {}).get("tags", []):
+                text = "".join("".join(o.get("text", "")) for o in cell.get("outputs", []))
+                assert "passed" in text, f"{notebook.name}: a reference solution fails its grader: {text}"
+
         if "figures_dir" in papermill.inspect_notebook(str(notebook)):
             written = [p for p in figures_dir.rglob("*") if p.is_file()]
             assert written, f"{notebook.name} declares figures_dir but wrote no file into it"

@@ -1,0 +1,79 @@
+"""The course's exercises: graders, the student edition, and both editions of the chapters.
+
+The source notebooks pass every grader (tests/test_notebooks.py checks each grader cell's
+output); here the student edition is built and run: each grader must report "not
+implemented yet" and the rest of the chapter must still run.
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import papermill
+import pytest
+
+from lab.course import NOT_IMPLEMENTED, grade, stub_source, student_edition
+
+ROOT = Path(__file__).resolve().parent.parent
+WITH_EXERCISES = [
+    nb
+    for nb in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))
+    if any("solution" in c.get("metadata", {}).get("tags", []) for c in json.loads(nb.read_text())["cells"])
+]
+
+
+def test_stub_keeps_signature_and_docstring():
+    src = 'def f(a: int, b=2) -> int:\n    """Add.\n\n    Units: none."""\n    return a + b\n'
+    stub = stub_source(src)
+    assert stub.startswith("def f(a: int, b=2) -> int:") and "Units: none." in stub and "return a + b" not in stub
+    scope = {}
+    exec(stub, scope)
+    with pytest.raises(NotImplementedError):
+        scope["f"](1)
+
+
+def test_grade_says_what_is_wrong(capsys):
+    ref = lambda x: (float(x.sum()), 2 * x)  # noqa: E731
+    cases = [(np.arange(3.0),)]
+    assert "passed" in grade("demo", ref, ref, cases)
+    assert "FAILED on case 1: item 1: at index (2,): 5 instead of 4" in grade(
+        "demo", lambda x: (float(x.sum()), 2 * x + (x == 2)), ref, cases
+    )
+
+    def todo(x):
+        raise NotImplementedError
+
+    assert NOT_IMPLEMENTED in grade("demo", todo, ref, cases)
+    assert "FAILED on case 1: ZeroDivisionError" in grade("demo", lambda x: 1 / 0, ref, cases)  # never raises
+    assert "shape (2,), expected (3,)" in grade("demo", lambda x: (0.0, x[:2]), lambda x: (0.0, x), cases)
+
+
+def test_every_exercise_is_followed_by_its_grader():
+    assert WITH_EXERCISES, "no chapter has exercises"
+    for nb in WITH_EXERCISES:
+        cells = json.loads(nb.read_text())["cells"]
+        for k, c in enumerate(cells):
+            if "solution" in c.get("metadata", {}).get("tags", []):
+                after = next(d for d in cells[k + 1 :] if d["cell_type"] == "code")
+                assert "grader" in after.get("metadata", {}).get("tags", []), f"{nb.name}: solution without grader"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("notebook", WITH_EXERCISES, ids=[nb.name for nb in WITH_EXERCISES])
+def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
+    student = ROOT / "build" / "student" / notebook.name
+    assert student_edition(notebook, student, up="../") >= 1
+    out = tmp_path / notebook.name
+    papermill.execute_notebook(
+        str(student),
+        str(out),
+        parameters={"quick": True, "figures_dir": str(tmp_path / "f")},
+        cwd=str(student.parent),
+        kernel_name="python3",
+        progress_bar=False,
+    )
+    graders = [c for c in json.loads(out.read_text())["cells"] if "grader" in c.get("metadata", {}).get("tags", [])]
+    assert graders
+    for c in graders:
+        text = "".join("".join(o.get("text", "")) for o in c["outputs"])
+        assert NOT_IMPLEMENTED in text, text
