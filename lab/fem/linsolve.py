@@ -35,6 +35,9 @@ class SolverFallbackWarning(RuntimeWarning):
 #: Why PARDISO cannot be used in this process (None: not known to fail).
 _pardiso_problem: str | None = None
 _warned = False
+#: Whether PARDISO has factorised a matrix in this process: after that, a failure is an
+#: error of its own (raised), not a missing MKL (fallen back from).
+_pardiso_worked = False
 
 
 def _fall_back(reason: str) -> None:
@@ -99,12 +102,19 @@ class _Pardiso:
         self.n_perturbed = int(self._solver.get_iparm(14))  # pivots PARDISO had to perturb
         if int(self._solver.get_iparm(30)) != 0:
             raise SingularMatrixError("PARDISO found a zero pivot")
+        global _pardiso_worked
+        _pardiso_worked = True
 
     def _factorize(self):
         import pypardiso
 
         solver, A = self._solver, self._A
-        solver._check_A(A)
+        try:
+            solver._check_A(A)
+        except ValueError as err:  # "Matrix A is singular, because it contains empty row(s)"
+            if "singular" not in str(err):
+                raise
+            raise SingularMatrixError(str(err)) from None
         known = _Pardiso._pattern
         same = known is not None and np.array_equal(known[0], A.indptr) and np.array_equal(known[1], A.indices)
         solver.set_phase(22 if same else 12)  # numerical only, or analysis + numerical
@@ -156,8 +166,9 @@ def default_backend() -> str:
 def factorize(H: sp.csr_matrix, backend: str | None = None):
     """Factorise a sparse symmetric matrix; raises SingularMatrixError if singular.
 
-    With the default backend, a PARDISO that fails at its first use (MKL not loadable)
-    falls back to SciPy for the rest of the process, with one warning."""
+    With the default backend, a PARDISO that fails before it has ever worked in this
+    process (MKL not loadable) falls back to SciPy for the rest of the process, with one
+    warning; once it has worked, its errors are raised."""
     name = backend or default_backend()
     if name != "pardiso" or backend is not None or os.environ.get("LAB_LINEAR_SOLVER"):
         return BACKENDS[name](H)
@@ -166,5 +177,7 @@ def factorize(H: sp.csr_matrix, backend: str | None = None):
     except SingularMatrixError:
         raise
     except Exception as err:  # e.g. OSError: MKL's libraries do not load on this machine
+        if _pardiso_worked:
+            raise
         _fall_back(f"PARDISO failed: {type(err).__name__}: {err}")
         return _SuperLU(H)
