@@ -170,6 +170,14 @@ CASES = [
         setup=write("d.toml", "x"),
         unchanged=("{dir}/d.toml",),
     ),
+    Case(
+        "simulate-lock-file-is-robot",
+        [*SIM, "--robot", "{dir}/o.csv.lock", "--out", "{dir}/o.csv"],
+        2,
+        ("--out lock", "is the input --robot"),
+        setup=lambda d: (d / "o.csv.lock").write_text((d / "robot.toml").read_text()),
+        unchanged=("{dir}/o.csv.lock",),
+    ),
     # --- 3./12. a dataset and its sidecar belong together --------------------------------
     Case(
         "last-number-cut-short",

@@ -52,7 +52,11 @@ def run(args) -> int:
     from lab.description import load_robot
 
     checkpoint = args.checkpoint or f"{args.out}.chunks"
-    check_paths({"--robot": existing(args.robot)}, {**dataset_outputs("--out", args.out), "--checkpoint": checkpoint})
+    check_paths(
+        {"--robot": existing(args.robot)},
+        # the lock file is written (and removed) too: it must not be an input either
+        {**dataset_outputs("--out", args.out), "--out lock": f"{args.out}.lock", "--checkpoint": checkpoint},
+    )
     check_writable(args.out)
     ignore_file_size_signal()
     robot = load_robot(args.robot)
