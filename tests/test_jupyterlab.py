@@ -1,22 +1,24 @@
 """A student's way in: the real JupyterLab server on loopback, a kernel it starts, chapter 01.
 
-The server is the one ``scripts/jupyter`` starts (``python -m jupyterlab`` of this
-environment, notebooks/ as its root), on 127.0.0.1 with a token. One test runs chapter
-01's import cell in a kernel the server starts, through its REST and websocket API; the
-other loads the JupyterLab page with chapter 01 open in headless Chromium and checks that
-the notebook's title is drawn.
+The server is started by ``scripts/jupyter`` itself (the README's command: .venv,
+notebooks/ as the root, lab-venv the default kernel), on 127.0.0.1 with a token. One test
+runs chapter 01's import cell in a kernel the server starts, through its REST and
+websocket API, and checks that the kernel is this .venv's Python with the repository's
+``lab`` and draws figures inline; the other loads the JupyterLab page with chapter 01 open
+in headless Chromium and checks that the notebook's title is drawn. A third, without a
+server, checks the README's "Notebook parameters" tables against the parameters cells.
 """
 
 import json
 import os
 import socket
 import subprocess
-import sys
 import time
 import urllib.request
 import uuid
 from pathlib import Path
 
+import papermill
 import pytest
 from helpers import wait_until
 from test_viz import CHROMIUM, CHROMIUM_FLAGS, require_chromium
@@ -50,27 +52,25 @@ def server(tmp_path_factory):
         MKL_NUM_THREADS="1",
     )
     cmd = [
-        sys.executable,
-        "-m",
-        "jupyterlab",
+        "bash",
+        str(ROOT / "scripts" / "jupyter"),  # adds --allow-root itself where it runs as root
         "--no-browser",
         f"--port={port}",
         "--ServerApp.ip=127.0.0.1",
         f"--IdentityProvider.token={TOKEN}",
-        f"--ServerApp.root_dir={ROOT / 'notebooks'}",
         "--ServerApp.open_browser=False",
         "--LabServerApp.news_url=",
         "--LabApp.extension_manager=readonly",  # no package-index lookups
         "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
     ]
-    if hasattr(os, "geteuid") and os.geteuid() == 0:
-        cmd.append("--allow-root")  # containers and CI run as root
-    proc = subprocess.Popen(cmd, cwd=home, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    log = home / "server.log"  # a file, not a pipe: nobody reads the log while the tests run
+    with log.open("w") as err:
+        proc = subprocess.Popen(cmd, cwd=home, env=env, stdout=subprocess.DEVNULL, stderr=err)
     base = f"http://127.0.0.1:{port}"
 
     def up():
         if proc.poll() is not None:
-            raise AssertionError(f"jupyterlab exited: {proc.stderr.read()[-3000:]}")
+            raise AssertionError(f"scripts/jupyter exited: {log.read_text()[-3000:]}")
         try:
             return urllib.request.urlopen(f"{base}/api/status?token={TOKEN}", timeout=2).status == 200
         except OSError:
@@ -107,43 +107,36 @@ def _first_cells(figures_dir) -> str:
     return "".join(params["source"]) + f"\nfigures_dir = {str(figures_dir)!r}\n" + imports
 
 
-@pytest.mark.slow
-def test_chapter_01_imports_run_in_a_kernel_the_server_started(server, tmp_path):
-    import websocket
+def _execute(base, kernel_id, code, timeout=120):
+    """Run ``code`` in a kernel over the server's websocket (Jupyter messaging protocol):
+    the execute_reply's content and everything the code printed."""
+    import websocket  # websocket-client, a dependency of jupyter_server
 
-    kernel = _api(server, "/api/kernels", "POST", {"name": "python3", "path": CHAPTER})
+    ws = websocket.create_connection(
+        f"{base.replace('http', 'ws')}/api/kernels/{kernel_id}/channels?token={TOKEN}", timeout=timeout
+    )
+    msg_id = uuid.uuid4().hex
+    header = {"msg_id": msg_id, "username": "test", "session": uuid.uuid4().hex, "version": "5.3", "date": ""}
+    ws.send(
+        json.dumps(
+            {
+                "header": {**header, "msg_type": "execute_request"},
+                "parent_header": {},
+                "metadata": {},
+                "channel": "shell",
+                "content": {
+                    "code": code,
+                    "silent": False,
+                    "store_history": False,
+                    "user_expressions": {},
+                    "allow_stdin": False,
+                    "stop_on_error": True,
+                },
+            }
+        )
+    )
+    reply, printed, deadline = None, "", time.monotonic() + timeout
     try:
-        ws = websocket.create_connection(
-            f"{server.replace('http', 'ws')}/api/kernels/{kernel['id']}/channels?token={TOKEN}", timeout=120
-        )
-        code = _first_cells(tmp_path) + "\nimport lab, sys\nprint('LAB-FROM', lab.__file__, sys.executable)"
-        msg_id = uuid.uuid4().hex
-        ws.send(
-            json.dumps(
-                {
-                    "header": {
-                        "msg_id": msg_id,
-                        "username": "test",
-                        "session": uuid.uuid4().hex,
-                        "msg_type": "execute_request",
-                        "version": "5.3",
-                        "date": "",
-                    },
-                    "parent_header": {},
-                    "metadata": {},
-                    "channel": "shell",
-                    "content": {
-                        "code": code,
-                        "silent": False,
-                        "store_history": False,
-                        "user_expressions": {},
-                        "allow_stdin": False,
-                        "stop_on_error": True,
-                    },
-                }
-            )
-        )
-        reply, printed, deadline = None, "", time.monotonic() + 120
         while reply is None and time.monotonic() < deadline:
             msg = json.loads(ws.recv())
             if msg.get("parent_header", {}).get("msg_id") != msg_id:
@@ -154,16 +147,42 @@ def test_chapter_01_imports_run_in_a_kernel_the_server_started(server, tmp_path)
                 raise AssertionError("\n".join(msg["content"]["traceback"]))
             elif msg["msg_type"] == "execute_reply":
                 reply = msg["content"]
+    finally:
         ws.close()
-        assert reply is not None and reply["status"] == "ok", reply
-        where = printed.split("LAB-FROM", 1)[1].split()
-        assert Path(where[0]).is_relative_to(ROOT / "lab")  # the repository's lab, editable
-        assert Path(where[1]).resolve() == Path(sys.executable).resolve()  # this environment's Python
+    assert reply is not None and reply["status"] == "ok", reply
+    return reply, printed
+
+
+WHERE = "import lab, sys, matplotlib\nprint('LAB-FROM', lab.__file__, sys.executable, matplotlib.get_backend())"
+
+
+def _check_where(printed):
+    lab_file, python, backend = printed.split("LAB-FROM", 1)[1].split()[:3]
+    assert Path(lab_file).is_relative_to(ROOT / "lab")  # the repository's lab, editable
+    assert Path(python).resolve() == (ROOT / ".venv" / "bin" / "python").resolve()  # the .venv's Python
+    assert "inline" in backend, f"figures would not be drawn in the notebook: backend {backend}"
+
+
+def test_chapter_01_imports_run_in_a_kernel_the_server_started(server, tmp_path):
+    specs = _api(server, "/api/kernelspecs")
+    assert specs["default"] == "lab-venv" and "lab-venv" in specs["kernelspecs"], specs["default"]
+    # The kernel chapter 01 asks for in its metadata (what JupyterLab starts on opening it).
+    name = json.loads((ROOT / "notebooks" / CHAPTER).read_text())["metadata"]["kernelspec"]["name"]
+    kernel = _api(server, "/api/kernels", "POST", {"name": name, "path": CHAPTER})
+    try:
+        _, printed = _execute(server, kernel["id"], _first_cells(tmp_path) + "\n" + WHERE)
+        _check_where(printed)
+    finally:
+        _api(server, f"/api/kernels/{kernel['id']}", "DELETE")
+    # A new notebook's kernel: the server's default, lab-venv.
+    kernel = _api(server, "/api/kernels", "POST", {})
+    try:
+        assert kernel["name"] == "lab-venv"
+        _check_where(_execute(server, kernel["id"], WHERE)[1])
     finally:
         _api(server, f"/api/kernels/{kernel['id']}", "DELETE")
 
 
-@pytest.mark.slow
 @pytest.mark.browser
 def test_jupyterlab_page_draws_chapter_01(server, tmp_path):
     require_chromium()
@@ -186,3 +205,28 @@ def test_jupyterlab_page_draws_chapter_01(server, tmp_path):
     assert run.returncode == 0, run.stderr[-3000:]
     assert "jp-Notebook" in run.stdout, f"JupyterLab did not open the notebook: {run.args} {run.stderr[-500:]}"
     assert title.split("—")[0].strip() in run.stdout and "finite-element" in run.stdout, "title cell not drawn"
+
+
+def test_readme_documents_every_notebook_parameter():
+    """README "Notebook parameters": one table per chapter, a row per parameter of its
+    parameters cell (papermill's reading of it) with the same default."""
+    import re
+
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## Notebook parameters", 1)[1].split("\n## ", 1)[0]
+    problems = []
+    for nb in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb")):
+        if f"**`{nb.name}`**" not in section:
+            problems.append(f"{nb.name}: no table")
+            continue
+        table = section.split(f"**`{nb.name}`**", 1)[1].split("**`", 1)[0]
+        rows = dict(re.findall(r"^\| `(\w+)` \| `(.*?)` \|", table, re.M))
+        params = papermill.inspect_notebook(str(nb))
+        for name, p in params.items():
+            if name not in rows:
+                problems.append(f"{nb.name}: {name} (default {p['default']}) is not in the README")
+            elif rows[name] != p["default"]:
+                problems.append(f"{nb.name}: {name} default {p['default']}, README says {rows[name]}")
+        extra = rows.keys() - params
+        problems += [f"{nb.name}: README lists {name}, the notebook has no such parameter" for name in extra]
+    assert not problems, "\n".join(problems)

@@ -32,6 +32,17 @@ def test_chapters_and_ranges():
     assert code == 2 and "no chapter matches" in err
 
 
+def test_quick_runs_write_build_figures_and_full_runs_figures():
+    # a quick run must never replace the shipped Table I rows with coarse "quick run" rows
+    for spelling in ("True", "true", "1"):
+        code, _, err = _dry("04", "--", "-p", "quick", spelling)
+        assert code == 0 and "figures_dir: ../build/figures" in err, err
+    code, _, err = _dry("04")
+    assert code == 0 and "figures_dir: ../figures" in err, err
+    code, _, err = _dry("04", "--", "-p", "quick", "False")
+    assert code == 0 and "figures_dir: ../figures" in err, err
+
+
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[nb.name for nb in NOTEBOOKS])
 def test_hand_runs_write_build_figures(notebook):
     params = papermill.inspect_notebook(str(notebook))
