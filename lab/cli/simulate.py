@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import shlex
 import sys
 
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
+from lab.errors import LabRuntimeError
 from lab.workers import default_jobs
+
+#: OS errors that mean the disk, the quota or the file-size limit is full.
+_NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -49,6 +54,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
+    from lab.data.chunkstore import check_checkpoint
     from lab.description import load_robot
 
     checkpoint = args.checkpoint or f"{args.out}.chunks"
@@ -58,10 +64,20 @@ def run(args) -> int:
         {**dataset_outputs("--out", args.out), "--out lock": f"{args.out}.lock", "--checkpoint": checkpoint},
     )
     check_writable(args.out)
-    ignore_file_size_signal()
+    check_checkpoint(checkpoint)  # a checkpoint under a file fails now, not after the first chunk
+    ignore_file_size_signal()  # a write past `ulimit -f` fails with EFBIG, reported below
     robot = load_robot(args.robot)
     with output_lock(args.out):
-        return _simulate(args, robot, checkpoint)
+        try:
+            return _simulate(args, robot, checkpoint)
+        except OSError as err:
+            if err.errno not in _NO_SPACE:
+                raise
+            raise LabRuntimeError(
+                f"no space left to write {args.out} or its checkpoint {checkpoint} ({err.strerror}): "
+                "free some space (or raise the file-size limit) and run the same command again; "
+                "an existing dataset at --out is unchanged and finished chunks are kept"
+            ) from err
 
 
 def _simulate(args, robot, checkpoint) -> int:

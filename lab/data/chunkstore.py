@@ -79,6 +79,28 @@ def _refuse_foreign(directory: Path) -> None:
         )
 
 
+def check_checkpoint(directory: str | Path, what: str = "--checkpoint") -> None:
+    """Before any work: refuse (:class:`CheckpointError`) a checkpoint path that is a file,
+    a directory holding anything but a checkpoint's files, or a place where the checkpoint
+    could not be written."""
+    import tempfile
+
+    d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise CheckpointError(f"{what} {d} is a file, not a directory")
+    _refuse_foreign(d)
+    place = d
+    while not place.exists() and place.parent != place:  # where mkdir will start
+        place = place.parent
+    if not place.is_dir():
+        raise CheckpointError(f"{what} {d}: {place} is a file, not a directory")
+    try:
+        with tempfile.NamedTemporaryFile(dir=place, prefix=".lab-probe.", suffix=".tmp"):
+            pass
+    except OSError as err:
+        raise CheckpointError(f"{what} {d}: cannot write in {place} ({err.strerror or err})") from None
+
+
 class ChunkStore:
     """Chunk results under ``directory`` for the run identified by ``fingerprint``."""
 

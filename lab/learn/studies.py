@@ -93,6 +93,7 @@ def size_sweep(
 ) -> list[dict]:
     """Figure 6: ``n_layers`` hidden layers of each width, ``n_runs`` splits each; one row per
     (width, run) with the keys of :func:`evaluate_splits` plus ``width`` and ``run``."""
+    check_enough_data(u, ratios)  # before any worker starts
     seeds = run_seeds(seed, n_runs)
     jobs = [(u, y, (int(w),) * n_layers, ratios, s, train_kwargs) for w in widths for s in seeds]
     # Largest networks first: the slowest jobs do not end up alone at the tail.
