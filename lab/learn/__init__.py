@@ -8,7 +8,7 @@ metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:
 """
 
 from lab.learn.gradient import train_adam, train_lbfgs
-from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, mse, train_lm
+from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
 from lab.learn.model_io import ModelFileError, read_model, save_model
@@ -39,6 +39,7 @@ __all__ = [
     "LMOptions",
     "TrainLog",
     "train_lm",
+    "lm_step",
     "train_adam",
     "train_lbfgs",
     "data_sha256",

@@ -126,6 +126,16 @@ def _lm_step(system, JE, mu, n_e, buf):
     return c if system[0] == "primal" else -(system[2].T @ c)
 
 
+def lm_step(model: MLP, u: np.ndarray, y: np.ndarray, mu: float, max_jacobian_mb: float = 256.0):
+    """One Levenberg-Marquardt trial step as :func:`train_lm` takes it: ``dtheta``
+    (n_params,) solving ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` at ``model``'s
+    parameters, for inputs ``u`` (N, n_u) rad and targets ``y`` (N, n_y) m; None if the
+    damped matrix is not numerically positive definite."""
+    y = np.asarray(y, float)
+    _, JE, system = _jacobian_products(model, np.asarray(u, float), y, max_jacobian_mb)
+    return _lm_step(system, JE, float(mu), y.size, np.empty_like(system[1]))
+
+
 def train_lm(
     model: MLP,
     u_train,

@@ -1,5 +1,6 @@
 """Drawing: the arm in matplotlib and meshcat (:mod:`.arm`), meshcat animations
-(:mod:`.animation`) and trajectory-tracking figures (:mod:`.tracking`).
+(:mod:`.animation`), trajectory-tracking figures (:mod:`.tracking`), Figure 1's set-up
+(:mod:`.setup`) and the interactive arm of chapter 01 (:mod:`.sliders`).
 """
 
 from lab.viz.animation import (
@@ -36,6 +37,8 @@ from lab.viz.arm import (
     stop_visualizer,
     update_scene,
 )
+from lab.viz.setup import plot_setup, setup_geometry
+from lab.viz.sliders import ArmExplorer, widgets_available
 from lab.viz.tracking import (
     ACHIEVED_COLOR,
     CABLE_COLORS,
@@ -86,4 +89,8 @@ __all__ = [
     "plot_figure3",
     "plot_helix",
     "plot_paths_3d",
+    "plot_setup",
+    "setup_geometry",
+    "ArmExplorer",
+    "widgets_available",
 ]

@@ -1,0 +1,159 @@
+"""Figure 1 of the paper, drawn from the robot description: the set-up.
+
+The paper's Figure 1 is a photograph of the rig: the foam arm clamped horizontally to a
+base plate, its cables running through eyelets to spools on Dynamixel motors behind the
+plate, a motion-capture marker on the tip and markers on the base that define frame W.
+:func:`plot_setup` draws the same from what ``lab`` knows, so it is right for any robot
+description (any number of cables, any routes) and any hardware configuration:
+
+* the body (rest shape, frame W: x along the body, z up, gravity along -z);
+* each cable's route: from its anchor on the base face through its via points
+  (eyelets) to where it is tied off, coloured per cable;
+* the spools behind the base plate (radius from ``[actuation].spool_radius_m``), one
+  per motor, on the line from the cable's anchor straight back;
+* the tip marker, and the base markers of a hardware configuration
+  (``[[mocap.base_markers]]``) when one is given.
+
+Side view (x-z), top view (x-y) and the base face seen from the tip (y-z), in cm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.viz.arm import FOAM_RGB, TIP_RGB
+from lab.viz.tracking import CABLE_COLORS
+
+__all__ = ["SPOOL_SETBACK_M", "plot_setup", "setup_geometry"]
+
+#: How far behind the base face (m, along -x) the spools are drawn: a schematic
+#: distance (the description does not place the motors), the paper's rig is similar.
+SPOOL_SETBACK_M = 0.04
+PLATE_THICKNESS_M = 0.01
+MARKER_RGB = (0.1, 0.1, 0.1)
+
+
+def setup_geometry(robot, base_markers_W_m=None) -> dict:
+    """What Figure 1 draws, in frame W (m): ``routes`` (per cable, (K+1, 3) anchor then via
+    points), ``spools`` (n_cables, 3) spool centres, ``spool_radius_m``, ``tip`` (3,),
+    ``base_markers`` (B, 3) (empty if none given), ``length_m`` and ``radius_m``."""
+    routes = [np.vstack([c.anchor_m, c.via_points_m]) for c in robot.cables]
+    # cables leaving the base at the same point (a six-cable arm's long and short cable
+    # on one side) get spools one behind the other, so that none hides another
+    seen: dict = {}
+    spools = []
+    for c in robot.cables:
+        key = tuple(np.round(c.anchor_m[1:], 4))
+        behind = seen.get(key, 0)
+        seen[key] = behind + 1
+        back = SPOOL_SETBACK_M + PLATE_THICKNESS_M + 2.6 * behind * robot.spool_radius_m
+        spools.append(c.anchor_m + [-back, 0.0, 0.0])
+    spools = np.array(spools)
+    markers = np.zeros((0, 3)) if base_markers_W_m is None else np.asarray(base_markers_W_m, float).reshape(-1, 3)
+    return {
+        "routes": routes,
+        "spools": spools,
+        "spool_radius_m": robot.spool_radius_m,
+        "tip": np.asarray(robot.p_tip_marker_W, float),
+        "base_markers": markers,
+        "length_m": robot.length_m,
+        "radius_m": robot.radius_m,
+    }
+
+
+def _body_outline(ax, geo, dims, s):
+    """The body: a rectangle (side/top views) or the section circle (base face view)."""
+    from matplotlib.patches import Circle, Rectangle
+
+    L, r = s * geo["length_m"], s * geo["radius_m"]
+    if dims[0] == 0:  # along the body
+        ax.add_patch(Rectangle((0, -r), L, 2 * r, facecolor=(*FOAM_RGB, 0.35), edgecolor=FOAM_RGB, lw=1.5))
+        t = s * PLATE_THICKNESS_M
+        ax.add_patch(Rectangle((-t, -2.2 * r), t, 4.4 * r, facecolor="0.75", edgecolor="0.4", lw=1))
+    else:
+        ax.add_patch(Circle((0, 0), r, facecolor=(*FOAM_RGB, 0.35), edgecolor=FOAM_RGB, lw=1.5))
+
+
+def _spools(ax, geo, dims, s, colors):
+    from matplotlib.patches import Circle, Rectangle
+
+    rs = s * geo["spool_radius_m"]
+    for k, (c, a) in enumerate(zip(geo["spools"], geo["routes"])):
+        p = s * c[list(dims)]
+        if dims[0] == 0:  # seen from the side: the spool is a disc, the cable leaves it tangentially
+            ax.add_patch(Circle(p, rs, facecolor="white", edgecolor=colors[k], lw=1.5))
+            ax.add_patch(Rectangle((p[0] - 1.6 * rs, p[1] - 0.6 * rs), 0.6 * rs, 1.2 * rs, color="0.3"))
+            ax.plot([p[0], s * a[0, dims[0]]], [p[1] + 0 * rs, s * a[0, dims[1]]], color=colors[k], lw=1.2, ls=":")
+
+
+def _draw(ax, geo, dims, s, names, title, label_cables):
+    colors = [CABLE_COLORS[k % len(CABLE_COLORS)] for k in range(len(geo["routes"]))]
+    _body_outline(ax, geo, dims, s)
+    if dims[0] == 0:
+        _spools(ax, geo, dims, s, colors)
+    for k, pts in enumerate(geo["routes"]):
+        p = s * pts[:, list(dims)]
+        label = names[k] if label_cables else None
+        if dims[0] == 0:
+            ax.plot(*p.T, "-", color=colors[k], lw=1.5, label=label)
+            ax.plot(*p[1:].T, "o", color=colors[k], ms=4, mfc="white")  # eyelets
+            ax.plot(*p[-1], "s", color=colors[k], ms=5)  # tied off
+        else:  # the section: each cable is one point (its eyelets line up along x)
+            ax.plot(*p[1:].T, "o", color=colors[k], ms=7, mfc="white", label=label)
+    if dims[0] != 0:  # one label per place, listing every cable there
+        places: dict = {}
+        for k, pts in enumerate(geo["routes"]):
+            places.setdefault(tuple(np.round(s * pts[-1, list(dims)], 3)), []).append(k)
+        for xy, ks in places.items():
+            for j, k in enumerate(ks):
+                ax.annotate(
+                    names[k], xy, textcoords="offset points", xytext=(7, 6 - 10 * j), color=colors[k], fontsize=8
+                )
+    tip = s * geo["tip"][list(dims)]
+    ax.plot(*tip, "o", color=TIP_RGB, ms=8, label="tip marker" if label_cables else None, zorder=5)
+    if len(geo["base_markers"]):
+        m = s * geo["base_markers"][:, list(dims)]
+        ax.plot(*m.T, "D", color=MARKER_RGB, ms=6, label="base markers (frame W)" if label_cables else None)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"{'xyz'[dims[0]]} [cm]")
+    ax.set_ylabel(f"{'xyz'[dims[1]]} [cm]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+
+
+def plot_setup(robot, base_markers_W_m=None, *, figsize=(12, 6.2)):
+    """Figure 1 equivalent for ``robot`` (a :class:`lab.description.RobotDescription`):
+    side (x-z), top (x-y) and base-face (y-z) views of the set-up in cm, with the spools,
+    cable routes through their eyelets, the tip marker and, if given, the base markers
+    ``base_markers_W_m`` (B, 3) m (e.g. ``HardwareConfig.natnet.base_positions_W_m``).
+    Returns ``(fig, (ax_side, ax_top, ax_face))``."""
+    import matplotlib.pyplot as plt
+
+    geo = setup_geometry(robot, base_markers_W_m)
+    s = 100.0
+    names = [c.name for c in robot.cables]
+    fig = plt.figure(figsize=figsize, layout="constrained")
+    grid = fig.add_gridspec(2, 2, width_ratios=(2.6, 1))
+    ax_side, ax_top, ax_face = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[:, 1])
+    _draw(ax_side, geo, (0, 2), s, names, "side view (x-z): gravity along -z", True)
+    _draw(ax_top, geo, (0, 1), s, names, "top view (x-y)", False)
+    _draw(ax_face, geo, (1, 2), s, names, "cross-section: eyelets (y-z)", False)
+    # the same x range for both long views, with room for the spools behind the plate
+    x_lo = s * (geo["spools"][:, 0].min() - 2.0 * geo["spool_radius_m"])
+    x_hi = s * (geo["length_m"] + 0.02)
+    for ax in (ax_side, ax_top):
+        ax.set_xlim(x_lo, x_hi)
+    ax_side.annotate(
+        "",
+        xy=(s * 0.6 * geo["length_m"], -s * 2.0 * geo["radius_m"]),
+        xytext=(s * 0.6 * geo["length_m"], -s * 1.2 * geo["radius_m"]),
+        arrowprops={"arrowstyle": "->", "color": "0.3"},
+    )
+    ax_side.text(s * 0.61 * geo["length_m"], -s * 1.7 * geo["radius_m"], "g", color="0.3")
+    ax_side.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    fig.suptitle(
+        f"{robot.name}: {len(names)} cables, spools r = {100 * robot.spool_radius_m:g} cm behind the base plate "
+        "(drawn from the robot description)",
+        fontsize=11,
+    )
+    return fig, (ax_side, ax_top, ax_face)
