@@ -1,7 +1,8 @@
 """The command line: ``python -m lab <command>`` (or ``lab <command>``), one module per command.
 
 Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
-(:mod:`.splits`), ``track`` (:mod:`.track`) and ``capture`` (:mod:`.capture`); each module
+(:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`) and ``transfer``
+(:mod:`.transfer`); each module
 has ``add_parser(subparsers, parents)`` and ``run(args) -> exit code``.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
@@ -20,14 +21,21 @@ import argparse
 import sys
 import traceback
 
-from lab.cli import capture, simulate, splits, track, train
+from lab.cli import capture, simulate, splits, track, train, transfer
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS = {"simulate": simulate, "train": train, "splits": splits, "track": track, "capture": capture}
+COMMANDS = {
+    "simulate": simulate,
+    "train": train,
+    "splits": splits,
+    "track": track,
+    "capture": capture,
+    "transfer": transfer,
+}
 
 #: OS errors that mean the user named a bad path (exit 2); any other OSError exits 1.
 _BAD_PATH_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError, FileExistsError)

@@ -5,13 +5,17 @@
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
 point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
+Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), the GP
+residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
 """
 
+from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
-from lab.learn.model_io import ModelFileError, read_model, save_model
+from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
+from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
 from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
 from lab.learn.studies import (
     evaluate_splits,
@@ -21,8 +25,19 @@ from lab.learn.studies import (
     write_csv,
 )
 from lab.learn.train import TrainResult, data_sha256, train
+from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
+    "finetune",
+    "finetune_fixed",
+    "file_metadata",
+    "model_arrays",
+    "GPCorrection",
+    "ResidualModel",
+    "fit_residual",
+    "load_residual",
+    "DATA_METHODS",
+    "transfer_model",
     "STOP_MESSAGES",
     "minmax_gain",
     "MLP",

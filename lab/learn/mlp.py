@@ -315,7 +315,15 @@ def init_mlp(u, y, hidden=(20, 20), activation: str = "tanh", seed: int | np.ran
     return MLP(weights, biases, u.min(axis=0), u.max(axis=0), y.min(axis=0), y.max(axis=0), activation)
 
 
-def load_model(path) -> MLP:
-    """Read a network written by :meth:`MLP.save` (``.npz``, no pickle); raises
-    :class:`lab.learn.model_io.ModelFileError` naming the file and the problem."""
+def load_model(path):
+    """Read a model written by :meth:`MLP.save` (``.npz``, no pickle) or, for a file of kind
+    ``lab.residual``, a :class:`lab.learn.residual.ResidualModel` (same forward-map
+    interface); raises :class:`lab.learn.model_io.ModelFileError` naming the file and the
+    problem."""
+    from lab.learn.model_io import file_metadata
+
+    if file_metadata(path).get("kind") == "lab.residual":
+        from lab.learn.residual import load_residual
+
+        return load_residual(path, MLP, ACTIVATIONS)
     return MLP(**read_model(path, ACTIVATIONS))

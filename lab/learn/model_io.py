@@ -36,11 +36,11 @@ class ModelFileError(InputError):
     """A model file is missing, corrupt, truncated, inconsistent or from a newer format."""
 
 
-def save_model(model, path: str | Path) -> Path:
-    """Write ``model`` to ``path`` (``.npz``) atomically; returns the path."""
+def model_arrays(model) -> dict[str, np.ndarray]:
+    """The arrays of one network's ``.npz`` (``metadata`` JSON included), as :func:`save_model`
+    writes them; a composite model file (:mod:`lab.learn.residual`) stores them under a prefix."""
     from lab.files import code_version
 
-    path = Path(path)
     meta = {
         "format_version": FORMAT_VERSION,
         "kind": KIND,
@@ -59,9 +59,40 @@ def save_model(model, path: str | Path) -> Path:
     }
     for l, (w, b) in enumerate(zip(model.weights, model.biases)):
         arrays[f"W{l}"], arrays[f"b{l}"] = w, b
+    return arrays
+
+
+def save_model(model, path: str | Path) -> Path:
+    """Write ``model`` to ``path`` (``.npz``) atomically; returns the path."""
+    path = Path(path)
     with atomic_open(path, "wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez(fh, **model_arrays(model))
     return path
+
+
+def file_metadata(path: str | Path, arrays: dict | None = None) -> dict:
+    """The ``metadata`` JSON object of a model file (any kind), checked for a readable
+    ``format_version``; raises :class:`ModelFileError` naming the file and the problem."""
+    path = Path(path)
+    if arrays is None:
+        if not path.is_file():
+            raise ModelFileError(f"model file not found: {path}")
+        arrays = _read_arrays(path)
+    raw = _need(arrays, "metadata", path)
+    try:
+        meta = json.loads(str(raw[()]))
+    except (json.JSONDecodeError, TypeError, ValueError, IndexError) as err:
+        raise ModelFileError(f"{path}: corrupt metadata JSON ({err})") from None
+    if not isinstance(meta, dict):
+        raise ModelFileError(f"{path}: metadata is not a JSON object")
+    version = meta.get("format_version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise ModelFileError(f"{path}: metadata has no integer format_version (got {version!r})")
+    if version > FORMAT_VERSION:
+        raise ModelFileError(
+            f"{path}: format_version {version} is newer than this code reads ({FORMAT_VERSION}); update the package"
+        )
+    return meta
 
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
@@ -87,30 +118,20 @@ def _need(arrays: dict, key: str, path: Path) -> np.ndarray:
     return arrays[key]
 
 
-def read_model(path: str | Path, activations: tuple[str, ...]) -> dict:
+def read_model(path: str | Path, activations: tuple[str, ...], prefix: str = "") -> dict:
     """Read and check a model file written by :func:`save_model`: the keyword arguments of
     :class:`lab.learn.mlp.MLP` (``weights``, ``biases``, ``activation``, ``metadata``,
     ``u_min``, ``u_max``, ``y_min``, ``y_max``). ``activations`` are the names the caller
-    can build. Raises :class:`ModelFileError` naming the file and the problem.
+    can build; ``prefix`` selects one network of a composite file (``"base."``).
+    Raises :class:`ModelFileError` naming the file and the problem.
     (:func:`lab.learn.mlp.load_model` builds the network; this module never imports it.)"""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"model file not found: {path}")
     arrays = _read_arrays(path)
-    raw = _need(arrays, "metadata", path)
-    try:
-        meta = json.loads(str(raw[()]))
-    except (json.JSONDecodeError, TypeError, ValueError, IndexError) as err:
-        raise ModelFileError(f"{path}: corrupt metadata JSON ({err})") from None
-    if not isinstance(meta, dict):
-        raise ModelFileError(f"{path}: metadata is not a JSON object")
-    version = meta.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool):
-        raise ModelFileError(f"{path}: metadata has no integer format_version (got {version!r})")
-    if version > FORMAT_VERSION:
-        raise ModelFileError(
-            f"{path}: format_version {version} is newer than this code reads ({FORMAT_VERSION}); update the package"
-        )
+    if prefix:
+        arrays = {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+    meta = file_metadata(path, arrays)
     if meta.get("kind") != KIND:
         raise ModelFileError(f"{path}: kind {meta.get('kind')!r} is not {KIND!r}")
     arch = meta.get("architecture")
