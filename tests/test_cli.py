@@ -120,9 +120,26 @@ def test_python_m_lab_exit_code_and_message(tmp_path):
 def test_every_command_has_its_module():
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    assert set(sub.choices) == set(cli.COMMANDS) == {"simulate", "train", "splits", "track", "capture"}
+    assert (
+        set(sub.choices)
+        == set(cli.COMMANDS)
+        == {
+            "simulate",
+            "train",
+            "splits",
+            "track",
+            "capture",
+            "defects",
+            "transfer",
+            "transfer-curve",
+        }
+    )
     for name, module in cli.COMMANDS.items():
-        assert module.__name__ == f"lab.cli.{name}" and callable(module.add_parser) and callable(module.run)
+        assert (
+            module.__name__ == f"lab.cli.{name.replace('-', '_')}"
+            and callable(module.add_parser)
+            and callable(module.run)
+        )
 
 
 @pytest.mark.parametrize("sig, code", [("SIGTERM", 143), ("SIGHUP", 129)])

@@ -1,8 +1,8 @@
 """The command line: ``python -m lab <command>`` (or ``lab <command>``), one module per command.
 
 Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
-(:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`) and ``transfer``
-(:mod:`.transfer`); each module
+(:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`), ``defects``
+(:mod:`.defects`) and ``transfer`` (:mod:`.transfer`); each module
 has ``add_parser(subparsers, parents)`` and ``run(args) -> exit code``.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
@@ -21,7 +21,7 @@ import argparse
 import sys
 import traceback
 
-from lab.cli import capture, simulate, splits, track, train, transfer
+from lab.cli import capture, defects, simulate, splits, track, train, transfer, transfer_curve
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
@@ -34,7 +34,9 @@ COMMANDS = {
     "splits": splits,
     "track": track,
     "capture": capture,
+    "defects": defects,
     "transfer": transfer,
+    "transfer-curve": transfer_curve,
 }
 
 #: OS errors that mean the user named a bad path (exit 2); any other OSError exits 1.

@@ -1,11 +1,14 @@
 """``python -m lab capture``: the paper's 7x7x7 grid captured on a rig (Section III).
 
     python -m lab capture --rig twin --robot three-cable --grid 7 --out data/real_three_cable.csv
+    python -m lab capture --rig twin:random:3 --design maximin --n 30 --seed 0 --out real30.csv
 
-Captures the safe commands of the grid (308 of 343 for 7 levels) with the protocol of
-``lab.rig.capture`` into an append-only journal (default ``OUT`` with ``.journal.csv``),
-then writes the dataset ``OUT`` (+ ``OUT.json``) atomically, rows in grid order, in the
-format ``lab.data.dataset.read_dataset`` reads. Killed or failed, it keeps every sample
+Captures the safe commands of the grid (308 of 343 for 7 levels) -- or, with ``--design``,
+``N`` commands of a space-filling design over the safe set (random, Sobol or maximin,
+``lab.data.designs.design_commands``) -- with the protocol of ``lab.rig.capture`` into an
+append-only journal (default ``OUT`` with ``.journal.csv``), then writes the dataset
+``OUT`` (+ ``OUT.json``) atomically, rows in grid (or design) order, in the format
+``lab.data.dataset.read_dataset`` reads. Killed or failed, it keeps every sample
 captured so far; the same command continues where it stopped. On any error the rig is
 closed (torque off on hardware) and the message names the problem.
 """
@@ -22,7 +25,7 @@ import numpy as np
 
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal
 from lab.cli.signals import exit_code
-from lab.errors import LabError
+from lab.errors import InputError, LabError
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -34,17 +37,31 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--rig", default="twin", help="sim | twin[:DEFECTS.toml] | hardware:RIG.toml (default: twin)")
+    p.add_argument(
+        "--rig",
+        default="twin",
+        help="sim | twin[:DEFECTS.toml] | twin:random:SEED (an emulated as-built robot of the family) "
+        "| hardware:RIG.toml (default: twin)",
+    )
     p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
-    p.add_argument("--grid", type=int, default=7, metavar="LEVELS", help="grid levels per motor (default 7)")
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--grid", type=int, metavar="LEVELS", help="grid levels per motor (default 7)")
+    what.add_argument(
+        "--design",
+        choices=("random", "sobol", "maximin"),  # lab.data.designs.DESIGNS (imported lazily)
+        help="instead of the grid, --n commands of a space-filling design over the safe set",
+    )
+    p.add_argument("--n", type=int, metavar="N", help="number of commands of --design")
     p.add_argument("--out", required=True, help="output CSV; metadata goes to OUT.json")
     p.add_argument("--journal", help="append-only journal to write or resume (default: OUT with .journal.csv)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the shuffled order and the emulated rig's noise")
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the design, the shuffled order and the emulated rig's noise"
+    )
     p.add_argument(
         "--order",
         choices=("shuffled", "grid"),
         default="shuffled",
-        help="capture order (default shuffled; the dataset is written in grid order either way)",
+        help="capture order (default shuffled; the dataset is written in grid/design order either way)",
     )
     p.add_argument(
         "--no-wait", action="store_true", help="do not wait until settled: record 0.5 s after the motors arrive"
@@ -70,8 +87,7 @@ def command_line(args) -> str:
         args.rig,
         "--robot",
         args.robot,
-        "--grid",
-        str(args.grid),
+        *(["--design", args.design, "--n", str(args.n)] if args.design else ["--grid", str(args.grid)]),
         "--out",
         str(args.out),
         "--seed",
@@ -106,14 +122,58 @@ def _stats(a: np.ndarray) -> dict:
     }
 
 
+def check_design_args(args) -> None:
+    """Refuse a bad combination of ``--grid``/``--design``/``--n``/``--seed`` (InputError)
+    before any file is touched; fills in the default ``--grid 7``."""
+    if args.design is None:
+        if args.n is not None:
+            raise InputError("--n N goes with --design {random,sobol,maximin}; the grid's size is --grid LEVELS")
+        args.grid = 7 if args.grid is None else args.grid
+    else:
+        if args.n is None:
+            raise InputError(f"--design {args.design} needs the number of commands: --n N")
+        if args.n < 1:
+            raise InputError(f"--n must be at least 1, got {args.n}")
+    if args.seed < 0:
+        raise InputError(f"--seed must be an integer >= 0, got {args.seed}")
+
+
+def _commands(args, robot) -> tuple[np.ndarray, dict]:
+    """The commands to capture (N, m) rad, in dataset order, and the sampler's metadata."""
+    from lab.data.designs import design_commands, grid_commands, min_distance
+
+    if args.design is None:
+        grid = grid_commands(robot, args.grid)
+        return grid, {
+            "name": "grid",
+            "levels": args.grid,
+            "n_candidates": args.grid**robot.n_cables,
+            "n_safe": len(grid),
+            "order": args.order,
+            "seed": args.seed,
+        }
+    try:
+        u = design_commands(robot, args.n, args.design, seed=args.seed)
+    except InputError as err:
+        raise InputError(f"--design {args.design} --n {args.n}: {err}") from None
+    return u, {
+        "name": args.design,
+        "n": args.n,
+        "space": "safe set of [0, u_max]^m, distances in u / u_max",
+        "min_distance": min_distance(robot, u),
+        "order": args.order,
+        "seed": args.seed,
+    }
+
+
 def run(args) -> int:
     from lab.data.dataset import write_dataset
-    from lab.data.designs import grid_commands
     from lab.description import load_robot
     from lab.rig import make_rig
     from lab.rig.capture import capture
     from lab.rig.protocol import Protocol
 
+    check_design_args(args)
     journal = Path(args.journal) if args.journal else Path(args.out).with_suffix(".journal.csv")
     check_paths(
         {"--robot": existing(args.robot), "--rig": existing(args.rig.partition(":")[2] or None)},
@@ -124,7 +184,7 @@ def run(args) -> int:
     ignore_file_size_signal()
     try:
         robot = load_robot(args.robot)
-        grid = grid_commands(robot, args.grid)
+        grid, sampler = _commands(args, robot)
         protocol = Protocol(
             wait=not args.no_wait,
             reset=not args.no_reset,
@@ -136,17 +196,9 @@ def run(args) -> int:
             if args.order == "shuffled"
             else np.arange(len(grid))
         )
-        sampler = {
-            "name": "grid",
-            "levels": args.grid,
-            "n_candidates": args.grid**robot.n_cables,
-            "n_safe": len(grid),
-            "order": args.order,
-            "seed": args.seed,
-        }
+        what = f"{args.design} design" if args.design else f"{args.grid}^{robot.n_cables} grid"
         print(
-            f"{robot.name}: {len(grid)} safe commands of the {args.grid}^{robot.n_cables} grid on rig {args.rig!r}, "
-            f"journal {journal}",
+            f"{robot.name}: {len(grid)} safe commands of the {what} on rig {args.rig!r}, journal {journal}",
             file=sys.stderr,
         )
         t0 = time.perf_counter()
@@ -186,7 +238,7 @@ def run(args) -> int:
         raise
 
     y = np.empty_like(res.p_tip_W)
-    y[order] = res.p_tip_W  # back to grid order
+    y[order] = res.p_tip_W  # back to grid (design) order
     settled = np.empty(len(grid), bool)
     settled[order] = res.settled
     per_sample = {name: np.empty(len(grid)) for name in ("sample_s", "settle_s")}

@@ -1,9 +1,9 @@
 """Stage 5: (u, y) data -- which commands to sample, simulating them, and dataset files.
 
-:mod:`.designs` picks safe motor commands (grids, Sobol) and cuts them into walks;
-:mod:`.simulation` solves them with the FEM on joblib workers or a Dask cluster, resumable
-through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV + JSON-sidecar format
-that simulated and captured data share.
+:mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and cuts
+them into walks; :mod:`.simulation` solves them with the FEM on joblib workers or a Dask
+cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV +
+JSON-sidecar format that simulated and captured data share.
 """
 
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
@@ -15,10 +15,16 @@ from lab.data.dataset import (
     write_dataset,
 )
 from lab.data.designs import (
+    DESIGNS,
     Chunk,
+    design_commands,
+    greedy_maximin,
     grid_chunks,
     grid_commands,
+    maximin_commands,
+    min_distance,
     nearest_neighbour_chunks,
+    random_commands,
     sobol_commands,
 )
 from lab.data.simulation import default_jobs, simulate, solve_chunk
@@ -27,6 +33,12 @@ __all__ = [
     "Chunk",
     "grid_commands",
     "sobol_commands",
+    "DESIGNS",
+    "design_commands",
+    "random_commands",
+    "maximin_commands",
+    "greedy_maximin",
+    "min_distance",
     "grid_chunks",
     "nearest_neighbour_chunks",
     "solve_chunk",

@@ -4,7 +4,10 @@ Samplers give safe motor commands (N, m) in radians:
 
 * :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
   (the paper's 7x7x7 grid), minus what the safety rule forbids;
-* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only.
+* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only;
+* :func:`design_commands` — ``n`` commands of a space-filling design over the safe set
+  (``"random"``, ``"sobol"`` or ``"maximin"``) for capturing a few real samples;
+  :func:`min_distance` scores a design (its smallest pairwise distance).
 
 Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands into
 walks whose neighbours are close, so that :func:`lab.data.simulation.simulate` can
@@ -45,10 +48,94 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
 
     sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
     out = np.empty((0, robot.n_cables))
+    m = int(np.ceil(np.log2(max(64, 2 * n))))
     while len(out) < n:
-        u = sampler.random_base2(int(np.ceil(np.log2(max(64, 2 * n))))) * robot.u_max_rad
+        if m > 22:  # 4 million candidates and still short
+            raise InputError(f"{robot.name}: its safety rule leaves almost no command; cannot draw {n}")
+        u = sampler.random_base2(m) * robot.u_max_rad
         out = np.vstack([out, u[robot.is_safe(u)]])
+        m = int(np.log2(sampler.num_generated))  # the next draw doubles the sequence (balance)
     return out[:n]
+
+
+#: The space-filling designs of :func:`design_commands`.
+DESIGNS = ("random", "sobol", "maximin")
+#: Largest ``n`` of a random or Sobol design, and of a maximin design (whose greedy
+#: selection costs n x its candidate pool).
+MAX_DESIGN_N = 100_000
+MAX_MAXIMIN_N = 2_000
+
+
+def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` independent uniform commands (n, m) rad over the safe part of [0, u_max]^m."""
+    rng = np.random.default_rng(seed)
+    out = np.empty((0, robot.n_cables))
+    for _ in range(1000):
+        u = rng.random((max(64, 2 * n), robot.n_cables)) * robot.u_max_rad
+        out = np.vstack([out, u[robot.is_safe(u)]])
+        if len(out) >= n:
+            return out[:n]
+    raise InputError(f"{robot.name}: its safety rule leaves almost no command; cannot draw {n}")
+
+
+def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
+    """Smallest distance between two of the commands (N, m) rad, in normalised command
+    space ``u / u_max`` (inf for fewer than two)."""
+    from scipy.spatial.distance import pdist
+
+    u = np.asarray(u_motor, dtype=float) / robot.u_max_rad
+    return float(pdist(u).min()) if len(u) > 1 else float("inf")
+
+
+def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` safe commands (n, m) rad picked greedily from a pool of safe scrambled-Sobol
+    candidates (``max(4096, 32 n)``, at most 131,072; seeded): first the candidate
+    farthest from the pool's centroid, then always the one farthest from those already
+    picked, distances in normalised command space ``u / u_max``. Order: the order picked.
+    Like every maximin design it puts its first points on the boundary of the safe set."""
+    pool = sobol_commands(robot, min(max(4096, 32 * n), 131_072), seed=seed)
+    x = pool / robot.u_max_rad
+    first = int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))
+    return pool[greedy_maximin(x, first, n)]
+
+
+def greedy_maximin(points: np.ndarray, first: int, n: int) -> list[int]:
+    """Indices of ``n`` of ``points`` (P, d), starting at ``first``: each next one the point
+    whose distance to its nearest already-picked point is largest (ties: the lowest index)."""
+    picked = [int(first)]
+    d_min = np.linalg.norm(points - points[first], axis=1)
+    for _ in range(n - 1):
+        k = int(np.argmax(d_min))
+        picked.append(k)
+        np.minimum(d_min, np.linalg.norm(points - points[k], axis=1), out=d_min)
+    return picked
+
+
+def design_commands(robot: RobotDescription, n: int, method: str = "maximin", seed: int = 0) -> np.ndarray:
+    """``n`` safe commands (n, m) rad of a space-filling design over the allowed set (in
+    ``[0, u_max]^m`` and passing the robot's safety rule): ``method`` ``"random"``
+    (independent uniform draws), ``"sobol"`` (scrambled Sobol points, :func:`sobol_commands`)
+    or ``"maximin"`` (:func:`maximin_commands`). Deterministic for a given ``seed`` (>= 0).
+    Raises InputError for an unknown method, ``n < 1``, ``n`` above the method's limit or a
+    bad seed."""
+    if method not in DESIGNS:
+        raise InputError(f"unknown design {method!r}: expected one of {', '.join(DESIGNS)}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"a {method} design needs n >= 1 commands, got {n!r}")
+    limit = MAX_MAXIMIN_N if method == "maximin" else MAX_DESIGN_N
+    if n > limit:
+        raise InputError(f"a {method} design takes at most {limit} commands, got n = {n}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"the design's seed must be an integer >= 0, got {seed!r}")
+    n, seed = int(n), int(seed)
+    if method == "random":
+        u = random_commands(robot, n, seed)
+    elif method == "sobol":
+        u = sobol_commands(robot, n, seed=seed)
+    else:
+        u = maximin_commands(robot, n, seed)
+    assert len(u) == n and np.all(robot.is_safe(u))
+    return u
 
 
 def _serpentine(keys: np.ndarray) -> np.ndarray:

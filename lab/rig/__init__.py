@@ -6,6 +6,8 @@
 * ``"twin"``              emulated as-built robot with the shipped default defects
                           (:class:`TwinRig`, :mod:`.twin` and :mod:`.asbuilt`)
 * ``"twin:DEFECTS.toml"`` emulated as-built robot with the user's defect file
+* ``"twin:random:SEED"``  member SEED (an integer >= 0) of a family of emulated as-built
+                          robots with random defects (:class:`FamilyTwinRig`, :mod:`.family`)
 * ``"hardware:RIG.toml"`` Dynamixel servos + OptiTrack, configured by the file
                           (:class:`HardwareRig`: :mod:`.hardware`, :mod:`.dynamixel`,
                           :mod:`.optitrack`, :mod:`.hardware_config`)
@@ -23,6 +25,7 @@ from lab.errors import InputError
 from lab.rig.asbuilt import Defects, default_defects_path, load_defects, parse_defects
 from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
 from lab.rig.capture import Capture, capture, journal_columns
+from lab.rig.family import FamilyTwinRig, random_defects, random_defects_toml, write_random_defects
 from lab.rig.journal import Journal, JournalError
 from lab.rig.protocol import Protocol, Sample, SettleDetector, measure
 from lab.rig.sim import SimRig
@@ -53,13 +56,18 @@ __all__ = [
     "default_defects_path",
     "load_defects",
     "parse_defects",
+    "FamilyTwinRig",
+    "random_defects",
+    "random_defects_toml",
+    "write_random_defects",
 ]
 
 
 def make_rig(spec: str, robot: RobotDescription, *, seed: int = 0) -> Rig:
-    """Rig for the command-line spec ``sim | twin[:DEFECTS.toml] | hardware:CONFIG.toml``.
+    """Rig for the command-line spec ``sim | twin[:DEFECTS.toml | :random:SEED] | hardware:CONFIG.toml``.
 
-    ``seed`` makes the emulated robot's noise reproducible. Raises :class:`lab.errors.InputError`
+    ``seed`` makes the emulated robot's noise reproducible (``twin:random:SEED`` picks the
+    robot of the family; ``seed`` still only the noise). Raises :class:`lab.errors.InputError`
     (a ValueError) naming the problem for an unknown kind or a missing file argument.
     """
     kind, _, arg = str(spec).partition(":")
@@ -70,6 +78,13 @@ def make_rig(spec: str, robot: RobotDescription, *, seed: int = 0) -> Rig:
 
         return SimRig(robot)
     if kind == "twin":
+        if arg == "random" or arg.startswith("random:"):
+            from lab.rig.family import FamilyTwinRig, parse_robot_seed
+
+            robot_seed = arg.partition(":")[2]
+            if not robot_seed:
+                raise InputError(f"rig {spec!r} needs the robot's seed: --rig twin:random:SEED (e.g. twin:random:3)")
+            return FamilyTwinRig(robot, parse_robot_seed(robot_seed, spec), seed=seed)
         from lab.rig.twin import TwinRig
 
         return TwinRig(robot, defects=arg or None, seed=seed)
@@ -79,4 +94,6 @@ def make_rig(spec: str, robot: RobotDescription, *, seed: int = 0) -> Rig:
         from lab.rig.hardware import HardwareRig
 
         return HardwareRig.from_config(arg, robot)
-    raise InputError(f"unknown rig {spec!r}: expected sim, twin[:DEFECTS.toml] or hardware:CONFIG.toml")
+    raise InputError(
+        f"unknown rig {spec!r}: expected sim, twin[:DEFECTS.toml], twin:random:SEED or hardware:CONFIG.toml"
+    )

@@ -6,6 +6,7 @@ One interface, three implementations, chosen by ``make_rig`` (``lab.rig``):
                    (the paper's "Sim Robot");
 * ``twin[:F]``  -- the emulated as-built robot (defects from the TOML file ``F``), with lag,
                    hysteresis and motion-capture noise on a virtual clock;
+                   ``twin:random:S`` is member ``S`` of a family of them (``lab.rig.family``);
 * ``hardware:C``-- Dynamixel XM430 servos + OptiTrack, configured by the TOML file ``C``.
 
 Everything downstream (capture protocol, trajectory tracking) uses only this interface:

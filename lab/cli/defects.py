@@ -1,0 +1,81 @@
+"""``python -m lab defects``: write the defects file of an emulated as-built robot of the family.
+
+    python -m lab defects --random 3 --robot three-cable --out robot3.toml
+    python -m lab capture --rig twin:robot3.toml ...   # the same robot as --rig twin:random:3
+
+Draws member ``SEED`` of the family of as-built robots (``lab.rig.family``: softness,
+stiffness gradient, eyelet shifts, slack, play, lag, motors, motion capture, from ranges
+justified there) for the robot description ``--robot`` (any number of cables), and writes
+it atomically as a commented defects file in the format of ``lab/rig/defects/``. The same
+seed always gives the same file; edit it freely and pass it as ``--rig twin:FILE``.
+Results on it are an "emulated as-built robot", not the real arm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+
+from lab.cli.paths import check_paths, check_writable, existing
+from lab.errors import InputError
+
+
+def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
+    """Add the ``defects`` command to an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "defects",
+        parents=parents,
+        help="write the defects file of an emulated as-built robot (a random member of the family)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--random",
+        type=int,
+        required=True,
+        metavar="SEED",
+        help="the robot of the family to draw (an integer >= 0; the same as --rig twin:random:SEED)",
+    )
+    p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
+    p.add_argument(
+        "--n-rings", type=int, help="FEM mesh rings of the emulator, written to [emulator] (default: robot's)"
+    )
+    p.add_argument("--n-axial", type=int, help="FEM mesh layers of the emulator, written to [emulator]")
+    p.add_argument("--out", required=True, help="output defects file (TOML)")
+    p.set_defaults(func=run)
+    return p
+
+
+def command_line(args) -> str:
+    """The command that makes the same file (recorded in its header; without ``--out``, so
+    that the file depends only on the robot, the seed and the mesh)."""
+    words = ["python", "-m", "lab", "defects", "--random", str(args.random), "--robot", str(args.robot)]
+    for flag, value in (("--n-rings", args.n_rings), ("--n-axial", args.n_axial)):
+        if value is not None:
+            words += [flag, str(value)]
+    return shlex.join(words) + " --out D.toml"
+
+
+def run(args) -> int:
+    from lab.description import load_robot
+    from lab.rig.family import write_random_defects
+
+    if args.random < 0:
+        raise InputError(f"--random: the robot seed must be an integer >= 0, got {args.random}")
+    for flag, value in (("--n-rings", args.n_rings), ("--n-axial", args.n_axial)):
+        if value is not None and value < 1:
+            raise InputError(f"{flag} must be at least 1, got {value}")
+    check_paths({"--robot": existing(args.robot)}, {"--out": args.out})
+    check_writable(args.out)
+    robot = load_robot(args.robot)
+    defects = write_random_defects(
+        args.out, robot, args.random, n_rings=args.n_rings, n_axial=args.n_axial, command=command_line(args)
+    )
+    print(
+        f"wrote {args.out}: {robot.name} as built, member {args.random} of the family (softness "
+        f"{defects.softness:g}, gradient {defects.gradient:g}, slack up to {1e3 * defects.slack_m.max():.1f} mm); "
+        f"use it as --rig twin:{args.out}",
+        file=sys.stderr,
+    )
+    return 0
