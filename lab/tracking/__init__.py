@@ -2,7 +2,8 @@
 
 :func:`run_trajectory` (:mod:`.track`) solves the IK for every target, sends the commands
 to any :class:`lab.rig.Rig` and records where the tip settled; :mod:`.table1` merges the
-mean errors into ``table1.csv``.
+mean errors into ``table1.csv``. :mod:`.transfer_study` measures the sim-to-real curve
+(error against the number of real samples, per transfer method) on emulated as-built robots.
 """
 
 from lab.tracking.table1 import (
@@ -25,6 +26,19 @@ from lab.tracking.track import (
     run_trajectory,
     write_result,
 )
+from lab.tracking.transfer_study import (
+    METHOD_MIN_N,
+    curve_rows,
+    defect_variants,
+    evaluate_model,
+    family_table1,
+    findings,
+    make_methods,
+    quasi_static_tips,
+    random_safe_commands,
+    read_curve,
+    smallest_n,
+)
 
 __all__ = [
     "TRACK_PROTOCOL",
@@ -43,4 +57,15 @@ __all__ = [
     "read_table1",
     "update_table1",
     "render_markdown",
+    "METHOD_MIN_N",
+    "curve_rows",
+    "defect_variants",
+    "evaluate_model",
+    "family_table1",
+    "findings",
+    "make_methods",
+    "quasi_static_tips",
+    "random_safe_commands",
+    "read_curve",
+    "smallest_n",
 ]

@@ -49,6 +49,7 @@ from lab.viz.tracking import (
     plot_paths_3d,
     plot_tracking_row,
 )
+from lab.viz.transfer import METHOD_COLORS, PAPER_MEAN_CM, plot_transfer_curve
 
 __all__ = [
     "FOAM_RGB",
@@ -93,4 +94,7 @@ __all__ = [
     "setup_geometry",
     "ArmExplorer",
     "widgets_available",
+    "METHOD_COLORS",
+    "PAPER_MEAN_CM",
+    "plot_transfer_curve",
 ]
