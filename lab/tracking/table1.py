@@ -130,6 +130,10 @@ def render_markdown(rows: list[dict]) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     lines += [
         "",
+        "Ours: every 'Real Robot' is an **emulated as-built robot** (the `twin` rig: the FEM with "
+        "fabrication defects, lag, play and motion-capture noise), not the paper's hardware; "
+        "Table I over a family of such robots is `table1_family.md` (chapter 05).",
+        "",
         "Sources: "
         + "; ".join(f"{r['condition']}: {r['source']} ({r['updated']}, points {r['n_points'] or '?'})" for r in rows),
         "",
