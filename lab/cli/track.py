@@ -25,7 +25,12 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     src = k.add_mutually_exclusive_group(required=True)
     src.add_argument("--model", help="learned forward model (.npz) to solve the IK through")
     src.add_argument("--soft-ik", action="store_true", help="Soft IK: solve the IK through the FEM instead")
-    k.add_argument("--rig", default="sim", help="sim | twin[:DEFECTS.toml] | hardware:CONFIG.toml (default sim)")
+    k.add_argument(
+        "--rig",
+        default="sim",
+        help="sim | twin[:DEFECTS.toml] | twin:random:SEED (an emulated as-built robot of the family) "
+        "| hardware:CONFIG.toml (default sim)",
+    )
     k.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
     k.add_argument(
         "--trajectory",
