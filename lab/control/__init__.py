@@ -18,6 +18,7 @@ from lab.control.ik import (
     check_targets,
     grid_seeds,
 )
+from lab.control.ik_step import projected_gradient_step
 from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import (
@@ -49,6 +50,7 @@ __all__ = [
     "check_targets",
     "grid_seeds",
     "IKSolver",
+    "projected_gradient_step",
     "FEMForwardMap",
     "FrozenMotors",
     "frozen_commands",

@@ -37,8 +37,10 @@ from lab.viz.arm import (
     stop_visualizer,
     update_scene,
 )
+from lab.viz.ik_picker import IKPicker
 from lab.viz.setup import plot_setup, setup_geometry
 from lab.viz.sliders import ArmExplorer, widgets_available
+from lab.viz.square_frames import plot_square_frames
 from lab.viz.tracking import (
     ACHIEVED_COLOR,
     CABLE_COLORS,
@@ -94,6 +96,8 @@ __all__ = [
     "setup_geometry",
     "ArmExplorer",
     "widgets_available",
+    "IKPicker",
+    "plot_square_frames",
     "METHOD_COLORS",
     "PAPER_MEAN_CM",
     "plot_transfer_curve",

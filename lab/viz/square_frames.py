@@ -1,0 +1,157 @@
+"""Figure 2 of the paper: the arm following the square, frame by frame.
+
+The paper's Figure 2 shows the three-cable robot at several moments while it follows a
+square-shaped tip trajectory, each motor coloured after its control input. Here each
+frame is the arm's FEM equilibrium at the command sent for one target (the simulated
+robot), drawn in 3-D with the square (pink), the tip's trail so far (dark) and the
+current target; every motor keeps one colour (:data:`lab.viz.tracking.CABLE_COLORS`, as
+in Figure 3): its cable in the arm, its bar (the angle u, rad, beside each frame) and its
+command curve along the whole trajectory in the strip below, where the frames are marked.
+Positions in cm, frame W (x along the arm, z up).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.viz.arm import arm_geometry, plot_arm
+from lab.viz.tracking import ACHIEVED_COLOR, CABLE_COLORS, TARGET_COLOR
+
+__all__ = ["frame_indices", "solve_frames", "plot_square_frames"]
+
+
+def frame_indices(n_targets: int, n_frames: int) -> np.ndarray:
+    """``n_frames`` indices (int) spread evenly along a closed path of ``n_targets`` points,
+    starting at the first."""
+    if not 1 <= n_frames <= n_targets:
+        raise InputError(f"need 1 <= n_frames <= n_targets, got {n_frames} frames of {n_targets} targets")
+    return np.floor(np.arange(n_frames) * n_targets / n_frames).astype(int)
+
+
+def solve_frames(fem, u_frames) -> tuple[np.ndarray, np.ndarray]:
+    """FEM equilibria at the commands ``u_frames`` (F, m) rad, each warm-started from the
+    previous one: states ``q`` (F, n_free) m and tips ``p_tip_W`` (F, 3) m."""
+    from lab.fem import solve_static
+
+    q, tips, q_prev = [], [], None
+    for u in np.atleast_2d(np.asarray(u_frames, float)):
+        sol = solve_static(fem, u, q0=q_prev)
+        q_prev = sol.q
+        q.append(sol.q)
+        tips.append(sol.p_tip_W)
+    return np.array(q), np.array(tips)
+
+
+def _motor_bars(ax, robot, u_motor) -> None:
+    """The angles u (rad) of one frame: a horizontal bar per motor in its colour, u_max dashed."""
+    n = len(u_motor)
+    ax.barh(range(n), u_motor, color=[CABLE_COLORS[k % 6] for k in range(n)], height=0.7)
+    for k, u in enumerate(u_motor):
+        ax.text(u + 0.04, k, f"{u:.2f}", va="center", ha="left", fontsize=7)
+    ax.axvline(robot.u_max_rad, color="0.6", ls="--", lw=0.8)
+    ax.set_xlim(0, 1.02 * robot.u_max_rad)
+    ax.set_ylim(n - 0.5, -0.5)  # first motor on top, as in the legend
+    ax.set_yticks([])
+    ax.tick_params(labelsize=7, pad=1)
+    ax.set_xlabel("motor angle u [rad]", fontsize=7, labelpad=1)
+    ax.spines[["top", "right"]].set_visible(False)
+
+
+def plot_square_frames(
+    fem,
+    targets_W,
+    commands,
+    *,
+    achieved_W=None,
+    n_frames: int = 8,
+    ncols: int = 4,
+    view=(28.0, -125.0),
+    title: str = "",
+):
+    """Figure 2: the arm of ``fem`` (an :class:`lab.fem.ArmFEM`) at ``n_frames`` points of the
+    trajectory ``targets_W`` (N, 3) m, commanded ``commands`` (N, m) rad.
+
+    ``achieved_W`` (N, 3) m: the recorded tips, drawn as the trail (default: the FEM tips of
+    the frames only); ``ncols``: frames per row; ``view``: (elevation, azimuth) in degrees.
+    Returns the figure: one 3-D axes per frame (title ``"k: target i of N"``), each with a
+    bar axes of the motor angles beside it, and the command strip (commands against the
+    target index, frames marked) along the bottom."""
+    import matplotlib.pyplot as plt
+
+    targets, u_all = np.asarray(targets_W, float), np.asarray(commands, float)
+    if targets.ndim != 2 or targets.shape[1] != 3 or u_all.shape != (len(targets), fem.robot.n_cables):
+        raise InputError(
+            f"need targets (N, 3) m and commands (N, {fem.robot.n_cables}) rad, got {targets.shape}, {u_all.shape}"
+        )
+    robot, idx = fem.robot, frame_indices(len(targets), n_frames)
+    q, tips = solve_frames(fem, u_all[idx])
+    geos = [arm_geometry(fem, qk) for qk in q]
+    trail = np.asarray(achieved_W, float) if achieved_W is not None else None
+    # one cube for every frame (arm and square), so that the frames compare directly
+    pts = 100 * np.vstack([*(g.nodes_W for g in geos), targets])
+    lo, hi = pts.min(0) - 0.5, pts.max(0) + 0.5
+
+    nrows = -(-n_frames // ncols)
+    # a fixed layout: constrained layout does not see the labels of 3-D axes
+    fig = plt.figure(figsize=(4.1 * ncols + 1.2, 3.9 * nrows + 2.7))
+    grid = fig.add_gridspec(
+        nrows + 1, ncols, height_ratios=(*[1.0] * nrows, 0.6), left=0.04, right=0.9, bottom=0.07, top=0.93,
+        hspace=0.3, wspace=0.12,
+    )  # fmt: skip
+    for k, (i, geo) in enumerate(zip(idx, geos)):
+        cell = grid[k // ncols, k % ncols].subgridspec(2, 1, height_ratios=(5, 1), hspace=0.3)
+        ax = fig.add_subplot(cell[0], projection="3d", computed_zorder=False)
+        plot_arm(ax, fem, q[k], unit="cm", foam_alpha=0.18, linewidth=0.1, geometry=geo)
+        for c, line in enumerate(geo.cables_W):  # each motor's cable in its colour
+            ax.plot(*(100 * line).T, color=CABLE_COLORS[c % 6], lw=2.2, zorder=3)
+        closed = 100 * np.vstack([targets, targets[:1]])
+        ax.plot(*closed.T, color=TARGET_COLOR, lw=1.6, zorder=2)
+        done = 100 * (trail[: i + 1] if trail is not None else tips[: k + 1])
+        ax.plot(*done.T, color=ACHIEVED_COLOR, lw=1.4, zorder=4)
+        ax.plot(*(100 * targets[i, :, None]), "x", color=TARGET_COLOR, ms=8, mew=2, zorder=5)
+        ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]))
+        ax.set_zlim(lo[2], hi[2])
+        ax.view_init(*view)
+        ax.set_box_aspect(hi - lo, zoom=1.15)  # equal scales
+        ax.locator_params(nbins=4)
+        ax.tick_params(labelsize=7, pad=0)
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.label.set_size(8)
+            axis.labelpad = -3
+        ax.set_title(f"{k + 1}: target {i} of {len(targets)}", fontsize=10, pad=-2)
+        _motor_bars(fig.add_subplot(cell[1]), robot, u_all[i])
+
+    strip = fig.add_subplot(grid[nrows, :])
+    for c, cable in enumerate(robot.cables):
+        strip.plot(u_all[:, c], color=CABLE_COLORS[c % 6], lw=1.8, label=cable.name)
+    strip.axhline(robot.u_max_rad, color="0.6", ls="--", lw=0.8)
+    for k, i in enumerate(idx):
+        strip.axvline(i, color="0.4", lw=0.8, ls=":")
+        strip.scatter([i] * len(robot.cables), u_all[i], c=CABLE_COLORS[: len(robot.cables)], s=18, zorder=3)
+        strip.annotate(
+            str(k + 1),
+            (i, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(2, -2),
+            textcoords="offset points",
+            ha="left",
+            va="top",
+            fontsize=9,
+            fontweight="bold",
+        )
+    strip.set(xlim=(0, len(targets) - 1), ylim=(-0.1, 1.12 * robot.u_max_rad))
+    strip.set_xlabel("target index along the square")
+    strip.set_ylabel("motor command u [rad]")
+    from matplotlib.lines import Line2D
+
+    keys = [
+        Line2D([], [], color=TARGET_COLOR, lw=1.6, label="target square"),
+        Line2D([], [], color=TARGET_COLOR, ls="", marker="x", ms=8, mew=2, label="current target"),
+        Line2D([], [], color=ACHIEVED_COLOR, lw=1.4, label="tip so far"),
+        *(Line2D([], [], color=CABLE_COLORS[c % 6], lw=2.2, label=cable.name) for c, cable in enumerate(robot.cables)),
+    ]
+    fig.legend(handles=keys, loc="upper left", bbox_to_anchor=(0.905, 0.93), fontsize=8, title="key", title_fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
