@@ -106,7 +106,9 @@ def size_sweep(
 
 
 def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
-    """Per value of ``by``: n, mean, std (ddof=1), median, min, max of ``value`` (NaNs dropped)."""
+    """Per value of ``by`` (in order of first appearance): n, mean, std (ddof=1), median,
+    q25 and q75 (the quartiles, NumPy's default linear interpolation: the interquartile
+    range is q75 - q25), min, max of ``value`` (NaNs dropped)."""
     out = []
     for key in dict.fromkeys(r[by] for r in rows):
         v = np.array([r[value] for r in rows if r[by] == key], dtype=float)
@@ -118,6 +120,8 @@ def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
                 "mean": float(v.mean()) if len(v) else float("nan"),
                 "std": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                 "median": float(np.median(v)) if len(v) else float("nan"),
+                "q25": float(np.percentile(v, 25)) if len(v) else float("nan"),
+                "q75": float(np.percentile(v, 75)) if len(v) else float("nan"),
                 "min": float(v.min()) if len(v) else float("nan"),
                 "max": float(v.max()) if len(v) else float("nan"),
             }
