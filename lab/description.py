@@ -8,6 +8,11 @@ the tip marker, and the safety rule that forbids too-aggressive motor commands.
 Shipped descriptions live in ``lab/robots/<name>.toml``; :func:`load_robot` accepts
 either such a name (``"three-cable"``) or a path to a user's own file. Every field is
 checked and a bad file raises :class:`DescriptionError` naming the field.
+
+Optional as-built fields (``python -m lab calibrate`` writes them; absent, nothing changes,
+not even :attr:`sha256`): ``material.stiffness_gradient = [0, g_y, g_z]``, E(p) =
+youngs_modulus_pa (1 + g . p / radius_m), |g| < 1; ``cables[].slack_m``, free length beyond
+taut at rest in m (negative: pre-tensioned), within +-10 % of the body length.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ class Cable:
     name: str
     anchor_m: np.ndarray
     via_points_m: np.ndarray
+    slack_m: float = 0.0  # free length beyond taut at rest, m (optional field)
 
 
 @dataclass(frozen=True)
@@ -73,10 +79,17 @@ class RobotDescription:
     p_tip_marker_W: np.ndarray
     safety_limits: tuple[SafetyLimit, ...]
     source: dict = field(repr=False, compare=False)
+    stiffness_gradient: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (3,), x = 0
 
     @property
     def n_cables(self) -> int:
         return len(self.cables)
+
+    def youngs_modulus_at(self, points_W):
+        """Young's modulus in Pa at points (P, 3) m: a scalar without a stiffness gradient, else (P,)."""
+        if not np.any(self.stiffness_gradient):
+            return self.youngs_modulus_pa
+        return self.youngs_modulus_pa * (1.0 + np.asarray(points_W) @ self.stiffness_gradient / self.radius_m)
 
     @property
     def sha256(self) -> str:
@@ -88,11 +101,11 @@ class RobotDescription:
                 return v.tolist()
             if isinstance(v, (tuple, list)):
                 return [plain(x) for x in v]
-            if hasattr(v, "__dataclass_fields__"):
-                return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__}
+            if hasattr(v, "__dataclass_fields__"):  # optional fields left unset do not count
+                return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__ if not _unset(v, k)}
             return v
 
-        fields = {k: plain(getattr(self, k)) for k in self.__dataclass_fields__ if k not in ("source", "summary")}
+        fields = {k: v for k, v in plain(self).items() if k not in ("source", "summary")}
         return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()
 
     def is_safe(self, u_motor, tol: float = 1e-9) -> np.ndarray:
@@ -122,6 +135,11 @@ class RobotDescription:
         if not self.is_safe(u):
             raise InputError(f"{self.name}: motor command {u.tolist()} rad violates the safety rule")
         return u
+
+
+def _unset(obj, key: str) -> bool:
+    """Whether ``key`` is an optional as-built field of ``obj`` left at its default (zero)."""
+    return key in ("slack_m", "stiffness_gradient") and not np.any(getattr(obj, key))
 
 
 def check_fields(table, allowed, where: str, error: type[Exception] = None) -> dict:
@@ -157,11 +175,11 @@ ROBOT_FIELDS = {
         "safety",
     },
     "body": {"shape", "length_m", "radius_m"},
-    "material": {"model", "youngs_modulus_pa", "poisson_ratio", "density_kg_m3"},
+    "material": {"model", "youngs_modulus_pa", "poisson_ratio", "density_kg_m3", "stiffness_gradient"},
     "mounting": {"gravity_m_s2"},
     "mesh": {"n_rings", "n_axial"},
     "actuation": {"spool_radius_m", "u_max_rad", "cable_stiffness_n_m", "slack_smoothing_m"},
-    "cables": {"name", "angle_deg", "offset_m", "stations_m", "via_points_m", "anchor_m"},
+    "cables": {"name", "angle_deg", "offset_m", "stations_m", "via_points_m", "anchor_m", "slack_m"},
     "tip_marker": {"position_m"},
     "safety": {"limits"},
     "safety.limits": {"cables", "max_sum_over_u_max"},
@@ -248,7 +266,10 @@ def _cable(entry: dict, i: int, length: float, radius: float) -> Cable:
     if np.any(np.diff(pts[:, 0]) <= 0):
         raise DescriptionError(f"{where}: via points must be ordered from base to tip (increasing x)")
     anchor = _vec3(entry, "anchor_m", where) if "anchor_m" in entry else np.array([0.0, pts[0, 1], pts[0, 2]])
-    return Cable(name=name, anchor_m=anchor, via_points_m=pts)
+    slack = _get(entry, "slack_m", where) if "slack_m" in entry else 0.0
+    if abs(slack) > 0.1 * length:
+        raise DescriptionError(f"field '{where}.slack_m' must be within +-10 % of body.length_m, got {slack} m")
+    return Cable(name=name, anchor_m=anchor, via_points_m=pts, slack_m=slack)
 
 
 def parse_robot(data: dict) -> RobotDescription:
@@ -272,6 +293,11 @@ def parse_robot(data: dict) -> RobotDescription:
     if not -1.0 < nu < 0.5:
         raise DescriptionError(f"field 'material.poisson_ratio' must be in (-1, 0.5), got {nu}")
     rho = _get(mat, "density_kg_m3", "material", positive=True)
+    grad = _vec3(mat, "stiffness_gradient", "material") if "stiffness_gradient" in mat else np.zeros(3)
+    if grad[0] != 0 or np.hypot(grad[1], grad[2]) >= 1:
+        raise DescriptionError(
+            f"field 'material.stiffness_gradient' must be [0, g_y, g_z], |g| < 1, got {grad.tolist()}"
+        )
 
     gravity = _vec3(_table(data, "mounting"), "gravity_m_s2", "mounting")
     mesh = _table(data, "mesh")
@@ -335,6 +361,7 @@ def parse_robot(data: dict) -> RobotDescription:
         p_tip_marker_W=p_tip,
         safety_limits=tuple(limits),
         source=data,
+        stiffness_gradient=grad,
     )
 
 

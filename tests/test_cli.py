@@ -132,6 +132,7 @@ def test_every_command_has_its_module():
             "defects",
             "transfer",
             "transfer-curve",
+            "calibrate",
         }
     )
     for name, module in cli.COMMANDS.items():

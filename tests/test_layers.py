@@ -29,13 +29,14 @@ LAYERS = [
     "learn",
     "control",
     "rig",
+    "transfer",
     "tracking",
     "viz",
     "course",
     "cli",
     "__main__",
 ]
-SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "tracking", "viz", "cli"]
+SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "transfer", "tracking", "viz", "cli"]
 
 
 def module_name(path: Path) -> str:

@@ -2,7 +2,7 @@
 
 Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
 (:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`), ``defects``
-(:mod:`.defects`) and ``transfer`` (:mod:`.transfer`); each module
+(:mod:`.defects`), ``transfer`` (:mod:`.transfer`) and ``calibrate`` (:mod:`.calibrate`); each module
 has ``add_parser(subparsers, parents)`` and ``run(args) -> exit code``.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
@@ -21,7 +21,7 @@ import argparse
 import sys
 import traceback
 
-from lab.cli import capture, defects, simulate, splits, track, train, transfer, transfer_curve
+from lab.cli import calibrate, capture, defects, simulate, splits, track, train, transfer, transfer_curve
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
@@ -37,6 +37,7 @@ COMMANDS = {
     "defects": defects,
     "transfer": transfer,
     "transfer-curve": transfer_curve,
+    "calibrate": calibrate,
 }
 
 #: OS errors that mean the user named a bad path (exit 2); any other OSError exits 1.

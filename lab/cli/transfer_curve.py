@@ -53,7 +53,13 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     t.add_argument("--sim-model", required=True, help="network trained on simulated data (.npz)")
     t.add_argument("--family", type=int, default=10, help="family members 0..K-1 (default 10)")
     t.add_argument("--shipped", action="store_true", help="also the robot of the shipped defects file")
-    t.add_argument("--methods", nargs="+", default=["sim-only", "real-only", "finetune-last", "finetune", "residual"])
+    t.add_argument(
+        "--methods",
+        nargs="+",
+        default=["sim-only", "real-only", "finetune-last", "finetune", "residual"],
+        help="transfer methods: sim-only, real-only, finetune-last, finetune, residual, calibrated (the last "
+        "is slow: a calibration and a re-simulation of the lattice per N; default: all but calibrated)",
+    )
     t.add_argument("--ns", type=int, nargs="+", default=list(DEFAULT_NS), help="numbers of real samples")
     t.add_argument("--design", choices=["random", "sobol", "maximin"], default="maximin", help="which N commands")
     t.add_argument("--n-test", type=int, default=100, help="held-out random commands per robot (default 100)")
@@ -61,6 +67,16 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     t.add_argument("--seed", type=int, default=0, help="seed of designs, noise and training")
     t.add_argument("--n-rings", type=int, help="the emulated robots' FEM mesh (default: the defects' or robot's)")
     t.add_argument("--n-axial", type=int, help="the emulated robots' FEM mesh (default: the defects' or robot's)")
+    t.add_argument(
+        "--calibration-mesh",
+        type=int,
+        nargs=2,
+        metavar=("RINGS", "AXIAL"),
+        help="calibrated: mesh of calibration and re-simulation (default: the robot's)",
+    )
+    t.add_argument(
+        "--sim-levels", type=int, default=7, help="calibrated: re-simulate the safe points of this lattice (default 7)"
+    )
     t.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes, one robot each")
     t.add_argument("--out", required=True, help="CSV, one row per (robot, method, N); resumed if it exists")
     t.set_defaults(func=run)
@@ -91,7 +107,8 @@ def study_robot(robot_spec: str, label: str, sim_model_path: str, args_d: dict, 
     ns = args_d["ns"]
     pool = design_commands(robot, max(max(ns), 1), args_d["design"], seed)
     u_test = random_safe_commands(robot, args_d["n_test"], seed + 1)
-    methods = make_methods(sim_model, args_d["methods"], seed=seed)
+    extra = {"calibrated": _calibrated_builder(robot, args_d)} if "calibrated" in args_d["methods"] else None
+    methods = make_methods(sim_model, args_d["methods"], seed=seed, extra=extra)
     rows = curve_rows(
         body,
         methods,
@@ -109,6 +126,25 @@ def study_robot(robot_spec: str, label: str, sim_model_path: str, args_d: dict, 
         for s in ("circle", "square", "rose"):
             r.pop(f"{s}_shift_m", None)
     return rows
+
+
+def _calibrated_builder(robot, args_d: dict):
+    """``(u_real, y_real) -> model``: calibrated physics from 5 samples on; it re-simulates the
+    safe points of the ``sim_levels`` lattice (the simulated dataset's commands)."""
+    from lab.data.designs import grid_commands
+    from lab.tracking.transfer_study import METHOD_MIN_N
+    from lab.transfer.calibrated import calibrated_model
+
+    u_sim = grid_commands(robot, args_d["sim_levels"])
+    u_sim = u_sim[robot.is_safe(u_sim)]
+    rings, axial = args_d["calibration_mesh"] or (robot.n_rings, robot.n_axial)
+
+    def make(u, y):
+        if len(u) < METHOD_MIN_N["calibrated"]:
+            return None
+        return calibrated_model(robot, u, y, u_sim, seed=args_d["seed"], n_rings=rings, n_axial=axial)
+
+    return make
 
 
 def _read_rows(path: Path) -> list[dict]:
@@ -130,6 +166,20 @@ def _write_rows(path: Path, rows: list[dict], meta: dict) -> None:
     atomic_write_group({Path(f"{path}.json"): json.dumps(meta, indent=2) + "\n", path: "\n".join(text) + "\n"})
 
 
+def _commands(out: Path, command: str) -> list[str]:
+    """Every command that added rows to ``out``, oldest first (one file can hold several
+    runs, e.g. the slow calibrated method added to a finished curve)."""
+    side = Path(f"{out}.json")
+    old = []
+    if out.exists() and side.exists():
+        try:
+            meta = json.loads(side.read_text())
+        except (OSError, ValueError):
+            meta = {}
+        old = meta.get("commands") or ([meta["command"]] if "command" in meta else [])
+    return old + ([command] if command not in old else [])
+
+
 def run(args) -> int:
     from joblib import Parallel, delayed, parallel_config
 
@@ -140,6 +190,10 @@ def run(args) -> int:
         inputs["--robot"] = existing(args.robot)
     check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json"})
     check_writable(args.out)
+    if args.calibration_mesh is not None:
+        from lab.fem.mesh import check_mesh_size
+
+        check_mesh_size(*args.calibration_mesh)
     if args.family < 0 or args.n_test < 1 or args.n_points < 2 or min(args.ns) < 0:
         raise InputError("--family >= 0, --n-test >= 1, --n-points >= 2 and --ns >= 0 are required")
     out = Path(args.out)
@@ -151,7 +205,18 @@ def run(args) -> int:
     have = {lab: {(r["method"], int(r["n_real"])) for r in rows if r["robot"] == lab} for lab in labels}
     todo = [lab for lab in labels if not want <= have[lab]]
     print(f"{len(labels)} robots, {len(labels) - len(todo)} already in {out}", file=sys.stderr)
-    keys = ("seed", "ns", "design", "n_test", "n_points", "methods", "n_rings", "n_axial")
+    keys = (
+        "seed",
+        "ns",
+        "design",
+        "n_test",
+        "n_points",
+        "methods",
+        "n_rings",
+        "n_axial",
+        "calibration_mesh",
+        "sim_levels",
+    )
     args_d = {k: getattr(args, k) for k in keys}
     meta = {
         "kind": "lab.transfer_curve",
@@ -161,6 +226,7 @@ def run(args) -> int:
         "sim_model": args.sim_model,
         **args_d,
         "command": "python -m lab " + shlex.join(args.argv),
+        "commands": _commands(out, "python -m lab " + shlex.join(args.argv)),
         "code_version": code_version(),
         "units": {"*_m": "m", "fit_s": "s"},
     }

@@ -6,7 +6,9 @@ add up to the total energy ``E(x, u)`` of :class:`ArmFEM` (:mod:`.energy`). Its 
 equilibrium ``x(u) = argmin_x E(x, u)`` and the sensitivity ``dx/du`` come from
 :func:`solve_static` / :func:`sensitivities` (:mod:`.statics`, Newton steps in
 :mod:`.steps`, sparse factorisations in :mod:`.linsolve`); :class:`WalkPredictor`
-(:mod:`.warmstart`) warm-starts a walk of neighbouring solves.
+(:mod:`.warmstart`) warm-starts a walk of neighbouring solves. :class:`ParametrisedFEM`
+(:mod:`.parameters`) is the FEM as a function of as-built parameters theta (softness,
+stiffness gradient, eyelet shifts, slack), with dx/dtheta from the same exact Hessian.
 """
 
 from lab.fem.cables import CableRoute, CableSet, spring
@@ -14,6 +16,7 @@ from lab.fem.elasticity import InvertedElementError, NeoHookean, lame, project_p
 from lab.fem.energy import ArmFEM
 from lab.fem.linsolve import SingularMatrixError, default_backend, factorize
 from lab.fem.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, save_mesh
+from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM, as_built_description
 from lab.fem.statics import (
     StaticSolution,
     StaticSolveError,
@@ -58,4 +61,8 @@ __all__ = [
     "solve_static",
     "sensitivities",
     "WalkPredictor",
+    "ParameterError",
+    "ParameterLayout",
+    "ParametrisedFEM",
+    "as_built_description",
 ]

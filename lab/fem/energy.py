@@ -28,7 +28,8 @@ class ArmFEM:
     ``mesh``: defaults to the description's structured cylinder mesh;
     ``n_rings``/``n_axial`` override its resolution.
     ``youngs_modulus_pa``: optional per-tet modulus (M,) (e.g. an as-built stiffness
-    gradient); ``cable_slack_m``: optional extra free length per cable (m,).
+    gradient); ``cable_slack_m``: optional extra free length per cable (m,). Defaults:
+    the description's (with its optional ``stiffness_gradient`` and cables' ``slack_m``).
     """
 
     def __init__(
@@ -48,7 +49,11 @@ class ArmFEM:
             n_axial = robot.n_axial if n_axial is None else n_axial
             mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
         self.mesh = mesh
-        E = robot.youngs_modulus_pa if youngs_modulus_pa is None else youngs_modulus_pa
+        E = (
+            robot.youngs_modulus_at(mesh.X_W[mesh.tets].mean(axis=1))
+            if youngs_modulus_pa is None
+            else youngs_modulus_pa
+        )
         self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
         if np.any(self.elastic.V <= 0):
             raise InputError("mesh has tetrahedra with non-positive volume")
@@ -63,7 +68,7 @@ class ArmFEM:
         self.free_dofs = np.flatnonzero(np.repeat(~clamped, 3))
         self.n_free = len(self.free_dofs)
 
-        slack = np.zeros(robot.n_cables) if cable_slack_m is None else np.asarray(cable_slack_m, float)
+        slack = [c.slack_m for c in robot.cables] if cable_slack_m is None else np.asarray(cable_slack_m, float)
         self.cables = []
         for cable, s in zip(robot.cables, slack):
             nodes, weights = _embed(mesh, cable.via_points_m, f"cable '{cable.name}' via point")

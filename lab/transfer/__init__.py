@@ -1,0 +1,23 @@
+"""Closing the sim-to-real gap with the physics: calibrate the FEM to a few real samples.
+
+:func:`calibrate` (:mod:`.calibrate`) identifies the as-built parameters of the FEM
+(softness, stiffness gradient, eyelet shifts, slack per cable; :mod:`lab.fem.parameters`)
+from N real (u, y) samples by Levenberg-Marquardt with exact parameter sensitivities and a
+prior towards the nominal description; :func:`calibrated_robot` /
+:func:`write_calibrated_robot` (:mod:`.robot_toml`) turn the result into a robot
+description TOML that every command accepts as ``--robot``.
+"""
+
+from lab.transfer.calibrate import DEFAULT_PRIOR_STD, CalibrationResult, calibrate, prior_std
+from lab.transfer.robot_toml import calibrated_robot, calibrated_toml, robot_toml, write_calibrated_robot
+
+__all__ = [
+    "DEFAULT_PRIOR_STD",
+    "CalibrationResult",
+    "calibrate",
+    "prior_std",
+    "calibrated_robot",
+    "calibrated_toml",
+    "robot_toml",
+    "write_calibrated_robot",
+]

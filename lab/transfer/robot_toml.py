@@ -1,0 +1,139 @@
+"""A calibrated robot as a robot description TOML, in the format of ``lab/robots/*.toml``.
+
+:func:`calibrated_robot` turns a :class:`~lab.transfer.calibrate.CalibrationResult` into a
+:class:`~lab.description.RobotDescription` that every command accepts as ``--robot``:
+the nominal description with the identified modulus (s E), the optional
+``material.stiffness_gradient`` and ``cables[].slack_m`` fields, and every eyelet moved
+(each cable's anchor written out, so it stays where it was). Its ``[mesh]`` is the mesh the
+parameters were identified on: they absorb that mesh's discretisation error, so the FEM
+of the file reproduces the calibrated FEM exactly. The identified parameters, their
+standard deviations and the fit are comments at the top. The description is built from
+the very text that is written (and read back), and :func:`write_calibrated_robot` writes
+it atomically.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from lab.description import RobotDescription, load_robot, parse_robot
+from lab.errors import LabRuntimeError
+from lab.fem.parameters import as_built_description
+from lab.files import atomic_write_text
+
+__all__ = ["robot_toml", "calibrated_toml", "calibrated_robot", "write_calibrated_robot"]
+
+
+def _f(v) -> str:
+    return repr(float(v))
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(_f(c) for c in np.ravel(v)) + "]"
+
+
+def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
+    """``robot`` as TOML text (``header``: comment lines, without the ``#``). Floats are
+    written with ``repr``, so reading the text back gives the same description (sha256)."""
+    lines = [f"# {h}".rstrip() for h in header]
+    lines += [
+        "format_version = 1",
+        f"name = {json.dumps(robot.name)}",
+        f"summary = {json.dumps(robot.summary)}",
+        "",
+        "[body]",
+        'shape = "cylinder"',
+        f"length_m = {_f(robot.length_m)}",
+        f"radius_m = {_f(robot.radius_m)}",
+        "",
+        "[material]",
+        'model = "neo-hookean"',
+        f"youngs_modulus_pa = {_f(robot.youngs_modulus_pa)}",
+        f"poisson_ratio = {_f(robot.poisson_ratio)}",
+        f"density_kg_m3 = {_f(robot.density_kg_m3)}",
+    ]
+    if np.any(robot.stiffness_gradient):
+        lines.append(f"stiffness_gradient = {_vec(robot.stiffness_gradient)}")
+    lines += [
+        "",
+        "[mounting]",
+        f"gravity_m_s2 = {_vec(robot.gravity_m_s2)}",
+        "",
+        "[mesh]",
+        f"n_rings = {int(robot.n_rings)}",
+        f"n_axial = {int(robot.n_axial)}",
+        "",
+        "[actuation]",
+        f"spool_radius_m = {_f(robot.spool_radius_m)}",
+        f"u_max_rad = {_f(robot.u_max_rad)}",
+        f"cable_stiffness_n_m = {_f(robot.cable_stiffness_n_m)}",
+        f"slack_smoothing_m = {_f(robot.slack_smoothing_m)}",
+    ]
+    for c in robot.cables:
+        lines += ["", "[[cables]]", f"name = {json.dumps(c.name)}", f"anchor_m = {_vec(c.anchor_m)}"]
+        lines += ["via_points_m = [", *(f"    {_vec(p)}," for p in c.via_points_m), "]"]
+        if c.slack_m:
+            lines.append(f"slack_m = {_f(c.slack_m)}")
+    lines += ["", "[tip_marker]", f"position_m = {_vec(robot.p_tip_marker_W)}", "", "[safety]"]
+    for lim in robot.safety_limits:
+        lines += [
+            "[[safety.limits]]",
+            f"cables = [{', '.join(str(int(i)) for i in lim.cables)}]",
+            f"max_sum_over_u_max = {_f(lim.max_sum_over_u_max)}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def _header(robot: RobotDescription, result, source: str | None, command: str | None) -> list[str]:
+    lay, v = result.layout, result.values
+    fit = f"{len(result.residuals_m)} real samples" + (f" ({source})" if source else "")
+    out = [
+        f"Calibrated as-built description of {robot.name!r}, written by lab.transfer (python -m lab calibrate)",
+        f"from {fit} on the {result.n_rings}-ring, {result.n_axial}-layer mesh (kept in [mesh]:",
+        "the parameters absorb its discretisation error). Identified parameters, value +- 1 std",
+        "(Gauss-Newton covariance with the prior), [nominal]:",
+    ]
+    for n, x, s, x0, unit in zip(lay.names, result.theta, result.std, result.theta_nominal, lay.units):
+        out.append(f"  {n:<28} {x:+.6g} +- {s:.2g} {unit}   [{x0:+.6g}]")
+    out += [
+        f"  softness = {v['softness']:.4g} (E = {v['softness'] * robot.youngs_modulus_pa:.6g} Pa), "
+        f"gradient |g| = {np.hypot(*v['gradient']):.3g}",
+        f"Tip misfit RMS {1e3 * result.rms_nominal_m:.3f} mm (nominal) -> {1e3 * result.rms_m:.3f} mm; "
+        f"residual noise {1e3 * result.sigma_m:.3f} mm; {result.iterations} iterations"
+        + ("" if result.converged else " (NOT converged)"),
+    ]
+    return out + ([f"Made by: {command}"] if command else []) + [""]
+
+
+def calibrated_toml(robot: RobotDescription, result, source: str | None = None, command: str | None = None) -> str:
+    """The TOML text of the calibrated robot (``source``: where the real samples came from;
+    ``command``: the command line that made it, recorded in a comment)."""
+    built = as_built_description(robot, result.layout, result.theta)
+    built = dataclasses.replace(
+        built,
+        n_rings=result.n_rings,
+        n_axial=result.n_axial,
+        summary=f"{robot.summary} (calibrated from {len(result.residuals_m)} real samples)",
+    )
+    text = robot_toml(built, _header(robot, result, source, command))
+    if parse_robot(tomllib.loads(text)).sha256 != built.sha256:  # the writer must round-trip
+        raise LabRuntimeError("internal error: the calibrated description does not read back the same")
+    return text
+
+
+def calibrated_robot(robot: RobotDescription, result, source: str | None = None) -> RobotDescription:
+    """The calibrated robot as a description, read from the text :func:`calibrated_toml` writes."""
+    return parse_robot(tomllib.loads(calibrated_toml(robot, result, source)))
+
+
+def write_calibrated_robot(
+    path, robot: RobotDescription, result, source: str | None = None, command: str | None = None
+) -> RobotDescription:
+    """Write the calibrated robot to ``path`` (atomically) and return it as loaded from there."""
+    atomic_write_text(path, calibrated_toml(robot, result, source, command))
+    return load_robot(Path(path))
