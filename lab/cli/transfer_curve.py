@@ -88,8 +88,7 @@ def study_robot(robot_spec: str, label: str, sim_model_path: str, args_d: dict, 
     from lab.data import design_commands
     from lab.description import load_robot
     from lab.learn.mlp import load_model
-    from lab.rig.asbuilt import load_defects
-    from lab.rig.family import random_defects
+    from lab.rig.family import family_member
     from lab.rig.twin import AsBuiltBody
     from lab.tracking.transfer_study import curve_rows, make_methods, random_safe_commands
     from lab.workers import watch_parent
@@ -98,10 +97,7 @@ def study_robot(robot_spec: str, label: str, sim_model_path: str, args_d: dict, 
     robot = load_robot(robot_spec)
     seed = args_d["seed"]
     mesh = {"n_rings": args_d["n_rings"], "n_axial": args_d["n_axial"]}
-    if label == "shipped":
-        defects = load_defects(None, robot)
-    else:  # drawn for the mesh it runs on, so that every eyelet fits inside it
-        defects = random_defects(robot, int(label.split(":")[1]), **mesh)
+    defects = family_member(robot, label, **mesh)  # drawn for the mesh it runs on
     body = AsBuiltBody(robot, defects, **mesh)
     sim_model = load_model(sim_model_path)
     ns = args_d["ns"]

@@ -72,7 +72,7 @@ import numpy as np
 from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.files import atomic_write_text
-from lab.rig.asbuilt import FORMAT_VERSION, Defects, as_built_robot, parse_defects
+from lab.rig.asbuilt import FORMAT_VERSION, Defects, as_built_robot, load_defects, parse_defects
 from lab.rig.twin import AsBuiltBody, TwinRig
 
 __all__ = [
@@ -81,6 +81,7 @@ __all__ = [
     "FIXED",
     "LABEL",
     "random_defects",
+    "family_member",
     "random_defects_toml",
     "write_random_defects",
     "parse_robot_seed",
@@ -253,6 +254,14 @@ def random_defects(
     return defects
 
 
+def family_member(robot: RobotDescription, label: str, **mesh) -> Defects:
+    """The defects of a robot as the studies name it: ``"shipped"`` (its shipped defects file)
+    or ``"random:SEED"`` (:func:`random_defects`, for the mesh ``n_rings``/``n_axial``)."""
+    if label == "shipped":
+        return load_defects(None, robot)
+    return random_defects(robot, parse_robot_seed(label.removeprefix("random:"), label), **mesh)
+
+
 def _f(x: float) -> str:
     """A float as TOML that reads back to exactly ``x`` (never an integer, no exponent)."""
     return np.format_float_positional(float(x), trim="0")
@@ -359,13 +368,7 @@ def random_defects_toml(
 
 
 def write_random_defects(
-    path,
-    robot: RobotDescription,
-    seed: int,
-    *,
-    n_rings: int | None = None,
-    n_axial: int | None = None,
-    command: str | None = None,
+    path, robot: RobotDescription, seed: int, *, n_rings=None, n_axial=None, command=None
 ) -> Defects:
     """Write member ``seed``'s defects file to ``path`` atomically; returns its
     :class:`Defects` (what :func:`lab.rig.asbuilt.load_defects` reads back from ``path``)."""

@@ -30,7 +30,22 @@ import numpy as np
 from lab.control.trajectories import builtin
 from lab.errors import InputError
 
-__all__ = ["SHAPES", "random_safe_commands", "quasi_static_tips", "evaluate_model", "curve_rows"]
+__all__ = [
+    "SHAPES",
+    "METHOD_MIN_N",
+    "random_safe_commands",
+    "quasi_static_tips",
+    "evaluate_model",
+    "curve_rows",
+    "expected_pairs",
+    "make_methods",
+    "read_curve",
+    "family_table1",
+    "robot_order",
+    "findings",
+    "smallest_n",
+    "defect_variants",
+]
 
 SHAPES = ("circle", "square", "rose")
 
@@ -199,13 +214,23 @@ def family_table1(rows: list[dict], real_n: int = 308) -> list[dict]:
     return out
 
 
+def robot_order(label: str) -> tuple:
+    """Sort key of robot labels: ``shipped`` first, then ``random:SEED`` by SEED, then others."""
+    if label == "shipped":
+        return (0, 0, label)
+    seed = label.removeprefix("random:")
+    return (1, int(seed), label) if seed.isdigit() else (2, 0, label)
+
+
 def findings(rows: list[dict], real_n: int = 308, factor: float = 2.0) -> list[dict]:
     """Per robot: the paper's two findings, tested. ``gap_ratio`` = sim-data over real-data
     tracking error (finding 1 holds if >= ``factor``); ``size_ratio`` of the sim-data
     trajectories and their centroid shift (m) against the real-data ones (finding 2 holds if
-    they come out smaller and further off-centre)."""
+    they come out smaller -- ``smaller`` -- and further off-centre -- ``shifted``; each part
+    is reported too, since a softer arm than modelled moves *more*). Robots in the order
+    shipped, random:0, random:1, ..."""
     out = []
-    for robot in dict.fromkeys(r["robot"] for r in rows):
+    for robot in sorted(dict.fromkeys(r["robot"] for r in rows), key=robot_order):
         sim = next((r for r in rows if r["robot"] == robot and r["method"] == "sim-only"), None)
         real = next(
             (r for r in rows if r["robot"] == robot and r["method"] == "real-only" and r["n_real"] == real_n), None
@@ -223,6 +248,8 @@ def findings(rows: list[dict], real_n: int = 308, factor: float = 2.0) -> list[d
                 "sim_shift_m": shift(sim),
                 "sim_shift_z_m": sim["shift_z_m"],
                 "real_shift_m": shift(real),
+                "smaller": bool(sim["size_ratio_mean"] < 1.0),
+                "shifted": bool(shift(sim) > shift(real)),
                 "finding_2": bool(sim["size_ratio_mean"] < 1.0 and shift(sim) > shift(real)),
             }
         )

@@ -5,10 +5,14 @@
 from N real (u, y) samples by Levenberg-Marquardt with exact parameter sensitivities and a
 prior towards the nominal description; :func:`calibrated_robot` /
 :func:`write_calibrated_robot` (:mod:`.robot_toml`) turn the result into a robot
-description TOML that every command accepts as ``--robot``.
+description TOML that every command accepts as ``--robot``. :func:`calibrated_model`
+(:mod:`.calibrated`) is the ``calibrated`` transfer method (calibrate, re-simulate, train);
+:mod:`.recovery` compares recovered with true parameters on emulated as-built robots.
 """
 
 from lab.transfer.calibrate import DEFAULT_PRIOR_STD, CalibrationResult, calibrate, prior_std
+from lab.transfer.calibrated import calibrated_model
+from lab.transfer.recovery import family_recovery, recovery_rows, recovery_summary, true_theta
 from lab.transfer.robot_toml import calibrated_robot, calibrated_toml, robot_toml, write_calibrated_robot
 
 __all__ = [
@@ -20,4 +24,9 @@ __all__ = [
     "calibrated_toml",
     "robot_toml",
     "write_calibrated_robot",
+    "calibrated_model",
+    "true_theta",
+    "recovery_rows",
+    "family_recovery",
+    "recovery_summary",
 ]

@@ -1,0 +1,143 @@
+"""Does calibration find the true as-built parameters? Recovered against true on a family.
+
+An emulated as-built robot knows its own defects (:class:`lab.rig.asbuilt.Defects`), so
+its true theta is known: softness, stiffness gradient (size times its direction's y, z),
+each cable's eyelet shift (y, z) and slack. :func:`recovery_rows` samples the robot's
+settled tips (the capture protocol's quasi-static map, with its motion-capture noise) at
+N commands, calibrates the nominal description to them, and returns one row per
+parameter: true, recovered, the calibration's standard deviation, and the nominal.
+
+What the FEM's theta does not hold stays out of the comparison and acts as model error:
+eyelet shifts along the body (x), play, lag and hysteresis; slack absorbs part of the
+play (both are dead zones of the cable).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.description import RobotDescription
+from lab.fem.parameters import AXES, ParameterLayout
+
+__all__ = ["true_theta", "recovery_rows", "family_recovery", "recovery_summary"]
+
+
+def true_theta(layout: ParameterLayout, defects) -> np.ndarray:
+    """The theta (p,) of ``layout`` that an as-built robot's ``defects`` amount to (eyelet
+    shifts along the axes of ``layout``; any other component is left out)."""
+    g = defects.gradient * np.asarray(defects.gradient_direction_W)[1:]
+    shifts = np.array([c.via_shift_m for c in defects.cables], float)
+    shifts[:, [i for i in range(3) if i not in AXES[layout.axes]]] = 0.0  # not in theta
+    return layout.pack(defects.softness, g, shifts, defects.slack_m)
+
+
+def recovery_rows(
+    robot: RobotDescription,
+    defects,
+    u_real,
+    *,
+    label: str = "",
+    seed: int = 0,
+    n_rings: int | None = None,
+    n_axial: int | None = None,
+) -> list[dict]:
+    """Calibrate ``robot`` to the emulated robot with ``defects`` at commands ``u_real``
+    (N, m) rad (settled tips plus its mocap noise, seeded by ``seed``), on one mesh for the
+    robot and the fit (default: the description's). One row per parameter: ``robot``
+    (``label``), ``parameter``, ``unit``, ``true``, ``recovered``, ``std``, ``nominal``,
+    plus ``n_real``, ``rms_nominal_m`` and ``rms_m`` (tip misfit before and after, m)."""
+    from lab.rig.twin import AsBuiltBody
+    from lab.transfer.calibrate import calibrate
+
+    u = np.asarray(u_real, float)
+    body = AsBuiltBody(robot, defects, n_rings=n_rings, n_axial=n_axial)
+    tips = np.array([body.quasi_static_tip(ui) for ui in u])
+    tips = tips + defects.noise_sigma_m * np.random.default_rng(seed).standard_normal(tips.shape)
+    res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial)
+    truth = true_theta(res.layout, defects)
+    # theta's first entry is ln(softness): report the softness itself
+    values, std = res.theta.copy(), res.std.copy()
+    nominal = res.theta_nominal.copy()
+    names, units = list(res.layout.names), list(res.layout.units)
+    values[0], std[0], truth[0], nominal[0] = np.exp(values[0]), np.exp(values[0]) * std[0], np.exp(truth[0]), 1.0
+    names[0], units[0] = "softness", "1"
+    return [
+        {
+            "robot": label,
+            "parameter": n,
+            "unit": unit,
+            "true": float(t),
+            "recovered": float(v),
+            "std": float(s),
+            "nominal": float(v0),
+            "n_real": len(u),
+            "rms_nominal_m": res.rms_nominal_m,
+            "rms_m": res.rms_m,
+        }
+        for n, unit, t, v, s, v0 in zip(names, units, truth, values, std, nominal)
+    ]
+
+
+def _member_rows(robot, label, u, seed, n_rings, n_axial) -> list[dict]:
+    from lab.rig.family import family_member
+    from lab.workers import watch_parent
+
+    watch_parent()
+    defects = family_member(robot, label, n_rings=n_rings, n_axial=n_axial)
+    return recovery_rows(robot, defects, u, label=label, seed=seed, n_rings=n_rings, n_axial=n_axial)
+
+
+def family_recovery(
+    robot: RobotDescription,
+    labels,
+    u_real,
+    *,
+    seed: int = 0,
+    n_rings: int | None = None,
+    n_axial: int | None = None,
+    n_jobs: int = 1,
+) -> list[dict]:
+    """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
+    :func:`lab.rig.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
+    each), rows in the order of ``labels``."""
+    from joblib import Parallel, delayed, parallel_config
+
+    u = np.asarray(u_real, float)
+    with parallel_config(backend="loky", inner_max_num_threads=1):
+        parts = Parallel(n_jobs=max(1, min(n_jobs, len(labels))))(
+            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial) for label in labels
+        )
+    return [r for part in parts for r in part]
+
+
+def _block(name: str) -> str:
+    if name == "softness" or name.startswith("gradient"):
+        return name.split("[")[0]
+    return "eyelet shift" if "shift" in name else "slack"
+
+
+def recovery_summary(rows: list[dict]) -> list[dict]:
+    """Per parameter block (softness, gradient components, eyelet shift, slack) over all
+    robots: ``rms_error`` and ``rms_spread`` (RMS of recovered - true and of true - nominal,
+    in the block's unit: what calibration leaves against what the nominal robot gets
+    wrong) and ``within_2std`` (the fraction of recovered values within two of their
+    standard deviations of the truth)."""
+    out = {}
+    for r in rows:
+        out.setdefault(_block(r["parameter"]), []).append(r)
+    summary = []
+    for block, rs in out.items():
+        err = np.array([r["recovered"] - r["true"] for r in rs])
+        spread = np.array([r["true"] - r["nominal"] for r in rs])
+        std = np.array([r["std"] for r in rs])
+        summary.append(
+            {
+                "block": block,
+                "unit": rs[0]["unit"],
+                "n": len(rs),
+                "rms_error": float(np.sqrt(np.mean(err**2))),
+                "rms_spread": float(np.sqrt(np.mean(spread**2))),
+                "within_2std": float(np.mean(np.abs(err) <= 2 * std)),
+            }
+        )
+    return summary
