@@ -284,3 +284,32 @@ def test_qp_terminates_on_an_ill_conditioned_six_motor_step():
     x = cs.solve_qp(H, c, x0=x0)
     assert cs.contains(x)
     np.testing.assert_allclose(x, brute_force_qp(cs, H, c), atol=1e-9)
+
+
+class _SlackArm:
+    """A toy forward map with a slack cable: y = (u0, max(u1 - 1, 0), 0), so at u1 <= 1 the
+    second Jacobian column is zero -- the plateau a learned model of an arm with slack has."""
+
+    def predict_and_jacobian(self, u):
+        u = np.asarray(u, float)
+        taut = u[1] > 1.0
+        return np.array([u[0], max(u[1] - 1.0, 0.0), 0.0]), np.array([[1.0, 0.0], [0.0, float(taut)], [0.0, 0.0]])
+
+    def predict(self, u):
+        u = np.atleast_2d(u)
+        return np.stack([u[:, 0], np.maximum(u[:, 1] - 1.0, 0.0), 0 * u[:, 0]], axis=1)
+
+
+def test_follow_leaves_a_slack_plateau_by_a_cold_retry():
+    # warm-started from u1 = 0 (slack), the target at y1 = 0.5 is unreachable for LM: the
+    # gradient in u1 is zero. follow() retries from the nearest seeds and reaches it;
+    # without the retry it reports a miss, which is what the retry is for
+    cs = CommandSet([0.0, 0.0], [3.0, 3.0])
+    arm = _SlackArm()
+    targets = np.array([[1.0, 0.0, 0.0], [1.2, 0.5, 0.0], [1.4, 0.6, 0.0]])
+    seeds = grid_seeds(arm, cs, 7)
+    plain = IKSolver(arm, cs, retry_cold=False, seeds=seeds).follow(targets, u0=np.array([1.0, 0.0]))
+    assert not plain.reachable[1] and plain.residual_m[1] > 0.4
+    fixed = IKSolver(arm, cs, seeds=seeds).follow(targets, u0=np.array([1.0, 0.0]))
+    assert np.all(fixed.reachable) and np.all(fixed.residual_m < 1e-8)
+    assert fixed.iterations[1] > plain.iterations[1]  # the retry's work is counted

@@ -56,7 +56,8 @@ best command found inside ``C`` (the local minimum of ``O`` nearest the start) w
 Cold starts begin at the seed whose tip is nearest the target (``seeds``, e.g. the
 training data or :func:`grid_seeds`), else at the projection of the box centre;
 :meth:`IKSolver.follow` warm-starts each trajectory point from the previous solution
-(Section II-D).
+(Section II-D), and retries a point it misses from the nearest cold starts (a warm start can sit on
+a slack cable's plateau, where that cable's Jacobian column is zero).
 """
 
 from __future__ import annotations
@@ -132,7 +133,9 @@ class IKSolver:
     which a target counts as reached; ``tol_stationary``: relative stationarity tolerance;
     ``reg_weight``: ``w`` of the regulariser (m^2/rad^2); ``posture_weight``, ``u_posture``
     (default the centre of the allowed set) and ``polish``: how :meth:`follow` picks among
-    redundant solutions (module docstring); ``seeds``: (u (S, m), y (S, 3))
+    redundant solutions (module docstring); ``retry_cold``: in :meth:`follow` without a
+    regulariser, a point that misses its target is solved again from the nearest cold
+    starts, and the best answer kept; ``seeds``: (u (S, m), y (S, 3))
     for cold starts. ``max_iter`` defaults to 100 (lm) or 20000 (gd). ``record_history``:
     keep the tip residual of every iterate in ``IKResult.history_m`` (for plots).
     """
@@ -151,6 +154,7 @@ class IKSolver:
         posture_weight: float = 0.0,
         u_posture=None,
         polish: bool = True,
+        retry_cold: bool = True,
         seeds=None,
         record_history: bool = False,
     ):
@@ -165,6 +169,7 @@ class IKSolver:
         self.max_iter = int(max_iter or (100 if method == "lm" else 20000))
         self.reg_weight, self.posture_weight = float(reg_weight), float(posture_weight)
         self.polish = bool(polish)
+        self.retry_cold = bool(retry_cold)
         self.record_history = bool(record_history)
         self.seeds = None
         if seeds is not None:
@@ -209,6 +214,30 @@ class IKSolver:
         res.time_s = time.perf_counter() - t0
         return res
 
+    def _retry_cold(self, target, first: IKResult, n_starts: int = 4) -> IKResult:
+        """A start that misses its target may be stuck, not beaten: on the plateau of a
+        slack cable (a learned model of an arm with slack has one near u = 0) that cable's
+        Jacobian column is zero and no step moves it. Solve again from the ``n_starts``
+        seeds whose tips are nearest the target (or the centre), until one reaches it, and
+        keep the best answer; the result counts the work of all."""
+        starts = [self.centre]
+        if self.seeds is not None:
+            u_s, y_s = self.seeds
+            near = np.argsort(np.sum((y_s - target) ** 2, axis=1))[:n_starts]
+            starts = [self.commands.project(u_s[i]) for i in near]
+        tries = [first]
+        for u0 in starts:
+            if tries[-1].reachable:
+                break
+            tries.append(self.solve(target, u0))
+        best = min(tries, key=lambda r: r.residual_m)
+        for other in tries:
+            if other is not best:
+                best.iterations += other.iterations
+                best.evaluations += other.evaluations
+                best.time_s += other.time_s
+        return best
+
     def follow(self, targets_W, u0=None) -> TrajectoryIK:
         """IK for each of the targets (N, 3) m in order, warm-starting every point from the
         previous solution (the first from ``u0`` or a cold start). With ``reg_weight`` or
@@ -241,6 +270,8 @@ class IKSolver:
                     res.history_m = first.history_m + res.history_m
             else:
                 res = self.solve(target, u_prev, u_ref=u_prev)
+                if not res.reachable and self.retry_cold:
+                    res = self._retry_cold(target, res)
             results.append(res)
             u_prev = res.u_motor
         col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731
