@@ -23,6 +23,7 @@ from lab.tracking.transfer_study import (  # noqa: E402
     quasi_static_tips,
     random_safe_commands,
     read_curve,
+    robot_order,
     smallest_n,
 )
 from lab.viz.transfer import plot_transfer_curve  # noqa: E402
@@ -108,6 +109,14 @@ def test_family_statistics_and_findings():
     f = {r["robot"]: r for r in findings(rows)}
     assert f["random:0"]["finding_1"] and f["random:0"]["finding_2"]  # 4x worse, smaller, shifted
     assert not f["random:1"]["finding_1"] and not f["random:1"]["finding_2"]  # 1.7x; larger
+    assert f["random:1"]["shifted"] and not f["random:1"]["smaller"]  # the parts, apart
+    assert list(f) == ["random:0", "random:1"]  # the shipped robot lacks its real-data row
+    assert sorted(["random:10", "x", "random:2", "shipped"], key=robot_order) == [
+        "shipped",
+        "random:2",
+        "random:10",
+        "x",
+    ]
     assert smallest_n(rows, 0.0015)["residual"] == (30, pytest.approx(0.001))  # N = 10 averages 0.002
     assert smallest_n(rows, 0.0015)["sim-only"] is None
 
