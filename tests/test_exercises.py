@@ -77,3 +77,12 @@ def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
     for c in graders:
         text = "".join("".join(o.get("text", "")) for o in c["outputs"])
         assert NOT_IMPLEMENTED in text, text
+
+
+def test_chapters_01_to_07_pose_two_to_four_exercises():
+    # issue 13: each chapter 01-07 gets 2-4 exercises, each a solution cell and its grader
+    for nb in sorted((ROOT / "notebooks").glob("0[1-7]_*.ipynb")):
+        cells = json.loads(nb.read_text())["cells"]
+        n = sum("solution" in c.get("metadata", {}).get("tags", []) for c in cells)
+        graders = sum("grader" in c.get("metadata", {}).get("tags", []) for c in cells)
+        assert 2 <= n <= 4 and graders == n, f"{nb.name}: {n} exercises, {graders} graders"
