@@ -214,29 +214,22 @@ class IKSolver:
         res.time_s = time.perf_counter() - t0
         return res
 
-    def _retry_cold(self, target, first: IKResult, n_starts: int = 4) -> IKResult:
-        """A start that misses its target may be stuck, not beaten: on the plateau of a
-        slack cable (a learned model of an arm with slack has one near u = 0) that cable's
-        Jacobian column is zero and no step moves it. Solve again from the ``n_starts``
-        seeds whose tips are nearest the target (or the centre), until one reaches it, and
-        keep the best answer; the result counts the work of all."""
+    def _retry_cold(self, target, first: IKResult, start, n_starts: int = 4) -> IKResult:
+        """A miss may be a stuck start (a slack cable's plateau, zero Jacobian column; learned
+        models of arms with slack have one near u = 0): retry from the ``n_starts`` seeds
+        nearest the target (or the centre) but ``start``; keep the best, counting all work."""
         starts = [self.centre]
         if self.seeds is not None:
             u_s, y_s = self.seeds
             near = np.argsort(np.sum((y_s - target) ** 2, axis=1))[:n_starts]
             starts = [self.commands.project(u_s[i]) for i in near]
         tries = [first]
-        for u0 in starts:
+        for u0 in (u for u in starts if not np.allclose(u, start)):
             if tries[-1].reachable:
                 break
             tries.append(self.solve(target, u0))
         best = min(tries, key=lambda r: r.residual_m)
-        for other in tries:
-            if other is not best:
-                best.iterations += other.iterations
-                best.evaluations += other.evaluations
-                best.time_s += other.time_s
-        return best
+        return _count_work(best, [r for r in tries if r is not best])
 
     def follow(self, targets_W, u0=None) -> TrajectoryIK:
         """IK for each of the targets (N, 3) m in order, warm-starting every point from the
@@ -264,14 +257,13 @@ class IKSolver:
                 res = self.solve(target, u_start, u_ref=u_ref, reg_weight=w_now)
                 if self.polish:
                     first, res = res, self.solve(target, res.u_motor, reg_weight=0.0)
-                    res.iterations += first.iterations
-                    res.evaluations += first.evaluations
-                    res.time_s += first.time_s
+                    res = _count_work(res, [first])
                     res.history_m = first.history_m + res.history_m
             else:
                 res = self.solve(target, u_prev, u_ref=u_prev)
                 if not res.reachable and self.retry_cold:
-                    res = self._retry_cold(target, res)
+                    start = self.initial_guess(target) if u_prev is None else self.commands.project(u_prev)
+                    res = self._retry_cold(target, res, start)
             results.append(res)
             u_prev = res.u_motor
         col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731
@@ -397,3 +389,12 @@ class IKSolver:
         else:
             it = self.max_iter
         return self._result(u, y, obj, target, status, it, n_eval, history)
+
+
+def _count_work(result: IKResult, others) -> IKResult:
+    """``result`` with the iterations, evaluations and time of the ``others`` solves added."""
+    for other in others:
+        result.iterations += other.iterations
+        result.evaluations += other.evaluations
+        result.time_s += other.time_s
+    return result

@@ -19,7 +19,7 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.fem.cables import CableRoute, CableSet, spring
 from lab.fem.elasticity import NeoHookean, project_psd
-from lab.fem.mesh import TetMesh, barycentric, cylinder_mesh
+from lab.fem.mesh import TetMesh, barycentric, robot_mesh
 
 
 class ArmFEM:
@@ -44,11 +44,8 @@ class ArmFEM:
         clamp_tol_m: float = 1e-9,
     ):
         self.robot = robot
-        if mesh is None:
-            n_rings = robot.n_rings if n_rings is None else n_rings
-            n_axial = robot.n_axial if n_axial is None else n_axial
-            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
-        self.mesh = mesh
+        self.mesh = robot_mesh(robot, n_rings, n_axial) if mesh is None else mesh
+        mesh = self.mesh
         E = (
             robot.youngs_modulus_at(mesh.X_W[mesh.tets].mean(axis=1))
             if youngs_modulus_pa is None

@@ -141,6 +141,14 @@ def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) 
     return _oriented(TetMesh(X, tets))
 
 
+def robot_mesh(robot, n_rings: int | None = None, n_axial: int | None = None) -> TetMesh:
+    """The structured cylinder mesh of a robot description, at its own resolution unless
+    ``n_rings``/``n_axial`` override it."""
+    n_rings = robot.n_rings if n_rings is None else n_rings
+    n_axial = robot.n_axial if n_axial is None else n_axial
+    return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
+
+
 def _oriented(mesh: TetMesh) -> TetMesh:
     vol = mesh.volumes()
     if np.any(np.abs(vol) < 1e-15 * np.max(np.abs(vol))):

@@ -56,7 +56,7 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.fem.energy import ArmFEM
 from lab.fem.linsolve import factorize
-from lab.fem.mesh import TetMesh, cylinder_mesh
+from lab.fem.mesh import TetMesh, robot_mesh
 from lab.fem.statics import StaticSolution, solve_static
 
 #: The axes (of frame W) of each eyelet-shift option.
@@ -143,11 +143,8 @@ class ParametrisedFEM:
         self, robot: RobotDescription, *, n_rings=None, n_axial=None, mesh: TetMesh | None = None, axes: str = "yz"
     ):
         self.robot = robot
-        if mesh is None:
-            n_rings = robot.n_rings if n_rings is None else n_rings
-            n_axial = robot.n_axial if n_axial is None else n_axial
-            mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
-        self.mesh = mesh
+        self.mesh = robot_mesh(robot, n_rings, n_axial) if mesh is None else mesh
+        mesh = self.mesh
         self.layout = ParameterLayout(tuple(c.name for c in robot.cables), axes)
         self._centroids_W = mesh.X_W[mesh.tets].mean(axis=1)
         self._section = self._centroids_W[:, 1:] / robot.radius_m  # c_t / R (M, 2)

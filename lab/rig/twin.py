@@ -254,3 +254,15 @@ class TwinRig(Rig):
             "defects": {"path": d.path, "sha256": d.sha256, "values": d.source},
             "mesh": {"n_nodes": int(fem.mesh.n_nodes), "n_tets": int(len(fem.mesh.tets))},
         }
+
+
+def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) -> np.ndarray:
+    """Settled tips (N, 3) m of ``body`` (an :class:`AsBuiltBody`) for commands ``u_motor``
+    (N, m) rad, each reached after the protocol's reset, plus Gaussian noise of
+    ``noise_sigma_m`` per axis (seeded by ``seed``): what ``capture`` measures once the lag
+    has died out, without emulating the waiting."""
+    u = np.atleast_2d(np.asarray(u_motor, float))
+    tips = np.array([body.quasi_static_tip(ui) for ui in u])
+    if noise_sigma_m > 0:
+        tips += np.random.default_rng(seed).normal(0.0, noise_sigma_m, tips.shape)
+    return tips

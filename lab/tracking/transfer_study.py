@@ -29,6 +29,7 @@ import numpy as np
 
 from lab.control.trajectories import builtin
 from lab.errors import InputError
+from lab.rig.twin import quasi_static_tips  # noqa: F401 (part of this module's API)
 
 __all__ = [
     "SHAPES",
@@ -56,16 +57,6 @@ def random_safe_commands(robot, n: int, seed: int = 0) -> np.ndarray:
     from lab.data.designs import random_commands
 
     return random_commands(robot, n, seed)
-
-
-def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) -> np.ndarray:
-    """Settled tips (N, 3) m of ``body`` for commands ``u_motor`` (N, m) rad, each reached
-    after the protocol's reset, plus Gaussian noise of ``noise_sigma_m`` per axis."""
-    u = np.atleast_2d(np.asarray(u_motor, float))
-    tips = np.array([body.quasi_static_tip(ui) for ui in u])
-    if noise_sigma_m > 0:
-        tips += np.random.default_rng(seed).normal(0.0, noise_sigma_m, tips.shape)
-    return tips
 
 
 def evaluate_model(model, body, u_test, tips_test, n_points: int = 24) -> dict:

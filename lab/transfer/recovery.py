@@ -46,13 +46,12 @@ def recovery_rows(
     robot and the fit (default: the description's). One row per parameter: ``robot``
     (``label``), ``parameter``, ``unit``, ``true``, ``recovered``, ``std``, ``nominal``,
     plus ``n_real``, ``rms_nominal_m`` and ``rms_m`` (tip misfit before and after, m)."""
-    from lab.rig.twin import AsBuiltBody
+    from lab.rig.twin import AsBuiltBody, quasi_static_tips
     from lab.transfer.calibrate import calibrate
 
     u = np.asarray(u_real, float)
     body = AsBuiltBody(robot, defects, n_rings=n_rings, n_axial=n_axial)
-    tips = np.array([body.quasi_static_tip(ui) for ui in u])
-    tips = tips + defects.noise_sigma_m * np.random.default_rng(seed).standard_normal(tips.shape)
+    tips = quasi_static_tips(body, u, defects.noise_sigma_m, seed)
     res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial)
     truth = true_theta(res.layout, defects)
     # theta's first entry is ln(softness): report the softness itself
