@@ -26,7 +26,7 @@ import numpy as np
 from lab.control.ik import check_targets
 from lab.errors import InputError
 from lab.viz.arm import TIP_RGB
-from lab.viz.sliders import widgets_available
+from lab.viz.sliders import figure_png, widgets_available
 from lab.viz.tracking import CABLE_COLORS, TARGET_COLOR
 
 __all__ = ["IKPicker", "front_end_available"]
@@ -202,7 +202,6 @@ class IKPicker:
             plt.show()
             return None
         import ipywidgets as w
-        from IPython.display import display
 
         lo, hi = 100 * self.solver.seeds[1].min(0) - 1, 100 * self.solver.seeds[1].max(0) + 1
         sliders = [
@@ -219,15 +218,13 @@ class IKPicker:
         ]
         n = 0 if self.targets_W is None else len(self.targets_W)
         points = w.Dropdown(options=[("(sliders)", -1)] + [(f"trajectory point {i}", i) for i in range(n)], value=-1)
-        status, canvas, busy = w.HTML(), w.Output(), [False]
+        status, canvas, busy = w.HTML(), w.Image(format="png"), [False]
 
         def on_change(_change=None):
             if busy[0]:
                 return
             out = self.update([s.value / 100 for s in sliders])
-            with canvas:
-                canvas.clear_output(wait=True)
-                display(self.fig)
+            canvas.value = figure_png(self.fig)
             status.value = f"IK {1e3 * out['ik_s']:.1f} ms, redraw included {1e3 * out['elapsed_s']:.0f} ms; " + (
                 "reached" if out["reachable"] else "<b>out of reach</b>: best allowed command shown"
             )
@@ -245,5 +242,5 @@ class IKPicker:
             s.observe(on_change, names="value")
         points.observe(on_point, names="value")
         on_change()
-        plt.close(self.fig)  # shown through the Output widget only
+        plt.close(self.fig)  # shown through the Image widget only
         return w.VBox([*sliders, points, status, canvas] if n else [*sliders, status, canvas])

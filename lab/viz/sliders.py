@@ -20,7 +20,7 @@ import numpy as np
 
 from lab.errors import InputError
 
-__all__ = ["ArmExplorer", "widgets_available"]
+__all__ = ["ArmExplorer", "widgets_available", "figure_png"]
 
 
 def widgets_available() -> bool:
@@ -32,6 +32,16 @@ def widgets_available() -> bool:
         return False
     shell = get_ipython()
     return shell is not None and getattr(shell, "kernel", None) is not None
+
+
+def figure_png(fig, dpi: int = 90) -> bytes:
+    """The figure as PNG bytes, for an ``ipywidgets.Image``: a widget's value, not display
+    output, so a headless kernel run (papermill, nbclient) sends no Output-widget traffic."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
 
 
 class ArmExplorer:
@@ -130,7 +140,6 @@ class ArmExplorer:
             return None
         import ipywidgets as w
         import matplotlib.pyplot as plt
-        from IPython.display import display
 
         sliders = [
             w.FloatSlider(
@@ -144,13 +153,11 @@ class ArmExplorer:
             )
             for c in self.robot.cables
         ]
-        status, canvas = w.HTML(), w.Output()
+        status, canvas = w.HTML(), w.Image(format="png")
 
         def on_change(_change=None):
             out = self.update([s.value for s in sliders])
-            with canvas:
-                canvas.clear_output(wait=True)
-                display(self.fig)
+            canvas.value = figure_png(self.fig)
             status.value = (
                 f"solved in {1e3 * out['elapsed_s']:.0f} ms ({out['iterations']} Newton steps)"
                 if out["safe"]
@@ -160,5 +167,5 @@ class ArmExplorer:
         for s in sliders:
             s.observe(on_change, names="value")
         on_change()
-        plt.close(self.fig)  # shown through the Output widget only
+        plt.close(self.fig)  # shown through the Image widget only
         return w.VBox([*sliders, status, canvas])
