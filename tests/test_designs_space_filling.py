@@ -52,7 +52,7 @@ def test_bad_arguments():
         (dict(n=2.5, method="sobol"), "n >= 1"),
         (dict(n=10**7, method="maximin"), "at most 2000"),
         (dict(n=10**7, method="random"), "at most 100000"),
-        (dict(n=5, method="lhs"), "unknown design 'lhs'"),
+        (dict(n=5, method="halton"), "unknown design 'halton'"),
         (dict(n=5, method="random", seed=-1), "seed"),
     ]:
         with pytest.raises(InputError, match=words):
@@ -113,7 +113,7 @@ CASES = [
         ("not allowed with",),
         subprocess=True,
     ),
-    Case("design-unknown", [*CAPTURE, "--design", "lhs", "--n", "3"], 2, ("invalid choice",), subprocess=True),
+    Case("design-unknown", [*CAPTURE, "--design", "halton", "--n", "3"], 2, ("invalid choice",), subprocess=True),
     Case(
         "design-out-is-robot",
         ["capture", "--robot", "{dir}/robot.toml", "--design", "sobol", "--n", "3", "--out", "{dir}/robot.toml"],

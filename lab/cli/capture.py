@@ -48,7 +48,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     what.add_argument("--grid", type=int, metavar="LEVELS", help="grid levels per motor (default 7)")
     what.add_argument(
         "--design",
-        choices=("random", "sobol", "maximin"),  # lab.data.designs.DESIGNS (imported lazily)
+        choices=("random", "sobol", "maximin", "lhs"),  # lab.data.designs.DESIGNS (imported lazily)
         help="instead of the grid, --n commands of a space-filling design over the safe set",
     )
     p.add_argument("--n", type=int, metavar="N", help="number of commands of --design")
@@ -127,7 +127,7 @@ def check_design_args(args) -> None:
     before any file is touched; fills in the default ``--grid 7``."""
     if args.design is None:
         if args.n is not None:
-            raise InputError("--n N goes with --design {random,sobol,maximin}; the grid's size is --grid LEVELS")
+            raise InputError("--n N goes with --design {random,sobol,maximin,lhs}; the grid's size is --grid LEVELS")
         args.grid = 7 if args.grid is None else args.grid
     else:
         if args.n is None:

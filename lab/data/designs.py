@@ -5,9 +5,11 @@ Samplers give safe motor commands (N, m) in radians:
 * :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
   (the paper's 7x7x7 grid), minus what the safety rule forbids;
 * :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only;
+* :func:`lhs_commands` — a Latin hypercube (seeded) restricted to the safe set;
 * :func:`design_commands` — ``n`` commands of a space-filling design over the safe set
-  (``"random"``, ``"sobol"`` or ``"maximin"``) for capturing a few real samples;
-  :func:`min_distance` scores a design (its smallest pairwise distance).
+  (``"random"``, ``"sobol"``, ``"maximin"`` or ``"lhs"``) for capturing a few real samples;
+  :func:`min_distance` scores a design (its smallest pairwise distance),
+  :func:`empty_strata` its stratification per motor.
 
 Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands into
 walks whose neighbours are close, so that :func:`lab.data.simulation.simulate` can
@@ -59,11 +61,123 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
 
 
 #: The space-filling designs of :func:`design_commands`.
-DESIGNS = ("random", "sobol", "maximin")
+DESIGNS = ("random", "sobol", "maximin", "lhs")
 #: Largest ``n`` of a random or Sobol design, and of a maximin design (whose greedy
 #: selection costs n x its candidate pool).
 MAX_DESIGN_N = 100_000
 MAX_MAXIMIN_N = 2_000
+
+
+def axis_ranges(robot: RobotDescription) -> np.ndarray:
+    """Largest safe angle (m,) rad of each motor with the others at 0: ``u_max``, or less
+    where a safety limit on a set of cables holding it caps their sum lower."""
+    hi = np.full(robot.n_cables, float(robot.u_max_rad))
+    for lim in robot.safety_limits:
+        for c in lim.cables:
+            hi[c] = min(hi[c], lim.max_sum_over_u_max * robot.u_max_rad)
+    return hi
+
+
+def empty_strata(robot: RobotDescription, u_motor: np.ndarray) -> np.ndarray:
+    """Per motor (m,), how many of ``N`` equal strata of its safe range ``[0, axis_ranges]``
+    hold none of the ``N`` commands (N, m) rad: 0 for every motor is a Latin hypercube; N
+    independent uniform draws leave about N/e empty."""
+    x = np.asarray(u_motor, dtype=float) / axis_ranges(robot)
+    n = len(x)
+    bins = np.clip(np.floor(x * n).astype(int), 0, n - 1)
+    return np.array([n - len(np.unique(bins[:, j])) for j in range(x.shape[1])])
+
+
+def lhs_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
+    """``n`` safe commands (n, m) rad of a Latin hypercube restricted to the safe set (seeded).
+
+    The safety rule cuts the box, and a plain ``n``-point Latin hypercube would lose its
+    unsafe points (and their strata). Instead, an ``n``-point Latin hypercube
+    (:class:`scipy.stats.qmc.LatinHypercube`, scrambled) over the box ``[0, axis_ranges]``
+    is *repaired*: while a point breaks the rule, one of its coordinates is swapped with
+    the same motor's coordinate of another point (the swap that leaves the pair with the
+    largest safety margin). Swaps permute each motor's values, so the result is still an
+    exact Latin hypercube: every one of the ``n`` strata of each motor's safe range holds
+    one point (:func:`empty_strata` is 0). Where no swap helps (a rule so tight that no
+    Latin hypercube fits), it falls back to drawing larger hypercubes, keeping their safe
+    points and dropping the surplus that shares strata with the most others. Order: the
+    draw's (random) order."""
+    from scipy.stats import qmc
+
+    m, hi = robot.n_cables, axis_ranges(robot)
+    rng = np.random.default_rng(seed)
+    u = _repair_lhs(robot, qmc.LatinHypercube(d=m, rng=rng).random(n) * hi, rng)
+    if u is not None:
+        return u
+    probe = rng.random((8192, m)) * hi
+    n_draw = int(np.ceil(n / max(float(np.mean(robot.is_safe(probe))), 1 / 8192)))
+    while n_draw <= 4_000_000:
+        u = qmc.LatinHypercube(d=m, rng=rng).random(n_draw) * hi
+        safe = u[robot.is_safe(u)]
+        if len(safe) >= n:
+            return safe[_thin_by_strata(safe / hi, n)]
+        n_draw = int(np.ceil(1.05 * n_draw)) + 1
+    raise InputError(f"{robot.name}: its safety rule leaves almost no command; cannot draw {n}")
+
+
+def _repair_lhs(robot: RobotDescription, u: np.ndarray, rng, n_partners: int = 512) -> np.ndarray | None:
+    """Swap coordinates between points of ``u`` (n, m) rad (within each motor's column)
+    until every point is safe; None if stuck. Each step fixes the worst point if a swap
+    makes it and its partner safe, else takes the swap that most reduces the total
+    violation; the violation never grows, so it ends. Partners: all points, or
+    ``n_partners`` drawn from ``rng`` per step for a large ``n``."""
+    u = u.copy()
+    n, m = u.shape
+    if not robot.safety_limits or n < 2:
+        return u if np.all(robot.is_safe(u)) else None
+    a = np.zeros((len(robot.safety_limits), m))
+    for r, lim in enumerate(robot.safety_limits):
+        a[r, list(lim.cables)] = 1.0
+    cap = np.array([lim.max_sum_over_u_max * robot.u_max_rad for lim in robot.safety_limits])
+
+    def slack(x):  # (..., m) -> (...,): the smallest margin of the rule, rad (< 0: unsafe)
+        return (cap - x @ a.T).min(axis=-1)
+
+    s = slack(u)
+    for _ in range(20 * n * m):
+        bad = np.flatnonzero(s < 0)
+        if not len(bad):
+            return u if np.all(robot.is_safe(u)) else None
+        i = int(bad[np.argmin(s[bad])])
+        ks = np.arange(n) if n <= n_partners else np.sort(rng.choice(n, n_partners, replace=False))
+        ks = ks[ks != i]
+        # s_i[j, c]: margin of point i with coordinate j taken from point ks[c]; s_k[j, c]: of ks[c] with i's
+        ui = np.repeat(u[i][None, None], m, axis=0).repeat(len(ks), axis=1)
+        uk = np.repeat(u[ks][None], m, axis=0)
+        for j in range(m):
+            ui[j, :, j], uk[j, :, j] = u[ks, j], u[i, j]
+        s_i, s_k = slack(ui), slack(uk)
+        both = np.minimum(s_i, s_k)
+        j, c = np.unravel_index(int(np.argmax(both)), both.shape)
+        if both[j, c] < 0:  # no swap fixes i: the one that most reduces the total violation
+            gain = np.minimum(s_i, 0) + np.minimum(s_k, 0) - min(s[i], 0) - np.minimum(s[ks], 0)[None, :]
+            j, c = np.unravel_index(int(np.argmax(gain)), gain.shape)
+            if gain[j, c] <= 1e-12 * robot.u_max_rad:
+                return None
+        k = int(ks[c])
+        u[i, j], u[k, j] = u[k, j], u[i, j]
+        s[i], s[k] = slack(u[i]), slack(u[k])
+    return None
+
+
+def _thin_by_strata(x: np.ndarray, n: int) -> np.ndarray:
+    """Indices (sorted) of ``n`` of the points ``x`` (P, m) in [0, 1]^m: the surplus removed
+    one at a time, each time the point whose strata (``n`` per axis) hold the most others."""
+    bins = np.clip(np.floor(x * n).astype(int), 0, n - 1)
+    counts = np.stack([np.bincount(bins[:, j], minlength=n) for j in range(x.shape[1])])
+    keep = np.ones(len(x), bool)
+    cols = np.arange(x.shape[1])
+    for _ in range(len(x) - n):
+        crowd = np.where(keep, (counts[cols, bins] - 1).sum(axis=1), -1)
+        i = int(np.argmax(crowd))
+        keep[i] = False
+        counts[cols, bins[i]] -= 1
+    return np.flatnonzero(keep)
 
 
 def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
@@ -114,10 +228,10 @@ def greedy_maximin(points: np.ndarray, first: int, n: int) -> list[int]:
 def design_commands(robot: RobotDescription, n: int, method: str = "maximin", seed: int = 0) -> np.ndarray:
     """``n`` safe commands (n, m) rad of a space-filling design over the allowed set (in
     ``[0, u_max]^m`` and passing the robot's safety rule): ``method`` ``"random"``
-    (independent uniform draws), ``"sobol"`` (scrambled Sobol points, :func:`sobol_commands`)
-    or ``"maximin"`` (:func:`maximin_commands`). Deterministic for a given ``seed`` (>= 0).
-    Raises InputError for an unknown method, ``n < 1``, ``n`` above the method's limit or a
-    bad seed."""
+    (independent uniform draws), ``"sobol"`` (scrambled Sobol points, :func:`sobol_commands`),
+    ``"maximin"`` (:func:`maximin_commands`) or ``"lhs"`` (a Latin hypercube,
+    :func:`lhs_commands`). Deterministic for a given ``seed`` (>= 0). Raises InputError for
+    an unknown method, ``n < 1``, ``n`` above the method's limit or a bad seed."""
     if method not in DESIGNS:
         raise InputError(f"unknown design {method!r}: expected one of {', '.join(DESIGNS)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -132,6 +246,8 @@ def design_commands(robot: RobotDescription, n: int, method: str = "maximin", se
         u = random_commands(robot, n, seed)
     elif method == "sobol":
         u = sobol_commands(robot, n, seed=seed)
+    elif method == "lhs":
+        u = lhs_commands(robot, n, seed=seed)
     else:
         u = maximin_commands(robot, n, seed)
     assert len(u) == n and np.all(robot.is_safe(u))

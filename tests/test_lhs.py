@@ -1,0 +1,79 @@
+"""The Latin hypercube restricted to the safe set (lab.data.designs.lhs_commands)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from lab.data import DESIGNS, axis_ranges, design_commands, empty_strata, lhs_commands, random_commands
+from lab.description import load_robot, shipped_robots
+
+
+def _tight(robot, ratio=0.5):
+    lim = dataclasses.replace(robot.safety_limits[0], max_sum_over_u_max=ratio)
+    return dataclasses.replace(robot, safety_limits=(lim,))
+
+
+def test_lhs_is_a_design():
+    assert "lhs" in DESIGNS
+
+
+@pytest.mark.parametrize("name", shipped_robots())
+def test_safe_n_rows_seeded_and_exactly_latin(name):
+    robot = load_robot(name)
+    for n in (1, 2, 9, 100, 2000):
+        u = lhs_commands(robot, n, seed=5)
+        assert u.shape == (n, robot.n_cables)
+        assert np.all(robot.is_safe(u))
+        assert np.array_equal(u, lhs_commands(robot, n, seed=5))
+        assert np.array_equal(u, design_commands(robot, n, "lhs", seed=5))
+        # every one of the n strata of every motor's range holds exactly one command
+        strata = np.floor(u / axis_ranges(robot) * n).astype(int)
+        for j in range(robot.n_cables):
+            assert sorted(strata[:, j]) == list(range(n))
+        assert np.all(empty_strata(robot, u) == 0)
+    assert not np.array_equal(lhs_commands(robot, 50, seed=0), lhs_commands(robot, 50, seed=1))
+
+
+def test_the_safety_rule_cuts_the_box_so_a_plain_hypercube_would_not_do():
+    """The repair matters: a raw n-point hypercube of the shipped arm has unsafe points."""
+    from scipy.stats import qmc
+
+    robot = load_robot("three-cable")
+    raw = qmc.LatinHypercube(d=3, rng=np.random.default_rng(0)).random(200) * robot.u_max_rad
+    assert not np.all(robot.is_safe(raw))
+    u = lhs_commands(robot, 200, seed=0)
+    assert np.all(robot.is_safe(u)) and np.all(empty_strata(robot, u) == 0)
+
+
+@pytest.mark.parametrize("name", shipped_robots())
+def test_better_stratified_per_motor_than_random_and_sobol(name):
+    robot = load_robot(name)
+    n = 60
+    for seed in range(3):
+        lhs = empty_strata(robot, lhs_commands(robot, n, seed=seed))
+        rand = empty_strata(robot, random_commands(robot, n, seed=seed))
+        sobol = empty_strata(robot, design_commands(robot, n, "sobol", seed=seed))
+        assert lhs.max() == 0
+        assert rand.min() >= 0.2 * n and sobol.min() > 0  # independent draws leave about n/e empty
+
+
+def test_a_rule_too_tight_for_a_hypercube_still_gives_n_safe_commands():
+    robot = _tight(load_robot("three-cable"))
+    assert np.allclose(axis_ranges(robot), 0.5 * robot.u_max_rad)
+    for n in (1, 7, 40):
+        u = lhs_commands(robot, n, seed=2)
+        assert u.shape == (n, 3) and np.all(robot.is_safe(u))
+        assert np.all(u.sum(axis=1) <= 0.5 * robot.u_max_rad + 1e-9)
+        assert np.array_equal(u, lhs_commands(robot, n, seed=2))
+
+
+def test_empty_strata_counts():
+    robot = load_robot("three-cable")
+    hi = axis_ranges(robot)
+    lattice = (np.arange(4)[:, None] + 0.5) / 4 * hi  # one point per stratum on each motor
+    assert empty_strata(robot, lattice).tolist() == [0, 0, 0]
+    same = np.full((4, 3), 0.1 * hi)  # all in the first stratum
+    assert empty_strata(robot, same).tolist() == [3, 3, 3]
+    edge = np.vstack([lattice[:3], hi])  # u = u_max falls in the last stratum, not past it
+    assert empty_strata(robot, edge).tolist() == [0, 0, 0]
