@@ -132,6 +132,7 @@ def test_every_command_has_its_module():
             "defects",
             "transfer",
             "transfer-curve",
+            "data-curve",
             "calibrate",
         }
     )

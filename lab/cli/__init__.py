@@ -21,7 +21,7 @@ import argparse
 import sys
 import traceback
 
-from lab.cli import calibrate, capture, defects, simulate, splits, track, train, transfer, transfer_curve
+from lab.cli import calibrate, capture, data_curve, defects, simulate, splits, track, train, transfer, transfer_curve
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
@@ -37,6 +37,7 @@ COMMANDS = {
     "defects": defects,
     "transfer": transfer,
     "transfer-curve": transfer_curve,
+    "data-curve": data_curve,
     "calibrate": calibrate,
 }
 

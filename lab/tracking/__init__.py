@@ -6,6 +6,15 @@ mean errors into ``table1.csv``. :mod:`.transfer_study` measures the sim-to-real
 (error against the number of real samples, per transfer method) on emulated as-built robots.
 """
 
+from lab.tracking.data_curve import (
+    STRATEGIES,
+    NominalBody,
+    data_curve_row,
+    heldout_set,
+    hours_saved,
+    make_body,
+    plan_rows,
+)
 from lab.tracking.table1 import (
     COLUMNS,
     CONDITIONS,
@@ -41,6 +50,13 @@ from lab.tracking.transfer_study import (
 )
 
 __all__ = [
+    "STRATEGIES",
+    "NominalBody",
+    "data_curve_row",
+    "heldout_set",
+    "hours_saved",
+    "make_body",
+    "plan_rows",
     "TRACK_PROTOCOL",
     "REQUIRED_KEYS",
     "TrackResultError",

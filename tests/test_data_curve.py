@@ -1,0 +1,156 @@
+"""Error against N per sampling strategy (issue 15): the rows, the common held-out set, grid
+sizes, noise on emulated samples, resuming, the summaries and the command's refusals."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lab.cli import main
+from lab.cli.data_curve import COLUMNS, read_data_curve
+from lab.data.designs import DESIGNS, grid_commands
+from lab.description import load_robot
+from lab.rig.twin import quasi_static_tips
+from lab.tracking.data_curve import (
+    PAPER_GRID_N,
+    draw_and_measure,
+    grid_levels_for,
+    heldout_set,
+    hours_saved,
+    make_body,
+    plan_rows,
+    smallest_n,
+)
+
+COARSE = ["--n-rings", "1", "--n-axial", "4"]
+FAST = ["--heldout", "12", "--epochs", "8", "--n-points", "4", "--jobs", "1", "--samples-per-hour", "300"]
+STRATS = ["grid", "sobol", "maximin", "random"] + (["lhs"] if "lhs" in DESIGNS else [])
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("three-cable")
+
+
+def _args(out, strategies=STRATS, ns=("8", "16"), extra=()):
+    return ["data-curve", "--rig", "sim", *COARSE, *FAST, "--strategies", *strategies, "--ns", *ns, *extra,
+            "--out", str(out)]  # fmt: skip
+
+
+def test_grid_levels_nearest_each_n_and_the_paper_grid(robot):
+    assert grid_levels_for(robot, [25, 50, 100, 200, 308]) == {3: 23, 4: 54, 5: 105, 6: 181, 7: PAPER_GRID_N}
+    assert grid_levels_for(robot, [1, 24], levels=[7, 3]) == {3: 23, 7: 308}
+    assert grid_levels_for(robot, [300, 310]) == {7: 308}  # one grid for both Ns
+    plan = plan_rows(robot, ["random", "grid"], [20, 5], None)
+    assert plan == [("random", 5, None), ("random", 20, None), ("grid", 7, 2), ("grid", 23, 3)]
+    with pytest.raises(ValueError, match="at least 2 levels"):
+        grid_levels_for(robot, [5], levels=[1])
+
+
+def test_command_writes_rows_on_one_heldout_set(tmp_path, robot):
+    out = tmp_path / "c.csv"
+    assert main(_args(out)) == 0
+    rows = read_data_curve(out)
+    assert list(rows[0]) == list(COLUMNS)
+    assert [(r["strategy"], r["n"]) for r in rows] == [
+        ("grid", 7),
+        ("grid", 23),
+        *[(s, n) for s in STRATS[1:] for n in (8, 16)],
+    ]
+    # the grids' N is their safe count, recorded with the levels
+    assert [(r["grid_levels"], r["n"]) for r in rows[:2]] == [(2, len(grid_commands(robot, 2))), (3, 23)]
+    assert len({r["heldout_id"] for r in rows}) == 1
+    meta = json.loads(Path(f"{out}.json").read_text())
+    assert meta["heldout"]["id"] == rows[0]["heldout_id"] and meta["settings"]["samples_per_hour"] == 300
+    for r in rows:
+        assert r["rig"] == "FEM" and r["robot"] == "three-cable" and r["model"] == "mlp"
+        assert r["capture_h"] == pytest.approx(r["n"] / 300)
+        assert 0 < r["model_error_m"] < 0.1 and 0 < r["tracking_mean_m"] < 0.1
+        assert r["tracking_mean_m"] == pytest.approx(np.mean([r["circle_m"], r["square_m"], r["rose_m"]]))
+    # more data helps on this scale (8 -> 23 grid samples, mm-level differences)
+    assert rows[1]["model_error_m"] < rows[0]["model_error_m"]
+
+
+def test_heldout_set_is_random_common_and_noise_free(robot):
+    body, label, noise = make_body(robot, "twin:random:0", n_rings=1, n_axial=4)
+    assert label == "emulated as-built robot" and noise > 0
+    u, tips, fid = heldout_set(body, 10, seed=1)
+    u2, _, fid2 = heldout_set(make_body(robot, "sim", n_rings=1, n_axial=4)[0], 10, seed=1)
+    np.testing.assert_array_equal(u, u2)  # the same commands whatever the rig
+    assert fid == fid2 and heldout_set(body, 10, seed=2)[2] != fid
+    np.testing.assert_array_equal(tips, quasi_static_tips(body, u))  # settled, no noise
+    lattice = grid_commands(robot, 7) / robot.u_max_rad
+    d = np.min(np.linalg.norm(u[:, None] / robot.u_max_rad - lattice[None], axis=2), axis=1)
+    assert d.min() > 1e-6  # never lattice points
+
+
+def test_emulated_samples_carry_the_robots_noise_and_are_reproducible(robot):
+    body, _, noise = make_body(robot, "twin:random:0", n_rings=1, n_axial=4)
+    u, y = draw_and_measure(body, "sobol", 40, None, noise_sigma_m=noise, seed=0, opts={})
+    err = y - quasi_static_tips(body, u)
+    assert 0.5 * noise < err.std() < 1.5 * noise
+    u2, y2 = draw_and_measure(body, "sobol", 40, None, noise_sigma_m=noise, seed=0, opts={})
+    np.testing.assert_array_equal(y, y2)
+    _, y3 = draw_and_measure(body, "sobol", 40, None, noise_sigma_m=noise, seed=1, opts={})
+    assert not np.allclose(y, y3)
+
+
+def test_resume_measures_only_missing_rows_and_matches_a_full_run(tmp_path, capsys):
+    out, full = tmp_path / "resumed.csv", tmp_path / "full.csv"
+    assert main(_args(out, ["sobol", "grid"], ["8"])) == 0  # "killed" after these rows
+    first = out.read_text().splitlines()[1:]
+    assert main(_args(out, ["grid", "sobol", "random"], ["8", "16"])) == 0
+    assert "2 already in" in capsys.readouterr().err
+    lines = out.read_text().splitlines()[1:]
+    assert lines[: len(first)] == first  # kept as they were, not recomputed
+    before = out.read_bytes()
+    assert main(_args(out, ["grid", "sobol", "random"], ["8", "16"])) == 0  # nothing left to do
+    assert out.read_bytes() == before and "0 rows to measure" in capsys.readouterr().err
+    assert len(json.loads(Path(f"{out}.json").read_text())["commands"]) == 2
+    assert main(_args(full, ["grid", "sobol", "random"], ["8", "16"])) == 0
+    key = lambda r: (r["strategy"], r["n"])  # noqa: E731
+    got = {key(r): r for r in read_data_curve(out)}
+    want = {key(r): r for r in read_data_curve(full)}
+    assert got.keys() == want.keys() and len(got) == 6
+    for k, r in want.items():  # each row depends on its own (strategy, N) only
+        assert got[k]["model_error_m"] == pytest.approx(r["model_error_m"], rel=1e-4), k
+        assert got[k]["tracking_mean_m"] == pytest.approx(r["tracking_mean_m"], rel=1e-3), k
+
+
+def test_model_error_only_and_refusals(tmp_path, capsys):
+    out = tmp_path / "m.csv"
+    assert main(_args(out, ["random"], ["8"], ["--no-tracking"])) == 0
+    (row,) = read_data_curve(out)
+    assert row["model_error_m"] > 0 and np.isnan(row["tracking_mean_m"]) and np.isnan(row["rose_m"])
+    # resuming with other settings would mix two studies in one file
+    assert main(_args(out, ["random"], ["8"])) == 2
+    assert "other settings (tracking)" in capsys.readouterr().err
+    assert main(_args(tmp_path / "x.csv", ["grid", "magic"])) == 2
+    assert "unknown sampling strategy ['magic']" in capsys.readouterr().err
+    assert main([*_args(tmp_path / "y.csv", ["random"]), "--rig", "hardware:rig.toml"]) == 2
+    assert main(_args(tmp_path / "z.csv", ["random"], ["0"])) == 2
+    assert main([*_args(tmp_path / "w.csv", ["random"]), "--model", "nonsense"]) == 2
+    assert "unknown model 'nonsense'" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_smallest_n_and_hours_saved():
+    rows = [
+        {"strategy": s, "n": n, "model_error_m": e, "rig_spec": rig}
+        for s, n, e, rig in [
+            ("grid", 23, 2e-3, "a"),
+            ("grid", 308, 0.4e-3, "a"),
+            ("sobol", 25, 1e-3, "a"),
+            ("sobol", 50, 0.6e-3, "a"),
+            ("sobol", 50, 0.3e-3, "b"),  # two robots average to 0.45 mm at N = 50
+            ("sobol", 100, 0.2e-3, "a"),
+            ("random", 25, 0.9e-3, "a"),
+        ]
+    ]
+    got = smallest_n(rows, "model_error_m", 0.5e-3)
+    assert got["grid"] == (308, pytest.approx(0.4e-3))
+    assert got["sobol"] == (50, pytest.approx(0.45e-3))
+    assert got["random"] is None
+    assert hours_saved(50, 290.0) == pytest.approx(258 / 290.0)
+    assert hours_saved(PAPER_GRID_N, 290.0) == 0
