@@ -9,6 +9,7 @@ Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), th
 residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
 """
 
+from lab.learn.active import active_sampling, pick_apart
 from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
@@ -28,6 +29,8 @@ from lab.learn.train import TrainResult, data_sha256, train
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
+    "active_sampling",
+    "pick_apart",
     "finetune",
     "finetune_fixed",
     "file_metadata",

@@ -1,0 +1,188 @@
+"""Active sampling: measure, batch after batch, the allowed commands where a model ensemble disagrees most.
+
+:func:`active_sampling` starts from a scrambled-Sobol design of ``n_initial`` safe
+commands (Sobol rather than maximin: a maximin design fills the safe set's boundary
+first, issue 14), then repeats until ``n_total`` samples are measured:
+
+1. fit an ensemble of ``k`` networks to all ``(u, y)`` so far (by default
+   :func:`lab.learn.ensemble.train_ensemble`);
+2. draw a fresh, seeded pool of ``pool_size`` safe Sobol candidates and score each by
+   the ensemble's spread ``|std(u)|`` (m: the norm of the per-coordinate standard
+   deviations of the members' tip predictions);
+3. pick ``batch`` candidates (:func:`pick_apart`): greedily the highest spread, each
+   score scaled down by ``min(1, d / radius)`` where ``d`` is the distance (in
+   ``u / u_max``) to the nearest sample measured or already picked, so a batch does not
+   pile up on one peak of the spread;
+4. measure them with ``measure(u_batch) -> y_batch`` (the simulator or a rig: the caller
+   wires it) and append.
+
+Every random choice is seeded by ``(seed, number of samples so far)``, so the next batch
+depends only on the seed and the data so far: a run killed after some batches and
+restarted with the data it had measured (``u_done``, ``y_done``) continues exactly as
+the uninterrupted run, given a deterministic ensemble fit.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from lab.data.designs import sobol_commands
+from lab.description import RobotDescription
+from lab.errors import InputError, LabRuntimeError
+
+#: Largest candidate pool (a Sobol draw, and one ensemble prediction each batch).
+MAX_POOL = 1_000_000
+
+
+def default_initial(n_total: int, batch: int, n_motors: int) -> int:
+    """Samples of the initial design: ``max(2 batch, 10 m)`` (enough for a first fit of
+    every member), at most ``n_total``."""
+    return int(min(n_total, max(2 * batch, 10 * n_motors)))
+
+
+def default_radius(n_total: int, n_motors: int) -> float:
+    """Half the spacing of ``n_total`` points spread over the unit box ``[0, 1]^m``:
+    ``0.5 n_total^(-1/m)`` (in ``u / u_max``)."""
+    return 0.5 * float(n_total) ** (-1.0 / n_motors)
+
+
+def pick_apart(x_pool: np.ndarray, spread: np.ndarray, x_data: np.ndarray, n: int, radius: float) -> np.ndarray:
+    """Indices (n,) of ``n`` candidates of ``x_pool`` (P, m) chosen greedily by score
+    ``spread * min(1, d / radius)``, ``d`` the distance of a candidate to the nearest row
+    of ``x_data`` (N, m) or candidate already picked; ``spread`` (P,) >= 0. Ties: the
+    lowest index. Same units for ``x_pool``, ``x_data`` and ``radius``."""
+    x_pool, spread = np.asarray(x_pool, float), np.asarray(spread, float)
+    if n > len(x_pool):
+        raise InputError(f"cannot pick {n} of a pool of {len(x_pool)}")
+    d = np.full(len(x_pool), np.inf)
+    for start in range(0, len(x_data), 1024):  # blocks: P x 1024 distances at a time
+        block = np.asarray(x_data[start : start + 1024], float)
+        d = np.minimum(d, np.linalg.norm(x_pool[:, None, :] - block[None], axis=2).min(axis=1))
+    picked = []
+    for _ in range(n):
+        score = spread * np.minimum(1.0, d / radius)
+        score[picked] = -np.inf
+        i = int(np.argmax(score))
+        picked.append(i)
+        np.minimum(d, np.linalg.norm(x_pool - x_pool[i], axis=1), out=d)
+    return np.asarray(picked, dtype=int)
+
+
+def _seeds(seed: int, n_so_far: int) -> tuple[int, int]:
+    """(pool seed, fit seed) for the batch that follows ``n_so_far`` samples."""
+    a, b = np.random.SeedSequence([seed, n_so_far]).generate_state(2)
+    return int(a), int(b)
+
+
+def _check_int(name: str, v, low: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+        raise InputError(f"active sampling needs an integer {name} >= {low}, got {v!r}")
+    return int(v)
+
+
+def _measured(measure, u_batch: np.ndarray) -> np.ndarray:
+    y = np.asarray(measure(u_batch), dtype=float)
+    if y.shape != (len(u_batch), 3) or not np.all(np.isfinite(y)):
+        raise LabRuntimeError(f"measure() must return finite tips ({len(u_batch)}, 3) m, got shape {y.shape}")
+    return y
+
+
+def active_sampling(
+    robot: RobotDescription,
+    measure,
+    n_total: int,
+    batch: int,
+    *,
+    n_initial: int | None = None,
+    pool_size: int = 4096,
+    hidden=(20, 20),
+    k: int = 5,
+    seed: int = 0,
+    epochs: int | None = None,
+    radius: float | None = None,
+    u_done=None,
+    y_done=None,
+    fit_ensemble=None,
+    on_batch=None,
+) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """Measure ``n_total`` safe commands chosen where an ensemble disagrees (module docstring).
+
+    ``measure(u_batch (B, m) rad) -> y (B, 3) m`` measures a batch. ``n_initial``: size of
+    the initial Sobol design (default :func:`default_initial`); ``batch``: samples per
+    active batch (the last may be smaller); ``pool_size`` candidates scored per batch;
+    ``hidden``, ``k``, ``epochs``: the ensemble (``k`` members of widths ``hidden``, at
+    most ``epochs`` epochs, None: the trainer's default); ``radius``: of :func:`pick_apart`
+    in ``u / u_max`` (default :func:`default_radius`). ``fit_ensemble(u, y, hidden=, k=,
+    seed=, epochs=)`` returns an object with ``predict_with_std(u (P, m)) -> (mean (P, 3),
+    std (P, 3))`` m (default :func:`lab.learn.ensemble.train_ensemble`). ``u_done`` (N, m)
+    rad, ``y_done`` (N, 3) m: samples of an earlier run of the same settings to continue
+    from (none: start with the initial design). ``on_batch(u_batch, y_batch, entry)`` is
+    called after each measured batch (the initial design included), e.g. to save them.
+
+    Returns ``u`` (n_total, m) rad and ``y`` (n_total, 3) m (``u_done`` first, then each
+    batch in the order picked) and the log of the batches measured by this call: one dict
+    each with ``batch`` (0: the initial design), ``kind`` ("initial" or "active"), ``n_before``, ``n`` and, for active
+    batches, the seeds, the pool's and the picks' mean and max spread (m) and ``fit_s``.
+    """
+    m = robot.n_cables
+    n_total, batch = _check_int("n_total", n_total, 1), _check_int("batch", batch, 1)
+    n_initial = default_initial(n_total, batch, m) if n_initial is None else _check_int("n_initial", n_initial, 1)
+    if n_initial > n_total:
+        raise InputError(f"active sampling: n_initial = {n_initial} exceeds n_total = {n_total}")
+    pool_size, k = _check_int("pool_size", pool_size, batch), _check_int("k", k, 2)
+    if pool_size > MAX_POOL:
+        raise InputError(f"active sampling: pool_size = {pool_size} exceeds {MAX_POOL}")
+    seed = _check_int("seed", seed, 0)
+    radius = default_radius(n_total, m) if radius is None else float(radius)
+    if not radius > 0:
+        raise InputError(f"active sampling: radius must be positive, got {radius}")
+    if fit_ensemble is None:
+        from lab.learn.ensemble import train_ensemble as fit_ensemble
+    u = np.empty((0, m)) if u_done is None else np.asarray(u_done, dtype=float).reshape(-1, m)
+    y = np.empty((0, 3)) if y_done is None else np.asarray(y_done, dtype=float).reshape(-1, 3)
+    if len(u) != len(y) or len(u) > n_total or not np.all(robot.is_safe(u)):
+        raise InputError(
+            f"u_done ({len(u)}) and y_done ({len(y)}) must be the same number (<= n_total = {n_total}) "
+            "of safe commands and their tips"
+        )
+    log = []
+
+    def add(u_b, y_b, entry):
+        nonlocal u, y
+        u, y = np.vstack([u, u_b]), np.vstack([y, y_b])
+        log.append(entry)
+        if on_batch is not None:
+            on_batch(u_b, y_b, entry)
+
+    if len(u) == 0:
+        u_b = sobol_commands(robot, n_initial, seed=seed)
+        entry = {"batch": 0, "kind": "initial", "design": "sobol", "n_before": 0, "n": n_initial}
+        add(u_b, _measured(measure, u_b), entry)
+    while len(u) < n_total:
+        n_b = min(batch, n_total - len(u))
+        pool_seed, fit_seed = _seeds(seed, len(u))
+        pool = sobol_commands(robot, pool_size, seed=pool_seed)
+        t0 = time.perf_counter()
+        ensemble = fit_ensemble(u, y, hidden=tuple(hidden), k=k, seed=fit_seed, epochs=epochs)
+        _, std = ensemble.predict_with_std(pool)
+        fit_s = time.perf_counter() - t0
+        spread = np.linalg.norm(np.asarray(std, dtype=float).reshape(len(pool), -1), axis=1)
+        picks = pick_apart(pool / robot.u_max_rad, spread, u / robot.u_max_rad, n_b, radius)
+        u_b = pool[picks]
+        entry = {
+            "batch": 1 + -(-(len(u) - n_initial) // batch),  # the initial design is batch 0
+            "kind": "active",
+            "n_before": len(u),
+            "n": n_b,
+            "pool_seed": pool_seed,
+            "fit_seed": fit_seed,
+            "pool_spread_mean_m": float(spread.mean()),
+            "pool_spread_max_m": float(spread.max()),
+            "picked_spread_mean_m": float(spread[picks].mean()),
+            "picked_spread_max_m": float(spread[picks].max()),
+            "fit_s": fit_s,
+        }
+        add(u_b, _measured(measure, u_b), entry)
+    return u, y, log
