@@ -152,10 +152,11 @@ def test_pick_apart():
 
 
 def test_defaults_and_bad_arguments(robot):
-    assert default_initial(200, 8, 3) == 30 and default_initial(200, 25, 3) == 50 and default_initial(12, 8, 3) == 12
+    assert default_initial(200, 8, 3) == 30 and default_initial(200, 25, 3) == 50 and default_initial(12, 8, 3) == 6
+    assert default_initial(1, 8, 3) == 1
     calls = []
-    u, _, log = active_sampling(robot, tip, 34, 8, fit_ensemble=corner_fit(robot, calls))
-    assert [e["n"] for e in log] == [30, 4] and calls[0][1:5] == ((20, 20), 5, calls[0][3], None)
+    u, _, log = active_sampling(robot, tip, 80, 8, fit_ensemble=corner_fit(robot, calls))
+    assert [e["n"] for e in log] == [30] + [8] * 6 + [2] and calls[0][1:5] == ((20, 20), 5, calls[0][3], None)
     fit = corner_fit(robot, [])
     for kwargs, words in [
         (dict(n_total=0, batch=2), "n_total >= 1"),

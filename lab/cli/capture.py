@@ -2,15 +2,20 @@
 
     python -m lab capture --rig twin --robot three-cable --grid 7 --out data/real_three_cable.csv
     python -m lab capture --rig twin:random:3 --design maximin --n 30 --seed 0 --out real30.csv
+    python -m lab capture --rig twin --active 200 --batch 20 --out real_active.csv
 
-Captures the safe commands of the grid (308 of 343 for 7 levels) -- or, with ``--design``,
-``N`` commands of a space-filling design over the safe set (random, Sobol or maximin,
-``lab.data.designs.design_commands``) -- with the protocol of ``lab.rig.capture`` into an
-append-only journal (default ``OUT`` with ``.journal.csv``), then writes the dataset
-``OUT`` (+ ``OUT.json``) atomically, rows in grid (or design) order, in the format
-``lab.data.dataset.read_dataset`` reads. Killed or failed, it keeps every sample
-captured so far; the same command continues where it stopped. On any error the rig is
-closed (torque off on hardware) and the message names the problem.
+Captures the safe commands of the grid (308 of 343 for 7 levels) -- or, with ``--sobol N``,
+``--lhs N`` or ``--design D --n N``, ``N`` commands of a space-filling design over the safe
+set (random, Sobol, maximin or Latin hypercube, ``lab.data.designs.design_commands``) --
+with the protocol of ``lab.rig.capture`` into an append-only journal (default ``OUT``
+with ``.journal.csv``), then writes the dataset ``OUT`` (+ ``OUT.json``) atomically, rows
+in grid (or design) order, in the format ``lab.data.dataset.read_dataset`` reads.
+With ``--active N --batch B`` it trains as it goes (``lab.learn.active``): each batch is
+picked where an ensemble fitted to the samples so far disagrees most, journaled as a plan,
+then captured; rows in capture order (``--order`` does not apply).
+Killed or failed, it keeps every sample captured so far; the same command continues
+where it stopped (an active run first finishes the batch it was in). On any error the
+rig is closed (torque off on hardware) and the message names the problem.
 """
 
 from __future__ import annotations
@@ -24,8 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal
+from lab.cli.sampling import add_sampler_args, check_sampler_args, sampler_words
 from lab.cli.signals import exit_code
-from lab.errors import InputError, LabError
+from lab.errors import LabError
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -44,18 +50,15 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "| hardware:RIG.toml (default: twin)",
     )
     p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
-    what = p.add_mutually_exclusive_group()
-    what.add_argument("--grid", type=int, metavar="LEVELS", help="grid levels per motor (default 7)")
-    what.add_argument(
-        "--design",
-        choices=("random", "sobol", "maximin", "lhs"),  # lab.data.designs.DESIGNS (imported lazily)
-        help="instead of the grid, --n commands of a space-filling design over the safe set",
-    )
-    p.add_argument("--n", type=int, metavar="N", help="number of commands of --design")
+    add_sampler_args(p)
     p.add_argument("--out", required=True, help="output CSV; metadata goes to OUT.json")
     p.add_argument("--journal", help="append-only journal to write or resume (default: OUT with .journal.csv)")
     p.add_argument(
-        "--seed", type=int, default=0, help="seed of the design, the shuffled order and the emulated rig's noise"
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the design (or of --active's picks and ensembles), the shuffled order "
+        "and the emulated rig's noise",
     )
     p.add_argument(
         "--order",
@@ -87,7 +90,7 @@ def command_line(args) -> str:
         args.rig,
         "--robot",
         args.robot,
-        *(["--design", args.design, "--n", str(args.n)] if args.design else ["--grid", str(args.grid)]),
+        *sampler_words(args),
         "--out",
         str(args.out),
         "--seed",
@@ -123,47 +126,16 @@ def _stats(a: np.ndarray) -> dict:
 
 
 def check_design_args(args) -> None:
-    """Refuse a bad combination of ``--grid``/``--design``/``--n``/``--seed`` (InputError)
-    before any file is touched; fills in the default ``--grid 7``."""
-    if args.design is None:
-        if args.n is not None:
-            raise InputError("--n N goes with --design {random,sobol,maximin,lhs}; the grid's size is --grid LEVELS")
-        args.grid = 7 if args.grid is None else args.grid
-    else:
-        if args.n is None:
-            raise InputError(f"--design {args.design} needs the number of commands: --n N")
-        if args.n < 1:
-            raise InputError(f"--n must be at least 1, got {args.n}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be an integer >= 0, got {args.seed}")
+    """Refuse a bad combination of sampling flags (:func:`lab.cli.sampling.check_sampler_args`)."""
+    check_sampler_args(args)
 
 
 def _commands(args, robot) -> tuple[np.ndarray, dict]:
     """The commands to capture (N, m) rad, in dataset order, and the sampler's metadata."""
-    from lab.data.designs import design_commands, grid_commands, min_distance
+    from lab.cli.sampling import fixed_commands
 
-    if args.design is None:
-        grid = grid_commands(robot, args.grid)
-        return grid, {
-            "name": "grid",
-            "levels": args.grid,
-            "n_candidates": args.grid**robot.n_cables,
-            "n_safe": len(grid),
-            "order": args.order,
-            "seed": args.seed,
-        }
-    try:
-        u = design_commands(robot, args.n, args.design, seed=args.seed)
-    except InputError as err:
-        raise InputError(f"--design {args.design} --n {args.n}: {err}") from None
-    return u, {
-        "name": args.design,
-        "n": args.n,
-        "space": "safe set of [0, u_max]^m, distances in u / u_max",
-        "min_distance": min_distance(robot, u),
-        "order": args.order,
-        "seed": args.seed,
-    }
+    u, sampler = fixed_commands(args, robot)
+    return u, {**sampler, "order": args.order, "seed": args.seed}
 
 
 def run(args) -> int:
@@ -184,40 +156,43 @@ def run(args) -> int:
     ignore_file_size_signal()
     try:
         robot = load_robot(args.robot)
-        grid, sampler = _commands(args, robot)
         protocol = Protocol(
             wait=not args.no_wait,
             reset=not args.no_reset,
             settle_tol_m=1e-3 * args.settle_tol_mm,
             reset_u_rad=args.reset_rad,
         )
-        order = (
-            np.random.default_rng(args.seed).permutation(len(grid))
-            if args.order == "shuffled"
-            else np.arange(len(grid))
-        )
-        what = f"{args.design} design" if args.design else f"{args.grid}^{robot.n_cables} grid"
-        print(
-            f"{robot.name}: {len(grid)} safe commands of the {what} on rig {args.rig!r}, journal {journal}",
-            file=sys.stderr,
-        )
+        if args.active is None:
+            grid, sampler = _commands(args, robot)
+            order = (
+                np.random.default_rng(args.seed).permutation(len(grid))
+                if args.order == "shuffled"
+                else np.arange(len(grid))
+            )
+            what = f"{args.design} design" if args.design else f"{args.grid}^{robot.n_cables} grid"
+            what = f"{len(grid)} safe commands of the {what}"
+        else:
+            what = f"{args.active} safe commands picked actively in batches of {args.batch}"
+        print(f"{robot.name}: {what} on rig {args.rig!r}, journal {journal}", file=sys.stderr)
         t0 = time.perf_counter()
         with make_rig(args.rig, robot, seed=args.seed) as rig:
             description = rig.describe()
-            header = {
-                "robot": {"name": robot.name, "sha256": robot.sha256},
-                "rig": rig_identity(description),
-                "sampler": sampler,
-            }
-            res = capture(
-                rig,
-                grid[order],
-                journal,
-                protocol,
-                header=header,
-                session_info={"command": command_line(args)},
-                progress=not args.no_progress,
-            )
+            header = {"robot": {"name": robot.name, "sha256": robot.sha256}, "rig": rig_identity(description)}
+            if args.active is not None:
+                from lab.cli.capture_active import capture_active
+
+                res, sampler = capture_active(args, robot, rig, protocol, journal, header, command_line(args))
+                grid, order = res.u_motor, np.arange(len(res.u_motor))
+            else:
+                res = capture(
+                    rig,
+                    grid[order],
+                    journal,
+                    protocol,
+                    header={**header, "sampler": sampler},
+                    session_info={"command": command_line(args)},
+                    progress=not args.no_progress,
+                )
         wall_s = time.perf_counter() - t0
     except KeyboardInterrupt as err:  # Ctrl-C, SIGTERM, SIGHUP: the rig is closed (torque off)
         why = f" by {err.args[0]}" if err.args else ""

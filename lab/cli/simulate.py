@@ -8,6 +8,7 @@ import shlex
 import sys
 
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
+from lab.cli.sampling import add_sampler_args, check_sampler_args
 from lab.errors import LabRuntimeError
 from lab.workers import default_jobs
 
@@ -21,10 +22,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "simulate", parents=parents, help="simulate (u, y) pairs of a robot with the FEM and write a dataset"
     )
     s.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
-    g = s.add_mutually_exclusive_group()
-    g.add_argument("--grid", type=int, default=7, metavar="LEVELS", help="grid levels per motor (default 7)")
-    g.add_argument("--sobol", type=int, metavar="N", help="N scrambled-Sobol samples instead of a grid")
-    s.add_argument("--seed", type=int, default=0, help="seed of the Sobol scrambling")
+    add_sampler_args(s)
+    s.add_argument("--seed", type=int, default=0, help="seed of the design (or of --active's picks and ensembles)")
     s.add_argument("--n-rings", type=int, help="override the description's mesh rings")
     s.add_argument("--n-axial", type=int, help="override the description's mesh layers")
     s.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes (default: all cores)")
@@ -33,8 +32,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     s.add_argument(
         "--checkpoint",
         metavar="DIR",
-        help="where finished chunks are kept until the dataset is written (default OUT.chunks); "
-        "running the same command again after a kill resumes from it",
+        help="where finished chunks (--active: batches) are kept until the dataset is written "
+        "(default OUT.chunks); running the same command again after a kill resumes from it",
     )
     s.add_argument(
         "--chunk-size",
@@ -57,6 +56,7 @@ def run(args) -> int:
     from lab.data.chunkstore import check_checkpoint
     from lab.description import load_robot
 
+    check_sampler_args(args)
     checkpoint = args.checkpoint or f"{args.out}.chunks"
     check_paths(
         {"--robot": existing(args.robot)},
@@ -83,44 +83,17 @@ def run(args) -> int:
 def _simulate(args, robot, checkpoint) -> int:
     from lab.data.chunkstore import clear_checkpoint, remove_checkpoint
     from lab.data.dataset import write_dataset
-    from lab.data.designs import grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
-    from lab.data.simulation import simulate
-    from lab.fem.linsolve import default_backend
-    from lab.fem.mesh import check_mesh_size
+    from lab.fem.mesh import check_mesh_size, cylinder_mesh
 
     n_rings = robot.n_rings if args.n_rings is None else args.n_rings
     n_axial = robot.n_axial if args.n_axial is None else args.n_axial
     check_mesh_size(n_rings, n_axial)  # before any work: refuse what cannot fit in memory
-    if args.sobol is not None:
-        u = sobol_commands(robot, args.sobol, seed=args.seed)
-        chunks = nearest_neighbour_chunks(u, size=args.chunk_size)
-        sampler = {"name": "sobol", "n": args.sobol, "seed": args.seed, "scramble": True}
-    else:
-        u = grid_commands(robot, args.grid)
-        chunks = grid_chunks(robot, u, target_size=args.chunk_size)
-        sampler = {"name": "grid", "levels": args.grid, "n_candidates": args.grid**robot.n_cables}
-    sampler["n_safe"] = len(u)
-    print(
-        f"{robot.name}: {len(u)} safe commands, mesh n_rings={n_rings} n_axial={n_axial}, {args.jobs} worker(s)",
-        file=sys.stderr,
-    )
     if args.restart:
         clear_checkpoint(checkpoint)  # only the checkpoint's own files, never anything else
-    res = simulate(
-        robot,
-        u,
-        chunks,
-        n_rings=n_rings,
-        n_axial=n_axial,
-        n_jobs=args.jobs,
-        progress=not args.no_progress,
-        checkpoint=checkpoint,
-        scheduler=args.scheduler,
-    )
+    run = _active if args.active is not None else _fixed
+    u, res, sampler = run(args, robot, checkpoint, n_rings, n_axial)
     if res["resumed_samples"]:
         print(f"resumed: {res['resumed_samples']} samples came from {checkpoint}", file=sys.stderr)
-    from lab.fem.mesh import cylinder_mesh
-
     mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)  # counts only
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
@@ -133,7 +106,7 @@ def _simulate(args, robot, checkpoint) -> int:
         },
         "sampler": sampler,
         "solver": {
-            "linear_solver": default_backend(),
+            "linear_solver": _backend(),
             "mean_newton_iterations": float(res["iterations"].mean()),
             "wall_s": res["wall_s"],
             "n_jobs": args.jobs,
@@ -150,3 +123,124 @@ def _simulate(args, robot, checkpoint) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+def _backend() -> str:
+    from lab.fem.linsolve import default_backend
+
+    return default_backend()
+
+
+def _announce(robot, n, n_rings, n_axial, jobs, how="") -> None:
+    print(
+        f"{robot.name}: {n} safe commands{how}, mesh n_rings={n_rings} n_axial={n_axial}, {jobs} worker(s)",
+        file=sys.stderr,
+    )
+
+
+def _fixed(args, robot, checkpoint, n_rings, n_axial):
+    """A grid or a design, simulated chunk by chunk (resumable through the chunk store)."""
+    from lab.cli.sampling import fixed_commands
+    from lab.data.designs import grid_chunks, nearest_neighbour_chunks
+    from lab.data.simulation import simulate
+
+    u, sampler = fixed_commands(args, robot)
+    sampler["n_safe"] = len(u)
+    if args.design == "sobol":
+        sampler["scramble"] = True
+    if args.design is None:
+        chunks = grid_chunks(robot, u, target_size=args.chunk_size)
+    else:
+        chunks = nearest_neighbour_chunks(u, size=args.chunk_size)
+    _announce(robot, len(u), n_rings, n_axial, args.jobs)
+    res = simulate(
+        robot,
+        u,
+        chunks,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=args.jobs,
+        progress=not args.no_progress,
+        checkpoint=checkpoint,
+        scheduler=args.scheduler,
+    )
+    return u, res, sampler
+
+
+def _active(args, robot, checkpoint, n_rings, n_axial):
+    """``--active N --batch B``: each batch simulated as soon as it is picked and saved in
+    the checkpoint (:class:`lab.data.batchstore.BatchStore`); a re-run continues after the
+    last saved batch."""
+    import functools
+    import time
+
+    import numpy as np
+
+    from lab.cli.sampling import active_settings, print_batch
+    from lab.data.batchstore import BatchStore
+    from lab.data.chunkstore import FORMAT_VERSION
+    from lab.data.designs import nearest_neighbour_chunks
+    from lab.data.simulation import simulate
+    from lab.learn.active import active_sampling
+    from lab.learn.ensemble import train_ensemble
+
+    settings = active_settings(args, robot)
+    kwargs = settings.pop("kwargs")
+    fp = {
+        "format_version": FORMAT_VERSION,
+        "kind": "lab.active-checkpoint",
+        "robot_sha256": robot.sha256,
+        "n_rings": int(n_rings),
+        "n_axial": int(n_axial),
+        "sampler": settings,
+    }
+    store = BatchStore(checkpoint, fp)
+    batches = store.load_batches()
+    fields = ("iterations", "factorizations", "time_s")
+    stats = {f: [b[f] for b in batches] for f in fields}
+    log = [b["entry"] for b in batches]
+    u_done = np.vstack([np.empty((0, robot.n_cables))] + [b["u_motor"] for b in batches])
+    y_done = np.vstack([np.empty((0, 3))] + [b["p_tip_W"] for b in batches])
+    _announce(robot, args.active, n_rings, n_axial, args.jobs, f" picked actively in batches of {args.batch}")
+    solved = {}
+
+    def measure(u_b):
+        solved.clear()
+        solved.update(
+            simulate(
+                robot,
+                u_b,
+                nearest_neighbour_chunks(u_b, size=args.chunk_size),
+                n_rings=n_rings,
+                n_axial=n_axial,
+                n_jobs=args.jobs,
+                progress=not args.no_progress,
+                scheduler=args.scheduler,
+            )
+        )
+        return solved["p_tip_W"]
+
+    def on_batch(u_b, y_b, entry):
+        order = np.arange(len(u_b))
+        store.save_batch(len(log), {"order": order, "u_motor": u_b, **solved}, entry)
+        log.append(entry)
+        for f in fields:
+            stats[f].append(solved[f])
+        print_batch(entry, args.active, sys.stderr)
+
+    t0 = time.perf_counter()
+    fit = functools.partial(train_ensemble, n_jobs=args.jobs)  # members on the workers; same result
+    u, y, _ = active_sampling(
+        robot,
+        measure,
+        args.active,
+        args.batch,
+        u_done=u_done,
+        y_done=y_done,
+        fit_ensemble=fit,
+        on_batch=on_batch,
+        **kwargs,
+    )
+    res = {f: np.concatenate(stats[f]) for f in fields}
+    res.update(p_tip_W=y, wall_s=time.perf_counter() - t0, resumed_samples=len(u_done))
+    return u, res, {**settings, "n_batches": len(log), "log": log}

@@ -38,8 +38,8 @@ MAX_POOL = 1_000_000
 
 def default_initial(n_total: int, batch: int, n_motors: int) -> int:
     """Samples of the initial design: ``max(2 batch, 10 m)`` (enough for a first fit of
-    every member), at most ``n_total``."""
-    return int(min(n_total, max(2 * batch, 10 * n_motors)))
+    every member), at most half of ``n_total`` (so that at least half is picked actively)."""
+    return int(max(1, min(max(2 * batch, 10 * n_motors), n_total // 2)))
 
 
 def default_radius(n_total: int, n_motors: int) -> float:
@@ -105,6 +105,7 @@ def active_sampling(
     u_done=None,
     y_done=None,
     fit_ensemble=None,
+    on_pick=None,
     on_batch=None,
 ) -> tuple[np.ndarray, np.ndarray, list[dict]]:
     """Measure ``n_total`` safe commands chosen where an ensemble disagrees (module docstring).
@@ -118,8 +119,9 @@ def active_sampling(
     seed=, epochs=)`` returns an object with ``predict_with_std(u (P, m)) -> (mean (P, 3),
     std (P, 3))`` m (default :func:`lab.learn.ensemble.train_ensemble`). ``u_done`` (N, m)
     rad, ``y_done`` (N, 3) m: samples of an earlier run of the same settings to continue
-    from (none: start with the initial design). ``on_batch(u_batch, y_batch, entry)`` is
-    called after each measured batch (the initial design included), e.g. to save them.
+    from (none: start with the initial design). ``on_pick(u_batch, entry)`` is called before
+    each batch (the initial design included) is measured, e.g. to journal the plan, and
+    ``on_batch(u_batch, y_batch, entry)`` after, e.g. to save the batch.
 
     Returns ``u`` (n_total, m) rad and ``y`` (n_total, 3) m (``u_done`` first, then each
     batch in the order picked) and the log of the batches measured by this call: one dict
@@ -149,8 +151,11 @@ def active_sampling(
         )
     log = []
 
-    def add(u_b, y_b, entry):
+    def add(u_b, entry):
         nonlocal u, y
+        if on_pick is not None:
+            on_pick(u_b, entry)
+        y_b = _measured(measure, u_b)
         u, y = np.vstack([u, u_b]), np.vstack([y, y_b])
         log.append(entry)
         if on_batch is not None:
@@ -159,7 +164,7 @@ def active_sampling(
     if len(u) == 0:
         u_b = sobol_commands(robot, n_initial, seed=seed)
         entry = {"batch": 0, "kind": "initial", "design": "sobol", "n_before": 0, "n": n_initial}
-        add(u_b, _measured(measure, u_b), entry)
+        add(u_b, entry)
     while len(u) < n_total:
         n_b = min(batch, n_total - len(u))
         pool_seed, fit_seed = _seeds(seed, len(u))
@@ -184,5 +189,5 @@ def active_sampling(
             "picked_spread_max_m": float(spread[picks].max()),
             "fit_s": fit_s,
         }
-        add(u_b, _measured(measure, u_b), entry)
+        add(u_b, entry)
     return u, y, log

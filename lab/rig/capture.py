@@ -87,6 +87,7 @@ def capture(
     header: dict | None = None,
     session_info: dict | None = None,
     progress: bool = False,
+    open_ended: bool = False,
 ) -> Capture:
     """Capture ``commands`` (N, m) rad, in this order, into the journal at ``journal_path``.
 
@@ -95,6 +96,11 @@ def capture(
     journaled sample is the command expected at its position. Raises JournalError for a
     journal of other settings; rig errors propagate (the journal keeps every sample
     recorded before them). Returns every sample, old and new.
+
+    ``open_ended``: the command list grows from call to call (active sampling: the next
+    batch depends on the samples so far), so the header records no hash of it; each call
+    passes the journaled commands followed by the new ones (:func:`journal_samples`
+    reads what a journal holds).
     """
     from tqdm import tqdm
 
@@ -106,15 +112,12 @@ def capture(
         raise InputError(f"commands must have shape (N, {m}), got {commands.shape}")
     for u in commands:
         rig.robot.check_command(u)  # fail before moving anything
-    full_header = {
-        "kind": "lab.capture",
-        **(header or {}),
-        "protocol": protocol.as_dict(),
-        "commands": {"n": len(commands), "sha256": _sha256(commands)},
-    }
+    full_header = _full_header(header, protocol, None if open_ended else commands)
     cols = journal_columns(m)
     with Journal.open(journal_path, full_header, cols) as journal:
         done = len(journal.rows)
+        if done > len(commands):
+            raise JournalError(f"{journal_path} holds {done} samples, more than the {len(commands)} commands given")
         for i, row in enumerate(journal.rows):
             if int(row["index"]) != i or not np.array_equal([row[f"u{j}"] for j in range(m)], commands[i]):
                 raise JournalError(f"{journal_path}: line for sample {i} does not match the command list")
@@ -179,6 +182,30 @@ def capture(
         notes=notes,
         new_samples=len(rows) - done,
     )
+
+
+def _full_header(header: dict | None, protocol: Protocol, commands: np.ndarray | None) -> dict:
+    """The journal's header: ``header``, the protocol and the commands' hash (or, open-ended, none)."""
+    listed = {"open_ended": True} if commands is None else {"n": len(commands), "sha256": _sha256(commands)}
+    return {"kind": "lab.capture", **(header or {}), "protocol": protocol.as_dict(), "commands": listed}
+
+
+def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol(), *, header: dict | None = None):
+    """What an open-ended capture's journal holds: commands ``u`` (N, m) rad, tips ``y``
+    (N, 3) m in journal order, and its notes as (tag, dict); empty if there is no journal.
+    Raises JournalError for a journal of other settings (as :func:`capture` would)."""
+    from pathlib import Path
+
+    empty = np.empty((0, n_motors)), np.empty((0, 3)), []
+    if not Path(journal_path).exists():
+        return empty
+    cols = journal_columns(n_motors)
+    with Journal.open(journal_path, _full_header(header, protocol, None), cols) as journal:
+        rows, notes = journal.rows, journal.notes
+    if not rows:
+        return empty[0], empty[1], notes
+    u = np.array([[r[f"u{j}"] for j in range(n_motors)] for r in rows])
+    return u, np.array([[r["x"], r["y"], r["z"]] for r in rows]), notes
 
 
 def _sha256(a: np.ndarray) -> str:
