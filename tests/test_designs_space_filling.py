@@ -121,6 +121,32 @@ CASES = [
         ("is the input --robot",),
         unchanged=("{dir}/robot.toml",),
     ),
+    # --lhs and --active (lab.cli.sampling) obey the same rules
+    Case("lhs-and-grid", [*CAPTURE, "--lhs", "3", "--grid", "3"], 2, ("not allowed with",), subprocess=True),
+    Case("active-and-sobol", [*CAPTURE, "--active", "6", "--sobol", "3"], 2, ("not allowed with",), subprocess=True),
+    Case(
+        "active-out-is-robot",
+        ["capture", "--robot", "{dir}/robot.toml", "--active", "6", "--batch", "2", "--out", "{dir}/robot.toml"],
+        2,
+        ("is the input --robot",),
+        unchanged=("{dir}/robot.toml",),
+    ),
+    Case(
+        "active-journal-is-out",
+        [*CAPTURE, "--active", "6", "--batch", "2", "--journal", "{dir}/c.csv"],
+        2,
+        ("is the same file as",),
+        absent=NOT_WRITTEN,
+    ),
+    Case(
+        "active-checkpoint-with-foreign-files",
+        ["simulate", "--active", "6", "--batch", "2", "--checkpoint", "{dir}/mine", "--out", "{dir}/o.csv"],
+        2,
+        ("holds files that are not a lab checkpoint", "notes.txt", "nothing was deleted"),
+        unchanged=("{dir}/mine/notes.txt",),
+        absent=("{dir}/o.csv",),
+        setup=lambda d: (d / "mine").mkdir() or (d / "mine" / "notes.txt").write_text("my notes"),
+    ),
 ]
 
 
