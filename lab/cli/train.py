@@ -1,4 +1,12 @@
-"""``python -m lab train``: train the forward model u -> y (an MLP) on a dataset."""
+"""``python -m lab train``: train a forward model u -> y (an MLP by default) on a dataset.
+
+``--model`` picks any model of :data:`lab.learn.models.MODEL_CHOICES`. The network
+(``mlp``) is split, initialised and trained by :func:`lab.learn.train.train` as before;
+every other model is fitted on the training part of the same ``dividerand`` split (same
+seed, same indices) and its errors are reported on all three parts. An ensemble's spread
+scale is fitted on the validation part, and its calibration on the test part is reported
+before and after (:func:`lab.learn.ensemble.calibration`).
+"""
 
 from __future__ import annotations
 
@@ -11,14 +19,14 @@ import numpy as np
 from lab.cli.paths import check_paths, check_writable
 from lab.errors import InputError
 
+MODEL_CHOICES = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp")  # lab.learn.models.MODEL_CHOICES
+
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     """Add this command to an ``argparse`` subparsers object; returns its parser."""
     t = subparsers.add_parser("train", parents=parents, help="train the forward model u -> y (an MLP) on a dataset")
     t.add_argument("data", help="dataset CSV (u0..,x,y,z), e.g. data/sim_three_cable.csv")
-    t.add_argument(
-        "--hidden", type=int, nargs="+", default=[20, 20], metavar="WIDTH", help="hidden layer widths (default: 20 20)"
-    )
+    add_model_arguments(t)
     t.add_argument("--out", required=True, help="output model file (.npz)")
     t.add_argument("--report", help="also write the train/validation/test errors as JSON here")
     t.add_argument(
@@ -31,17 +39,117 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     )
     t.add_argument("--seed", type=int, default=0, help="seed of the split and the initial weights")
     t.add_argument("--activation", choices=["tanh", "logistic"], default="tanh", help="hidden activation")
-    t.add_argument(
-        "--algorithm",
-        choices=["lm", "adam", "lbfgs"],
-        default="lm",
-        help="Levenberg-Marquardt (MATLAB trainlm, default), Adam or L-BFGS",
-    )
-    t.add_argument("--epochs", type=int, help="maximum epochs (default 1000)")
-    t.add_argument("--min-grad", type=float, help="LM: gradient stop (default 1e-6; 0 disables)")
+    t.add_argument("--jobs", type=int, default=1, help="ensemble: worker processes training the members (default 1)")
     t.set_defaults(func=run)
 
     return t
+
+
+def add_model_arguments(p: argparse.ArgumentParser) -> None:
+    """The model flags ``train`` and ``splits`` share."""
+    p.add_argument(
+        "--hidden", type=int, nargs="+", default=[20, 20], metavar="WIDTH", help="hidden layer widths (default: 20 20)"
+    )
+    p.add_argument(
+        "--model",
+        choices=MODEL_CHOICES,
+        default="mlp",
+        help="lab's network (default), a deep ensemble of them, or a scikit-learn peer "
+        "(Gaussian process, k-nearest neighbours, MLPRegressor), or the direct inverse u = g(y)",
+    )
+    p.add_argument(
+        "--algorithm",
+        choices=["lm", "adam", "lbfgs", "br"],
+        default="lm",
+        help="network training: Levenberg-Marquardt (MATLAB trainlm, default), Adam, L-BFGS, or "
+        "Bayesian regularisation (MATLAB trainbr)",
+    )
+    p.add_argument("--epochs", type=int, help="maximum epochs (default 1000)")
+    p.add_argument("--min-grad", type=float, help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br; 0 disables)")
+    p.add_argument("--members", type=int, default=5, help="ensemble: number of networks K >= 2 (default 5)")
+    p.add_argument(
+        "--forward",
+        help="inverse-mlp: a forward model file (.npz) that judges the commands: tip error |forward(g(y)) - y|",
+    )
+
+
+def check_model_arguments(args) -> None:
+    """InputError (exit 2) for values argparse cannot check."""
+    if any(h < 1 for h in args.hidden):
+        raise InputError(f"--hidden widths must be positive, got {args.hidden}")
+    if args.epochs is not None and args.epochs < 1:
+        raise InputError(f"--epochs must be positive, got {args.epochs}")
+    if args.model == "ensemble" and args.members < 2:
+        raise InputError(f"--members must be at least 2, got {args.members}")
+    if args.forward and args.model != "inverse-mlp":
+        raise InputError("--forward only applies to --model inverse-mlp")
+
+
+def fit_arguments(args) -> dict:
+    """The keyword arguments of :func:`lab.learn.models.fit_model` the flags give."""
+    from lab.learn.models import net_options
+
+    return {
+        "hidden": tuple(args.hidden),
+        "algorithm": args.algorithm,
+        "epochs": args.epochs,
+        "options": net_options(args.algorithm, args.min_grad),
+        "activation": args.activation,
+        "members": args.members,
+    }
+
+
+def _finite_or_none(d: dict) -> dict:
+    return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
+
+
+def _fit_other(args, u, y, forward):
+    """A model other than the plain network on the training part of train's own split;
+    returns (model, errors per set, calibration or None, split, wall_s)."""
+    import time
+
+    from lab.learn.ensemble import calibration
+    from lab.learn.models import fit_model, held_out_errors, outer_split
+    from lab.learn.split import check_enough_data
+
+    check_enough_data(u, args.split)
+    split = outer_split(len(u), args.split, args.seed)
+    t0 = time.perf_counter()
+    model = fit_model(
+        args.model, u[split.train], y[split.train], seed=args.seed, n_jobs=args.jobs, **fit_arguments(args)
+    )
+    wall_s = time.perf_counter() - t0
+    sets = {"train": split.train, "validation": split.validation, "test": split.test}
+    cal = None
+    if args.model in ("ensemble", "gpr") and len(split.test):
+        u_t, y_t = u[split.test], y[split.test]
+        if args.model == "ensemble":
+            cal = {"raw": calibration(y_t, *model.predict_with_std(u_t, scaled=False))}
+            if len(split.validation):
+                model.fit_spread_scale(u[split.validation], y[split.validation])
+                cal["scaled"] = calibration(y_t, *model.predict_with_std(u_t))
+                cal["spread_scale"] = model.spread_scale
+        else:
+            cal = {"raw": calibration(y_t, *model.predict_with_std(u_t))}
+    errors = {name: _finite_or_none(held_out_errors(model, u[idx], y[idx], forward)) for name, idx in sets.items()}
+    training = model.metadata.setdefault("training", {})
+    training.update(
+        {
+            "model": args.model,
+            "seed": args.seed,
+            "split": {
+                "method": "dividerand",
+                "ratios": list(map(float, args.split)),
+                **split.sizes(),
+                "indices": {k: v.tolist() for k, v in sets.items()},
+            },
+            "errors": errors,
+            "wall_s": wall_s,
+        }
+    )
+    if cal is not None:
+        training["calibration_test"] = cal
+    return model, errors, cal, wall_s
 
 
 def run(args) -> int:
@@ -51,77 +159,117 @@ def run(args) -> int:
 
     from lab.data.dataset import read_dataset
     from lab.files import atomic_write_text, code_version
-    from lab.learn.lm import LMOptions
     from lab.learn.metrics import workspace_size_m
-    from lab.learn.train import train
+    from lab.learn.models import load_model
+    from lab.learn.train import data_sha256, train
 
-    check_paths({"DATA": args.data, "DATA sidecar": f"{args.data}.json"}, {"--out": args.out, "--report": args.report})
+    check_paths(
+        {
+            "DATA": args.data,
+            "DATA sidecar": f"{args.data}.json",
+            **({"--forward": args.forward} if args.forward else {}),
+        },
+        {"--out": args.out, "--report": args.report},
+    )
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
     u, y, meta = read_dataset(args.data)
-    if any(h < 1 for h in args.hidden):
-        raise InputError(f"--hidden widths must be positive, got {args.hidden}")
-    if args.epochs is not None and args.epochs < 1:
-        raise InputError(f"--epochs must be positive, got {args.epochs}")
-    options = LMOptions(min_grad=args.min_grad) if args.algorithm == "lm" and args.min_grad is not None else None
+    check_model_arguments(args)
+    if args.jobs < 1:
+        raise InputError(f"--jobs must be positive, got {args.jobs}")
+    forward = load_model(args.forward) if args.forward else None
+    what = "-".join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))
+    what = {"mlp": what, "ensemble": f"{args.members} x {what}", "inverse-mlp": f"inverse {what}"}.get(args.model, "")
     print(
-        f"{args.data}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} outputs; training "
-        f"{'-'.join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))} ({args.activation}) with "
-        f"{args.algorithm}, split {args.split}, seed {args.seed}",
+        f"{args.data}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} outputs; training {args.model} "
+        f"{what}{f' ({args.activation}) with {args.algorithm}' if what else ''}, split {args.split}, seed {args.seed}",
         file=sys.stderr,
     )
-    res = train(
-        u,
-        y,
-        args.hidden,
-        activation=args.activation,
-        algorithm=args.algorithm,
-        ratios=args.split,
-        seed=args.seed,
-        epochs=args.epochs,
-        options=options,
-    )
+    cal = None
+    if args.model == "mlp":
+        res = train(
+            u,
+            y,
+            args.hidden,
+            activation=args.activation,
+            algorithm=args.algorithm,
+            ratios=args.split,
+            seed=args.seed,
+            epochs=args.epochs,
+            options=fit_arguments(args)["options"],
+        )
+        model, errors, wall_s = res.model, res.errors, res.log.wall_s
+        stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
+    else:
+        model, errors, cal, wall_s = _fit_other(args, u, y, forward)
+        stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
     file_sha = hashlib.sha256(Path(args.data).read_bytes()).hexdigest()
-    training = res.model.metadata["training"]
+    training = model.metadata["training"]
+    training.setdefault("data_sha256", data_sha256(u, y))
     training["data"] = {"path": str(args.data), "file_sha256": file_sha, "robot": (meta.get("robot") or {}).get("name")}
     training["command"] = "python -m lab " + shlex.join(args.argv)
-    res.model.save(args.out)
+    model.save(args.out)
     size = workspace_size_m(y) or float("nan")
-    print(
-        f"stopped: {training['stop_message']} after {res.log.epochs} epochs (best epoch "
-        f"{res.log.best_epoch}), {res.log.wall_s:.2f} s"
-    )
-    print(f"{'set':<11}{'n':>5}{'MSE [m^2]':>13}{'mean dist [mm]':>16}{'% of workspace':>16}")
-    for name, err in res.errors.items():
-        if err["n"]:
-            print(
-                f"{name:<11}{err['n']:>5}{err['mse_m2']:>13.3e}{1e3 * err['mean_distance_m']:>16.4f}"
-                f"{100 * err['mean_distance_m'] / size:>16.4f}"
-            )
-        else:
-            print(f"{name:<11}{0:>5}{'-':>13}{'-':>16}{'-':>16}")
+    if args.model == "mlp":
+        print(
+            f"stopped: {training['stop_message']} after {res.log.epochs} epochs (best epoch "
+            f"{res.log.best_epoch}), {res.log.wall_s:.2f} s"
+        )
+    else:
+        print(f"fitted {args.model} in {wall_s:.2f} s")
+    _print_errors(errors, size)
+    if cal is not None:
+        for which in ("raw", "scaled"):
+            if which in cal:
+                c = cal[which]
+                print(
+                    f"test calibration ({which} spread): {100 * c['within_1sigma']:.1f} % within 1 sigma, "
+                    f"{100 * c['within_2sigma']:.1f} % within 2 sigma (Gaussian 68.3 %, 95.4 %)"
+                )
     print(f"workspace size (bounding-box diagonal of the tip data): {1e3 * size:.1f} mm; model -> {args.out}")
     if args.report:
         report = {
             "kind": "lab.train_report",
             "format_version": 1,
-            **res.errors,
+            **errors,
             "workspace_size_m": size if np.isfinite(size) else None,
             "model": str(args.out),
+            "model_type": args.model,
             "data": str(args.data),
             "data_file_sha256": file_sha,
             "data_sha256": training["data_sha256"],
-            "layer_sizes": list(res.model.layer_sizes),
+            "layer_sizes": list(model.layer_sizes) if hasattr(model, "layer_sizes") else None,
             "activation": args.activation,
             "algorithm": args.algorithm,
             "seed": args.seed,
             "split": list(args.split),
-            "stop_reason": res.log.stop_reason,
-            "epochs": res.log.epochs,
-            "best_epoch": res.log.best_epoch,
-            "wall_s": res.log.wall_s,
+            **stop,
+            "wall_s": wall_s,
             "code_version": code_version(),
         }
+        if args.algorithm == "br" and "bayesian_regularisation" in training:
+            report["bayesian_regularisation"] = training["bayesian_regularisation"]
+        if cal is not None:
+            report["calibration_test"] = cal
         atomic_write_text(args.report, json.dumps(report, indent=2) + "\n")
     return 0
+
+
+def _print_errors(errors: dict, size: float) -> None:
+    command = any("mean_command_error_rad" in e for e in errors.values())
+    print(
+        f"{'set':<11}{'n':>5}{'MSE [m^2]':>13}{'mean dist [mm]':>16}{'% of workspace':>16}"
+        + (f"{'command err [rad]':>19}" if command else "")
+    )
+    for name, err in errors.items():
+        if err["n"]:
+            mse, dist = err["mse_m2"], err["mean_distance_m"]
+            line = (
+                f"{name:<11}{err['n']:>5}"
+                + (f"{mse:>13.3e}{1e3 * dist:>16.4f}{100 * dist / size:>16.4f}" if dist is not None else f"{'-':>45}")
+                + (f"{err['mean_command_error_rad']:>19.5f}" if command else "")
+            )
+            print(line)
+        else:
+            print(f"{name:<11}{0:>5}{'-':>13}{'-':>16}{'-':>16}")

@@ -10,13 +10,16 @@ residual model (:mod:`.residual`) and the data-only methods behind one call (:mo
 """
 
 from lab.learn.active import active_sampling, pick_apart
+from lab.learn.bayes import br_options, effective_parameters, train_br
+from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import train_adam, train_lbfgs
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
-from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
+from lab.learn.mlp import MLP, init_mlp, minmax_gain
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
+from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
 from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
@@ -31,6 +34,16 @@ from lab.learn.train import TrainResult, data_sha256, train
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
+    "br_options",
+    "effective_parameters",
+    "train_br",
+    "Ensemble",
+    "calibration",
+    "load_ensemble",
+    "train_ensemble",
+    "MODEL_CHOICES",
+    "evaluate_model_splits",
+    "fit_model",
     "active_sampling",
     "pick_apart",
     "InverseModel",

@@ -82,6 +82,9 @@ class MLP:
     :mod:`lab.learn.model_io` saves with the model.
     """
 
+    kind = "lab.mlp"  # the file kind (lab.learn.model_io.KIND); every lab model names its kind
+    has_jacobian = True
+
     def __init__(
         self, weights, biases, u_min, u_max, y_min, y_max, activation: str = "tanh", metadata: dict | None = None
     ):
@@ -319,7 +322,8 @@ def load_model(path):
     """Read a model written by :meth:`MLP.save` (``.npz``, no pickle) or, for a file of kind
     ``lab.residual``, a :class:`lab.learn.residual.ResidualModel` (same forward-map
     interface); raises :class:`lab.learn.model_io.ModelFileError` naming the file and the
-    problem."""
+    problem. :func:`lab.learn.models.load_model` (exported as ``lab.learn.load_model``)
+    reads every kind of model file."""
     from lab.learn.model_io import file_metadata
 
     if file_metadata(path).get("kind") == "lab.residual":

@@ -20,7 +20,7 @@ from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP, init_mlp
 from lab.learn.split import Split, check_enough_data, divide_random
 
-ALGORITHMS = ("lm", "adam", "lbfgs")
+ALGORITHMS = ("lm", "adam", "lbfgs", "br")
 
 
 def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
@@ -59,7 +59,10 @@ def train(
 
     ``u`` (N, n_u), ``y`` (N, n_y); ``ratios`` (train, validation, test); one random stream
     seeded by ``seed`` draws the split, then the initial weights. ``algorithm``: "lm"
-    (:func:`train_lm`, ``options`` an :class:`LMOptions`), "adam" or "lbfgs"
+    (:func:`train_lm`, ``options`` an :class:`LMOptions`), "br" (Bayesian regularisation,
+    :func:`lab.learn.bayes.train_br`, ``options`` an :class:`LMOptions`, default
+    :func:`lab.learn.bayes.br_options`; alpha, beta, gamma go to
+    ``metadata["training"]["bayesian_regularisation"]``), "adam" or "lbfgs"
     (:mod:`lab.learn.gradient`, ``options`` a dict of keyword arguments). ``epochs``
     overrides the maximum number of epochs. The model's ``metadata["training"]`` records
     everything needed to reproduce the run.
@@ -80,11 +83,13 @@ def train(
         for name, idx in (("train", split.train), ("validation", split.validation), ("test", split.test))
     }
     args = (*sets["train"], *sets["validation"], *sets["test"])
-    if algorithm == "lm":
-        opt = options or LMOptions()
+    if algorithm in ("lm", "br"):
+        from lab.learn.bayes import br_options, train_br
+
+        opt = options or (LMOptions() if algorithm == "lm" else br_options())
         if epochs is not None:
             opt = LMOptions(**{**asdict(opt), "epochs": epochs})
-        model, log = train_lm(model, *args, options=opt, progress=progress)
+        model, log = (train_lm if algorithm == "lm" else train_br)(model, *args, options=opt, progress=progress)
     else:
         from lab.learn.gradient import train_adam, train_lbfgs
 
@@ -119,5 +124,9 @@ def train(
         "n_samples": len(u),
         "wall_s": log.wall_s,
     }
+    if algorithm == "br":  # the evidence's hyperparameters, alpha, beta, gamma
+        from lab.learn.bayes import br_summary
+
+        model.metadata["training"]["bayesian_regularisation"] = br_summary(log, model.n_params)
     model.metadata["units"] = {"u": "rad", "y": "m"}
     return TrainResult(model, split, log, errors)

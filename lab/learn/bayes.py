@@ -1,0 +1,183 @@
+"""Bayesian regularisation (MATLAB ``trainbr``, MacKay 1992) for the forward model.
+
+Small noisy datasets are where an unregularised Levenberg-Marquardt fit either stops early
+(the paper's rules) or fits the noise (1000 epochs). ``trainbr`` minimises instead
+
+    F(theta) = beta * E_D + alpha * E_W,    E_D = sum_i |y(u_i) - y_i|^2 (m^2),  E_W = |theta|^2
+
+(``theta``: every weight and bias, normalised space), and re-estimates the two
+hyperparameters after every accepted step from the evidence (MacKay's fixed point, with
+the Gauss-Newton Hessian ``H = 2 (beta J^T J + alpha I)``):
+
+    gamma = sum_k lambda_k / (lambda_k + alpha / beta)     (lambda_k: eigenvalues of J^T J)
+    alpha = gamma / (2 E_W),    beta = (N_e - gamma) / (2 E_D)
+
+``gamma`` is the *effective number of parameters* (0 <= gamma < min(n_params, N_e)),
+``N_e = N * n_y`` the number of residuals, and ``1 / sqrt(2 beta)`` the estimated noise
+standard deviation per coordinate (m). Only the ratio ``r = alpha / beta`` enters the
+step, so everything is solved in the units of :mod:`lab.learn.lm`:
+
+    (J^T J / N_e + (mu + r / N_e) I) dtheta = -(J^T e + r theta) / N_e
+
+with ``trainlm``'s damping schedule (accept when ``E_D + r E_W`` decreases; mu * 0.1 on
+success, * 10 on failure). The Jacobian products, the Cholesky step and its kernel form
+(more parameters than residuals) are :mod:`lab.learn.lm`'s, not copies. The evidence
+needs the spectrum of ``J^T J``: one symmetric eigenvalue solve per epoch on the smaller
+of ``J^T J`` and ``J J^T`` (they share their non-zero eigenvalues).
+
+Differences from MATLAB, on purpose: the initial ``gamma`` is ``min(n_params, N_e / 2)``
+(MATLAB takes n_params and falls back to beta = 1 when that exceeds N_e, which in metres
+would be meaningless); the hyperparameters are updated at the *new* point after each
+accepted step; the validation set is recorded but never stops training (``trainbr``'s
+default ``max_fail = 0``), and the network returned is the last one (the objective
+changes with alpha and beta, so "best so far" has no meaning). Defaults are ``trainbr``'s:
+``mu = 0.005``, ``min_grad = 1e-7`` (on the gradient ``2 |J^T e + r theta| / N_e``), 1000 epochs.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, replace
+
+import numpy as np
+from scipy.linalg import eigvalsh
+
+from lab.learn.lm import LMOptions, TrainLog, _jacobian_products, _lm_step, mse
+from lab.learn.mlp import MLP
+
+__all__ = ["br_options", "effective_parameters", "train_br", "br_summary"]
+
+
+def br_options(**changes) -> LMOptions:
+    """``trainbr``'s defaults (mu 0.005, min_grad 1e-7, 1000 epochs) with ``changes`` applied."""
+    return replace(LMOptions(mu=0.005, min_grad=1e-7), **changes)
+
+
+def effective_parameters(system, ratio: float) -> float:
+    """MacKay's gamma = sum_k lambda_k / (lambda_k + ratio) over the eigenvalues of J^T J,
+    from a system of :func:`lab.learn.lm._jacobian_products` (upper triangle of J^T J / N_e
+    or of J J^T); ``ratio`` = alpha / beta (m^2 per unit squared weight)."""
+    lam = eigvalsh(system[1], lower=False, check_finite=False, overwrite_a=False)
+    if system[0] == "primal":
+        lam = lam * system[2]
+    lam = np.clip(lam, 0.0, None)
+    return float(np.sum(lam / (lam + ratio))) if ratio > 0 else float(np.count_nonzero(lam > 0))
+
+
+def _step(system, JE, theta, ratio, mu, n_e, buf):
+    """dtheta minimising |e + J d|^2 + ratio |theta + d|^2 + mu N_e |d|^2 (None if the damped
+    matrix is not positive definite), through :func:`lab.learn.lm._lm_step`."""
+    if system[0] == "primal":
+        return _lm_step(system, JE + (ratio / n_e) * theta, mu + ratio / n_e, n_e, buf)
+    # kernel form: with c = ratio + mu N_e and K = J J^T + c I (push-through identity),
+    # d = -(ratio / c) theta - J^T K^-1 (e - (ratio / c) J theta)
+    c = ratio + mu * n_e
+    J, e = system[2], system[3]
+    d = _lm_step(("kernel", system[1], J, e - (ratio / c) * (J @ theta)), JE, c / n_e, n_e, buf)
+    return None if d is None else d - (ratio / c) * theta
+
+
+def _systems(net, u, y, max_mb):
+    perf, JE, system = _jacobian_products(net, u, y, max_mb)
+    if system[0] == "primal":
+        system = (*system, y.size)  # the eigenvalues of J^T J are N_e times those stored
+    return perf, JE, system
+
+
+def _hyper(gamma: float, sse: float, ssw: float, n_e: int) -> tuple[float, float]:
+    """alpha = gamma / (2 E_W), beta = (N_e - gamma) / (2 E_D); guarded against 0 / 0."""
+    alpha = gamma / (2.0 * ssw) if ssw > 0 else 1.0
+    beta = (n_e - gamma) / (2.0 * sse) if sse > 0 else np.inf
+    return alpha, beta
+
+
+def train_br(
+    model: MLP,
+    u_train,
+    y_train,
+    u_val=None,
+    y_val=None,
+    u_test=None,
+    y_test=None,
+    options: LMOptions | None = None,
+    progress=None,
+) -> tuple[MLP, TrainLog]:
+    """Bayesian-regularised Levenberg-Marquardt (``trainbr``); returns (network, log).
+
+    ``u_*`` (N, n_u) rad, ``y_*`` (N, n_y) m; validation and test sets may be None or
+    empty and are only recorded. ``options`` default to :func:`br_options` (``max_fail``
+    is ignored). The log's ``history`` has, per epoch, ``perf`` (training MSE, m^2),
+    ``vperf``, ``tperf``, ``mu``, ``gradient``, ``gamma``, ``alpha``, ``beta`` (1/m^2) and
+    ``ssw`` (E_W); :func:`br_summary` condenses it."""
+    opt = options or br_options()
+    t0 = time.perf_counter()
+    net = model.copy()
+    u_train, y_train = np.asarray(u_train, float), np.asarray(y_train, float)
+    empty = (np.empty((0, net.n_u)), np.empty((0, net.n_y)))
+    u_val, y_val = (u_val, y_val) if u_val is not None and len(u_val) else empty
+    u_test, y_test = (u_test, y_test) if u_test is not None and len(u_test) else empty
+    n_e, n_p = y_train.size, net.n_params
+    theta = net.get_params()
+    perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb)
+    buf = np.empty_like(system[1], order="F")
+    ssw = float(theta @ theta)
+    gamma = min(float(n_p), 0.5 * n_e)
+    alpha, beta = _hyper(gamma, perf * n_e, ssw, n_e)
+    mu, hist, stop = opt.mu, [], None
+    for epoch in range(opt.epochs + 1):
+        ratio = alpha / beta
+        grad_F = JE + (ratio / n_e) * theta  # gradient of (E_D + r E_W) / N_e, halved
+        gradient = 2.0 * float(np.linalg.norm(grad_F))
+        if perf <= opt.goal:
+            stop = "goal"
+        elif epoch == opt.epochs:
+            stop = "max_epochs"
+        elif gradient <= opt.min_grad:
+            stop = "min_grad"
+        elif mu >= opt.mu_max:
+            stop = "mu_max"
+        row = (epoch, perf, mse(net, u_val, y_val), mse(net, u_test, y_test), mu, gradient, gamma, alpha, beta, ssw)
+        hist.append(row)
+        if progress is not None:
+            progress(epoch, row)
+        if stop:
+            break
+        objective = perf * n_e + ratio * ssw  # E_D + r E_W, m^2
+        while mu <= opt.mu_max:
+            step = _step(system, JE, theta, ratio, mu, n_e, buf)
+            if step is not None:
+                trial = theta + step
+                net.set_params(trial)
+                if mse(net, u_train, y_train) * n_e + ratio * float(trial @ trial) < objective:
+                    theta = trial
+                    mu = max(mu * opt.mu_dec, 1e-20)
+                    break
+            mu *= opt.mu_inc
+        net.set_params(theta)
+        perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb)
+        ssw = float(theta @ theta)
+        if mu <= opt.mu_max:  # an accepted step: re-estimate the hyperparameters there
+            gamma = effective_parameters(system, ratio)
+            alpha, beta = _hyper(gamma, perf * n_e, ssw, n_e)
+    cols = ("epoch", "perf", "vperf", "tperf", "mu", "gradient", "gamma", "alpha", "beta", "ssw")
+    history = {c: np.array([row[i] for row in hist]) for i, c in enumerate(cols)}
+    epochs = int(hist[-1][0])
+    return net, TrainLog("br", stop, epochs, epochs, history, asdict(opt), time.perf_counter() - t0)
+
+
+def br_summary(log: TrainLog, n_params: int) -> dict:
+    """The final hyperparameters of a :func:`train_br` log, for a model's training metadata:
+    ``alpha`` (1 / unit weight^2), ``beta`` (1/m^2), ``gamma`` (effective parameters),
+    ``n_params``, ``noise_std_m`` = 1 / sqrt(2 beta) (estimated noise per coordinate) and
+    ``sum_squared_weights`` (E_W)."""
+    h = log.history
+    beta = float(h["beta"][-1])
+    finite = bool(np.isfinite(beta) and beta > 0)  # infinite when the data are fitted exactly
+    return {
+        "alpha": float(h["alpha"][-1]),
+        "beta": beta if finite else None,
+        "gamma": float(h["gamma"][-1]),
+        "n_params": int(n_params),
+        "noise_std_m": float(1.0 / np.sqrt(2.0 * beta)) if finite else 0.0,
+        "sum_squared_weights": float(h["ssw"][-1]),
+    }

@@ -1,0 +1,260 @@
+"""Every forward (and the direct inverse) model behind one name: fit, load, ten-split study.
+
+``MODEL_CHOICES`` are the names ``python -m lab train/splits --model`` takes:
+
+* ``mlp`` -- :func:`lab.learn.train.train` (LM by default; ``algorithm="br"`` for Bayesian
+  regularisation, :mod:`lab.learn.bayes`);
+* ``ensemble`` -- :func:`lab.learn.ensemble.train_ensemble`, ``members`` networks;
+* ``gpr``, ``knn``, ``sklearn-mlp`` -- the scikit-learn peers (:mod:`lab.learn.peers`);
+* ``inverse-mlp`` -- the direct inverse u = g(y) (:mod:`lab.learn.inverse`): no forward
+  map, so its held-out error is the **command error** ``|g(y) - u|`` (rad) and, given a
+  forward model to judge it, the **tip error** ``|forward(g(y)) - y|`` (m), reported as
+  its ``mean_distance_m``; without one, ``mean_distance_m`` is NaN.
+
+:func:`load_model` reads any model file by the ``kind`` in its metadata (``lab.mlp``,
+``lab.residual``, ``lab.ensemble``, ``lab.gpr``, ``lab.knn``, ``lab.sklearn_mlp``,
+``lab.inverse_mlp``). :func:`evaluate_model_splits` is the paper's ten-split study for
+any model; its splits are :func:`lab.learn.train.train`'s for the same seeds (the same
+test indices), so models are compared on paired splits.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.learn.metrics import error_report
+from lab.learn.model_io import ModelFileError, file_metadata
+
+__all__ = [
+    "MODEL_CHOICES",
+    "MODEL_KINDS",
+    "evaluate_model_splits",
+    "fit_model",
+    "held_out_errors",
+    "load_model",
+    "net_options",
+    "outer_split",
+]
+
+MODEL_CHOICES = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp")
+#: file kind -> (module, loader function)
+MODEL_KINDS = {
+    "lab.mlp": ("lab.learn.mlp", None),
+    "lab.residual": ("lab.learn.residual", None),
+    "lab.ensemble": ("lab.learn.ensemble", "load_ensemble"),
+    "lab.gpr": ("lab.learn.peers", "load_peer"),
+    "lab.knn": ("lab.learn.peers", "load_peer"),
+    "lab.sklearn_mlp": ("lab.learn.peers", "load_peer"),
+    "lab.inverse_mlp": ("lab.learn.inverse", "load_inverse"),
+}
+
+
+def _check_name(name: str) -> None:
+    if name not in MODEL_CHOICES:
+        raise InputError(f"model must be one of {MODEL_CHOICES}, got {name!r}")
+
+
+def fit_model(
+    name: str,
+    u,
+    y,
+    *,
+    hidden=(20, 20),
+    seed: int = 0,
+    algorithm: str = "lm",
+    epochs: int | None = None,
+    members: int = 5,
+    options=None,
+    ratios=None,
+    activation: str = "tanh",
+    n_neighbors: int = 5,
+    n_jobs: int = 1,
+):
+    """Fit model ``name`` (one of :data:`MODEL_CHOICES`) to all of u (N, n_u) rad -> y (N, n_y) m;
+    returns the model.
+
+    Networks (mlp, each ensemble member, inverse-mlp) are trained by
+    :func:`lab.learn.train.train` with ``algorithm``, ``epochs``, ``options``,
+    ``activation``, ``hidden`` and ``seed``, on the split ``ratios`` of these data
+    (default :func:`lab.learn.ensemble.member_ratios`: a 10 % validation set for early
+    stopping, none for ``algorithm="br"``). ``members`` is the ensemble's K, ``n_jobs``
+    its worker processes; ``n_neighbors`` is k-NN's k. The scikit-learn peers take
+    ``seed`` (gpr, sklearn-mlp) and ``hidden`` (sklearn-mlp) and ignore the rest."""
+    from lab.learn.ensemble import member_ratios
+
+    _check_name(name)
+    u, y = np.asarray(u, float), np.asarray(y, float)
+    hidden = tuple(int(h) for h in hidden)
+    net_kwargs = {
+        "algorithm": algorithm,
+        "epochs": epochs,
+        "options": options,
+        "activation": activation,
+        "ratios": tuple(ratios) if ratios is not None else member_ratios(algorithm),
+    }
+    if name == "mlp":
+        from lab.learn.train import train
+
+        return train(u, y, hidden, seed=seed, **net_kwargs).model
+    if name == "ensemble":
+        from lab.learn.ensemble import train_ensemble
+
+        return train_ensemble(u, y, hidden, k=members, seed=seed, n_jobs=n_jobs, **net_kwargs)
+    if name == "inverse-mlp":
+        from lab.learn.inverse import fit_inverse
+
+        return fit_inverse(u, y, hidden, seed=seed, **net_kwargs)
+    from lab.learn.peers import fit_gpr, fit_knn, fit_sklearn_mlp
+
+    if name == "gpr":
+        return fit_gpr(u, y, seed=seed)
+    if name == "knn":
+        return fit_knn(u, y, n_neighbors=n_neighbors)
+    return fit_sklearn_mlp(u, y, hidden=hidden, seed=seed)
+
+
+def net_options(algorithm: str = "lm", min_grad: float | None = None):
+    """Options for :func:`lab.learn.train.train` with a gradient stop ``min_grad`` (None: the
+    algorithm's default): an :class:`lab.learn.lm.LMOptions` for "lm" (trainlm's) and "br"
+    (:func:`lab.learn.bayes.br_options`); None otherwise (Adam and L-BFGS have no such stop)."""
+    if min_grad is None or algorithm not in ("lm", "br"):
+        return None
+    if min_grad < 0:
+        raise InputError(f"min_grad must be >= 0, got {min_grad}")
+    from lab.learn.bayes import br_options
+    from lab.learn.lm import LMOptions
+
+    return LMOptions(min_grad=min_grad) if algorithm == "lm" else br_options(min_grad=min_grad)
+
+
+def load_model(path):
+    """Any lab model file, by the ``kind`` in its metadata (:data:`MODEL_KINDS`); raises
+    :class:`lab.learn.model_io.ModelFileError` naming the file and the problem, an
+    unknown kind included."""
+    import importlib
+
+    from lab.learn.mlp import ACTIVATIONS, MLP
+
+    kind = file_metadata(path).get("kind")
+    if kind not in MODEL_KINDS:
+        raise ModelFileError(f"{path}: unknown model kind {kind!r} (known: {sorted(MODEL_KINDS)})")
+    if kind == "lab.mlp":
+        from lab.learn.model_io import read_model
+
+        return MLP(**read_model(path, ACTIVATIONS))
+    if kind == "lab.residual":
+        from lab.learn.residual import load_residual
+
+        return load_residual(path, MLP, ACTIVATIONS)
+    module, loader = MODEL_KINDS[kind]
+    return getattr(importlib.import_module(module), loader)(path)
+
+
+def outer_split(n: int, ratios, seed: int):
+    """The split :func:`lab.learn.train.train` draws first from ``default_rng(seed)``: the
+    same train/validation/test indices for any model fitted with that seed."""
+    from lab.learn.split import divide_random
+
+    return divide_random(n, ratios, np.random.default_rng(seed))
+
+
+def held_out_errors(model, u, y, forward=None) -> dict:
+    """{"mse_m2", "mean_distance_m", "n"} of a forward model on (u, y) (None values for an
+    empty set); for a direct inverse also ``mean_command_error_rad`` = mean |g(y) - u|, and
+    its tip errors through ``forward`` (NaN without one)."""
+    if getattr(model, "kind", None) != "lab.inverse_mlp":
+        return error_report(model, u, y)
+    if len(u) == 0:
+        return {"mse_m2": None, "mean_distance_m": None, "mean_command_error_rad": None, "n": 0}
+    out = {"mean_command_error_rad": float(np.mean(np.linalg.norm(model.command(y) - u, axis=1))), "n": len(u)}
+    if forward is None:
+        return {"mse_m2": float("nan"), "mean_distance_m": float("nan"), **out}
+    from lab.learn.inverse import inverse_tip_errors
+
+    d = inverse_tip_errors(model, forward, y)
+    return {"mse_m2": float(np.mean(d * d) / y.shape[1]), "mean_distance_m": float(np.mean(d)), **out}
+
+
+def _one_split(u, y, name, ratios, seed, fit_kwargs, forward) -> dict:
+    from lab.workers import watch_parent
+
+    watch_parent()
+    split = outer_split(len(u), ratios, seed)
+    t0 = time.perf_counter()
+    model = fit_model(name, u[split.train], y[split.train], seed=seed, **fit_kwargs)
+    wall_s = time.perf_counter() - t0
+    row = {"model": name, "seed": seed, "wall_s": wall_s}
+    if name in ("mlp", "ensemble", "sklearn-mlp", "inverse-mlp"):
+        row["hidden"] = "-".join(map(str, fit_kwargs.get("hidden", (20, 20))))
+    sets = {"train": split.train, "validation": split.validation, "test": split.test}
+    if name == "ensemble" and len(split.validation):  # the post-hoc spread scale
+        model.fit_spread_scale(u[split.validation], y[split.validation])
+    for set_name, idx in sets.items():
+        err = held_out_errors(model, u[idx], y[idx], forward)
+        for key, value in err.items():
+            row[f"{set_name}_{key}"] = float("nan") if value is None else value
+    if name in ("ensemble", "gpr") and len(split.test):
+        from lab.learn.ensemble import calibration
+
+        mean, std = model.predict_with_std(u[split.test])
+        cal = calibration(y[split.test], mean, std)
+        row.update({f"test_{k}": cal[k] for k in ("within_1sigma", "within_2sigma", "radius_within_68")})
+        if name == "ensemble":
+            row["spread_scale"] = model.spread_scale
+    return row
+
+
+def evaluate_model_splits(
+    u,
+    y,
+    name: str = "mlp",
+    *,
+    n_splits: int = 10,
+    ratios=(0.9, 0.0, 0.1),
+    seed: int = 0,
+    n_jobs: int = 1,
+    forward=None,
+    **fit_kwargs,
+) -> list[dict]:
+    """The ten-split study for model ``name``: on each of ``n_splits`` random splits
+    (:func:`lab.learn.studies.run_seeds` seeds, :func:`outer_split` indices), fit on the
+    training part and report errors. ``mlp`` rows are :func:`lab.learn.studies.evaluate_splits`'s
+    (its own training-set split, ``fit_kwargs`` to :func:`lab.learn.train.train`); other
+    models' rows have ``model``, ``seed``, ``split``, ``wall_s`` (fit time, s) and per set
+    ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m`` (NaN where empty); ensembles
+    and GPs add the test calibration (``test_within_1sigma``, ``test_within_2sigma``,
+    ``test_radius_within_68``, :func:`lab.learn.ensemble.calibration`; an ensemble's spread
+    scale is fitted on the validation set when there is one); the inverse adds
+    ``{set}_mean_command_error_rad`` and judges tips by ``forward``."""
+    from lab.learn.split import check_enough_data
+    from lab.learn.studies import evaluate_splits, run_seeds
+
+    _check_name(name)
+    u, y = np.asarray(u, float), np.asarray(y, float)
+    if name == "mlp":
+        kwargs = {
+            k: v for k, v in fit_kwargs.items() if k in ("hidden", "algorithm", "epochs", "options", "activation")
+        }
+        rows = evaluate_splits(u, y, n_splits=n_splits, ratios=ratios, seed=seed, n_jobs=n_jobs, **kwargs)
+        return [{"model": name, **r} for r in rows]
+    check_enough_data(u, ratios)
+    jobs = [(u, y, name, tuple(ratios), s, fit_kwargs, forward) for s in run_seeds(seed, n_splits)]
+    if n_jobs == 1:
+        rows = [_one_split(*job) for job in jobs]
+    else:
+        from joblib import Parallel, delayed, parallel_config
+
+        from lab.workers import kill_local_workers
+
+        try:
+            with parallel_config(backend="loky", inner_max_num_threads=1):
+                rows = Parallel(n_jobs=n_jobs)(delayed(_one_split)(*job) for job in jobs)
+        except BaseException:  # Ctrl-C, SIGTERM: stop the workers
+            kill_local_workers()
+            raise
+    for i, row in enumerate(rows):
+        row["split"] = i
+    return rows
