@@ -108,9 +108,15 @@ def test_resume_measures_only_missing_rows_and_matches_a_full_run(tmp_path, caps
     assert main(_args(out, ["grid", "sobol", "random"], ["8", "16"])) == 0  # nothing left to do
     assert out.read_bytes() == before and "0 rows to measure" in capsys.readouterr().err
     assert len(json.loads(Path(f"{out}.json").read_text())["commands"]) == 2
+    # another seed: new designs, noise and weights on the same held-out set; seed 0 kept
+    assert main([*_args(out, ["sobol"], ["8"]), "--seeds", "0", "1"]) == 0
+    again = read_data_curve(out)
+    assert out.read_text().splitlines()[1:-1] == lines and [(r["seed"], r["n"]) for r in again[-1:]] == [(1, 8)]
+    s0 = next(r for r in again if (r["strategy"], r["n"], r["seed"]) == ("sobol", 8, 0))
+    assert again[-1]["model_error_m"] != s0["model_error_m"] and again[-1]["heldout_id"] == s0["heldout_id"]
     assert main(_args(full, ["grid", "sobol", "random"], ["8", "16"])) == 0
     key = lambda r: (r["strategy"], r["n"])  # noqa: E731
-    got = {key(r): r for r in read_data_curve(out)}
+    got = {key(r): r for r in read_data_curve(out) if r["seed"] == 0}
     want = {key(r): r for r in read_data_curve(full)}
     assert got.keys() == want.keys() and len(got) == 6
     for k, r in want.items():  # each row depends on its own (strategy, N) only
@@ -154,3 +160,43 @@ def test_smallest_n_and_hours_saved():
     assert got["random"] is None
     assert hours_saved(50, 290.0) == pytest.approx(258 / 290.0)
     assert hours_saved(PAPER_GRID_N, 290.0) == 0
+
+
+def test_active_rows_sample_in_batches_and_resume_unchanged(tmp_path, capsys):
+    pytest.importorskip("lab.learn.active")
+    out = tmp_path / "a.csv"
+    extra = ["--batch", "4", "--n-initial", "6", "--no-tracking"]
+    assert main(_args(out, ["active"], ["6", "14"], extra)) == 0
+    rows = read_data_curve(out)
+    assert [(r["strategy"], r["n"]) for r in rows] == [("active", 6), ("active", 14)]
+    assert rows[1]["model_error_m"] > 0 and rows[1]["design_s"] > rows[0]["design_s"]  # ensembles trained
+    before = out.read_bytes()
+    assert main(_args(out, ["active"], ["6", "14"], extra)) == 0 and out.read_bytes() == before
+    assert main(_args(out, ["active"], ["6", "14"], ["--batch", "5", "--n-initial", "6", "--no-tracking"])) == 2
+    assert "other settings (batch)" in capsys.readouterr().err
+
+
+def test_active_measures_exactly_n_with_the_robots_noise(robot):
+    pytest.importorskip("lab.learn.active")
+    body, _, noise = make_body(robot, "twin:random:0", n_rings=1, n_axial=4)
+    opts = {"batch": 3, "n_initial": 6, "hidden": (4,), "epochs": 3}
+    u, y = draw_and_measure(body, "active", 12, None, noise_sigma_m=noise, seed=0, opts=opts)
+    assert u.shape == (12, 3) and np.all(robot.is_safe(u))
+    err = y - quasi_static_tips(body, u)
+    assert 0 < np.abs(err).max() < 6 * noise
+    u2, y2 = draw_and_measure(body, "active", 12, None, noise_sigma_m=noise, seed=0, opts=opts)
+    np.testing.assert_array_equal(u, u2)
+    np.testing.assert_array_equal(y, y2)
+
+
+def test_other_models_and_algorithms_fit_from_the_registry(tmp_path):
+    pytest.importorskip("lab.learn.models")
+    out = tmp_path / "g.csv"
+    assert main(_args(out, ["sobol"], ["16"], ["--model", "gpr", "--no-tracking"])) == 0
+    (gpr,) = read_data_curve(out)
+    out2 = tmp_path / "b.csv"
+    assert main(_args(out2, ["sobol"], ["16"], ["--algorithm", "br", "--no-tracking"])) == 0
+    (br,) = read_data_curve(out2)
+    assert gpr["model"] == "gpr" and 0 < gpr["model_error_m"] < 0.05 and 0 < br["model_error_m"] < 0.05
+    assert "algorithm='br'" in json.loads(Path(f"{out2}.json").read_text())["model_recipe"]
+    assert main(_args(tmp_path / "c.csv", ["sobol"], ["16"], ["--algorithm", "magic"])) == 2

@@ -8,7 +8,8 @@ tracking errors (unless ``--no-tracking``), the fit time and the capture hours a
 measured rate. Rows are appended one by one (the file and its sidecar are rewritten
 atomically), so an interrupted run resumes where it stopped; a (strategy, N) already in
 the file is never measured again. A file is only resumed with the settings it was made
-with (robot, rig, model, mesh, held-out set, seed, ...).
+with (robot, rig, model, mesh, held-out set, ...). One row per (strategy, N, seed):
+``--seeds 0 1 2`` repeats each with other designs, noise and initial weights.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ COLUMNS = (
     "strategy",
     "n",
     "grid_levels",
+    "seed",
     "model",
     "model_error_m",
     "circle_m",
@@ -48,8 +50,10 @@ COLUMNS = (
     "heldout_id",
 )
 #: What a file is resumed with only if it was made with the same.
-SETTINGS = ("robot", "rig", "model", "hidden", "epochs", "seed", "heldout", "n_rings", "n_axial", "batch",
-            "tracking", "n_points", "samples_per_hour")  # fmt: skip
+SETTINGS = ("robot", "rig", "model", "hidden", "epochs", "heldout_seed", "heldout", "n_rings", "n_axial", "batch",
+            "tracking", "n_points", "samples_per_hour", "algorithm", "n_initial")  # fmt: skip
+#: The value of a setting added later, in files made before it.
+SETTING_DEFAULTS = {"algorithm": "lm", "n_initial": None}
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -77,9 +81,18 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     p.add_argument("--model", default="mlp", help="mlp (default), ensemble, gpr, knn, sklearn-mlp")
     p.add_argument("--hidden", type=int, nargs="+", default=[20, 20], help="hidden layer widths (default 20 20)")
     p.add_argument("--epochs", type=int, help="maximum training epochs (default: the trainer's)")
+    p.add_argument(
+        "--algorithm",
+        default="lm",
+        help="training: lm (default; the paper's stopping rules), br (Bayesian), adam, lbfgs",
+    )
     p.add_argument("--heldout", type=int, default=200, help="held-out random allowed commands (default 200)")
-    p.add_argument("--seed", type=int, default=0, help="seed of designs, noise and training; held-out: seed + 1")
+    p.add_argument(
+        "--seeds", type=int, nargs="+", default=[0], help="seeds of designs, noise and training: a row per seed"
+    )
+    p.add_argument("--heldout-seed", type=int, default=1, help="seed of the held-out commands (default 1)")
     p.add_argument("--batch", type=int, default=25, help="active: samples per batch (default 25)")
+    p.add_argument("--n-initial", type=int, help="active: initial Sobol design (default: max(2 batch, 10 motors))")
     p.add_argument("--n-points", type=int, default=24, help="targets per trajectory (default 24)")
     p.add_argument("--no-tracking", action="store_true", help="model error only (no Table I tracking)")
     p.add_argument("--n-rings", type=int, help="the FEM mesh of the robot (default: the description's)")
@@ -91,7 +104,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         help=f"dataset whose sidecar's capture.rate_samples_per_hour is used (default {DEFAULT_RATE_FROM})",
     )
     p.add_argument("--jobs", type=int, default=default_jobs(), help="worker processes, one row each")
-    p.add_argument("--out", required=True, help="CSV, one row per (strategy, N); resumed if it exists")
+    p.add_argument("--out", required=True, help="CSV, one row per (strategy, N, seed); resumed if it exists")
     p.set_defaults(func=run)
     return p
 
@@ -133,12 +146,12 @@ def _read(path: Path) -> tuple[list[dict], dict]:
 
 
 def read_data_curve(path) -> list[dict]:
-    """Rows of a ``data-curve`` CSV; numbers as floats (``n`` as int, ``grid_levels`` int or None)."""
+    """Rows of a ``data-curve`` CSV; numbers as floats (``n`` and ``seed`` as int, ``grid_levels`` int or None)."""
     rows, _ = _read(Path(path))
     text = ("robot", "rig", "rig_spec", "strategy", "model", "heldout_id")
     for r in rows:
         for k, v in r.items():
-            if k == "n":
+            if k in ("n", "seed"):
                 r[k] = int(v)
             elif k == "grid_levels":
                 r[k] = int(v) if v else None
@@ -169,12 +182,12 @@ def _body(robot_spec: str, rig: str, n_rings, n_axial):
 
 
 def measure_row(robot_spec: str, rig: str, mesh: tuple, heldout, plan: tuple, kw: dict) -> dict:
-    """One row (runs in this process or a worker)."""
+    """One row, ``plan`` = (strategy, n, levels, seed) (runs in this process or a worker)."""
     from lab.tracking.data_curve import data_curve_row
 
     body, label, noise = _body(robot_spec, rig, *mesh)
-    strategy, n, levels = plan
-    row = data_curve_row(body, strategy, n, levels, heldout=heldout, noise_sigma_m=noise, **kw)
+    strategy, n, levels, seed = plan
+    row = data_curve_row(body, strategy, n, levels, heldout=heldout, noise_sigma_m=noise, seed=seed, **kw)
     return {"robot": body.robot.name, "rig": label, "rig_spec": rig, **row}
 
 
@@ -185,10 +198,18 @@ def run(args) -> int:
     inputs = {"--robot": existing(args.robot) if args.robot.endswith(".toml") else None}
     check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json"})
     check_writable(args.out)
+    if min(args.seeds) < 0 or args.heldout_seed < 0:
+        raise InputError("--seeds and --heldout-seed must be integers >= 0")
     if min(args.ns) < 1 or args.heldout < 1 or args.batch < 1 or args.n_points < 2 or args.jobs < 1:
         raise InputError("--ns >= 1, --heldout >= 1, --batch >= 1, --n-points >= 2 and --jobs >= 1 are required")
     if args.epochs is not None and args.epochs < 1 or min(args.hidden) < 1:
         raise InputError("--epochs and --hidden widths must be positive")
+    from lab.learn.train import ALGORITHMS
+
+    if args.algorithm not in ALGORITHMS:
+        raise InputError(f"--algorithm must be one of {', '.join(ALGORITHMS)}, got {args.algorithm!r}")
+    if args.n_initial is not None and args.n_initial < 1:
+        raise InputError("--n-initial must be >= 1")
     if args.n_rings is not None or args.n_axial is not None:
         from lab.description import load_robot as _load
         from lab.fem.mesh import check_mesh_size
@@ -207,16 +228,22 @@ def run(args) -> int:
     out = Path(args.out)
     rows, old = _read(out)
     if rows and old.get("settings") is not None:
-        diff = [k for k in SETTINGS if json.dumps(old["settings"].get(k)) != json.dumps(settings[k])]
+        was = {k: old["settings"].get(k, SETTING_DEFAULTS.get(k)) for k in SETTINGS}
+        diff = [k for k in SETTINGS if json.dumps(was[k]) != json.dumps(settings[k])]
         if diff:
             raise InputError(f"{out} was made with other settings ({', '.join(diff)}); choose another --out")
 
     body, label, noise = _body(args.robot, args.rig, args.n_rings, args.n_axial)
-    heldout = heldout_set(body, args.heldout, args.seed + 1)
+    heldout = heldout_set(body, args.heldout, args.heldout_seed)
     if any(r["heldout_id"] != heldout[2] for r in rows):
         raise InputError(f"{out} was measured on another held-out set; choose another --out")
-    have = {(r["strategy"], int(r["n"])) for r in rows}
-    plan = [p for p in plan_rows(body.robot, strategies, args.ns, args.grid_levels) if p[:2] not in have]
+    have = {(r["strategy"], int(r["n"]), int(r["seed"])) for r in rows}
+    plan = [
+        (*p, seed)
+        for seed in dict.fromkeys(args.seeds)
+        for p in plan_rows(body.robot, strategies, args.ns, args.grid_levels)
+        if (*p[:2], seed) not in have
+    ]
     print(f"{len(plan)} rows to measure, {len(have)} already in {out}", file=sys.stderr)
     command = "python -m lab " + shlex.join(args.argv)
     commands = old.get("commands", []) if rows else []
@@ -228,18 +255,18 @@ def run(args) -> int:
         "settings": settings,
         "noise_sigma_m": noise,
         "samples_per_hour_source": rate_source,
-        "heldout": {"n": args.heldout, "seed": args.seed + 1, "id": heldout[2], "tips": "settled, no noise"},
+        "heldout": {"n": args.heldout, "seed": args.heldout_seed, "id": heldout[2], "tips": "settled, no noise"},
         "model_recipe": "mlp: lab.learn.train, LM with the paper's stopping rules, 90/10 train/validation split"
-        if args.model == "mlp"
-        else f"lab.learn.models.fit_model({args.model!r})",
+        if args.model == "mlp" and args.algorithm == "lm"
+        else f"lab.learn.models.fit_model({args.model!r}, algorithm={args.algorithm!r})",
         "command": command,
         "commands": commands + ([command] if command not in commands else []),
         "code_version": code_version(),
         "units": {"*_m": "m", "fit_s": "s", "design_s": "s", "capture_h": "h"},
     }
-    kw = {"model": args.model, "seed": args.seed, "hidden": tuple(args.hidden), "epochs": args.epochs,
-          "batch": args.batch, "tracking": not args.no_tracking, "n_points": args.n_points,
-          "samples_per_hour": rate}  # fmt: skip
+    kw = {"model": args.model, "hidden": tuple(args.hidden), "epochs": args.epochs, "algorithm": args.algorithm,
+          "batch": args.batch, "n_initial": args.n_initial, "tracking": not args.no_tracking,
+          "n_points": args.n_points, "samples_per_hour": rate}  # fmt: skip
     mesh = (args.n_rings, args.n_axial)
     if args.jobs == 1 or len(plan) <= 1:
         results = (measure_row(args.robot, args.rig, mesh, heldout, p, kw) for p in plan)

@@ -55,7 +55,8 @@ __all__ = [
 STRATEGIES = ("grid", "sobol", "lhs", "maximin", "random", "active")
 #: The paper's training set: the safe points of the 7^3 grid of the three-cable arm.
 PAPER_GRID_N = 308
-#: Forward models a row can fit (:func:`fit_forward_model`).
+#: Forward models a row can fit (:func:`fit_forward_model`; not the direct inverse, which
+#: predicts no tip).
 MODELS = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp")
 
 
@@ -187,12 +188,15 @@ def _row_rng(seed: int, strategy: str, n: int) -> np.random.Generator:
     return np.random.default_rng([int(seed), zlib.crc32(strategy.encode()), int(n)])
 
 
-def fit_forward_model(name: str, u, y, *, hidden=(20, 20), seed: int = 0, epochs: int | None = None):
-    """A forward model u (N, m) rad -> y (N, 3) m. ``"mlp"``: ``lab``'s network trained by LM
-    with the paper's stopping rules on a 90/10 train/validation split (all for training
-    below 10 samples), as the transfer curve's ``real-only``; any other name goes to
-    :func:`lab.learn.models.fit_model` (ensemble, gpr, knn, sklearn-mlp)."""
-    if name == "mlp":
+def fit_forward_model(
+    name: str, u, y, *, hidden=(20, 20), seed: int = 0, epochs: int | None = None, algorithm: str = "lm"
+):
+    """A forward model u (N, m) rad -> y (N, 3) m. ``"mlp"`` by ``"lm"``: ``lab``'s network
+    trained by LM with the paper's stopping rules on a 90/10 train/validation split (all for
+    training below 10 samples), as the transfer curve's ``real-only``; anything else goes to
+    :func:`lab.learn.models.fit_model` (e.g. ``algorithm="br"``: Bayesian regularisation,
+    no validation set; models ensemble, gpr, knn, sklearn-mlp)."""
+    if name == "mlp" and algorithm == "lm":
         from lab.learn.train import train
 
         ratios = (0.9, 0.1, 0.0) if len(u) >= 10 else (1.0, 0.0, 0.0)
@@ -200,14 +204,15 @@ def fit_forward_model(name: str, u, y, *, hidden=(20, 20), seed: int = 0, epochs
     try:
         from lab.learn.models import fit_model
     except ImportError:
-        raise InputError(f"model {name!r} is not available (lab.learn.models is missing); use mlp") from None
-    return fit_model(name, u, y, hidden=tuple(hidden), seed=seed, epochs=epochs)
+        raise InputError(f"model {name!r} by {algorithm!r} needs lab.learn.models, which is missing") from None
+    return fit_model(name, u, y, hidden=tuple(hidden), seed=seed, epochs=epochs, algorithm=algorithm)
 
 
 def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: float, seed: int, opts: dict):
     """Commands (n, m) rad of one row and their measured tips (n, 3) m (settled, plus noise of
     ``noise_sigma_m`` per axis from the row's own stream). ``active`` measures batch by batch
-    as it samples (``opts``: ``batch``, ``hidden``, ``epochs``)."""
+    as it samples (``opts``: ``batch``, ``n_initial`` (None: the sampler's default), ``hidden``,
+    ``epochs``, ``algorithm`` of the ensemble)."""
     from lab.data.designs import design_commands, grid_commands
 
     rng = _row_rng(seed, strategy, n)
@@ -226,13 +231,25 @@ def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: floa
             measure,
             n,
             min(int(opts["batch"]), n),
+            n_initial=None if opts.get("n_initial") is None else min(int(opts["n_initial"]), n),
             hidden=tuple(opts["hidden"]),
             seed=seed,
             epochs=opts["epochs"],
+            fit_ensemble=_ensemble_fitter(opts),
         )
         return np.asarray(u, float), np.asarray(y, float)
     u = grid_commands(robot, levels) if strategy == "grid" else design_commands(robot, n, strategy, seed)
     return u, measure(u)
+
+
+def _ensemble_fitter(opts: dict):
+    """The active sampler's ensemble trained with the row's algorithm (None: its default)."""
+    algorithm = opts.get("algorithm", "lm")
+    if algorithm == "lm":
+        return None
+    from lab.learn.ensemble import train_ensemble
+
+    return lambda u, y, **kw: train_ensemble(u, y, algorithm=algorithm, **kw)
 
 
 def data_curve_row(
@@ -248,6 +265,8 @@ def data_curve_row(
     hidden=(20, 20),
     epochs: int | None = None,
     batch: int = 25,
+    n_initial: int | None = None,
+    algorithm: str = "lm",
     tracking: bool = True,
     n_points: int = 24,
     samples_per_hour: float,
@@ -255,17 +274,19 @@ def data_curve_row(
     """One row: ``strategy`` draws ``n`` commands (a grid: its ``levels``, whose safe count
     ``n`` is), the body's tips are measured, ``model`` is fitted and evaluated on ``heldout``
     = (u (H, m) rad, settled tips (H, 3) m, fingerprint). Errors in m, times in s, ``capture_h``
-    in hours at ``samples_per_hour``; the shapes' errors are NaN without ``tracking``."""
+    in hours at ``samples_per_hour``; the shapes' errors are NaN without ``tracking``.
+    ``algorithm`` trains the model (and the active sampler's ensemble); ``batch`` and
+    ``n_initial`` (None: the sampler's default) are the active sampler's."""
     t0 = time.perf_counter()
     u, y = draw_and_measure(
         body, strategy, n, levels, noise_sigma_m=noise_sigma_m, seed=seed,
-        opts={"batch": batch, "hidden": hidden, "epochs": epochs},
+        opts={"batch": batch, "n_initial": n_initial, "hidden": hidden, "epochs": epochs, "algorithm": algorithm},
     )  # fmt: skip
     t_design = time.perf_counter() - t0
     if len(u) != n:
         raise InputError(f"{strategy}: drew {len(u)} commands for N = {n}")
     t0 = time.perf_counter()
-    fitted = fit_forward_model(model, u, y, hidden=hidden, seed=seed, epochs=epochs)
+    fitted = fit_forward_model(model, u, y, hidden=hidden, seed=seed, epochs=epochs, algorithm=algorithm)
     t_fit = time.perf_counter() - t0
     u_test, tips_test, fingerprint = heldout
     if tracking:
@@ -278,6 +299,7 @@ def data_curve_row(
         "strategy": strategy,
         "n": int(n),
         "grid_levels": "" if levels is None else int(levels),
+        "seed": int(seed),
         "model": model,
         "model_error_m": ev["model_error_m"],
         **{f"{s}_m": ev[f"{s}_m"] for s in SHAPES},
@@ -292,7 +314,7 @@ def data_curve_row(
 def smallest_n(rows, metric: str, threshold: float) -> dict:
     """Per strategy, the smallest N whose ``metric`` (e.g. ``model_error_m`` <= 0.5e-3, or
     ``tracking_mean_m`` <= 1.5e-3) is at most ``threshold``, with that value: ``(n, value)``,
-    or None if no N reaches it. Rows of several robots (``rig_spec``) are averaged per N."""
+    or None if no N reaches it. Rows of several robots or seeds are averaged per N."""
     out = {}
     for s in dict.fromkeys(r["strategy"] for r in rows):
         per_n: dict[int, list] = {}
