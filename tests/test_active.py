@@ -5,7 +5,7 @@ import pytest
 
 from lab.description import load_robot
 from lab.errors import InputError, LabRuntimeError
-from lab.learn.active import active_sampling, default_initial, pick_apart
+from lab.learn.active import active_sampling, default_initial, pick_apart, pool_density
 
 
 @pytest.fixture(scope="module")
@@ -152,11 +152,10 @@ def test_pick_apart():
 
 
 def test_defaults_and_bad_arguments(robot):
-    assert default_initial(200, 8, 3) == 30 and default_initial(200, 25, 3) == 50 and default_initial(12, 8, 3) == 6
-    assert default_initial(1, 8, 3) == 1
+    assert default_initial(200) == 100 and default_initial(13) == 6 and default_initial(1) == 1
     calls = []
-    u, _, log = active_sampling(robot, tip, 80, 8, fit_ensemble=corner_fit(robot, calls))
-    assert [e["n"] for e in log] == [30] + [8] * 6 + [2] and calls[0][1:5] == ((20, 20), 5, calls[0][3], None)
+    u, _, log = active_sampling(robot, tip, 61, 8, fit_ensemble=corner_fit(robot, calls))
+    assert [e["n"] for e in log] == [30] + [8] * 3 + [7] and calls[0][1:5] == ((20, 20), 5, calls[0][3], None)
     fit = corner_fit(robot, [])
     for kwargs, words in [
         (dict(n_total=0, batch=2), "n_total >= 1"),
@@ -166,6 +165,7 @@ def test_defaults_and_bad_arguments(robot):
         (dict(n_total=10, batch=2, seed=-1), "seed >= 0"),
         (dict(n_total=10, batch=2, pool_size=1), "pool_size >= 2"),
         (dict(n_total=10, batch=2, radius=0.0), "radius"),
+        (dict(n_total=10, batch=2, density_radius=-1.0), "density_radius"),
         (dict(n_total=10, batch=2, u_done=np.full((2, 3), 3.0), y_done=np.zeros((2, 3))), "safe commands"),
         (dict(n_total=10, batch=2, u_done=np.zeros((2, 3)), y_done=np.zeros((1, 3))), "same number"),
     ]:
@@ -173,3 +173,33 @@ def test_defaults_and_bad_arguments(robot):
             active_sampling(robot, tip, fit_ensemble=fit, **kwargs)
     with pytest.raises(LabRuntimeError, match="finite tips"):
         active_sampling(robot, lambda u: tip(u)[:, :2], 10, 2, fit_ensemble=fit)
+
+
+def test_the_density_keeps_picks_off_the_boundary(robot):
+    """Where the members disagree equally, picks go where a sample informs the most volume."""
+
+    class Flat(CornerEnsemble):
+        def predict_with_std(self, u_pool):
+            return np.zeros((len(u_pool), 3)), np.full((len(u_pool), 3), 1e-3)
+
+    def to_boundary(u):  # distance (u / u_max) to the nearest face of the box or of the safety rule
+        x = u / robot.u_max_rad
+        plane = (robot.safety_limits[0].max_sum_over_u_max - x.sum(axis=1)) / np.sqrt(3)
+        return np.minimum(np.minimum(x, 1 - x).min(axis=1), plane)
+
+    def picks(density_radius):
+        u, _, _ = active_sampling(
+            robot,
+            tip,
+            60,
+            10,
+            n_initial=10,
+            fit_ensemble=lambda u, y, **kw: Flat(robot, u, y, 0),
+            density_radius=density_radius,
+        )
+        return u[10:]
+
+    inside, spread_only = to_boundary(picks(0.3)), to_boundary(picks(None))
+    assert inside.mean() > 2 * spread_only.mean()  # spread alone fills the boundary first (maximin-like)
+    x = np.array([[0.5, 0.5, 0.5], [0.0, 0.0, 0.0], [0.55, 0.5, 0.5]])
+    assert pool_density(x, 0.2).tolist() == [1.0, 0.5, 1.0]

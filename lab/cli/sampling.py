@@ -34,7 +34,7 @@ def add_sampler_args(p) -> None:
         type=int,
         metavar="N",
         help="N commands measured in batches of --batch, each where an ensemble trained on the samples "
-        "so far disagrees most (first a Sobol design of max(2 B, 10 m) commands, at most N/2)",
+        "so far disagrees most (the first N/2: a Sobol design)",
     )
     p.add_argument("--n", type=int, metavar="N", help="number of commands of --design")
     p.add_argument("--batch", type=int, metavar="B", help="samples per batch of --active")
@@ -139,9 +139,10 @@ def active_settings(args, robot) -> dict:
         "batch": args.batch,
         "seed": args.seed,
         "initial_design": "sobol",
-        "n_initial": default_initial(args.active, args.batch, robot.n_cables),
+        "n_initial": default_initial(args.active),
         "pool_size": 4096,
         "radius": default_radius(args.active, robot.n_cables),
+        "density_radius": 0.3,
         "ensemble": {
             "trainer": "lab.learn.ensemble.train_ensemble",
             "members": args.ensemble_members,
@@ -153,6 +154,7 @@ def active_settings(args, robot) -> dict:
         n_initial=settings["n_initial"],
         pool_size=settings["pool_size"],
         radius=settings["radius"],
+        density_radius=settings["density_radius"],
         hidden=tuple(args.ensemble_hidden),
         k=args.ensemble_members,
         seed=args.seed,

@@ -8,11 +8,15 @@ first, issue 14), then repeats until ``n_total`` samples are measured:
    :func:`lab.learn.ensemble.train_ensemble`);
 2. draw a fresh, seeded pool of ``pool_size`` safe Sobol candidates and score each by
    the ensemble's spread ``|std(u)|`` (m: the norm of the per-coordinate standard
-   deviations of the members' tip predictions);
-3. pick ``batch`` candidates (:func:`pick_apart`): greedily the highest spread, each
-   score scaled down by ``min(1, d / radius)`` where ``d`` is the distance (in
-   ``u / u_max``) to the nearest sample measured or already picked, so a batch does not
-   pile up on one peak of the spread;
+   deviations of the members' tip predictions) times its *density*, the share of the
+   pool within ``density_radius`` of it (relative to the largest): the spread is largest
+   on the boundary of the safe set, where a sample informs the least volume, and picking
+   by spread alone put two thirds of the picks there and gave a larger held-out error
+   (three-cable FEM, N = 100-200: 15-20 % larger than with the density);
+3. pick ``batch`` candidates (:func:`pick_apart`): greedily the highest score, each
+   scaled down by ``min(1, d / radius)`` where ``d`` is the distance (in ``u / u_max``)
+   to the nearest sample measured or already picked, so a batch does not pile up on one
+   peak of the spread;
 4. measure them with ``measure(u_batch) -> y_batch`` (the simulator or a rig: the caller
    wires it) and append.
 
@@ -36,10 +40,20 @@ from lab.errors import InputError, LabRuntimeError
 MAX_POOL = 1_000_000
 
 
-def default_initial(n_total: int, batch: int, n_motors: int) -> int:
-    """Samples of the initial design: ``max(2 batch, 10 m)`` (enough for a first fit of
-    every member), at most half of ``n_total`` (so that at least half is picked actively)."""
-    return int(max(1, min(max(2 * batch, 10 * n_motors), n_total // 2)))
+def default_initial(n_total: int) -> int:
+    """Samples of the initial Sobol design: half of ``n_total`` (at least 1). Half was
+    better than 30 (three-cable FEM, N = 200: 1.50 against 1.63 mm held-out error) and as
+    good as three quarters: the ensemble's spread is a weak guide while data are few."""
+    return int(max(1, n_total // 2))
+
+
+def pool_density(x_pool: np.ndarray, radius: float) -> np.ndarray:
+    """Per candidate of ``x_pool`` (P, m), the number of candidates within ``radius`` of it
+    (itself included) over the largest such number: (P,) in (0, 1]."""
+    from scipy.spatial import cKDTree
+
+    count = cKDTree(x_pool).query_ball_point(x_pool, radius, return_length=True).astype(float)
+    return count / count.max()
 
 
 def default_radius(n_total: int, n_motors: int) -> float:
@@ -102,6 +116,7 @@ def active_sampling(
     seed: int = 0,
     epochs: int | None = None,
     radius: float | None = None,
+    density_radius: float | None = 0.3,
     u_done=None,
     y_done=None,
     fit_ensemble=None,
@@ -111,11 +126,12 @@ def active_sampling(
     """Measure ``n_total`` safe commands chosen where an ensemble disagrees (module docstring).
 
     ``measure(u_batch (B, m) rad) -> y (B, 3) m`` measures a batch. ``n_initial``: size of
-    the initial Sobol design (default :func:`default_initial`); ``batch``: samples per
+    the initial Sobol design (default :func:`default_initial`, half); ``batch``: samples per
     active batch (the last may be smaller); ``pool_size`` candidates scored per batch;
     ``hidden``, ``k``, ``epochs``: the ensemble (``k`` members of widths ``hidden``, at
     most ``epochs`` epochs, None: the trainer's default); ``radius``: of :func:`pick_apart`
-    in ``u / u_max`` (default :func:`default_radius`). ``fit_ensemble(u, y, hidden=, k=,
+    in ``u / u_max`` (default :func:`default_radius`); ``density_radius``: of
+    :func:`pool_density` in ``u / u_max`` (None: score by spread alone). ``fit_ensemble(u, y, hidden=, k=,
     seed=, epochs=)`` returns an object with ``predict_with_std(u (P, m)) -> (mean (P, 3),
     std (P, 3))`` m (default :func:`lab.learn.ensemble.train_ensemble`). ``u_done`` (N, m)
     rad, ``y_done`` (N, 3) m: samples of an earlier run of the same settings to continue
@@ -130,7 +146,7 @@ def active_sampling(
     """
     m = robot.n_cables
     n_total, batch = _check_int("n_total", n_total, 1), _check_int("batch", batch, 1)
-    n_initial = default_initial(n_total, batch, m) if n_initial is None else _check_int("n_initial", n_initial, 1)
+    n_initial = default_initial(n_total) if n_initial is None else _check_int("n_initial", n_initial, 1)
     if n_initial > n_total:
         raise InputError(f"active sampling: n_initial = {n_initial} exceeds n_total = {n_total}")
     pool_size, k = _check_int("pool_size", pool_size, batch), _check_int("k", k, 2)
@@ -138,8 +154,8 @@ def active_sampling(
         raise InputError(f"active sampling: pool_size = {pool_size} exceeds {MAX_POOL}")
     seed = _check_int("seed", seed, 0)
     radius = default_radius(n_total, m) if radius is None else float(radius)
-    if not radius > 0:
-        raise InputError(f"active sampling: radius must be positive, got {radius}")
+    if not radius > 0 or (density_radius is not None and not density_radius > 0):
+        raise InputError(f"active sampling: radius and density_radius must be positive, got {radius}, {density_radius}")
     if fit_ensemble is None:
         from lab.learn.ensemble import train_ensemble as fit_ensemble
     u = np.empty((0, m)) if u_done is None else np.asarray(u_done, dtype=float).reshape(-1, m)
@@ -174,7 +190,9 @@ def active_sampling(
         _, std = ensemble.predict_with_std(pool)
         fit_s = time.perf_counter() - t0
         spread = np.linalg.norm(np.asarray(std, dtype=float).reshape(len(pool), -1), axis=1)
-        picks = pick_apart(pool / robot.u_max_rad, spread, u / robot.u_max_rad, n_b, radius)
+        x_pool = pool / robot.u_max_rad
+        score = spread if density_radius is None else spread * pool_density(x_pool, density_radius)
+        picks = pick_apart(x_pool, score, u / robot.u_max_rad, n_b, radius)
         u_b = pool[picks]
         entry = {
             "batch": 1 + -(-(len(u) - n_initial) // batch),  # the initial design is batch 0
