@@ -163,3 +163,24 @@ def test_capture_lhs(tmp_path):
     u, _, meta = read_dataset(out)
     assert np.array_equal(u, design_commands(load_robot(robot), 3, "lhs", seed=0))
     assert meta["sampler"]["name"] == "lhs" and "--design lhs --n 3" in meta["command"]
+
+
+def test_batch_store_round_trip_and_a_corrupt_batch(tmp_path):
+    from lab.data.batchstore import BatchStore
+    from lab.data.chunkstore import CheckpointError
+
+    fp = {"kind": "lab.active-checkpoint", "n": 9}
+    store = BatchStore(tmp_path / "ck", fp)
+    rng = np.random.default_rng(0)
+    for i in range(3):
+        u = rng.random((3, 3))
+        res = {"order": np.arange(3), "u_motor": u, "p_tip_W": u[:, ::-1], "iterations": np.ones(3, int)}
+        store.save_batch(i, {**res, "factorizations": np.ones(3, int), "time_s": np.zeros(3)}, {"batch": i, "x": 0.5})
+    batches = BatchStore(tmp_path / "ck", fp).load_batches()
+    assert [b["entry"] for b in batches] == [{"batch": i, "x": 0.5} for i in range(3)]
+    assert np.array_equal(batches[2]["p_tip_W"], batches[2]["u_motor"][:, ::-1])
+    (tmp_path / "ck" / "chunk_00001.npz").write_bytes(b"torn")  # killed while writing? never (atomic), but a bad disk
+    assert len(BatchStore(tmp_path / "ck", fp).load_batches()) == 1
+    assert sorted(p.name for p in (tmp_path / "ck").glob("chunk_*")) == ["chunk_00000.npz"]  # later ones re-measured
+    with pytest.raises(CheckpointError, match="belongs to another run"):
+        BatchStore(tmp_path / "ck", {**fp, "n": 10})
