@@ -159,3 +159,18 @@ def test_cli_bad_model_arguments_exit_2(dataset, tmp_path, capsys):
     assert main(["train", str(dataset), "--forward", str(dataset), "--out", str(out)]) == 2
     assert "--forward only applies to --model inverse-mlp" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_ensemble_splits_fit_the_spread_scale_on_the_validation_set():
+    u, y = arm_like(80)
+    rows = evaluate_model_splits(
+        u, y, "ensemble", n_splits=2, ratios=(0.7, 0.15, 0.15), seed=1, hidden=(4,), epochs=5, members=2
+    )
+    for r in rows:
+        split = outer_split(len(u), (0.7, 0.15, 0.15), r["seed"])
+        ens = fit_model("ensemble", u[split.train], y[split.train], hidden=(4,), seed=r["seed"], epochs=5, members=2)
+        assert r["test_mean_distance_m"] == pytest.approx(
+            np.mean(np.linalg.norm(ens.predict(u[split.test]) - y[split.test], axis=1)), rel=1e-9
+        )
+        assert r["spread_scale"] == pytest.approx(ens.fit_spread_scale(u[split.validation], y[split.validation]))
+        assert r["spread_scale"] != 1.0 and 0 <= r["test_raw_within_1sigma"] <= 1

@@ -199,10 +199,12 @@ def _one_split(u, y, name, ratios, seed, fit_kwargs, forward) -> dict:
     if name in ("ensemble", "gpr") and len(split.test):
         from lab.learn.ensemble import calibration
 
-        mean, std = model.predict_with_std(u[split.test])
-        cal = calibration(y[split.test], mean, std)
-        row.update({f"test_{k}": cal[k] for k in ("within_1sigma", "within_2sigma", "radius_within_68")})
-        if name == "ensemble":
+        keys = ("within_1sigma", "within_2sigma", "radius_within_68")
+        cal = calibration(y[split.test], *model.predict_with_std(u[split.test]))
+        row.update({f"test_{k}": cal[k] for k in keys})
+        if name == "ensemble":  # before the spread scale, and the scale
+            raw = calibration(y[split.test], *model.predict_with_std(u[split.test], scaled=False))
+            row.update({f"test_raw_{k}": raw[k] for k in keys})
             row["spread_scale"] = model.spread_scale
     return row
 
@@ -227,7 +229,8 @@ def evaluate_model_splits(
     ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m`` (NaN where empty); ensembles
     and GPs add the test calibration (``test_within_1sigma``, ``test_within_2sigma``,
     ``test_radius_within_68``, :func:`lab.learn.ensemble.calibration`; an ensemble's spread
-    scale is fitted on the validation set when there is one); the inverse adds
+    scale is fitted on the validation set when there is one, ``spread_scale``, and
+    ``test_raw_*`` are the same before it); the inverse adds
     ``{set}_mean_command_error_rad`` and judges tips by ``forward``."""
     from lab.learn.split import check_enough_data
     from lab.learn.studies import evaluate_splits, run_seeds
