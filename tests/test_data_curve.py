@@ -200,3 +200,14 @@ def test_other_models_and_algorithms_fit_from_the_registry(tmp_path):
     assert gpr["model"] == "gpr" and 0 < gpr["model_error_m"] < 0.05 and 0 < br["model_error_m"] < 0.05
     assert "algorithm='br'" in json.loads(Path(f"{out2}.json").read_text())["model_recipe"]
     assert main(_args(tmp_path / "c.csv", ["sobol"], ["16"], ["--algorithm", "magic"])) == 2
+
+
+def test_any_robot_six_cables_model_error_only(tmp_path):
+    six = load_robot("six-cable")
+    out = tmp_path / "six.csv"
+    argv = ["data-curve", "--robot", "six-cable", "--rig", "sim", *COARSE, *FAST, "--no-tracking",
+            "--strategies", "grid", "sobol", "--ns", "30", "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    grid, sobol = read_data_curve(out)
+    assert (grid["robot"], grid["grid_levels"], grid["n"]) == ("six-cable", 2, len(grid_commands(six, 2)))
+    assert sobol["n"] == 30 and 0 < sobol["model_error_m"] < 0.1 and np.isnan(sobol["tracking_mean_m"])
