@@ -174,3 +174,22 @@ def test_ensemble_splits_fit_the_spread_scale_on_the_validation_set():
         )
         assert r["spread_scale"] == pytest.approx(ens.fit_spread_scale(u[split.validation], y[split.validation]))
         assert r["spread_scale"] != 1.0 and 0 <= r["test_raw_within_1sigma"] <= 1
+
+
+def test_cli_train_peer_and_inverse_judged_by_a_forward_model(dataset, tmp_path, capsys):
+    fwd, inv, rep = tmp_path / "knn.npz", tmp_path / "inv.npz", tmp_path / "inv.json"
+    assert main(["train", str(dataset), "--model", "knn", "--out", str(fwd)]) == 0
+    assert load_model(fwd).kind == "lab.knn"
+    args = ["train", str(dataset), "--model", "inverse-mlp", "--hidden", "4", "--epochs", "5", "--forward", str(fwd)]
+    assert main([*args, "--out", str(inv), "--report", str(rep)]) == 0
+    assert "command err [rad]" in capsys.readouterr().out
+    r = json.loads(rep.read_text())
+    assert r["model_type"] == "inverse-mlp" and r["layer_sizes"] == [3, 4, 3]
+    assert r["test"]["mean_command_error_rad"] > 0 and r["test"]["mean_distance_m"] > 0
+    g, f = load_model(inv), load_model(fwd)
+    test = g.metadata["training"]["split"]["indices"]["test"]
+    from lab.data.dataset import read_dataset
+
+    u, y, _ = read_dataset(dataset)
+    d = np.linalg.norm(f.predict(g.command(y[test])) - y[test], axis=1)
+    assert r["test"]["mean_distance_m"] == pytest.approx(d.mean(), rel=1e-9)

@@ -182,8 +182,8 @@ def run(args) -> int:
     what = "-".join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))
     what = {"mlp": what, "ensemble": f"{args.members} x {what}", "inverse-mlp": f"inverse {what}"}.get(args.model, "")
     print(
-        f"{args.data}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} outputs; training {args.model} "
-        f"{what}{f' ({args.activation}) with {args.algorithm}' if what else ''}, split {args.split}, seed {args.seed}",
+        f"{args.data}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} outputs; training {args.model}"
+        f"{f' {what} ({args.activation}) with {args.algorithm}' if what else ''}, split {args.split}, seed {args.seed}",
         file=sys.stderr,
     )
     cal = None
@@ -239,7 +239,9 @@ def run(args) -> int:
             "data": str(args.data),
             "data_file_sha256": file_sha,
             "data_sha256": training["data_sha256"],
-            "layer_sizes": list(model.layer_sizes) if hasattr(model, "layer_sizes") else None,
+            "layer_sizes": list(net.layer_sizes)
+            if hasattr(net := getattr(model, "net", model), "layer_sizes")
+            else None,
             "activation": args.activation,
             "algorithm": args.algorithm,
             "seed": args.seed,
