@@ -41,19 +41,38 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     k.add_argument("--n-points", type=int, help="points of a built-in trajectory (default: its own)")
     k.add_argument(
         "--solver",
-        choices=["lm", "gd"],
-        default="lm",
-        help="bounded Levenberg-Marquardt (default) or projected gradient descent",
+        choices=["lm", "gd", "dfo"],
+        default=None,
+        help="bounded Levenberg-Marquardt, projected gradient descent, or derivative-free IK (secant LM "
+        "steps and a compass poll; default: lm, or dfo for a model without a Jacobian)",
     )
     k.add_argument(
-        "--reg-weight", type=float, default=0.0, help="regulariser towards the previous command, m^2/rad^2 (default 0)"
+        "--reg-weight",
+        type=float,
+        default=None,
+        help="regulariser towards the previous command, m^2/rad^2 (default auto: 0 unless the arm "
+        "is redundant, then a thousandth of the model's mean squared Jacobian column; 0 is off)",
     )
     k.add_argument(
         "--posture-weight",
         type=float,
-        default=0.0,
+        default=None,
         help="regulariser towards the centre of the allowed commands (keeps a redundant "
-        "arm's cables taut), m^2/rad^2 (default 0); regularised answers are polished",
+        "arm's cables taut), m^2/rad^2 (default auto, as --reg-weight); regularised answers are polished",
+    )
+    k.add_argument(
+        "--spread-weight",
+        type=float,
+        default=0.0,
+        help="penalise the model ensemble's spread at the command (dimensionless weight on its "
+        "variance, m^2 per m^2 of tip error; needs an ensemble model; default 0: off)",
+    )
+    k.add_argument(
+        "--max-spread-mm",
+        type=float,
+        default=None,
+        help="flag a target 'uncertain' where the model's predicted spread exceeds this, mm "
+        "(default 1 mm for a model with a spread; never for one without)",
     )
     k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
     k.add_argument("--n-rings", type=int, help="FEM mesh rings of --rig sim / --soft-ik (default: robot's)")
@@ -95,6 +114,8 @@ def run(args) -> int:
         raise InputError("--n-rings/--n-axial set the FEM mesh of --rig sim and --soft-ik only")
     fem = ArmFEM(robot, **mesh) if (args.rig == "sim" or args.soft_ik) else None
     model = None if args.soft_ik else load_model(args.model)
+    if args.max_spread_mm is not None and not (args.max_spread_mm > 0 and np.isfinite(args.max_spread_mm)):
+        raise InputError(f"--max-spread-mm must be a positive number of mm, got {args.max_spread_mm}")
     solver = make_solver(
         robot,
         model,
@@ -102,7 +123,11 @@ def run(args) -> int:
         method=args.solver,
         reg_weight=args.reg_weight,
         posture_weight=args.posture_weight,
+        spread_weight=args.spread_weight,
+        max_spread_m=None if args.max_spread_mm is None else 1e-3 * args.max_spread_mm,
     )
+    for note in solver.notes:
+        print(f"IK: {note}", file=sys.stderr)
     name = args.trajectory if args.trajectory in BUILTIN + SIX_CABLE else Path(args.trajectory).name
     # Each measured point goes to OUT.points.csv at once: a run that is interrupted or fails
     # (a RigError, exit 1, reaches lab.cli.main after the rig was closed: torque off) keeps them.
@@ -128,11 +153,19 @@ def run(args) -> int:
         },
     )
     points.unlink()  # the result file holds every point now
-    t = result.timings
+    t, sol = result.timings, result.info["solver"]
+    uncertain = f", {int(np.sum(result.uncertain))} uncertain" if sol["max_spread_m"] is not None else ""
     print(
         f"{name}: {len(targets)} targets, mean error {100 * result.mean_error_m:.4f} cm, max "
-        f"{100 * result.max_error_m:.4f} cm, {int(np.sum(~result.reachable))} unreachable; IK "
-        f"{1e3 * t['ik_per_target_mean_s']:.2f} ms per target -> {args.out}",
+        f"{100 * result.max_error_m:.4f} cm, {int(np.sum(~result.reachable))} unreachable{uncertain}; IK "
+        f"({sol['method']}) {1e3 * t['ik_per_target_mean_s']:.2f} ms per target -> {args.out}",
         file=sys.stderr,
     )
+    if sol["redundant"] or sol["reg_weight"] or sol["posture_weight"]:
+        print(
+            f"IK regularisation: {sol['regularisation']} (reg_weight {sol['reg_weight']:.3g}, posture_weight "
+            f"{sol['posture_weight']:.3g} m^2/rad^2); {sol['ik']['restarts']} points restarted, "
+            f"{sol['ik']['recovered']} recovered",
+            file=sys.stderr,
+        )
     return 0

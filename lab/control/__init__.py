@@ -2,13 +2,18 @@
 
 :class:`IKSolver` (:mod:`.ik`) minimises ``1/2 |y(u) - y'|^2`` over the allowed commands
 (:class:`CommandSet`, :mod:`.command_set`) through *any* forward map with a Jacobian: a
-learned model, or the FEM itself (:class:`FEMForwardMap`, :mod:`.soft_ik`: Soft IK).
+learned model, or the FEM itself (:class:`FEMForwardMap`, :mod:`.soft_ik`: Soft IK); a
+model without one by a derivative-free search (:mod:`.dfo`). :mod:`.follow` follows a
+trajectory (redundant arms regularised automatically); :mod:`.spread` penalises and flags
+an ensemble's spread.
 :mod:`.redundancy` holds motors fixed and measures motor paths; :mod:`.trajectories`
 makes the paper's target paths and reads/writes trajectory CSVs. Nothing here imports
 :mod:`lab.learn`.
 """
 
 from lab.control.command_set import CommandSet
+from lab.control.dfo import dfo_solve
+from lab.control.follow import AUTO_WEIGHT_REL, SLACK_COLUMN_REL, auto_weight, follow_trajectory, slack_motors
 from lab.control.ik import (
     ARMIJO,
     METHODS,
@@ -21,6 +26,7 @@ from lab.control.ik import (
 from lab.control.ik_step import projected_gradient_step
 from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 from lab.control.soft_ik import FEMForwardMap
+from lab.control.spread import DEFAULT_MAX_SPREAD_M, has_spread, predicted_spread_m, spread_rows
 from lab.control.trajectories import (
     BUILTIN,
     CENTRE_W,
@@ -51,6 +57,16 @@ __all__ = [
     "grid_seeds",
     "IKSolver",
     "projected_gradient_step",
+    "follow_trajectory",
+    "auto_weight",
+    "slack_motors",
+    "AUTO_WEIGHT_REL",
+    "SLACK_COLUMN_REL",
+    "dfo_solve",
+    "DEFAULT_MAX_SPREAD_M",
+    "has_spread",
+    "predicted_spread_m",
+    "spread_rows",
     "FEMForwardMap",
     "FrozenMotors",
     "frozen_commands",

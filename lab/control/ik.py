@@ -10,18 +10,16 @@ safety rule) minimising Eq. (1) of the paper, plus an optional regulariser::
 ``predict_and_jacobian(u) -> (y (3,), J (3, m))``: the learned network
 (:class:`lab.learn.mlp.MLP`, analytic network Jacobian) or the FEM with sensitivity
 analysis (:class:`lab.control.soft_ik.FEMForwardMap`, "Soft IK"). ``w`` (m^2/rad^2, default 0)
-pulls towards ``u_ref``.
+pulls towards ``u_ref``. A model with ensemble members may add the spread penalty
+``s/2 S(u)`` (``spread_weight``; :mod:`lab.control.spread`), as least-squares rows next to
+``y - y'``; every answer reports the model's predicted spread there and is flagged
+``uncertain`` above ``max_spread_m``.
 
-Redundant robots (six cables, three tip coordinates) reach a target with a whole family of
-commands, and :meth:`IKSolver.follow` uses ``u_ref`` to pick one along a trajectory:
-``u_ref`` blends the previous command (weight ``reg_weight``: continuity) with a posture
-``u_posture`` (weight ``posture_weight``: keeps the cables taut, away from the slack
-plateaus where a cable's Jacobian column is zero and a warm start gets stuck). The
-regulariser also pulls the tip off the target, so ``follow`` then *polishes*: a second,
-unregularised solve from the regularised answer, which moves the command only a little
-(the regulariser has already picked the branch of solutions) and removes that bias.
+Trajectories, and how a redundant arm (more motors than tip coordinates) picks one of its
+many answers -- continuity and posture weights, chosen automatically when given as
+``None``, the polish, restarts from slack plateaus -- are :mod:`lab.control.follow`.
 
-Two solvers, both keeping every iterate in ``C``:
+Solvers, all keeping every iterate in ``C``:
 
 * ``"gd"`` -- projected gradient descent, the paper's minimiser. Step rule: Armijo
   backtracking along the projection arc (Bertsekas): try ``u+ = P(u - a g)`` and accept
@@ -40,8 +38,11 @@ Two solvers, both keeping every iterate in ``C``:
   It is accepted when the objective decreases; ``mu`` follows Nielsen's rule (shrinks
   after good steps, doubles-and-more after rejected ones). Quadratic convergence near a
   solution: a warm-started trajectory point takes 2-3 iterations.
+* ``"dfo"`` -- derivative-free: secant LM steps with a compass poll (:mod:`lab.control.dfo`),
+  for models without a Jacobian (``has_jacobian = False``, e.g. k-NN); only ``predict``.
 
-Stopping (both): ``converged`` when the tip residual ``|y - y'|`` <= ``tol_m``;
+Stopping (LM and GD): ``converged`` when the tip residual ``|y - y'|`` <= ``tol_m`` (not with a
+spread penalty, whose optimum moves off a reached target: there stationarity decides);
 ``stationary`` when the projected gradient ``pg = L (u - P(u - g/L))`` is tiny compared
 with what the residual would give if the motors could still reduce it,
 ``|pg| <= tol_stationary |J_r|_F |r|`` (``r`` the residual vector of ``O`` including the
@@ -54,67 +55,25 @@ best command found inside ``C`` (the local minimum of ``O`` nearest the start) w
 ``reachable=False`` and its residual; a NaN/inf target raises ValueError before any work.
 
 Cold starts begin at the seed whose tip is nearest the target (``seeds``, e.g. the
-training data or :func:`grid_seeds`), else at the projection of the box centre;
-:meth:`IKSolver.follow` warm-starts each trajectory point from the previous solution
-(Section II-D), and retries a point it misses from the nearest cold starts (a warm start can sit on
-a slack cable's plateau, where that cable's Jacobian column is zero).
+training data or :func:`grid_seeds`), else at the projection of the box centre.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from lab.control.command_set import CommandSet
+from lab.control.dfo import dfo_solve
+from lab.control.follow import follow_trajectory
+from lab.control.ik_result import IKResult, TrajectoryIK, check_targets, count_work  # noqa: F401 (re-exported)
+from lab.control.spread import DEFAULT_MAX_SPREAD_M, has_spread, members_of, predicted_spread_m, spread_rows
 from lab.errors import InputError
 
-METHODS = ("lm", "gd")
+METHODS = ("lm", "gd", "dfo")
 #: Sufficient-decrease constant of gradient descent's Armijo test (see the module docstring).
 ARMIJO = 0.5
-
-
-@dataclass
-class IKResult:
-    """One IK solve: command ``u_motor`` (m,) rad, predicted tip ``p_pred_W`` (3,) m, tip
-    residual ``residual_m`` = |y(u) - y'| m, objective ``objective_m2``, how it stopped."""
-
-    u_motor: np.ndarray
-    p_pred_W: np.ndarray
-    residual_m: float
-    objective_m2: float
-    reachable: bool
-    status: str
-    iterations: int
-    evaluations: int
-    time_s: float
-    history_m: list = field(default_factory=list, repr=False)  # residual after each iteration
-
-
-@dataclass
-class TrajectoryIK:
-    """IK along a trajectory of N targets: per-point arrays and the per-point results."""
-
-    targets_W: np.ndarray  # (N, 3) m
-    u_motor: np.ndarray  # (N, m) rad
-    p_pred_W: np.ndarray  # (N, 3) m, forward map at u_motor
-    residual_m: np.ndarray  # (N,) m
-    reachable: np.ndarray  # (N,) bool
-    iterations: np.ndarray  # (N,)
-    time_s: np.ndarray  # (N,) s per target
-    results: list = field(repr=False, default_factory=list)
-
-
-def check_targets(targets) -> np.ndarray:
-    """Targets as a float array (3,) or (N, 3) m; ValueError naming the problem otherwise."""
-    t = np.asarray(targets, dtype=float)
-    if t.shape[-1:] != (3,) or t.ndim not in (1, 2) or t.size == 0:
-        raise InputError(f"targets must be (3,) or (N, 3) positions in metres, got shape {t.shape}")
-    if not np.all(np.isfinite(t)):
-        bad = np.argwhere(~np.isfinite(np.atleast_2d(t)))[0, 0]
-        raise InputError(f"target {bad} is not finite: {np.atleast_2d(t)[bad].tolist()} (NaN or inf)")
-    return t
 
 
 def grid_seeds(forward, commands: CommandSet, levels: int = 7) -> tuple[np.ndarray, np.ndarray]:
@@ -127,17 +86,22 @@ def grid_seeds(forward, commands: CommandSet, levels: int = 7) -> tuple[np.ndarr
 
 
 class IKSolver:
-    """IK for one forward map and command set. ``method``: "lm" or "gd" (module docstring).
+    """IK for one forward map and command set. ``method``: "lm", "gd" or "dfo" (module docstring).
 
     ``tol_m``: stop when the tip residual is below this (m); ``reach_tol_m``: residual up to
     which a target counts as reached; ``tol_stationary``: relative stationarity tolerance;
     ``reg_weight``: ``w`` of the regulariser (m^2/rad^2); ``posture_weight``, ``u_posture``
     (default the centre of the allowed set) and ``polish``: how :meth:`follow` picks among
-    redundant solutions (module docstring); ``retry_cold``: in :meth:`follow` without a
-    regulariser, a point that misses its target is solved again from the nearest cold
-    starts, and the best answer kept; ``seeds``: (u (S, m), y (S, 3))
-    for cold starts. ``max_iter`` defaults to 100 (lm) or 20000 (gd). ``record_history``:
-    keep the tip residual of every iterate in ``IKResult.history_m`` (for plots).
+    redundant solutions; ``None`` weights are chosen by :meth:`follow` (0 unless the arm is
+    redundant; :mod:`lab.control.follow`), a plain :meth:`solve` uses 0 for them;
+    ``retry_cold``: :meth:`follow` solves a point that misses its target again from other
+    starts and keeps the best; ``seeds``: (u (S, m), y (S, 3)) for cold starts.
+    ``spread_weight``: ``s`` of the spread penalty (dimensionless; needs ensemble
+    ``members``); ``max_spread_m``: spread (m) above which an answer is ``uncertain``
+    (default :data:`lab.control.spread.DEFAULT_MAX_SPREAD_M` for a model with a spread).
+    ``max_iter`` defaults to 100 (lm), 20000 (gd) or 200 (dfo). ``record_history``:
+    keep the tip residual of every iterate in ``IKResult.history_m`` (for plots). ``notes``:
+    choices made for this solver, in words (e.g. :func:`lab.tracking.track.make_solver`'s).
     """
 
     def __init__(
@@ -150,24 +114,43 @@ class IKSolver:
         reach_tol_m: float = 1e-5,
         tol_stationary: float = 1e-6,
         max_iter: int | None = None,
-        reg_weight: float = 0.0,
-        posture_weight: float = 0.0,
+        reg_weight: float | None = 0.0,
+        posture_weight: float | None = 0.0,
         u_posture=None,
         polish: bool = True,
         retry_cold: bool = True,
         seeds=None,
         record_history: bool = False,
+        spread_weight: float = 0.0,
+        max_spread_m: float | None = None,
     ):
         if method not in METHODS:
             raise InputError(f"method must be one of {METHODS}, got {method!r}")
-        for name, w in (("reg_weight", reg_weight), ("posture_weight", posture_weight)):
-            if w < 0 or not np.isfinite(w):
+        for name, w in (
+            ("reg_weight", reg_weight),
+            ("posture_weight", posture_weight),
+            ("spread_weight", spread_weight),
+        ):
+            if w is not None and (w < 0 or not np.isfinite(w)):
                 raise InputError(f"{name} must be finite and >= 0, got {w}")
+        if spread_weight > 0 and members_of(forward) is None:
+            raise InputError("spread_weight > 0 needs a model with ensemble members (e.g. a deep ensemble)")
+        if max_spread_m is not None and not (max_spread_m > 0 and np.isfinite(max_spread_m)):
+            raise InputError(f"max_spread_m must be finite and > 0 (m), got {max_spread_m}")
         self.forward, self.commands, self.method = forward, commands, method
         self.tol_m, self.reach_tol_m = float(tol_m), float(reach_tol_m)
         self.tol_stationary = float(tol_stationary)
-        self.max_iter = int(max_iter or (100 if method == "lm" else 20000))
-        self.reg_weight, self.posture_weight = float(reg_weight), float(posture_weight)
+        self.max_iter = int(max_iter or {"lm": 100, "gd": 20000, "dfo": 200}[method])
+        self.reg_weight_setting, self.posture_weight_setting = reg_weight, posture_weight  # None: automatic
+        self.reg_weight, self.posture_weight = float(reg_weight or 0.0), float(posture_weight or 0.0)
+        self.n_tip = int(getattr(forward, "n_y", 3))
+        self.redundant = commands.n > self.n_tip
+        self.spread_weight = float(spread_weight)
+        self.notes: list[str] = []  # choices made for this solver, in words (e.g. by make_solver)
+        self.has_spread = has_spread(forward)
+        self.max_spread_m = (
+            (DEFAULT_MAX_SPREAD_M if self.has_spread else None) if max_spread_m is None else float(max_spread_m)
+        )
         self.polish = bool(polish)
         self.retry_cold = bool(retry_cold)
         self.record_history = bool(record_history)
@@ -205,95 +188,48 @@ class IKSolver:
         u_ref = u.copy() if u_ref is None else np.asarray(u_ref, dtype=float)
         if u_ref.shape != u.shape or not np.all(np.isfinite(u_ref)):
             raise InputError(f"u_ref must be {self.commands.n} finite angles in rad, got {u_ref!r}")
-        run = self._lm if self.method == "lm" else self._gd
+        run = {"lm": self._lm, "gd": self._gd, "dfo": lambda *a: dfo_solve(self, *a)}[self.method]
         keep, self.reg_weight = self.reg_weight, self.reg_weight if reg_weight is None else float(reg_weight)
         try:
             res = run(target, u, u_ref)
         finally:
             self.reg_weight = keep
+        if self.has_spread:
+            res.spread_m = predicted_spread_m(self.forward, res.u_motor)
+            res.uncertain = bool(self.max_spread_m is not None and res.spread_m > self.max_spread_m)
         res.time_s = time.perf_counter() - t0
         return res
 
-    def _retry_cold(self, target, first: IKResult, start, n_starts: int = 4) -> IKResult:
-        """A miss may be a stuck start (a slack cable's plateau, zero Jacobian column; learned
-        models of arms with slack have one near u = 0): retry from the ``n_starts`` seeds
-        nearest the target (or the centre) but ``start``; keep the best, counting all work."""
-        starts = [self.centre]
-        if self.seeds is not None:
-            u_s, y_s = self.seeds
-            near = np.argsort(np.sum((y_s - target) ** 2, axis=1))[:n_starts]
-            starts = [self.commands.project(u_s[i]) for i in near]
-        tries = [first]
-        for u0 in (u for u in starts if not np.allclose(u, start)):
-            if tries[-1].reachable:
-                break
-            tries.append(self.solve(target, u0))
-        best = min(tries, key=lambda r: r.residual_m)
-        return _count_work(best, [r for r in tries if r is not best])
-
     def follow(self, targets_W, u0=None) -> TrajectoryIK:
         """IK for each of the targets (N, 3) m in order, warm-starting every point from the
-        previous solution (the first from ``u0`` or a cold start). With ``reg_weight`` or
-        ``posture_weight`` > 0 each point is first solved regularised towards
-        ``(reg_weight u_prev + posture_weight u_posture) / (reg_weight + posture_weight)``
-        (``u_prev``: the previous command; a cold first point is pulled to ``u_posture``
-        alone, or to its cold start without a posture term), then, if
-        ``polish``, solved again unregularised from there (module docstring); the result
-        reports the iterations and time of both solves."""
-        targets = np.atleast_2d(check_targets(targets_W))
-        results, u_prev = [], u0
-        w = self.reg_weight + self.posture_weight
-        for target in targets:
-            if w > 0:
-                if u_prev is None:
-                    # A cold first point has no previous command to stay near: only the
-                    # posture pulls, so the path starts on the posture's branch instead of
-                    # drifting onto it (in big steps) over the next points.
-                    u_start, w_now = self.initial_guess(target), self.posture_weight or w
-                    u_ref = self.u_posture if self.posture_weight > 0 else u_start
-                else:
-                    u_start, w_now = np.asarray(u_prev, dtype=float), w
-                    u_ref = (self.reg_weight * u_start + self.posture_weight * self.u_posture) / w
-                res = self.solve(target, u_start, u_ref=u_ref, reg_weight=w_now)
-                if self.polish:
-                    first, res = res, self.solve(target, res.u_motor, reg_weight=0.0)
-                    res = _count_work(res, [first])
-                    res.history_m = first.history_m + res.history_m
-            else:
-                res = self.solve(target, u_prev, u_ref=u_prev)
-                if not res.reachable and self.retry_cold:
-                    start = self.initial_guess(target) if u_prev is None else self.commands.project(u_prev)
-                    res = self._retry_cold(target, res, start)
-            results.append(res)
-            u_prev = res.u_motor
-        col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731
-        return TrajectoryIK(
-            targets,
-            col("u_motor"),
-            col("p_pred_W"),
-            col("residual_m"),
-            col("reachable"),
-            col("iterations"),
-            col("time_s"),
-            results,
-        )
+        previous solution (the first from ``u0`` (m,) rad or a cold start), regularised and
+        polished on a redundant arm, with restarts where a point misses:
+        :func:`lab.control.follow.follow_trajectory`."""
+        return follow_trajectory(self, targets_W, u0)
 
     # ----------------------------------------------------------------- internals
     def _evaluate(self, u, target, u_ref):
-        """(y, J, objective) at u; objective is inf where the forward map gives no finite answer."""
+        """(y, objective, rows) at u: ``rows`` = (r, J_r), the tip residual with the spread
+        penalty's rows stacked under it (its Jacobian); objective is inf where the forward map
+        gives no finite answer."""
         y, J = self.forward.predict_and_jacobian(u)
         y, J = np.asarray(y, dtype=float), np.asarray(J, dtype=float)
-        if not (np.all(np.isfinite(y)) and np.all(np.isfinite(J))):
-            return y, J, np.inf
-        r = y - target
-        return y, J, 0.5 * float(r @ r) + 0.5 * self.reg_weight * float(np.sum((u - u_ref) ** 2))
+        r, J_r = y - target, J
+        if self.spread_weight > 0:
+            r_s, J_s = spread_rows(self.forward, u, self.spread_weight)
+            r, J_r = np.concatenate([r, r_s]), np.vstack([J, J_s])
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J_r))):
+            return y, np.inf, (r, J_r)
+        return y, 0.5 * float(r @ r) + 0.5 * self.reg_weight * float(np.sum((u - u_ref) ** 2)), (r, J_r)
 
-    def _gradient(self, u, y, J, target, u_ref):
-        return J.T @ (y - target) + self.reg_weight * (u - u_ref)
+    def _gradient(self, u, rows, u_ref):
+        return rows[1].T @ rows[0] + self.reg_weight * (u - u_ref)
 
     def _stationary(self, u, g, lipschitz, obj) -> bool:
         """Projected gradient small relative to |J_r|_F |r| (module docstring); lipschitz =
         |J|_F^2 + w, and |J_r|_F^2 = |J|_F^2 + m w <= m lipschitz bounds it from above."""
+        if lipschitz <= 0:  # J = 0 and no regulariser (every cable slack): the gradient is zero
+            return True
         pg = lipschitz * np.linalg.norm(u - self.commands.project(u - g / lipschitz, x0=u))
         return pg <= self.tol_stationary * np.sqrt(len(u) * lipschitz * 2.0 * obj)
 
@@ -308,23 +244,23 @@ class IKSolver:
             history.append(float(np.linalg.norm(y - target)))
 
     def _first(self, u, target, u_ref):
-        y, J, obj = self._evaluate(u, target, u_ref)
+        y, obj, rows = self._evaluate(u, target, u_ref)
         if not np.isfinite(obj):
             raise InputError(f"the forward map gives no finite tip at the start command {u.tolist()} rad")
-        return y, J, obj
+        return y, obj, rows
 
     def _lm(self, target, u, u_ref) -> IKResult:
-        y, J, obj = self._first(u, target, u_ref)
+        y, obj, rows = self._first(u, target, u_ref)
         w, n_eval, nu, mu, eye = self.reg_weight, 1, 2.0, None, np.eye(len(u))
         status, history = "max_iter", []
         self._record(history, y, target)
         for it in range(self.max_iter):  # noqa: B007 (it is the iteration count after the loop)
-            if np.linalg.norm(y - target) <= self.tol_m:
+            if self.spread_weight == 0 and np.linalg.norm(y - target) <= self.tol_m:
                 status = "converged"
                 break
-            g = self._gradient(u, y, J, target, u_ref)
-            JtJ = J.T @ J + w * eye
-            lip = float(np.sum(J * J)) + w
+            g, J_r = self._gradient(u, rows, u_ref), rows[1]
+            JtJ = J_r.T @ J_r + w * eye
+            lip = float(np.sum(J_r * J_r)) + w
             if self._stationary(u, g, lip, obj):
                 status = "stationary"
                 break
@@ -339,11 +275,11 @@ class IKSolver:
                 status = "stalled"
                 break
             u_new = u + d
-            y_new, J_new, obj_new = self._evaluate(u_new, target, u_ref)
+            y_new, obj_new, rows_new = self._evaluate(u_new, target, u_ref)
             n_eval += 1
             rho = (obj - obj_new) / predicted
             if rho > 0:  # accept: Nielsen's update
-                u, y, J, obj = u_new, y_new, J_new, obj_new
+                u, y, obj, rows = u_new, y_new, obj_new, rows_new
                 mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
                 nu = 2.0
                 self._record(history, y, target)
@@ -358,22 +294,22 @@ class IKSolver:
         return self._result(u, y, obj, target, status, it, n_eval, history)
 
     def _gd(self, target, u, u_ref) -> IKResult:
-        y, J, obj = self._first(u, target, u_ref)
+        y, obj, rows = self._first(u, target, u_ref)
         n_eval, alpha, status, history = 1, None, "max_iter", []
         self._record(history, y, target)
         for it in range(self.max_iter):  # noqa: B007 (it is the iteration count after the loop)
-            if np.linalg.norm(y - target) <= self.tol_m:
+            if self.spread_weight == 0 and np.linalg.norm(y - target) <= self.tol_m:
                 status = "converged"
                 break
-            g = self._gradient(u, y, J, target, u_ref)
-            lip = float(np.sum(J * J)) + self.reg_weight
+            g = self._gradient(u, rows, u_ref)
+            lip = float(np.sum(rows[1] ** 2)) + self.reg_weight
             if self._stationary(u, g, lip, obj):
                 status = "stationary"
                 break
             a = 1.0 / lip if alpha is None else 2.0 * alpha
             for _ in range(60):  # Armijo along the projection arc
                 u_new = self.commands.project(u - a * g, x0=u)
-                y_new, J_new, obj_new = self._evaluate(u_new, target, u_ref)
+                y_new, obj_new, rows_new = self._evaluate(u_new, target, u_ref)
                 n_eval += 1
                 if obj_new <= obj + ARMIJO * float(g @ (u_new - u)):
                     break
@@ -384,17 +320,8 @@ class IKSolver:
             if np.array_equal(u_new, u):
                 status = "stalled"
                 break
-            u, y, J, obj, alpha = u_new, y_new, J_new, obj_new, a
+            u, y, obj, rows, alpha = u_new, y_new, obj_new, rows_new, a
             self._record(history, y, target)
         else:
             it = self.max_iter
         return self._result(u, y, obj, target, status, it, n_eval, history)
-
-
-def _count_work(result: IKResult, others) -> IKResult:
-    """``result`` with the iterations, evaluations and time of the ``others`` solves added."""
-    for other in others:
-        result.iterations += other.iterations
-        result.evaluations += other.evaluations
-        result.time_s += other.time_s
-    return result

@@ -21,7 +21,13 @@ The result file (:func:`write_result`, JSON, atomic) is a public contract. Keys:
 * extras: ``predicted`` (N, 3) m (the forward map at the commands), ``ik_residual_m`` (N,),
   ``reachable`` (N,), ``ik_iterations`` (N,), ``settled`` (N,), ``settle_wait_s`` (N,),
   ``n_unreachable``, ``n_not_settled``, ``trajectory``, ``info`` (rig, robot, solver,
-  model, command line, code version, date), ``format_version``, ``kind``.
+  model, command line, code version, date), ``format_version``, ``kind``;
+* ``uncertain`` (N,) bool: the model's predicted spread at the command exceeds
+  ``info.solver.max_spread_m`` (all false for a model without a spread), ``predicted_spread_m``
+  (N,) m (null without a spread); ``info.n_uncertain`` counts them. ``info.solver`` holds the
+  regularisation the IK applied: ``reg_weight``/``posture_weight`` the weights used,
+  ``..._setting`` what was asked ("auto" or the number), ``regularisation`` in words, and
+  ``ik`` the recovery counts (:mod:`lab.control.follow`).
 
 Not-a-number values are written as JSON ``null``.
 """
@@ -59,7 +65,8 @@ class TrackResultError(InputError):
 class TrackResult:
     """One trajectory run. Arrays: ``targets_W``, ``achieved_W``, ``predicted_W`` (N, 3) m;
     ``commands`` (N, m) rad; ``ik_residual_m``, ``settle_wait_s`` (N,); ``reachable``,
-    ``settled`` (N,) bool; ``ik_iterations`` (N,). ``timings`` in seconds, ``info`` free-form."""
+    ``settled`` (N,) bool; ``ik_iterations`` (N,). ``timings`` in seconds, ``info`` free-form;
+    ``uncertain`` (N,) bool and ``predicted_spread_m`` (N,) m (NaN without a spread)."""
 
     trajectory: str
     targets_W: np.ndarray
@@ -73,6 +80,15 @@ class TrackResult:
     settle_wait_s: np.ndarray
     timings: dict
     info: dict = field(default_factory=dict)
+    uncertain: np.ndarray | None = None
+    predicted_spread_m: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.targets_W)
+        if self.uncertain is None:
+            self.uncertain = np.zeros(n, dtype=bool)
+        if self.predicted_spread_m is None:
+            self.predicted_spread_m = np.full(n, np.nan)
 
     @property
     def errors_m(self) -> np.ndarray:
@@ -110,7 +126,9 @@ class TrackResult:
             "settle_wait_s": self.settle_wait_s,
             "n_unreachable": int(np.sum(~self.reachable)),
             "n_not_settled": int(np.sum(~self.settled)),
-            "info": self.info,
+            "uncertain": np.asarray(self.uncertain, dtype=bool),
+            "predicted_spread_m": self.predicted_spread_m,
+            "info": {**self.info, "n_uncertain": int(np.sum(self.uncertain))},
         }
 
 
@@ -197,11 +215,19 @@ def run_trajectory(
             "method": solver.method,
             "tol_m": solver.tol_m,
             "reach_tol_m": solver.reach_tol_m,
-            "reg_weight": solver.reg_weight,
-            "posture_weight": solver.posture_weight,
+            "reg_weight": plan.info["reg_weight"],
+            "posture_weight": plan.info["posture_weight"],
             "u_posture": solver.u_posture.tolist(),
             "polish": solver.polish,
             "max_iter": solver.max_iter,
+            "reg_weight_setting": _setting(solver.reg_weight_setting),
+            "posture_weight_setting": _setting(solver.posture_weight_setting),
+            "regularisation": plan.info["regularisation"],
+            "redundant": plan.info["redundant"],
+            "spread_weight": solver.spread_weight,
+            "max_spread_m": solver.max_spread_m,
+            "notes": list(solver.notes),
+            "ik": {k: plan.info[k] for k in ("slack_plateaus", "restarts", "recovered")},
         },
         "protocol": protocol.as_dict(),
         "code_version": code_version(),
@@ -220,7 +246,14 @@ def run_trajectory(
         waits,
         timings,
         info,
+        plan.uncertain,
+        plan.spread_m,
     )
+
+
+def _setting(weight) -> str | float:
+    """A weight setting for the result file: "auto" for None, else the number."""
+    return "auto" if weight is None else float(weight)
 
 
 def _plain(obj):
@@ -276,37 +309,66 @@ def make_solver(
     model=None,
     *,
     fem=None,
-    method: str = "lm",
-    reg_weight: float = 0.0,
-    posture_weight: float = 0.0,
+    method: str | None = None,
+    reg_weight: float | None = None,
+    posture_weight: float | None = None,
     seed_levels: int | None = None,
+    spread_weight: float = 0.0,
+    max_spread_m: float | None = None,
 ) -> IKSolver:
     """IK solver for ``robot`` through ``model`` (anything with ``predict_and_jacobian`` and a
     batched ``predict``; cold starts seeded from a ``seed_levels`` grid of its predictions)
     or, when ``model`` is None, Soft IK through the FEM ``fem`` (cold starts at the centre).
-    ``seed_levels`` defaults to 7 for up to three motors and 4 beyond (4^6 = 4096 seeds);
-    ``reg_weight`` and ``posture_weight`` (m^2/rad^2) as in :class:`lab.control.ik.IKSolver`."""
+
+    ``method``: "lm", "gd" or "dfo"; None picks "lm", or the derivative-free "dfo"
+    for a model with ``has_jacobian = False`` (the solver's ``notes`` say so; asking for
+    "lm"/"gd" with such a model is an InputError). ``seed_levels`` defaults to 7 for up to
+    three motors and 4 beyond (4^6 = 4096 seeds); ``reg_weight`` and ``posture_weight``
+    (m^2/rad^2) as in :class:`lab.control.ik.IKSolver`, None (default) = automatic: none
+    for an arm that is not redundant, a small continuity + posture pull (then the polish)
+    for a redundant one (:mod:`lab.control.follow`); 0 is off. ``spread_weight`` and
+    ``max_spread_m`` (m): the spread penalty and flag (:mod:`lab.control.spread`)."""
     from lab.control.command_set import CommandSet
     from lab.control.ik import grid_seeds
     from lab.control.soft_ik import FEMForwardMap
 
     commands = CommandSet.from_robot(robot)
+    kw = dict(reg_weight=reg_weight, posture_weight=posture_weight, spread_weight=spread_weight)
     if model is None:
         if fem is None:
             raise InputError("need a model or an FEM (Soft IK) to solve the IK")
-        return IKSolver(FEMForwardMap(fem), commands, method, reg_weight=reg_weight, posture_weight=posture_weight)
+        return IKSolver(FEMForwardMap(fem), commands, method or "lm", **kw)
+    if callable(getattr(model, "command", None)):
+        raise InputError(
+            "this is a direct inverse model u = g(y): it has no forward map to solve the IK through; "
+            "give a forward model (mlp, ensemble, gpr, knn, sklearn-mlp)"
+        )
     if getattr(model, "n_u", robot.n_cables) != robot.n_cables or getattr(model, "n_y", 3) != 3:
         raise InputError(
             f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
             f"{robot.name} has {robot.n_cables} cables and a 3-D tip"
         )
+    notes = []
+    if not getattr(model, "has_jacobian", True):
+        if method in ("lm", "gd"):
+            raise InputError(
+                f"method {method!r} needs the model's Jacobian, and this model has none: "
+                "use the derivative-free 'dfo' (or leave the method out)"
+            )
+        if method is None:
+            notes.append(
+                "the model has no Jacobian: derivative-free IK (secant Levenberg-Marquardt with a compass poll)"
+            )
+        method = "dfo"
     if seed_levels is None:
         seed_levels = 7 if robot.n_cables <= 3 else 4
-    return IKSolver(
+    solver = IKSolver(
         model,
         commands,
-        method,
-        reg_weight=reg_weight,
-        posture_weight=posture_weight,
+        method or "lm",
         seeds=grid_seeds(model, commands, seed_levels),
+        max_spread_m=max_spread_m,
+        **kw,
     )
+    solver.notes.extend(notes)
+    return solver
