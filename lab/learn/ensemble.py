@@ -121,6 +121,10 @@ class Ensemble:
 
     def save(self, path) -> Path:
         """Write every member and the metadata to one ``.npz`` atomically (no pickle)."""
+        import datetime as _dt
+
+        from lab.files import code_version
+
         path = Path(path)
         meta = {
             **{k: v for k, v in self.metadata.items() if k not in ("format_version", "kind")},
@@ -128,6 +132,8 @@ class Ensemble:
             "kind": ENSEMBLE_KIND,
             "n_members": len(self.members),
             "spread_scale": self.spread_scale,
+            "code_version": code_version(),
+            "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         }
         arrays = {"metadata": np.array(json.dumps(meta, default=json_default, allow_nan=False))}
         for k, m in enumerate(self.members):
