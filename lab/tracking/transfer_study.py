@@ -59,16 +59,19 @@ def random_safe_commands(robot, n: int, seed: int = 0) -> np.ndarray:
     return random_commands(robot, n, seed)
 
 
-def evaluate_model(model, body, u_test, tips_test, n_points: int = 24) -> dict:
+def evaluate_model(model, body, u_test, tips_test, n_points: int | None = 24, shapes=SHAPES) -> dict:
     """Model error on held-out commands ``u_test`` (with true tips ``tips_test``) and the
     Table I tracking error per shape, in metres: ``{"model_error_m", "circle_m", ...}``,
     with each shape's size ratio (RMS spread about the centroid, reached over target) and
-    centroid shift ``{shape}_shift_m`` (3,) m, and their means over the shapes."""
+    centroid shift ``{shape}_shift_m`` (3,) m, and their means over the shapes. ``shapes``:
+    built-in trajectories of :func:`lab.control.trajectories.builtin` (default Table I's; the
+    six-cable arm's :data:`lab.control.trajectories.SIX_CABLE`), ``n_points`` targets each
+    (None: each path's default)."""
     from lab.tracking.track import make_solver
 
     row = {"model_error_m": float(np.mean(np.linalg.norm(model.predict(u_test) - tips_test, axis=1)))}
     solver = make_solver(body.robot, model)
-    for shape in SHAPES:
+    for shape in shapes:
         targets = builtin(shape, n_points)
         plan = solver.follow(targets)
         reached = quasi_static_tips(body, plan.u_motor)
@@ -78,9 +81,9 @@ def evaluate_model(model, body, u_test, tips_test, n_points: int = 24) -> dict:
         spread = np.sqrt(np.mean(np.sum((targets - c_t) ** 2, axis=1)))
         row[f"{shape}_size_ratio"] = float(np.sqrt(np.mean(np.sum((reached - c_r) ** 2, axis=1))) / spread)
         row[f"{shape}_shift_m"] = [float(v) for v in c_r - c_t]
-    row["tracking_mean_m"] = float(np.mean([row[f"{s}_m"] for s in SHAPES]))
-    row["size_ratio_mean"] = float(np.mean([row[f"{s}_size_ratio"] for s in SHAPES]))
-    row["shift_mean_m"] = [float(v) for v in np.mean([row[f"{s}_shift_m"] for s in SHAPES], axis=0)]
+    row["tracking_mean_m"] = float(np.mean([row[f"{s}_m"] for s in shapes]))
+    row["size_ratio_mean"] = float(np.mean([row[f"{s}_size_ratio"] for s in shapes]))
+    row["shift_mean_m"] = [float(v) for v in np.mean([row[f"{s}_shift_m"] for s in shapes], axis=0)]
     return row
 
 

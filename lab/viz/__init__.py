@@ -37,6 +37,7 @@ from lab.viz.arm import (
     stop_visualizer,
     update_scene,
 )
+from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
 from lab.viz.setup import plot_setup, setup_geometry
 from lab.viz.sliders import ArmExplorer, widgets_available
@@ -101,4 +102,8 @@ __all__ = [
     "METHOD_COLORS",
     "PAPER_MEAN_CM",
     "plot_transfer_curve",
+    "METRIC_LABELS",
+    "STRATEGY_COLORS",
+    "plot_calibration",
+    "plot_error_vs_n",
 ]

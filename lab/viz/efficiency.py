@@ -1,0 +1,95 @@
+"""Figures of the data-efficiency chapter (08): error against N, and an ensemble's calibration.
+
+:func:`plot_error_vs_n` draws, per sampling strategy, a metric of
+:mod:`lab.tracking.data_curve` against the number of samples N on log-log axes (the mean
+over the rows of each N: several seeds or robots; the band spans their range), one
+panel per (data set, metric). :func:`plot_calibration` draws the reliability curve of a
+predicted spread: the fraction of held-out errors within ``k`` predicted standard
+deviations against ``k``, next to the Gaussian's ``erf(k / sqrt 2)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["STRATEGY_COLORS", "METRIC_LABELS", "plot_error_vs_n", "plot_calibration"]
+
+STRATEGY_COLORS = {
+    "grid": "C3",
+    "sobol": "C0",
+    "lhs": "C2",
+    "maximin": "C4",
+    "random": "C7",
+    "active": "C1",
+}
+METRIC_LABELS = {
+    "model_error_m": "model error, held-out random commands [mm]",
+    "tracking_mean_m": "Table I tracking error, mean of 3 shapes [mm]",
+}
+
+
+def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), *, goals=None, figsize=None):
+    """One row of panels per data set, one column per metric. ``panels``: ``{title: rows}``,
+    rows being dicts with ``strategy``, ``n`` and the metrics (m, drawn in mm). ``goals``:
+    ``{metric: (value_m, label)}`` drawn as horizontal lines. Returns ``(fig, axes)``."""
+    import matplotlib.pyplot as plt
+
+    goals = goals or {}
+    n_rows, n_cols = len(panels), len(metrics)
+    fig, axes = plt.subplots(
+        n_rows, n_cols, figsize=figsize or (5.6 * n_cols, 3.9 * n_rows), layout="constrained", squeeze=False
+    )
+    for row_axes, (title, rows) in zip(axes, panels.items()):
+        for ax, metric in zip(row_axes, metrics):
+            for strategy in dict.fromkeys(r["strategy"] for r in rows):
+                by_n: dict = {}
+                for r in rows:
+                    v = float(r[metric])
+                    if r["strategy"] == strategy and np.isfinite(v):
+                        by_n.setdefault(int(r["n"]), []).append(1e3 * v)
+                if not by_n:
+                    continue
+                ns = np.array(sorted(by_n))
+                vals = [np.array(by_n[n]) for n in ns]
+                color = STRATEGY_COLORS.get(strategy, "k")
+                ax.plot(ns, [v.mean() for v in vals], "o-", color=color, ms=4, lw=1.6, label=strategy)
+                if any(len(v) > 1 for v in vals):
+                    ax.fill_between(ns, [v.min() for v in vals], [v.max() for v in vals], color=color, alpha=0.12)
+            if metric in goals:
+                value_m, label = goals[metric]
+                ax.axhline(1e3 * value_m, color="k", ls="--", lw=0.9)
+                ax.text(1.01, 1e3 * value_m, label, fontsize=7, va="center", transform=ax.get_yaxis_transform())
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel("samples N")
+            ax.set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=9)
+            ax.set_title(title, fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+        row_axes[0].legend(fontsize=7, loc="upper right")
+    return fig, axes
+
+
+def plot_calibration(curves: dict, k_max: float = 3.0, *, ax=None):
+    """Reliability of predicted spreads: ``curves`` = ``{label: z}``, z the per-coordinate
+    normalised errors ``|y - mean| / std`` (any shape). Draws the fraction of z <= k against
+    k in [0, ``k_max``] for each, with the Gaussian reference and its 1- and 2-sigma points.
+    Returns the axes."""
+    import matplotlib.pyplot as plt
+    from scipy.special import erf
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.2, 4.2), layout="constrained")
+    k = np.linspace(0.0, k_max, 200)
+    ax.plot(k, erf(k / np.sqrt(2.0)), "k--", lw=1.2, label="Gaussian (calibrated)")
+    for (label, z), color in zip(curves.items(), ("C0", "C1", "C2", "C3", "C4")):
+        z = np.sort(np.ravel(np.asarray(z, float)))
+        ax.plot(k, np.searchsorted(z, k, side="right") / len(z), color=color, lw=1.8, label=label)
+    for kk, p in ((1, 0.6827), (2, 0.9545)):
+        ax.plot([kk], [p], "ko", ms=4)
+    ax.set_xlabel("k: error within k predicted standard deviations")
+    ax.set_ylabel("fraction of held-out errors")
+    ax.set_xlim(0, k_max)
+    ax.set_ylim(0, 1.01)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    return ax
