@@ -340,3 +340,56 @@ def test_track_cli_records_the_regularisation_and_the_uncertainty_keys(tmp_path,
     assert sol["reg_weight"] == 1e-6 and sol["reg_weight_setting"] == 1e-6 and sol["regularisation"] == "explicit"
     assert main([*args, "--max-spread-mm", "-1", "--out", str(out)]) == 2
     assert main([*args, "--spread-weight", "1", "--out", str(out)]) == 2  # needs an ensemble
+
+
+def test_a_deep_ensemble_flags_targets_just_outside_its_data(three_cable):
+    """An ensemble trained on the commands with u0 <= 2 rad: IK for tips of its own data is
+    not flagged; for tips one grid step further (u0 = 2.5 rad) the IK still "reaches" them
+    (the nets extrapolate, confidently wrong), but the members disagree and the answers are
+    flagged ``uncertain``."""
+    from lab.learn.ensemble import train_ensemble
+
+    u, y, _ = read_dataset("data/sim_three_cable.csv")
+    inside = u[:, 0] <= 2.0
+    ens = train_ensemble(u[inside], y[inside], (10, 10), k=5, seed=0, epochs=60)
+    solver = make_solver(three_cable, ens)
+    assert solver.max_spread_m == DEFAULT_MAX_SPREAD_M
+    known = solver.follow(y[inside][::20])
+    beyond = solver.follow(y[np.isclose(u[:, 0], 2.5)][::4])
+    assert not known.uncertain.any()
+    assert beyond.reachable.mean() >= 0.8 and beyond.uncertain.mean() >= 0.8
+    assert np.median(beyond.spread_m) > 5 * np.median(known.spread_m)
+
+
+def test_track_cli_with_an_ensemble_flags_and_penalises_the_spread(tmp_path):
+    import json
+
+    from lab.cli import main
+    from lab.learn.ensemble import train_ensemble
+
+    u, y, _ = read_dataset("data/sim_three_cable.csv")
+    model = tmp_path / "ens.npz"
+    train_ensemble(u, y, (6,), k=2, seed=0, epochs=10).save(model)
+    out = tmp_path / "c.json"
+    args = [
+        "track",
+        "--model",
+        str(model),
+        "--trajectory",
+        "circle",
+        "--n-points",
+        "4",
+        "--n-rings",
+        "1",
+        "--n-axial",
+        "6",
+    ]
+    assert main([*args, "--max-spread-mm", "1e-6", "--out", str(out)]) == 0  # a nanometre: all flagged
+    doc = json.loads(out.read_text())
+    assert doc["uncertain"] == [True] * 4 and doc["info"]["n_uncertain"] == 4
+    assert all(s > 1e-9 for s in doc["predicted_spread_m"]) and doc["info"]["solver"]["max_spread_m"] == 1e-9
+    assert main([*args, "--spread-weight", "0.01", "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert (
+        doc["info"]["solver"]["spread_weight"] == 0.01 and doc["info"]["solver"]["max_spread_m"] == DEFAULT_MAX_SPREAD_M
+    )

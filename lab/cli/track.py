@@ -88,7 +88,7 @@ def run(args) -> int:
     from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
     from lab.description import load_robot
     from lab.fem.energy import ArmFEM
-    from lab.learn.mlp import load_model
+    from lab.learn.models import load_model
     from lab.rig import make_rig
     from lab.rig.sim import SimRig
 
