@@ -59,20 +59,35 @@ def slack_targets(n=12):
 
 
 # ------------------------------------------------------------------ automatic regularisation
-def test_auto_regularises_a_redundant_arm_off_its_slack_plateau(box4):
+def test_auto_restarts_a_redundant_arm_off_its_slack_plateau(box4):
     """From all cables slack (u = 0) the gradient is zero: the plain IK without restarts stops
-    at once and misses everything; the automatic default pulls towards the posture (every
-    cable taut), polishes, and reaches every target exactly -- with no restart needed."""
+    at once and misses everything. The automatic default restarts the missed first point
+    regularised towards the posture (every cable taut), polishes, and reaches it exactly; the
+    later points follow from there by warm starts, unregularised."""
     arm, targets, u0 = SlackArm4(), slack_targets(), np.zeros(4)
     plain = IKSolver(arm, box4, retry_cold=False).follow(targets, u0=u0)
-    assert not plain.reachable.any() and plain.info["regularisation"] == "explicit"
-    auto = IKSolver(arm, box4, reg_weight=None, posture_weight=None, retry_cold=False).follow(targets, u0=u0)
+    assert not plain.reachable.any() and plain.info["regularisation"] == "explicit: none"
+    auto = IKSolver(arm, box4, reg_weight=None, posture_weight=None).follow(targets, u0=u0)
     assert auto.reachable.all() and auto.residual_m.max() < 1e-8
     assert all(box4.contains(u) for u in auto.u_motor)
     w = AUTO_WEIGHT_REL * np.sum(B_CABLES**2) / 4  # |J|_F^2 / m at the centre, every cable taut
-    assert auto.info["reg_weight"] == pytest.approx(w) and auto.info["posture_weight"] == pytest.approx(w)
-    assert auto.info["redundant"] and auto.info["regularisation"].startswith("auto: continuity + posture")
-    assert auto.info["restarts"] == 0
+    assert auto.info["restart_weight"] == pytest.approx(w)
+    assert auto.info["reg_weight"] == 0.0 and auto.info["posture_weight"] == 0.0
+    assert auto.info["redundant"] and auto.info["regularisation"].startswith("auto: none while targets are reached")
+    assert auto.info["restarts"] == 1 and auto.info["recovered"] == 1 and auto.info["slack_plateaus"] == 1
+    # the restart is regularised: a plain restart from the posture lands elsewhere on the family
+    plain_restart = IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0).follow(targets[:1], u0=u0)
+    assert plain_restart.reachable.all()
+    assert np.linalg.norm(auto.u_motor[0] - 1.5) < np.linalg.norm(plain_restart.u_motor[0] - 1.5)
+
+
+def test_explicit_weights_regularise_every_point(box4):
+    """Explicit weights: every point regularised (then polished) -- from the slack start the
+    pull towards the posture alone lifts the cables, no restart needed."""
+    arm, targets = SlackArm4(), slack_targets()
+    res = IKSolver(arm, box4, reg_weight=1e-6, posture_weight=1e-6, retry_cold=False).follow(targets, u0=np.zeros(4))
+    assert res.reachable.all() and res.info["restarts"] == 0
+    assert res.info["reg_weight"] == 1e-6 and res.info["regularisation"].startswith("explicit: continuity + posture")
 
 
 def test_slack_plateau_miss_restarts_from_the_posture(box4):
@@ -101,10 +116,12 @@ def test_slack_restart_also_for_a_non_redundant_arm():
 def test_explicit_weights_override_and_zero_is_off(box4):
     arm = SlackArm4()
     s = IKSolver(arm, box4, reg_weight=2e-6, posture_weight=0.0)
-    assert follow_weights(s) == (2e-6, 0.0, "explicit")
-    w_c, w_p, how = follow_weights(IKSolver(arm, box4, reg_weight=None, posture_weight=0.0))
-    assert w_c == pytest.approx(auto_weight(s)) and w_p == 0.0 and "explicit where given" in how
-    assert follow_weights(IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0))[:2] == (0.0, 0.0)
+    assert follow_weights(s)[:4] == (2e-6, 0.0, 2e-6, False)
+    w_c, w_p, w_r, to_posture, how = follow_weights(IKSolver(arm, box4, reg_weight=None, posture_weight=3e-6))
+    assert (w_c, w_p, w_r, to_posture) == (0.0, 3e-6, 3e-6, True) and "auto where not given" in how
+    assert follow_weights(IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0))[:4] == (0.0, 0.0, 0.0, False)
+    w_r, to_posture = follow_weights(IKSolver(arm, box4, reg_weight=None, posture_weight=None))[2:4]
+    assert w_r == pytest.approx(auto_weight(s)) and to_posture
 
 
 class Linear:
@@ -337,7 +354,8 @@ def test_track_cli_records_the_regularisation_and_the_uncertainty_keys(tmp_path,
     assert doc["predicted_spread_m"] == [None] * 4
     assert main([*args, "--reg-weight", "1e-6", "--posture-weight", "0", "--out", str(out)]) == 0
     sol = json.loads(out.read_text())["info"]["solver"]
-    assert sol["reg_weight"] == 1e-6 and sol["reg_weight_setting"] == 1e-6 and sol["regularisation"] == "explicit"
+    assert sol["reg_weight"] == 1e-6 and sol["reg_weight_setting"] == 1e-6
+    assert sol["regularisation"].startswith("explicit: continuity + posture")
     assert main([*args, "--max-spread-mm", "-1", "--out", str(out)]) == 2
     assert main([*args, "--spread-weight", "1", "--out", str(out)]) == 2  # needs an ensemble
 

@@ -53,6 +53,7 @@ def test_the_path_is_reachable_by_the_simulated_robot():
     assert plan.reachable.all(), plan.residual_m
 
 
+@pytest.mark.slow  # 35-60 s: 1,000 FEM solves on two shared cores
 def test_recipe_with_default_flags_tracks_to_half_a_millimetre(tmp_path):
     data, model, path, out = (tmp_path / n for n in ("data.csv", "model.npz", "path.csv", "track.json"))
     robot = str(ROBOT)
@@ -82,13 +83,8 @@ def test_recipe_with_default_flags_tracks_to_half_a_millimetre(tmp_path):
     assert doc["n_unreachable"] == 0
     assert doc["mean_error_m"] <= 5e-4, f"mean tracking error {100 * doc['mean_error_m']:.4f} cm"
     sol = doc["info"]["solver"]
-    assert sol["redundant"] and sol["regularisation"].startswith("auto: continuity + posture")
-    assert sol["reg_weight"] > 0 and sol["posture_weight"] > 0 and sol["reg_weight_setting"] == "auto"
-    # the old default (no regulariser) lets the redundant arm wander onto slack cables, where
-    # the model is least accurate: its worst point is worse
-    assert main([*track, "--reg-weight", "0", "--posture-weight", "0", "--out", str(tmp_path / "off.json")]) == 0
-    off = json.loads((tmp_path / "off.json").read_text())
-    assert doc["max_error_m"] < off["max_error_m"]
+    assert sol["redundant"] and sol["regularisation"].startswith("auto: none while targets are reached")
+    assert sol["restart_weight"] > 0 and sol["reg_weight_setting"] == sol["posture_weight_setting"] == "auto"
     assert np.isfinite(doc["timings"]["ik_per_target_mean_s"])
 
 

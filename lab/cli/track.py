@@ -50,15 +50,17 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "--reg-weight",
         type=float,
         default=None,
-        help="regulariser towards the previous command, m^2/rad^2 (default auto: 0 unless the arm "
-        "is redundant, then a thousandth of the model's mean squared Jacobian column; 0 is off)",
+        help="regulariser towards the previous command on every point, m^2/rad^2 (default auto: none; "
+        "on a redundant arm a missed target is solved again from the posture, regularised with a "
+        "thousandth of the model's mean squared Jacobian column, and polished; 0 is off)",
     )
     k.add_argument(
         "--posture-weight",
         type=float,
         default=None,
         help="regulariser towards the centre of the allowed commands (keeps a redundant "
-        "arm's cables taut), m^2/rad^2 (default auto, as --reg-weight); regularised answers are polished",
+        "arm's cables taut) on every point, m^2/rad^2 (default auto, as --reg-weight); regularised answers "
+        "are polished",
     )
     k.add_argument(
         "--spread-weight",
@@ -161,11 +163,10 @@ def run(args) -> int:
         f"({sol['method']}) {1e3 * t['ik_per_target_mean_s']:.2f} ms per target -> {args.out}",
         file=sys.stderr,
     )
-    if sol["redundant"] or sol["reg_weight"] or sol["posture_weight"]:
+    if sol["redundant"] or sol["reg_weight"] or sol["posture_weight"] or sol["ik"]["restarts"]:
         print(
-            f"IK regularisation: {sol['regularisation']} (reg_weight {sol['reg_weight']:.3g}, posture_weight "
-            f"{sol['posture_weight']:.3g} m^2/rad^2); {sol['ik']['restarts']} points restarted, "
-            f"{sol['ik']['recovered']} recovered",
+            f"IK regularisation: {sol['regularisation']}; {sol['ik']['restarts']} points restarted, "
+            f"{sol['ik']['recovered']} of them reached",
             file=sys.stderr,
         )
     return 0

@@ -1,34 +1,43 @@
-"""Following a trajectory with the IK: warm starts, regularisation chosen by itself, recovery.
+"""Following a trajectory with the IK: warm starts, restarts from slack plateaus, and the
+regularisation that picks one of a redundant arm's many answers.
 
 :func:`follow_trajectory` (what :meth:`lab.control.ik.IKSolver.follow` runs) solves the
 targets in order, warm-starting each from the previous answer (Section II-D).
 
-**Redundant arms** (more motors than tip coordinates: six cables, or a user's four) reach
-a target with a whole family of commands. Each point is then first solved regularised
-towards ``u_ref = (w_c u_prev + w_p u_posture) / (w_c + w_p)``: continuity (``reg_weight``
-``w_c``, the previous command) and posture (``posture_weight`` ``w_p``, default the centre
-of the allowed set, where every cable is taut: away from the slack plateaus where a
-cable's Jacobian column is zero and a warm start gets stuck). The regulariser also pulls
-the tip off the target, so the answer is then *polished*: solved again unregularised from
-there, which moves it only a little (the regulariser has already picked the branch of
-solutions) and removes that bias. A cold first point is pulled to the posture alone.
+**Regularised solves.** With weights ``w_c`` (``reg_weight``, continuity) and ``w_p``
+(``posture_weight``), each point is first solved regularised towards
+``u_ref = (w_c u_prev + w_p u_posture) / (w_c + w_p)``: the previous command, and a posture
+(default the centre of the allowed set, where every cable is taut: away from the slack
+plateaus where a cable's Jacobian column is zero and a warm start gets stuck). A redundant
+arm (more motors than tip coordinates) reaches a target with a whole family of commands;
+the regulariser picks the one nearest ``u_ref``. It also pulls the tip off the target, so
+the answer is then *polished*: solved again unregularised from there, which moves it only a
+little (the branch of solutions is already chosen) and removes that bias. A cold first
+point is pulled to the posture alone.
 
-**Automatic weights.** A weight given as ``None`` (the default of ``make_solver`` and of
-``python -m lab track``) is chosen here: 0 for an arm that is not redundant (its IK is
-unchanged: Table I), and for a redundant one ``AUTO_WEIGHT_REL |J|_F^2 / m``, ``J`` the
-model's Jacobian at the posture (m/rad; for a model without one, a least-squares linear fit
-to the cold-start seeds). That is a thousandth of the mean squared column of ``J``: small
-enough that the polish has little to undo, large enough to decide the null-space
-directions. On the six-cable network it gives 0.97e-6 m^2/rad^2, the weights the README
-recommended by hand (1e-6). Explicit values override, 0 is off.
-
-**Recovery.** A point that misses its target (residual > ``reach_tol_m``) while the answer
+**Restarts.** A point that misses its target (residual > ``reach_tol_m``) while the answer
 should be exact (no regulariser, or a polished one) is solved again -- when the solver's
 ``retry_cold`` allows it -- from other starts: from the posture first if a cable is slack at
 the miss (a Jacobian column below :data:`SLACK_COLUMN_REL` of the largest: the plateau,
 where the gradient cannot see that pulling that cable would help) or the arm is
-regularised, then from the ``4`` seeds whose tips are nearest the target (or the centre).
-The best answer is kept; the iterations, evaluations and time of every try are counted.
+redundant, then from the ``4`` seeds whose tips are nearest the target (or the centre).
+On a redundant arm each restart is regularised towards the posture and polished, so it
+lands on the taut branch. The best answer is kept; the work of every try is counted.
+
+**Automatic weights** (a weight given as ``None``: the default of ``make_solver`` and of
+``python -m lab track``). Measured on two redundant arms (issue 15: the six-cable arm's
+Figure 5 paths and a user's four-cable arm, sim data + sim robot), regularising every
+point made the mean tracking error *worse* than plain warm starts (six-cable 0.14-0.20 cm
+against 0.12-0.15 cm) -- the model is no more accurate near the posture -- while the
+misses of plain warm starts (slack plateaus: unreachable flags, 0.5-0.6 cm outliers) are
+what hurt. So the automatic choice is: no regulariser while the targets are reached (the
+unregularised IK, unchanged for a non-redundant arm: Table I), and at a miss on a
+redundant arm the restarts above, regularised with ``w = AUTO_WEIGHT_REL |J|_F^2 / m``
+(``J`` the model's Jacobian at the posture, m/rad; for a model without one, a least-squares
+linear fit to the cold-start seeds): a thousandth of the mean squared column of ``J``
+(0.97e-6 m^2/rad^2 on the six-cable network, the weight the README had recommended by
+hand). Explicit weights override: they regularise every point, and their restarts use
+them; 0 is off.
 """
 
 from __future__ import annotations
@@ -37,7 +46,7 @@ import numpy as np
 
 from lab.control.ik_result import TrajectoryIK, check_targets, count_work
 
-#: Automatic regularisation weight of a redundant arm, relative to |J|_F^2 / m at the posture.
+#: Automatic restart regularisation weight of a redundant arm, relative to |J|_F^2 / m at the posture.
 AUTO_WEIGHT_REL = 1e-3
 #: A cable is "slack" where its Jacobian column is below this fraction of the largest column.
 SLACK_COLUMN_REL = 1e-2
@@ -74,20 +83,27 @@ def auto_weight(solver) -> float:
     return float(AUTO_WEIGHT_REL * np.sum(J * J) / J.shape[1])
 
 
-def follow_weights(solver) -> tuple[float, float, str]:
-    """``(reg_weight, posture_weight, how)`` that :func:`follow_trajectory` uses: explicit
-    settings as given, ``None`` ones automatic (module docstring); ``how`` says which."""
+def follow_weights(solver) -> tuple[float, float, float, bool, str]:
+    """``(reg_weight, posture_weight, restart_weight, restart_to_posture, how)`` that
+    :func:`follow_trajectory` uses: the weights of every point's solve (explicit settings as
+    given, ``None`` ones 0), those of a restart after a miss (module docstring), and ``how``
+    in words."""
     settings = (solver.reg_weight_setting, solver.posture_weight_setting)
-    if all(s is not None for s in settings):
-        return float(settings[0]), float(settings[1]), "explicit"
-    if not solver.redundant:
-        w = 0.0
-        why = f"auto: none ({solver.commands.n} motors for {solver.n_tip} tip coordinates, not redundant)"
-    else:
-        w = auto_weight(solver)
-        why = f"auto: continuity + posture, then polish ({solver.commands.n} motors for {solver.n_tip} tip coordinates)"
-    w_c, w_p = (w if s is None else float(s) for s in settings)
-    return w_c, w_p, why if all(s is None for s in settings) else why + "; explicit where given"
+    w_c, w_p = (0.0 if s is None else float(s) for s in settings)
+    shape = f"{solver.commands.n} motors for {solver.n_tip} tip coordinates"
+    if w_c + w_p > 0:
+        how = "explicit: continuity + posture on every point, then polish"
+        how += "" if all(s is not None for s in settings) else " (auto where not given: 0)"
+        return w_c, w_p, w_p or w_c, w_p > 0, how
+    if not solver.redundant or all(s is not None for s in settings):
+        how = "explicit: none" if all(s is not None for s in settings) else f"auto: none ({shape}, not redundant)"
+        return 0.0, 0.0, 0.0, False, how
+    w = auto_weight(solver)
+    how = (
+        f"auto: none while targets are reached; a missed point restarts regularised towards the posture "
+        f"(w = {w:.3g} m^2/rad^2), then polished ({shape}, redundant)"
+    )
+    return 0.0, 0.0, w, True, how
 
 
 def slack_motors(solver, u_motor) -> np.ndarray:
@@ -113,12 +129,13 @@ def _solve_point(solver, target, u_start, u_ref, weight):
     return res
 
 
-def _recover(solver, target, first, start, w_p, w, stats):
-    """Retry a missed point from the posture (slack cable or regularised arm) and the
-    nearest cold starts; the best answer, with the work of every try counted."""
+def _recover(solver, target, first, start, w_restart, to_posture, stats):
+    """Retry a missed point from the posture (slack cable, or a regularised restart) and the
+    nearest cold starts, each regularised towards the posture with ``w_restart`` if
+    ``to_posture`` (else towards its own start); the best answer, all work counted."""
     slack = len(slack_motors(solver, first.u_motor)) > 0
     stats["slack_plateaus"] += slack
-    starts = [solver.u_posture] if (slack or w > 0) else []
+    starts = [solver.u_posture] if (slack or w_restart > 0) else []
     if solver.seeds is not None:
         u_s, y_s = solver.seeds
         near = np.argsort(np.sum((y_s - target) ** 2, axis=1))[:N_COLD_STARTS]
@@ -132,8 +149,7 @@ def _recover(solver, target, first, start, w_p, w, stats):
         if any(np.allclose(u0, t) for t in tried):
             continue
         tried.append(u0)
-        u_ref = solver.u_posture if w_p > 0 else u0
-        tries.append(_solve_point(solver, target, u0, u_ref, w_p or w))
+        tries.append(_solve_point(solver, target, u0, solver.u_posture if to_posture else u0, w_restart))
     best = min(tries, key=lambda r: r.residual_m)
     stats["restarts"] += 1
     stats["recovered"] += bool(best.reachable)
@@ -143,10 +159,10 @@ def _recover(solver, target, first, start, w_p, w, stats):
 def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
     """IK through ``solver`` (:class:`lab.control.ik.IKSolver`) for the targets (N, 3) m in
     order, warm-started from the previous answer (the first from ``u0`` (m,) rad or a cold
-    start); weights, polish and recovery as in the module docstring. ``TrajectoryIK.info``
-    says what was applied (the weights used, why, and the recovery counts)."""
+    start); weights, polish and restarts as in the module docstring. ``TrajectoryIK.info``
+    says what was applied (the weights used, why, and the restart counts)."""
     targets = np.atleast_2d(check_targets(targets_W))
-    w_c, w_p, how = follow_weights(solver)
+    w_c, w_p, w_restart, to_posture, how = follow_weights(solver)
     w = w_c + w_p
     stats = {"slack_plateaus": 0, "restarts": 0, "recovered": 0}
     results, u_prev = [], u0
@@ -159,7 +175,7 @@ def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
             u_ref, w_now = ((w_c * u_start + w_p * solver.u_posture) / w if w > 0 else u_start), w
         res = _solve_point(solver, target, u_start, u_ref, w_now)
         if not res.reachable and solver.retry_cold and (w_now <= 0 or solver.polish):
-            res = _recover(solver, target, res, u_start, w_p, w, stats)
+            res = _recover(solver, target, res, u_start, w_restart, to_posture, stats)
         results.append(res)
         u_prev = res.u_motor
     col = lambda name: np.array([getattr(r, name) for r in results])  # noqa: E731
@@ -167,6 +183,7 @@ def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
     info = {
         "reg_weight": w_c,
         "posture_weight": w_p,
+        "restart_weight": w_restart,
         "regularisation": how,
         "redundant": bool(solver.redundant),
         **stats,

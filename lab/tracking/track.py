@@ -25,9 +25,10 @@ The result file (:func:`write_result`, JSON, atomic) is a public contract. Keys:
 * ``uncertain`` (N,) bool: the model's predicted spread at the command exceeds
   ``info.solver.max_spread_m`` (all false for a model without a spread), ``predicted_spread_m``
   (N,) m (null without a spread); ``info.n_uncertain`` counts them. ``info.solver`` holds the
-  regularisation the IK applied: ``reg_weight``/``posture_weight`` the weights used,
-  ``..._setting`` what was asked ("auto" or the number), ``regularisation`` in words, and
-  ``ik`` the recovery counts (:mod:`lab.control.follow`).
+  regularisation the IK applied: ``reg_weight``/``posture_weight`` the weights of every
+  point's solve, ``restart_weight`` that of a restart after a miss, ``..._setting`` what was
+  asked ("auto" or the number), ``regularisation`` in words, and ``ik`` the restart counts
+  (:mod:`lab.control.follow`).
 
 Not-a-number values are written as JSON ``null``.
 """
@@ -222,6 +223,7 @@ def run_trajectory(
             "max_iter": solver.max_iter,
             "reg_weight_setting": _setting(solver.reg_weight_setting),
             "posture_weight_setting": _setting(solver.posture_weight_setting),
+            "restart_weight": plan.info["restart_weight"],
             "regularisation": plan.info["regularisation"],
             "redundant": plan.info["redundant"],
             "spread_weight": solver.spread_weight,
@@ -324,9 +326,10 @@ def make_solver(
     for a model with ``has_jacobian = False`` (the solver's ``notes`` say so; asking for
     "lm"/"gd" with such a model is an InputError). ``seed_levels`` defaults to 7 for up to
     three motors and 4 beyond (4^6 = 4096 seeds); ``reg_weight`` and ``posture_weight``
-    (m^2/rad^2) as in :class:`lab.control.ik.IKSolver`, None (default) = automatic: none
-    for an arm that is not redundant, a small continuity + posture pull (then the polish)
-    for a redundant one (:mod:`lab.control.follow`); 0 is off. ``spread_weight`` and
+    (m^2/rad^2) as in :class:`lab.control.ik.IKSolver`, None (default) = automatic: no
+    regulariser while the targets are reached, and on a redundant arm a missed point
+    restarts regularised towards the posture, then polished (:mod:`lab.control.follow`);
+    explicit weights regularise every point; 0 is off. ``spread_weight`` and
     ``max_spread_m`` (m): the spread penalty and flag (:mod:`lab.control.spread`)."""
     from lab.control.command_set import CommandSet
     from lab.control.ik import grid_seeds
