@@ -26,6 +26,14 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     """Add this command to an ``argparse`` subparsers object; returns its parser."""
     t = subparsers.add_parser("train", parents=parents, help="train the forward model u -> y (an MLP) on a dataset")
     t.add_argument("data", help="dataset CSV (u0..,x,y,z), e.g. data/sim_three_cable.csv")
+    t.add_argument(
+        "--extra-data",
+        nargs="+",
+        default=[],
+        metavar="CSV",
+        help="more datasets of the same robot, appended to DATA before the split (e.g. Sobol samples between "
+        "a grid's lattice points)",
+    )
     add_model_arguments(t)
     t.add_argument("--out", required=True, help="output model file (.npz)")
     t.add_argument("--report", help="also write the train/validation/test errors as JSON here")
@@ -167,6 +175,8 @@ def run(args) -> int:
         {
             "DATA": args.data,
             "DATA sidecar": f"{args.data}.json",
+            **{f"--extra-data {p}": p for p in args.extra_data},
+            **{f"--extra-data {p} sidecar": f"{p}.json" for p in args.extra_data},
             **({"--forward": args.forward} if args.forward else {}),
         },
         {"--out": args.out, "--report": args.report},
@@ -175,6 +185,17 @@ def run(args) -> int:
     if args.report:
         check_writable(args.report, "--report")
     u, y, meta = read_dataset(args.data)
+    extra = []
+    for path in args.extra_data:
+        u_x, y_x, meta_x = read_dataset(path)
+        robot_x, robot = ((m.get("robot") or {}).get("name") for m in (meta_x, meta))
+        if u_x.shape[1] != u.shape[1] or robot_x != robot:
+            raise InputError(
+                f"--extra-data {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {args.data} is robot "
+                f"{robot!r} with {u.shape[1]}"
+            )
+        u, y = np.vstack([u, u_x]), np.vstack([y, y_x])
+        extra.append({"path": str(path), "file_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()})
     check_model_arguments(args)
     if args.jobs < 1:
         raise InputError(f"--jobs must be positive, got {args.jobs}")
@@ -182,7 +203,8 @@ def run(args) -> int:
     what = "-".join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))
     what = {"mlp": what, "ensemble": f"{args.members} x {what}", "inverse-mlp": f"inverse {what}"}.get(args.model, "")
     print(
-        f"{args.data}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} outputs; training {args.model}"
+        f"{' + '.join([args.data, *args.extra_data])}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} "
+        f"outputs; training {args.model}"
         f"{f' {what} ({args.activation}) with {args.algorithm}' if what else ''}, split {args.split}, seed {args.seed}",
         file=sys.stderr,
     )
@@ -208,6 +230,8 @@ def run(args) -> int:
     training = model.metadata["training"]
     training.setdefault("data_sha256", data_sha256(u, y))
     training["data"] = {"path": str(args.data), "file_sha256": file_sha, "robot": (meta.get("robot") or {}).get("name")}
+    if extra:
+        training["data"]["extra"] = extra
     training["command"] = "python -m lab " + shlex.join(args.argv)
     model.save(args.out)
     size = workspace_size_m(y) or float("nan")
