@@ -411,3 +411,22 @@ def test_track_cli_with_an_ensemble_flags_and_penalises_the_spread(tmp_path):
     assert (
         doc["info"]["solver"]["spread_weight"] == 0.01 and doc["info"]["solver"]["max_spread_m"] == DEFAULT_MAX_SPREAD_M
     )
+
+
+def test_lm_damps_more_when_its_step_matrix_is_singular(box4, monkeypatch):
+    """On a redundant arm J^T J is singular; after many good steps mu can vanish against it
+    (seen on a four-cable net: LinAlgError). LM then damps more instead of failing."""
+    import lab.control.ik as ik_module
+
+    real_solve, calls = np.linalg.solve, []
+
+    def flaky_solve(H, g):
+        calls.append(1)
+        if len(calls) == 1:
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real_solve(H, g)
+
+    monkeypatch.setattr(ik_module.np.linalg, "solve", flaky_solve)
+    target = TIP_REST + np.array([0.9, 1.1, 0.7, 1.3]) @ B_CABLES.T
+    res = IKSolver(Linear(), box4).solve(target, u0=np.full(4, 1.5))
+    assert res.reachable and res.residual_m < 1e-8 and len(calls) >= 2

@@ -16,8 +16,8 @@ pulls towards ``u_ref``. A model with ensemble members may add the spread penalt
 ``uncertain`` above ``max_spread_m``.
 
 Trajectories, and how a redundant arm (more motors than tip coordinates) picks one of its
-many answers -- continuity and posture weights, chosen automatically when given as
-``None``, the polish, restarts from slack plateaus -- are :mod:`lab.control.follow`.
+many answers -- continuity and posture weights, the polish, restarts from slack plateaus,
+and what happens when the weights are given as ``None`` -- are :mod:`lab.control.follow`.
 
 Solvers, all keeping every iterate in ``C``:
 
@@ -92,8 +92,8 @@ class IKSolver:
     which a target counts as reached; ``tol_stationary``: relative stationarity tolerance;
     ``reg_weight``: ``w`` of the regulariser (m^2/rad^2); ``posture_weight``, ``u_posture``
     (default the centre of the allowed set) and ``polish``: how :meth:`follow` picks among
-    redundant solutions; ``None`` weights are chosen by :meth:`follow` (0 unless the arm is
-    redundant; :mod:`lab.control.follow`), a plain :meth:`solve` uses 0 for them;
+    redundant solutions; ``None`` weights are automatic (:mod:`lab.control.follow`: 0, and on
+    a redundant arm regularised restarts where a point is missed; a plain :meth:`solve` uses 0);
     ``retry_cold``: :meth:`follow` solves a point that misses its target again from other
     starts and keeps the best; ``seeds``: (u (S, m), y (S, 3)) for cold starts.
     ``spread_weight``: ``s`` of the spread penalty (dimensionless; needs ensemble
@@ -267,9 +267,16 @@ class IKSolver:
             if mu is None:
                 mu = 1e-3 * float(np.max(np.diag(JtJ)))
             H = JtJ + mu * eye
-            d = -np.linalg.solve(H, g)
-            if not self.commands.contains(u + d, 0.0):
-                d = self.commands.solve_qp(H, g - H @ u, x0=u) - u
+            try:
+                d = -np.linalg.solve(H, g)
+                if not self.commands.contains(u + d, 0.0):
+                    d = self.commands.solve_qp(H, g - H @ u, x0=u) - u
+            except np.linalg.LinAlgError:
+                # a redundant arm's J^T J has rank 3: after many good steps mu can fall below
+                # rounding against it and H is singular. Damp more, as after a rejected step.
+                mu = max(mu * nu, 1e-12 * lip)
+                nu *= 2.0
+                continue
             predicted = -(g @ d + 0.5 * d @ JtJ @ d)
             if predicted <= 1e-30 or np.max(np.abs(d)) <= 1e-15 * self.commands.scale:
                 status = "stalled"
