@@ -27,10 +27,7 @@ def test_safe_n_rows_seeded_and_exactly_latin(name):
         assert np.all(robot.is_safe(u))
         assert np.array_equal(u, lhs_commands(robot, n, seed=5))
         assert np.array_equal(u, design_commands(robot, n, "lhs", seed=5))
-        # every one of the n strata of every motor's range holds exactly one command
-        strata = np.floor(u / axis_ranges(robot) * n).astype(int)
-        for j in range(robot.n_cables):
-            assert sorted(strata[:, j]) == list(range(n))
+        # every one of the n equally likely strata of every motor holds exactly one command
         assert np.all(empty_strata(robot, u) == 0)
     assert not np.array_equal(lhs_commands(robot, 50, seed=0), lhs_commands(robot, 50, seed=1))
 
@@ -58,7 +55,9 @@ def test_better_stratified_per_motor_than_random_and_sobol(name):
         assert rand.min() >= 0.2 * n and sobol.min() > 0  # independent draws leave about n/e empty
 
 
-def test_a_rule_too_tight_for_a_hypercube_still_gives_n_safe_commands():
+def test_a_tight_rule_still_gives_n_safe_commands_and_the_fallback_works(monkeypatch):
+    import lab.data.designs as designs
+
     robot = _tight(load_robot("three-cable"))
     assert np.allclose(axis_ranges(robot), 0.5 * robot.u_max_rad)
     for n in (1, 7, 40):
@@ -66,14 +65,35 @@ def test_a_rule_too_tight_for_a_hypercube_still_gives_n_safe_commands():
         assert u.shape == (n, 3) and np.all(robot.is_safe(u))
         assert np.all(u.sum(axis=1) <= 0.5 * robot.u_max_rad + 1e-9)
         assert np.array_equal(u, lhs_commands(robot, n, seed=2))
+        assert np.all(empty_strata(robot, u) == 0)
+    # where no swap helps: oversample, keep the safe points, thin by strata
+    monkeypatch.setattr(designs, "_repair_lhs", lambda *a: None)
+    for r in (robot, load_robot("three-cable")):
+        u = lhs_commands(r, 60, seed=1)
+        assert u.shape == (60, 3) and np.all(r.is_safe(u))
+        assert np.array_equal(u, lhs_commands(r, 60, seed=1))
+        assert empty_strata(r, u).max() < empty_strata(r, random_commands(r, 60, seed=1)).min()
+
+
+def test_the_strata_follow_the_safe_set():
+    """High angles are rarer in the safe set (they need the other motors low): the strata
+    of a motor are equally likely there, so an LHS puts fewer commands near u_max than a
+    hypercube of the box would, about as many as uniform draws over the safe set."""
+    robot = load_robot("three-cable")
+    u = lhs_commands(robot, 3000, seed=0) / robot.u_max_rad
+    ref = random_commands(robot, 200_000, seed=0) / robot.u_max_rad
+    assert abs(np.mean(u > 0.9) - np.mean(ref > 0.9)) < 0.005
+    assert np.mean(u > 0.9) < 0.08  # a box hypercube: 0.10
 
 
 def test_empty_strata_counts():
+    from lab.data.designs import _safe_marginals
+
     robot = load_robot("three-cable")
-    hi = axis_ranges(robot)
-    lattice = (np.arange(4)[:, None] + 0.5) / 4 * hi  # one point per stratum on each motor
-    assert empty_strata(robot, lattice).tolist() == [0, 0, 0]
-    same = np.full((4, 3), 0.1 * hi)  # all in the first stratum
-    assert empty_strata(robot, same).tolist() == [3, 3, 3]
-    edge = np.vstack([lattice[:3], hi])  # u = u_max falls in the last stratum, not past it
+    marg = _safe_marginals(robot)
+    n = 4
+    mid = np.column_stack([np.quantile(marg[j], (np.arange(n) + 0.5) / n) for j in range(3)])
+    assert empty_strata(robot, mid).tolist() == [0, 0, 0]  # one per stratum of each motor
+    assert empty_strata(robot, np.repeat(mid[:1], n, axis=0)).tolist() == [3, 3, 3]  # all in the first
+    edge = np.vstack([mid[:3], np.full(3, robot.u_max_rad)])  # u_max is in the last stratum, not past it
     assert empty_strata(robot, edge).tolist() == [0, 0, 0]
