@@ -96,11 +96,13 @@ def run(args) -> int:
     print(
         f"test MSE: {mse['mean']:.3e} m^2; fit time {sum(r['wall_s'] for r in rows):.1f} s in all; rows -> {args.out}"
     )
-    if "test_within_1sigma" in rows[0]:
-        c1, c2 = (summarize(rows, "model", f"test_within_{k}sigma")[0]["mean"] for k in (1, 2))
-        print(
-            f"test calibration: {100 * c1:.1f} % within 1 sigma, {100 * c2:.1f} % within 2 sigma (Gaussian 68.3, 95.4)"
-        )
+    for prefix, what in (("test_raw_", " before the spread scale"), ("test_", "")):
+        if f"{prefix}within_1sigma" in rows[0]:
+            c1, c2 = (summarize(rows, "model", f"{prefix}within_{k}sigma")[0]["mean"] for k in (1, 2))
+            print(
+                f"test calibration{what}: {100 * c1:.1f} % within 1 sigma, {100 * c2:.1f} % within 2 sigma "
+                "(Gaussian 68.3, 95.4)"
+            )
     if "test_mean_command_error_rad" in rows[0]:
         c = summarize(rows, "model", "test_mean_command_error_rad")[0]
         print(f"test command error of the direct inverse: {c['mean']:.5f} rad")
