@@ -22,7 +22,8 @@ the miss (a Jacobian column below :data:`SLACK_COLUMN_REL` of the largest: the p
 where the gradient cannot see that pulling that cable would help) or the arm is
 redundant, then from the ``4`` seeds whose tips are nearest the target (or the centre).
 On a redundant arm each restart is regularised towards the posture and polished, so it
-lands on the taut branch. The best answer is kept; the work of every try is counted.
+lands on the taut branch; if none of those reaches the target, the same starts are tried
+unregularised. The best answer is kept; the work of every try is counted.
 
 **Automatic weights** (a weight given as ``None``: the default of ``make_solver`` and of
 ``python -m lab track``). Measured on two redundant arms (issue 15: the six-cable arm's
@@ -142,14 +143,17 @@ def _recover(solver, target, first, start, w_restart, to_posture, stats):
         starts += [solver.commands.project(u_s[i]) for i in near]
     else:
         starts.append(solver.centre)
-    tries, tried = [first], [start]
-    for u0 in starts:
+    # regularised restarts first; if none reaches, the same starts unregularised (a polish
+    # from the regularised answer can stop short where a plain solve from the start does not)
+    plans = [(u0, w_restart) for u0 in starts] + ([(u0, 0.0) for u0 in starts] if w_restart > 0 else [])
+    tries, tried = [first], [(start, 0.0)]
+    for u0, w in plans:
         if min(r.residual_m for r in tries) <= solver.reach_tol_m:
             break
-        if any(np.allclose(u0, t) for t in tried):
+        if any(np.allclose(u0, t) and w == wt for t, wt in tried):
             continue
-        tried.append(u0)
-        tries.append(_solve_point(solver, target, u0, solver.u_posture if to_posture else u0, w_restart))
+        tried.append((u0, w))
+        tries.append(_solve_point(solver, target, u0, solver.u_posture if to_posture else u0, w))
     best = min(tries, key=lambda r: r.residual_m)
     stats["restarts"] += 1
     stats["recovered"] += bool(best.reachable)
