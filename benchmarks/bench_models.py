@@ -12,7 +12,7 @@ dataset (one thread, as everywhere here), it prints:
   (best of several repetitions);
 * the IK time per target along the Table I circle (24 targets, warm-started, through
   ``lab.tracking.make_solver``: bounded LM through the exact Jacobian, or the derivative-free
-  pattern search for a model without one, which the output says), the IK's residual on the
+  IK (secant LM + compass poll) for a model without one, which the output says), the IK's residual on the
   model (how well it inverted its own model, m) and the targets flagged unreachable. The
   direct inverse has no IK: one ``command(y)`` evaluation per target.
 
@@ -83,7 +83,7 @@ for label, name, kw in MODELS:
     plan = solver.follow(targets)
     t_ik = (time.perf_counter() - t0) / len(targets)
     resid = np.linalg.norm(model.predict(plan.u_motor) - targets, axis=1)
-    ik_kind = "bounded LM, exact Jacobian" if has_j else "derivative-free pattern search"
+    ik_kind = "bounded LM, exact Jacobian" if has_j else "derivative-free (secant LM + compass poll)"
     ref.setdefault("train", train_s)
     ref.setdefault("ik", t_ik)
     print(

@@ -42,3 +42,20 @@ def test_extra_data_of_another_robot_is_refused(tmp_path, capsys, robot, m):
     assert main(["train", str(a), "--extra-data", str(b), "--epochs", "2", "--out", str(out)]) == 2
     assert "--extra-data" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_init_continues_a_network_on_the_same_split(tmp_path, capsys):
+    a = tmp_path / "a.csv"
+    _toy(a, 60, 0)
+    first, more = tmp_path / "first.npz", tmp_path / "more.npz"
+    assert main(["train", str(a), "--hidden", "5", "--epochs", "2", "--min-grad", "0", "--out", str(first)]) == 0
+    args = ["train", str(a), "--init", str(first), "--epochs", "30", "--min-grad", "0", "--out", str(more)]
+    assert main(args) == 0
+    t1, t2 = (load_model(p).metadata["training"] for p in (first, more))
+    assert t2["split"]["indices"] == t1["split"]["indices"]  # same data and seed: the same split
+    assert load_model(more).hidden == (5,)
+    assert t2["errors"]["train"]["mse_m2"] < t1["errors"]["train"]["mse_m2"]
+    # the output may not be the network it continues, and only an mlp can be continued
+    assert main(["train", str(a), "--init", str(first), "--out", str(first)]) == 2
+    assert main(["train", str(a), "--init", str(first), "--model", "knn", "--out", str(tmp_path / "k.npz")]) == 2
+    assert "--init" in capsys.readouterr().err

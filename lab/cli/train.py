@@ -74,6 +74,11 @@ def add_model_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--epochs", type=int, help="maximum epochs (default 1000)")
     p.add_argument("--min-grad", type=float, help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br; 0 disables)")
+    p.add_argument(
+        "--init",
+        metavar="MODEL.npz",
+        help="mlp: continue training this network (same data and seed: the same split) instead of new weights",
+    )
     p.add_argument("--members", type=int, default=5, help="ensemble: number of networks K >= 2 (default 5)")
     p.add_argument(
         "--forward",
@@ -178,6 +183,7 @@ def run(args) -> int:
             **{f"--extra-data {p}": p for p in args.extra_data},
             **{f"--extra-data {p} sidecar": f"{p}.json" for p in args.extra_data},
             **({"--forward": args.forward} if args.forward else {}),
+            **({"--init": args.init} if args.init else {}),
         },
         {"--out": args.out, "--report": args.report},
     )
@@ -200,6 +206,14 @@ def run(args) -> int:
     if args.jobs < 1:
         raise InputError(f"--jobs must be positive, got {args.jobs}")
     forward = load_model(args.forward) if args.forward else None
+    init = None
+    if args.init:
+        from lab.learn.mlp import MLP
+
+        init = load_model(args.init)
+        if args.model != "mlp" or not isinstance(init, MLP):
+            raise InputError(f"--init {args.init}: continues an mlp (lab.mlp file) with --model mlp only")
+        args.hidden = list(init.hidden)
     what = "-".join(map(str, [u.shape[1], *args.hidden, y.shape[1]]))
     what = {"mlp": what, "ensemble": f"{args.members} x {what}", "inverse-mlp": f"inverse {what}"}.get(args.model, "")
     print(
@@ -220,6 +234,7 @@ def run(args) -> int:
             seed=args.seed,
             epochs=args.epochs,
             options=fit_arguments(args)["options"],
+            init=init,
         )
         model, errors, wall_s = res.model, res.errors, res.log.wall_s
         stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}

@@ -54,6 +54,7 @@ def train(
     epochs: int | None = None,
     options=None,
     progress=None,
+    init=None,
 ) -> TrainResult:
     """Split (``dividerand``), initialise (Nguyen-Widrow) and train a u -> y network.
 
@@ -65,7 +66,9 @@ def train(
     ``metadata["training"]["bayesian_regularisation"]``), "adam" or "lbfgs"
     (:mod:`lab.learn.gradient`, ``options`` a dict of keyword arguments). ``epochs``
     overrides the maximum number of epochs. The model's ``metadata["training"]`` records
-    everything needed to reproduce the run.
+    everything needed to reproduce the run. ``init``: an :class:`MLP` of the same input and
+    output sizes to continue from instead of Nguyen-Widrow weights (a copy is trained; the
+    split is drawn as without it), e.g. to extend a long run by more epochs.
     """
     u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
     if u.ndim != 2 or y.ndim != 2 or len(u) != len(y):
@@ -78,6 +81,12 @@ def train(
     rng = np.random.default_rng(seed)
     split = divide_random(len(u), ratios, rng)
     model = init_mlp(u, y, hidden, activation, rng)
+    if init is not None:
+        if (init.n_u, init.n_y) != (u.shape[1], y.shape[1]):
+            raise InputError(
+                f"init maps {init.n_u} inputs to {init.n_y} outputs; the data have {u.shape[1]} and {y.shape[1]}"
+            )
+        model = init.copy()
     sets = {
         name: (u[idx], y[idx])
         for name, idx in (("train", split.train), ("validation", split.validation), ("test", split.test))
@@ -109,6 +118,7 @@ def train(
         "stop_reason": log.stop_reason,
         "stop_message": STOP_MESSAGES.get(log.stop_reason, log.stop_reason),
         "seed": seed,
+        **({"init": init.metadata.get("training", {}).get("command", "a given network")} if init is not None else {}),
         "split": {
             "method": "dividerand",
             "ratios": list(map(float, ratios)),

@@ -33,6 +33,7 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
     rows being dicts with ``strategy``, ``n`` and the metrics (m, drawn in mm). ``goals``:
     ``{metric: (value_m, label)}`` drawn as horizontal lines. Returns ``(fig, axes)``."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     goals = goals or {}
     n_rows, n_cols = len(panels), len(metrics)
@@ -61,6 +62,9 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
                 ax.text(1.01, 1e3 * value_m, label, fontsize=7, va="center", transform=ax.get_yaxis_transform())
             ax.set_xscale("log")
             ax.set_yscale("log")
+            ns_all = sorted({int(r["n"]) for r in rows})
+            ax.set_xticks(ns_all, [str(n) for n in ns_all], fontsize=8)  # the Ns measured, not 10^k labels
+            ax.xaxis.set_minor_formatter(NullFormatter())
             ax.set_xlabel("samples N")
             ax.set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=9)
             ax.set_title(title, fontsize=10)
