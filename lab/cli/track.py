@@ -14,6 +14,7 @@ import numpy as np
 
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.errors import InputError
+from lab.tracking.closed_loop import run_closed_loop
 from lab.tracking.track import PointLog, make_solver, run_trajectory, write_result
 
 
@@ -76,6 +77,27 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         help="flag a target 'uncertain' where the model's predicted spread exceeds this, mm "
         "(default 1 mm for a model with a spread; never for one without)",
     )
+    k.add_argument(
+        "--closed-loop",
+        choices=["ilc", "feedback"],
+        default=None,
+        help="correct the commands from the measured tip through the model's Jacobian: ilc = iterative "
+        "learning control over repeated passes of the whole trajectory; feedback = settle, measure, "
+        "correct at each target (default: open loop)",
+    )
+    k.add_argument(
+        "--passes",
+        type=int,
+        default=None,
+        help="with --closed-loop: runs including the open-loop pass 0 (ilc), or measurements per "
+        "target (feedback); default 3",
+    )
+    k.add_argument(
+        "--gain",
+        type=float,
+        default=None,
+        help="with --closed-loop: correction gain alpha in (0, 2) (default 0.9)",
+    )
     k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
     k.add_argument("--n-rings", type=int, help="FEM mesh rings of --rig sim / --soft-ik (default: robot's)")
     k.add_argument("--n-axial", type=int, help="FEM mesh layers of --rig sim / --soft-ik (default: robot's)")
@@ -96,6 +118,7 @@ def run(args) -> int:
 
     if (args.model is None) == (not args.soft_ik):
         raise InputError("give exactly one of --model MODEL.npz and --soft-ik")
+    correction = _correction(args)
     points = Path(f"{args.out}.points.csv")
     rig_file = args.rig.partition(":")[2] or None
     check_paths(
@@ -136,7 +159,19 @@ def run(args) -> int:
     log = PointLog(points, robot.n_cables)
     try:
         with SimRig(robot, fem) if args.rig == "sim" else make_rig(args.rig, robot, seed=args.seed) as rig:
-            result = run_trajectory(rig, solver, targets, name=name, on_point=log.append)
+            if correction is None:
+                result = run_trajectory(rig, solver, targets, name=name, on_point=log.append)
+            else:
+                result = run_closed_loop(
+                    rig,
+                    solver,
+                    targets,
+                    mode=args.closed_loop,
+                    passes=args.passes,
+                    correction=correction,
+                    name=name,
+                    on_point=log.append,
+                )
     except BaseException:
         log.close()
         if log.n_points:
@@ -156,6 +191,13 @@ def run(args) -> int:
     )
     points.unlink()  # the result file holds every point now
     t, sol = result.timings, result.info["solver"]
+    for p in result.passes or ():
+        print(
+            f"{args.closed_loop} pass {p['pass']}: mean error {100 * p['mean_error_m']:.4f} cm, max "
+            f"{100 * p['max_error_m']:.4f} cm"
+            + (f", {p['n_skipped']} corrections skipped (too few valid frames)" if p["n_skipped"] else ""),
+            file=sys.stderr,
+        )
     uncertain = f", {int(np.sum(result.uncertain))} uncertain" if sol["max_spread_m"] is not None else ""
     print(
         f"{name}: {len(targets)} targets, mean error {100 * result.mean_error_m:.4f} cm, max "
@@ -170,3 +212,21 @@ def run(args) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _correction(args):
+    """The closed-loop settings from the flags (None: open loop); InputError for bad values."""
+    from lab.tracking.closed_loop import DEFAULT_GAIN, Correction
+
+    if args.closed_loop is None:
+        if args.passes is not None or args.gain is not None:
+            raise InputError("--passes and --gain need --closed-loop ilc|feedback")
+        return None
+    if args.passes is None:
+        args.passes = 3
+    if args.passes < 1:
+        raise InputError(f"--passes must be an integer >= 1, got {args.passes}")
+    gain = DEFAULT_GAIN if args.gain is None else args.gain
+    if not (0 < gain < 2):
+        raise InputError(f"--gain must lie in (0, 2), got {gain}")
+    return Correction(gain=gain)

@@ -6,6 +6,16 @@ mean errors into ``table1.csv``. :mod:`.transfer_study` measures the sim-to-real
 (error against the number of real samples, per transfer method) on emulated as-built robots.
 """
 
+from lab.tracking.closed_loop import (
+    DEFAULT_GAIN,
+    Correction,
+    TipMeasurement,
+    correct_command,
+    damped_pinv,
+    measure_tip,
+    run_closed_loop,
+    tip_from_frames,
+)
 from lab.tracking.data_curve import (
     STRATEGIES,
     NominalBody,
@@ -50,6 +60,14 @@ from lab.tracking.transfer_study import (
 )
 
 __all__ = [
+    "DEFAULT_GAIN",
+    "Correction",
+    "TipMeasurement",
+    "correct_command",
+    "damped_pinv",
+    "measure_tip",
+    "run_closed_loop",
+    "tip_from_frames",
     "STRATEGIES",
     "NominalBody",
     "data_curve_row",

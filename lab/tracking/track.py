@@ -30,6 +30,11 @@ The result file (:func:`write_result`, JSON, atomic) is a public contract. Keys:
   asked ("auto" or the number), ``regularisation`` in words, and ``ik`` the restart counts
   (:mod:`lab.control.follow`).
 
+Closed-loop runs (:mod:`lab.tracking.closed_loop`) write the same keys for their final pass,
+plus ``passes``: one dict per pass (``pass``, ``mean_error_m``, ``max_error_m``, ``commands``
+(N, m) rad, ``achieved`` (N, 3) m, ``n_skipped``, ...) and ``info.closed_loop``; files
+without ``passes`` (open loop) read as before.
+
 Not-a-number values are written as JSON ``null``.
 """
 
@@ -83,6 +88,7 @@ class TrackResult:
     info: dict = field(default_factory=dict)
     uncertain: np.ndarray | None = None
     predicted_spread_m: np.ndarray | None = None
+    passes: list[dict] | None = None  # closed loop: one dict per pass (module docstring)
 
     def __post_init__(self):
         n = len(self.targets_W)
@@ -130,7 +136,7 @@ class TrackResult:
             "uncertain": np.asarray(self.uncertain, dtype=bool),
             "predicted_spread_m": self.predicted_spread_m,
             "info": {**self.info, "n_uncertain": int(np.sum(self.uncertain))},
-        }
+        } | ({} if self.passes is None else {"passes": self.passes})
 
 
 class PointLog:
@@ -208,7 +214,28 @@ def run_trajectory(
         "settle_mean_s": float(np.mean(waits)),
         "total_s": time.perf_counter() - t0,
     }
-    info = {
+    return TrackResult(
+        name,
+        targets,
+        plan.u_motor,
+        achieved,
+        plan.p_pred_W,
+        plan.residual_m,
+        plan.reachable,
+        plan.iterations,
+        settled,
+        waits,
+        timings,
+        run_info(rig, solver, plan, protocol),
+        plan.uncertain,
+        plan.spread_m,
+    )
+
+
+def run_info(rig: Rig, solver: IKSolver, plan, protocol: Protocol) -> dict:
+    """The ``info`` of a result file: rig, robot, the IK's settings and what it did along
+    ``plan`` (a :class:`lab.control.ik_result.TrajectoryIK`), the protocol, code version, date."""
+    return {
         "rig": rig.describe(),
         "robot": rig.robot.name,
         "robot_sha256": rig.robot.sha256,
@@ -235,22 +262,6 @@ def run_trajectory(
         "code_version": code_version(),
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
-    return TrackResult(
-        name,
-        targets,
-        plan.u_motor,
-        achieved,
-        plan.p_pred_W,
-        plan.residual_m,
-        plan.reachable,
-        plan.iterations,
-        settled,
-        waits,
-        timings,
-        info,
-        plan.uncertain,
-        plan.spread_m,
-    )
 
 
 def _setting(weight) -> str | float:
