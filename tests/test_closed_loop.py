@@ -294,3 +294,36 @@ def test_an_unconstrained_correction_is_the_damped_pseudo_inverse_step(three_cab
     assert np.abs(capped - u).max() == pytest.approx(0.05)
     step = capped - u  # shortened along the same direction
     np.testing.assert_allclose(step / np.linalg.norm(step), stacked / np.linalg.norm(stacked), atol=1e-6)
+
+
+def test_pass_table_and_figure(three_cable, tmp_path):
+    """Result files -> one row per pass (the numbers of the files) -> the figure (log y, one
+    line per model and trajectory in each mode's panel); an open-loop file is refused."""
+    from lab.tracking.closed_loop_table import pass_rows
+    from lab.tracking.track import TrackResultError, run_trajectory, write_result
+    from lab.viz.closed_loop import plot_closed_loop
+
+    targets = C + U_IN[:3] @ B.T
+    for mode, label in (("ilc", "real"), ("feedback", "sim"), ("ilc", "sim")):
+        solver = IKSolver(Linear(C + 0.001, WRONG @ B), CommandSet.from_robot(three_cable))
+        with LinearRig(three_cable) as rig:
+            res = run_closed_loop(rig, solver, targets, mode=mode, passes=3, name="tri")
+        write_result(tmp_path / f"{mode}_{label}.json", res, {"model": f"data/model_{label}_three_cable.npz"})
+    rows = pass_rows(tmp_path)
+    assert len(rows) == 9 and {r["model"] for r in rows} == {"real", "sim"}
+    doc = json.loads((tmp_path / "feedback_sim.json").read_text())
+    fb = [r for r in rows if r["mode"] == "feedback"]
+    assert [r["pass"] for r in fb] == [0, 1, 2] and fb[0]["trajectory"] == "tri"
+    assert [r["mean_error_m"] for r in fb] == [p["mean_error_m"] for p in doc["passes"]]
+    assert [r["max_error_m"] for r in fb] == [p["max_error_m"] for p in doc["passes"]]
+    fig, axes = plot_closed_loop(rows)
+    assert len(axes) == 2 and all(ax.get_yscale() == "log" for ax in axes)
+    assert len(axes[0].get_lines()) == 2 + 2  # two runs, two goal lines
+    np.testing.assert_allclose(axes[1].get_lines()[0].get_ydata(), [100 * r["mean_error_m"] for r in fb])
+    with LinearRig(three_cable) as rig:
+        write_result(
+            tmp_path / "open.json",
+            run_trajectory(rig, IKSolver(Linear(C, B), CommandSet.from_robot(three_cable)), targets),
+        )
+    with pytest.raises(TrackResultError, match="not a closed-loop"):
+        pass_rows(tmp_path)

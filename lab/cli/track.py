@@ -1,6 +1,8 @@
 """``python -m lab track``: follow a trajectory on a rig with IK through a model, or Soft IK.
 
-The result file is described in :mod:`lab.tracking.track`.
+The result file is described in :mod:`lab.tracking.track`. ``--closed-loop ilc|feedback
+--passes K [--gain A]`` corrects the commands from the measured tip through the model's
+Jacobian (:mod:`lab.tracking.closed_loop`) and adds ``passes`` to the file.
 """
 
 from __future__ import annotations

@@ -37,6 +37,7 @@ from lab.viz.arm import (
     stop_visualizer,
     update_scene,
 )
+from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_loop
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
 from lab.viz.setup import plot_setup, setup_geometry
@@ -106,4 +107,7 @@ __all__ = [
     "STRATEGY_COLORS",
     "plot_calibration",
     "plot_error_vs_n",
+    "MODEL_COLORS",
+    "TRAJECTORY_MARKERS",
+    "plot_closed_loop",
 ]
