@@ -31,12 +31,13 @@ LAYERS = [
     "rig",
     "transfer",
     "tracking",
+    "peers",
     "viz",
     "course",
     "cli",
     "__main__",
 ]
-SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "transfer", "tracking", "viz", "cli"]
+SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "transfer", "tracking", "peers", "viz", "cli"]
 
 
 def module_name(path: Path) -> str:
