@@ -31,7 +31,7 @@ import numpy as np
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal
 from lab.cli.sampling import add_sampler_args, check_sampler_args, sampler_words
 from lab.cli.signals import exit_code
-from lab.errors import LabError
+from lab.errors import InputError, LabError
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -67,6 +67,25 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         help="capture order (default shuffled; the dataset is written in grid/design order either way)",
     )
     p.add_argument(
+        "--protocol",
+        choices=("wait", "predictive"),
+        default="wait",
+        help="wait: the paper's protocol, record once settled (default); predictive: learn the foam's "
+        "relaxation from the first samples, then record as soon as the settled tip is predicted within "
+        "--predict-tol-mm (lab.rig.predictive)",
+    )
+    p.add_argument(
+        "--predict-tol-mm",
+        type=float,
+        default=0.15,
+        help="predictive: record when the predicted settled tip's 3-D standard deviation is below this, mm "
+        "(default 0.15)",
+    )
+    p.add_argument(
+        "--dynamic-model",
+        help="predictive: a relaxation fitted by 'python -m lab fit-dynamics' (DYN.npz); skips the learning samples",
+    )
+    p.add_argument(
         "--no-wait", action="store_true", help="do not wait until settled: record 0.5 s after the motors arrive"
     )
     p.add_argument("--no-reset", action="store_true", help="do not erase hysteresis before each sample")
@@ -100,6 +119,10 @@ def command_line(args) -> str:
     ]
     if args.journal:
         words += ["--journal", str(args.journal)]
+    if args.protocol != "wait":
+        words += ["--protocol", args.protocol, "--predict-tol-mm", repr(args.predict_tol_mm)]
+        if args.dynamic_model:
+            words += ["--dynamic-model", str(args.dynamic_model)]
     words += ["--no-wait"] * args.no_wait + ["--no-reset"] * args.no_reset
     if args.settle_tol_mm != 0.1:
         words += ["--settle-tol-mm", repr(args.settle_tol_mm)]
@@ -147,8 +170,16 @@ def run(args) -> int:
 
     check_design_args(args)
     journal = Path(args.journal) if args.journal else Path(args.out).with_suffix(".journal.csv")
+    if args.protocol == "wait" and args.dynamic_model:
+        raise InputError("--dynamic-model is for --protocol predictive")
+    if not (args.predict_tol_mm > 0 and np.isfinite(args.predict_tol_mm)):
+        raise InputError(f"--predict-tol-mm must be a positive number of mm, got {args.predict_tol_mm}")
     check_paths(
-        {"--robot": existing(args.robot), "--rig": existing(args.rig.partition(":")[2] or None)},
+        {
+            "--robot": existing(args.robot),
+            "--rig": existing(args.rig.partition(":")[2] or None),
+            "--dynamic-model": args.dynamic_model,
+        },
         {**dataset_outputs("--out", args.out), "--journal": journal},
     )
     check_writable(args.out)
@@ -161,7 +192,14 @@ def run(args) -> int:
             reset=not args.no_reset,
             settle_tol_m=1e-3 * args.settle_tol_mm,
             reset_u_rad=args.reset_rad,
+            kind=args.protocol,
+            predict_tol_m=1e-3 * args.predict_tol_mm,
         )
+        relaxation = None
+        if args.dynamic_model:
+            from lab.learn.relaxation import load_relaxation
+
+            relaxation = load_relaxation(args.dynamic_model)
         if args.active is None:
             grid, sampler = _commands(args, robot)
             order = (
@@ -192,6 +230,7 @@ def run(args) -> int:
                     header={**header, "sampler": sampler},
                     session_info={"command": command_line(args)},
                     progress=not args.no_progress,
+                    relaxation=relaxation,
                 )
         wall_s = time.perf_counter() - t0
     except KeyboardInterrupt as err:  # Ctrl-C, SIGTERM, SIGHUP: the rig is closed (torque off)
@@ -219,7 +258,10 @@ def run(args) -> int:
     per_sample = {name: np.empty(len(grid)) for name in ("sample_s", "settle_s")}
     for name, arr in per_sample.items():
         arr[order] = getattr(res, name)
+    pred_std = np.empty(len(grid))
+    pred_std[order] = res.pred_std_m
     unsettled = np.flatnonzero(~settled)
+    learned = [info for tag, info in res.notes if tag == "relaxation"]
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
         "rig": description,
@@ -237,15 +279,34 @@ def run(args) -> int:
             "invalid_frame_fraction": float(res.n_invalid_frames.sum() / max(1, res.n_frames.sum())),
             "wall_s_this_session": wall_s,
             "wall_s_all_sessions": res.wall_s,
+            "protocol": protocol.kind,
+            **(
+                {
+                    "relaxation": learned[-1] if learned else {"from": str(args.dynamic_model)},
+                    "n_predicted": int(res.predicted.sum()),
+                    "pred_std_m": _stats(res.pred_std_m[res.predicted]) if res.predicted.any() else None,
+                }
+                if protocol.kind == "predictive"
+                else {}
+            ),
         },
-        "per_sample": {"settled": settled.astype(int).tolist(), **{k: v.tolist() for k, v in per_sample.items()}},
+        "per_sample": {
+            "settled": settled.astype(int).tolist(),
+            **{k: v.tolist() for k, v in per_sample.items()},
+            **(
+                {"pred_std_m": [None if np.isnan(v) else float(v) for v in pred_std]}
+                if protocol.kind == "predictive"
+                else {}
+            ),
+        },
         "command": command_line(args),
     }
     write_dataset(args.out, grid, y, meta)
     print(
         f"wrote {len(grid)} samples to {args.out} ({res.new_samples} new): {res.rate_per_hour:.0f} samples per "
         f"hour of robot time ({res.robot_time_s / 3600:.2f} h), {wall_s:.1f} s wall"
-        + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else ""),
+        + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else "")
+        + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else ""),
         file=sys.stderr,
     )
     return 0

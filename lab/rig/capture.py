@@ -19,7 +19,9 @@ from lab.rig.journal import Journal
 from lab.rig.protocol import Protocol, measure
 
 
-def journal_columns(n_motors: int) -> list[str]:
+def journal_columns(n_motors: int, predictive: bool = False) -> list[str]:
+    """The journal's columns; the predictive protocol adds ``pred_std_m`` (3-D std of the
+    predicted tip, m; NaN when waited for) and ``predicted`` (1: recorded from the prediction)."""
     u = [f"u{i}" for i in range(n_motors)]
     return (
         [
@@ -40,6 +42,7 @@ def journal_columns(n_motors: int) -> list[str]:
         ]
         + [f"present_{c}" for c in u]
         + ["session"]
+        + (["pred_std_m", "predicted"] if predictive else [])
     )
 
 
@@ -62,6 +65,15 @@ class Capture:
     session: np.ndarray
     notes: list
     new_samples: int
+    pred_std_m: np.ndarray | None = None
+    predicted: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.u_motor)
+        if self.pred_std_m is None:
+            self.pred_std_m = np.full(n, np.nan)
+        if self.predicted is None:
+            self.predicted = np.zeros(n, dtype=bool)
 
     @property
     def wall_s(self) -> float:
@@ -88,6 +100,7 @@ def capture(
     session_info: dict | None = None,
     progress: bool = False,
     open_ended: bool = False,
+    relaxation=None,
 ) -> Capture:
     """Capture ``commands`` (N, m) rad, in this order, into the journal at ``journal_path``.
 
@@ -101,6 +114,10 @@ def capture(
     batch depends on the samples so far), so the header records no hash of it; each call
     passes the journaled commands followed by the new ones (:func:`journal_samples`
     reads what a journal holds).
+
+    ``protocol.kind == "predictive"`` (:mod:`lab.rig.predictive`): the relaxation is
+    ``relaxation`` if given, else the one a resumed journal learned (its ``relaxation``
+    note), else learned from the first ``protocol.n_learn`` samples of this session.
     """
     from tqdm import tqdm
 
@@ -113,7 +130,8 @@ def capture(
     for u in commands:
         rig.robot.check_command(u)  # fail before moving anything
     full_header = _full_header(header, protocol, None if open_ended else commands)
-    cols = journal_columns(m)
+    predictive = protocol.kind == "predictive"
+    cols = journal_columns(m, predictive)
     with Journal.open(journal_path, full_header, cols) as journal:
         done = len(journal.rows)
         if done > len(commands):
@@ -129,8 +147,9 @@ def capture(
         wall0, status = time.perf_counter(), "complete"
         bar = tqdm(total=len(commands), initial=done, unit="sample", disable=not progress, smoothing=0.05)
         try:
+            sample = _sampler(rig, protocol, journal, relaxation)
             for i in range(done, len(commands)):
-                s = measure(rig, commands[i], protocol)
+                s = sample(commands[i])
                 journal.append(
                     {
                         "index": i,
@@ -149,6 +168,7 @@ def capture(
                         "n_invalid_frames": s.n_invalid_frames,
                         **{f"present_u{j}": s.u_present[j] for j in range(m)},
                         "session": session,
+                        **({"pred_std_m": s.pred_std_m, "predicted": int(s.predicted)} if predictive else {}),
                     }
                 )
                 bar.update(1)
@@ -181,7 +201,24 @@ def capture(
         session=col["session"].astype(int),
         notes=notes,
         new_samples=len(rows) - done,
+        pred_std_m=col["pred_std_m"] if predictive else None,
+        predicted=col["predicted"].astype(bool) if predictive else None,
     )
+
+
+def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):
+    """``u -> Sample`` for ``protocol``: the waiting protocol's :func:`measure`, or a
+    :class:`~lab.rig.predictive.PredictiveSampler` (with the relaxation a resumed journal learned)."""
+    if protocol.kind != "predictive":
+        return lambda u: measure(rig, u, protocol)
+    from lab.learn.relaxation import Relaxation
+    from lab.rig.predictive import PredictiveSampler
+
+    learned = journal.notes_tagged("relaxation")
+    if relaxation is None and learned:
+        info = learned[-1]
+        relaxation = Relaxation(info["tau_s"], info["weight"], info["noise_sigma_m"], {"from": "journal"})
+    return PredictiveSampler(rig, protocol, relaxation, note=journal.note)
 
 
 def _full_header(header: dict | None, protocol: Protocol, commands: np.ndarray | None) -> dict:
@@ -199,7 +236,7 @@ def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol()
     empty = np.empty((0, n_motors)), np.empty((0, 3)), []
     if not Path(journal_path).exists():
         return empty
-    cols = journal_columns(n_motors)
+    cols = journal_columns(n_motors, protocol.kind == "predictive")
     with Journal.open(journal_path, _full_header(header, protocol, None), cols) as journal:
         rows, notes = journal.rows, journal.notes
     if not rows:

@@ -48,6 +48,22 @@ class Protocol:
     motor_tol_rad: float = 0.01
     motion_timeout_s: float = 30.0
     max_occlusion_s: float = 2.0
+    #: "wait" (the paper's: settle, then record) or "predictive" (:mod:`lab.rig.predictive`)
+    kind: str = "wait"
+    #: predictive: record when the predicted tip's 3-D std is below this, m
+    predict_tol_m: float = 1.5e-4
+    #: predictive: samples measured by waiting, to learn the relaxation from
+    n_learn: int = 10
+    #: predictive: relaxation modes learned
+    n_modes: int = 2
+    #: predictive: random walk of the relaxation modes in the filter (model error), m^2/s
+    process_noise_m2_per_s: float = 1e-8
+    #: predictive: readings after the motors arrived before a prediction is recorded
+    min_readings_after_arrival: int = 1
+    #: predictive: how much the rest pose may differ from one visit to the next, m per axis
+    pose_jitter_m: float = 1e-4
+    #: predictive: the same for the reset pose (it keeps the previous sample's cable play), m per axis
+    reset_jitter_m: float = 2e-3
 
     def __post_init__(self):
         for name in (
@@ -62,9 +78,42 @@ class Protocol:
                 raise InputError(f"protocol field '{name}' must be positive, got {getattr(self, name)!r}")
         if self.n_previous < 1 or self.dwell_s < 0 or self.reset_u_rad < 0:
             raise InputError("protocol needs n_previous >= 1, dwell_s >= 0 and reset_u_rad >= 0")
+        if self.kind not in PROTOCOLS:
+            raise InputError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {self.kind!r}")
+        if self.kind == "predictive":
+            if not (self.predict_tol_m > 0 and self.n_learn >= 1 and self.n_modes >= 1):
+                raise InputError("a predictive protocol needs predict_tol_m > 0, n_learn >= 1 and n_modes >= 1")
+            if not (self.wait and self.reset):
+                raise InputError("the predictive protocol replaces waiting; it cannot run without wait or reset")
+            if (
+                self.process_noise_m2_per_s < 0
+                or self.min_readings_after_arrival < 1
+                or min(self.pose_jitter_m, self.reset_jitter_m) < 0
+            ):
+                raise InputError("a predictive protocol needs process_noise_m2_per_s >= 0 and min readings >= 1")
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        """The settings, for metadata and journal headers (a waiting protocol lists only the
+        fields it uses, so journals written before the predictive protocol still resume)."""
+        d = asdict(self)
+        if self.kind == "wait":
+            for name in PREDICTIVE_FIELDS:
+                d.pop(name)
+        return d
+
+
+#: capture protocols by name (``capture --protocol``)
+PROTOCOLS = ("wait", "predictive")
+PREDICTIVE_FIELDS = (
+    "kind",
+    "predict_tol_m",
+    "n_learn",
+    "n_modes",
+    "process_noise_m2_per_s",
+    "min_readings_after_arrival",
+    "pose_jitter_m",
+    "reset_jitter_m",
+)
 
 
 class SettleDetector:
@@ -106,6 +155,10 @@ class Sample:
     deviation_m: float
     n_frames: int
     n_invalid_frames: int
+    #: predictive protocol: 3-D std of the predicted settled tip, m (NaN when waited for)
+    pred_std_m: float = float("nan")
+    #: predictive protocol: recorded from the prediction (False: waited for)
+    predicted: bool = False
 
 
 class _Watcher:

@@ -1,0 +1,122 @@
+"""Samples per hour against accuracy, per capture protocol, on emulated as-built robots.
+
+:func:`capture_rate_study` captures the same random allowed commands on each robot with
+the waiting protocol (the paper's, at several settle tolerances) and the predictive one
+(:mod:`lab.rig.predictive`, at several prediction tolerances), on the twin's virtual
+clock, and compares every recorded tip with the robot's **noise-free settled tip** for
+that command (:meth:`~lab.rig.twin.AsBuiltBody.quasi_static_tip`): the truth a capture
+is after. Rates count all robot time (reset, motions, waiting; the predictive protocol's
+learning samples included) unless the column says otherwise. ``benchmarks/bench_capture.py``
+and chapter 09 use it; the cache is ``data/capture_rate.csv``.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from lab.description import RobotDescription
+from lab.rig.capture import capture
+from lab.rig.protocol import Protocol
+
+#: columns of the study's rows / CSV
+COLUMNS = (
+    "robot",
+    "protocol",
+    "tol_m",
+    "n",
+    "rate_per_hour",
+    "rate_after_learning_per_hour",
+    "mean_error_m",
+    "p95_error_m",
+    "max_error_m",
+    "n_flagged",
+    "mean_pred_std_m",
+    "tau_fast_s",
+    "tau_slow_s",
+    "slow_fraction",
+    "true_tau_fast_s",
+    "true_tau_slow_s",
+    "true_slow_fraction",
+)
+
+
+def protocol_for(kind: str, tol_m: float, **settings) -> Protocol:
+    """The capture protocol ``kind`` ("wait" or "predictive") at tolerance ``tol_m`` (m):
+    the settle tolerance of the waiting protocol, the prediction's 3-D std of the predictive one."""
+    if kind == "wait":
+        return Protocol(settle_tol_m=tol_m, **settings)
+    return Protocol(kind="predictive", predict_tol_m=tol_m, **settings)
+
+
+def run_protocol(body, commands: np.ndarray, protocol: Protocol, *, seed: int = 0, journal_dir=None) -> dict:
+    """Capture ``commands`` (N, m) rad on the as-built ``body`` (a twin rig around it) with
+    ``protocol``; one row of :data:`COLUMNS` (errors against the noise-free settled tips)."""
+    from lab.rig.twin import TwinRig
+
+    robot = body.robot
+    truth = np.array([body.quasi_static_tip(u) for u in commands])
+    rig = TwinRig(robot, body=body, seed=seed)
+    with tempfile.TemporaryDirectory(dir=journal_dir) as tmp:
+        res = capture(rig, commands, Path(tmp) / "journal.csv", protocol)
+    err = np.linalg.norm(res.p_tip_W - truth, axis=1)
+    after = res.predicted if protocol.kind == "predictive" else np.ones(len(err), bool)
+    learned = [info for tag, info in res.notes if tag == "relaxation"]
+    tau = learned[-1]["tau_s"] if learned else [np.nan, np.nan]
+    w = learned[-1]["weight"] if learned else [np.nan, np.nan]
+    d = body.defects
+    return {
+        "robot": getattr(body, "label", "shipped"),
+        "protocol": protocol.kind,
+        "tol_m": protocol.predict_tol_m if protocol.kind == "predictive" else protocol.settle_tol_m,
+        "n": len(err),
+        "rate_per_hour": res.rate_per_hour,
+        "rate_after_learning_per_hour": 3600.0 * after.sum() / res.sample_s[after].sum(),
+        "mean_error_m": float(err.mean()),
+        "p95_error_m": float(np.percentile(err, 95)),
+        "max_error_m": float(err.max()),
+        "n_flagged": int(np.sum(~res.settled)),
+        "mean_pred_std_m": float(np.mean(res.pred_std_m[after])) if protocol.kind == "predictive" else np.nan,
+        "tau_fast_s": tau[0],
+        "tau_slow_s": tau[-1],
+        "slow_fraction": w[-1],
+        "true_tau_fast_s": d.tau_fast_s,
+        "true_tau_slow_s": d.tau_slow_s,
+        "true_slow_fraction": d.slow_fraction,
+    }
+
+
+def capture_rate_study(
+    robot: RobotDescription,
+    robots=("shipped",),
+    *,
+    n_samples: int = 100,
+    wait_tols_m=(1e-4,),
+    predict_tols_m=(1.5e-4,),
+    seed: int = 0,
+    mesh: dict | None = None,
+    progress=None,
+) -> list[dict]:
+    """Rows of :data:`COLUMNS`: for each robot label (``"shipped"`` or ``"random:SEED"``,
+    :func:`lab.rig.family.family_member`), ``n_samples`` random allowed commands (seeded by
+    ``seed``) captured with each tolerance of each protocol. ``mesh``: ``n_rings``/``n_axial``
+    of the emulator's FEM (coarse meshes for tests). ``progress(row)`` is called per row."""
+    from lab.data.designs import random_commands
+    from lab.rig.family import family_member
+    from lab.rig.twin import AsBuiltBody
+
+    mesh = mesh or {}
+    commands = random_commands(robot, n_samples, seed=seed)
+    rows = []
+    for label in robots:
+        body = AsBuiltBody(robot, family_member(robot, label, **mesh), **mesh)
+        body.label = label
+        runs = [("wait", t) for t in wait_tols_m] + [("predictive", t) for t in predict_tols_m]
+        for kind, tol in runs:
+            row = run_protocol(body, commands, protocol_for(kind, tol), seed=seed)
+            rows.append(row)
+            if progress is not None:
+                progress(row)
+    return rows
