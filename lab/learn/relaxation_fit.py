@@ -66,7 +66,7 @@ def input_knots(stream: Stream, poses: list[str]):
     for s in stream.segments:
         end = np.zeros(len(poses))
         end[col[s.pose]] = 1.0
-        tc = max(s.t_command_s, tk[-1])
+        tc = max(s.t_command_s, t0)
         while len(tk) > 1 and tk[-1] > tc:  # interrupted: cut the ramp at tc
             start = wk[-2] + (wk[-1] - wk[-2]) * (tc - tk[-2]) / (tk[-1] - tk[-2])
             tk.pop(), wk.pop()
