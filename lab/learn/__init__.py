@@ -7,6 +7,8 @@ point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); er
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
 Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), the GP
 residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
+The foam in time: the learned relaxation filter on top of the quasi-static model
+(:mod:`.relaxation`) and its fits (:mod:`.relaxation_fit`).
 """
 
 from lab.learn.active import active_sampling, pick_apart
@@ -21,6 +23,8 @@ from lab.learn.mlp import MLP, init_mlp, minmax_gain
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
+from lab.learn.relaxation import DynamicsFileError, Relaxation, load_relaxation
+from lab.learn.relaxation_fit import Segment, Stream, fit_exponentials, fit_stream
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
 from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
 from lab.learn.studies import (
@@ -34,6 +38,13 @@ from lab.learn.train import TrainResult, data_sha256, train
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
+    "DynamicsFileError",
+    "Relaxation",
+    "load_relaxation",
+    "Segment",
+    "Stream",
+    "fit_exponentials",
+    "fit_stream",
     "br_options",
     "effective_parameters",
     "train_br",

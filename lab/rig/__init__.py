@@ -13,7 +13,10 @@
                           :mod:`.optitrack`, :mod:`.hardware_config`)
 
 On any rig, :func:`capture` (:mod:`.capture`) runs the paper's capture protocol
-(settle test, hysteresis reset) into an append-only :class:`Journal` (:mod:`.journal`).
+(settle test, hysteresis reset) into an append-only :class:`Journal` (:mod:`.journal`), or
+the predictive one (:class:`PredictiveSampler`, :mod:`.predictive`: the settled tip
+predicted by a Kalman filter of the learned relaxation, :mod:`.tip_filter`, from a stream
+of readings recorded by :class:`StreamRecorder`, :mod:`.recorder`).
 Emulators of the servo bus and the NatNet server for tests and dry runs are in
 :mod:`lab.rig.emulators`.
 """
@@ -27,11 +30,18 @@ from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
 from lab.rig.capture import Capture, capture, journal_columns
 from lab.rig.family import FamilyTwinRig, random_defects, random_defects_toml, write_random_defects
 from lab.rig.journal import Journal, JournalError
-from lab.rig.protocol import Protocol, Sample, SettleDetector, measure
+from lab.rig.predictive import PredictiveSampler
+from lab.rig.protocol import PROTOCOLS, Protocol, Sample, SettleDetector, measure
+from lab.rig.recorder import StreamRecorder
 from lab.rig.sim import SimRig
+from lab.rig.tip_filter import TipFilter
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
 __all__ = [
+    "PROTOCOLS",
+    "PredictiveSampler",
+    "StreamRecorder",
+    "TipFilter",
     "make_rig",
     "Rig",
     "Body",
