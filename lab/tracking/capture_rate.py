@@ -5,8 +5,8 @@ the waiting protocol (the paper's, at several settle tolerances) and the predict
 (:mod:`lab.rig.predictive`, at several prediction tolerances), on the twin's virtual
 clock, and compares every recorded tip with the robot's **noise-free settled tip** for
 that command (:meth:`~lab.rig.twin.AsBuiltBody.quasi_static_tip`): the truth a capture
-is after. Rates count all robot time (reset, motions, waiting; the predictive protocol's
-learning samples included) unless the column says otherwise. ``benchmarks/bench_capture.py``
+is after. Rates and errors count every sample (the predictive protocol's learning samples, captured by
+waiting, included); the ``..._after_learning`` columns only the samples after them. ``benchmarks/bench_capture.py``
 and chapter 09 use it; the cache is ``data/capture_rate.csv``.
 """
 
@@ -30,6 +30,7 @@ COLUMNS = (
     "rate_per_hour",
     "rate_after_learning_per_hour",
     "mean_error_m",
+    "mean_error_after_learning_m",
     "p95_error_m",
     "max_error_m",
     "n_flagged",
@@ -75,6 +76,7 @@ def run_protocol(body, commands: np.ndarray, protocol: Protocol, *, seed: int = 
         "rate_per_hour": res.rate_per_hour,
         "rate_after_learning_per_hour": 3600.0 * after.sum() / res.sample_s[after].sum(),
         "mean_error_m": float(err.mean()),
+        "mean_error_after_learning_m": float(err[after].mean()),
         "p95_error_m": float(np.percentile(err, 95)),
         "max_error_m": float(err.max()),
         "n_flagged": int(np.sum(~res.settled)),
