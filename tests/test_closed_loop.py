@@ -20,15 +20,17 @@ B = 0.01 * np.array([[-0.1, -0.1, -0.1], [0.0, -1.0, 1.0], [1.0, -0.5, -0.5]])  
 
 class LinearRig(Rig):
     """A plant whose tip is ``c + B u`` at once (motors instant), 120 Hz frames; every
-    ``nan_every``-th frame occluded; all frames of the ``wait()`` calls listed in ``dark``
-    occluded (``wait`` is the closed loop's averaging window)."""
+    ``nan_every``-th frame occluded; for the commands sent ``dark`` (indices of ``send``, one
+    per measurement) every frame read by ``wait()`` -- the closed loop's averaging window,
+    after the settle rule -- occluded, for ``dark_for_s`` from its start."""
 
     kind = "linear"
 
-    def __init__(self, robot, c=C, B=B, noise_m=0.0, nan_every=0, dark=()):
+    def __init__(self, robot, c=C, B=B, noise_m=0.0, nan_every=0, dark=(), dark_for_s=np.inf):
         super().__init__(robot, 120.0)
         self.c, self.B, self.noise_m, self.nan_every, self.dark = c, B, noise_m, nan_every, set(dark)
-        self.t, self.u, self.n, self.n_wait, self._dark_now = 0.0, np.zeros(3), 0, 0, False
+        self.t, self.u, self.n, self._dark_now = 0.0, np.zeros(3), 0, False
+        self.dark_for_s, self._dark_until = dark_for_s, {}  # measurement -> end of its darkness
         self.rng = np.random.default_rng(0)
         self.sent = []
 
@@ -45,13 +47,15 @@ class LinearRig(Rig):
     def next_frame(self):
         self.t += 1 / 120
         self.n += 1
-        if self._dark_now or (self.nan_every and self.n % self.nan_every == 0):
+        if (self._dark_now and self.t < self._dark_until[len(self.sent) - 1]) or (
+            self.nan_every and self.n % self.nan_every == 0
+        ):
             return MocapFrame(self.t, np.full(3, np.nan))
         return MocapFrame(self.t, self.c + self.B @ self.u + self.noise_m * self.rng.standard_normal(3))
 
     def wait(self, duration_s):
-        self._dark_now = self.n_wait in self.dark
-        self.n_wait += 1
+        self._dark_now = len(self.sent) - 1 in self.dark
+        self._dark_until.setdefault(len(self.sent) - 1, self.t + self.dark_for_s)
         try:
             return super().wait(duration_s)
         finally:
@@ -168,7 +172,7 @@ def test_nan_frames_are_filtered_and_dark_windows_skip_the_correction(three_cabl
     model = Linear(C + 0.001, WRONG @ B)
     targets = C + U_IN[:3] @ B.T
     solver = IKSolver(model, CommandSet.from_robot(three_cable))
-    with LinearRig(three_cable, nan_every=3, dark={1, 5}) as rig:  # wait() calls: pass k target i = 3k + i
+    with LinearRig(three_cable, nan_every=3, dark={1, 5}) as rig:  # measurement of pass k target i: 3k + i
         res = run_closed_loop(rig, solver, targets, passes=3)
     valid = [(u, m) for u, m in seen if np.all(np.isfinite(m))]
     assert len(seen) == 6 and len(valid) == 4
@@ -327,3 +331,20 @@ def test_pass_table_and_figure(three_cable, tmp_path):
         )
     with pytest.raises(TrackResultError, match="not a closed-loop"):
         pass_rows(tmp_path)
+
+
+def test_a_short_dropout_grows_the_window_instead_of_skipping(three_cable):
+    """0.4 s of the 0.5 s window occluded: the window grows until half of it is valid, the
+    correction uses the exact tip; the same dropout without growing (max_window_s = window_s)
+    skips it."""
+    model = Linear(C + 0.001, WRONG @ B)
+    targets = C + U_IN[:2] @ B.T
+    for max_window_s, skipped in ((2.0, 0), (0.5, 1)):
+        solver = IKSolver(model, CommandSet.from_robot(three_cable))
+        with LinearRig(three_cable, dark={0}, dark_for_s=0.4) as rig:
+            res = run_closed_loop(rig, solver, targets, passes=2, correction=Correction(max_window_s=max_window_s))
+        assert res.passes[0]["n_skipped"] == skipped
+        moved = not np.array_equal(res.passes[1]["commands"][0], res.passes[0]["commands"][0])
+        assert moved == (skipped == 0)
+    with pytest.raises(Exception, match="max_window_s"):
+        Correction(window_s=1.0, max_window_s=0.5)

@@ -23,9 +23,11 @@ and for noise, which a gain below one also averages.
 Measurement (:func:`measure_tip`): the capture protocol's settle rule (:data:`TRACK_PROTOCOL`,
 no reset), then the mean of the *valid* frames of a further ``window_s`` (0.5 s: 60 frames,
 noise down by ~8 from a single frame). NaN (occluded) frames are left out
-(:func:`tip_from_frames`); with fewer than ``min_valid_fraction`` of the window valid the
-measurement is NaN, the correction of that target is skipped (its command unchanged) and
-counted. A correction never sees a NaN: :func:`correct_command` leaves the command alone.
+(:func:`tip_from_frames`); while fewer than ``min_valid_fraction`` of the window's frames are
+valid, the window grows (up to ``max_window_s``), so that a dropout delays a measurement
+rather than losing it; still too few, the measurement is NaN, the correction of that target
+is skipped (its command unchanged) and counted. A correction never sees a NaN:
+:func:`correct_command` leaves the command alone.
 
 Two schedules (:func:`run_closed_loop`):
 
@@ -70,13 +72,15 @@ class Correction:
     """Settings of the correction (SI units; module docstring). ``gain`` alpha in (0, 2);
     ``damping``: lambda / sigma_max(J); ``max_step_rad``: largest change of any motor per
     correction, rad; ``window_s``: averaging window after settling, s; ``min_valid_fraction``:
-    share of that window's frames that must be valid for a correction."""
+    share of that window's frames that must be valid for a correction; ``max_window_s``: how
+    long the window may grow to collect them, s."""
 
     gain: float = DEFAULT_GAIN
     damping: float = 1e-2
     max_step_rad: float = 0.3
     window_s: float = 0.5
     min_valid_fraction: float = 0.5
+    max_window_s: float = 2.0
 
     def __post_init__(self):
         if not (0 < self.gain < 2):
@@ -85,6 +89,8 @@ class Correction:
             raise InputError(
                 f"damping must lie in (0, 1) (a fraction of J's largest singular value), got {self.damping!r}"
             )
+        if not self.max_window_s >= self.window_s:
+            raise InputError(f"max_window_s must be >= window_s, got {self.max_window_s!r} < {self.window_s!r}")
         for name in ("max_step_rad", "window_s"):
             if not (getattr(self, name) > 0 and math.isfinite(getattr(self, name))):
                 raise InputError(f"{name} must be a positive number, got {getattr(self, name)!r}")
@@ -128,10 +134,18 @@ def tip_from_frames(points_W, min_valid: int) -> tuple[np.ndarray, int]:
 
 def measure_tip(rig: Rig, u_motor, protocol: Protocol = TRACK_PROTOCOL, correction: Correction = Correction()):
     """Send ``u_motor`` (m,) rad, wait by ``protocol``'s settle rule, then average the valid
-    frames of ``correction.window_s``: a :class:`TipMeasurement`."""
+    frames of ``correction.window_s``, grown by 0.1 s at a time up to ``max_window_s`` while
+    fewer than ``min_valid_fraction`` of the window's frames are valid: a :class:`TipMeasurement`."""
     sample = measure(rig, u_motor, protocol)
+    t_end = rig.now() + correction.max_window_s
     frames = rig.wait(correction.window_s)
     need = math.ceil(correction.min_valid_fraction * len(frames))
+
+    def n_ok():
+        return sum(f.valid for f in frames)
+
+    while n_ok() < need and rig.now() < t_end - 1e-9:
+        frames += rig.wait(min(0.1, t_end - rig.now()))
     p, n_valid = tip_from_frames([f.p_tip_W for f in frames], need)
     return TipMeasurement(sample, p, n_valid, len(frames))
 
