@@ -21,7 +21,19 @@ import argparse
 import sys
 import traceback
 
-from lab.cli import calibrate, capture, data_curve, defects, simulate, splits, track, train, transfer, transfer_curve
+from lab.cli import (
+    calibrate,
+    capture,
+    data_curve,
+    defects,
+    fit_dynamics,
+    simulate,
+    splits,
+    track,
+    train,
+    transfer,
+    transfer_curve,
+)
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
 from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
@@ -39,6 +51,7 @@ COMMANDS = {
     "transfer-curve": transfer_curve,
     "data-curve": data_curve,
     "calibrate": calibrate,
+    "fit-dynamics": fit_dynamics,
 }
 
 #: OS errors that mean the user named a bad path (exit 2); any other OSError exits 1.

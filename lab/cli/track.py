@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from lab.cli.paths import check_paths, check_writable, existing
+from lab.cli.track_stream import add_stream_arguments, check_stream_flags, run_streamed
 from lab.errors import InputError
 from lab.tracking.closed_loop import run_closed_loop
 from lab.tracking.track import PointLog, make_solver, run_trajectory, write_result
@@ -100,6 +101,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         default=None,
         help="with --closed-loop: correction gain alpha in (0, 2) (default 0.9)",
     )
+    # Trajectories at speed: --period-s, --dynamic-model, ... (lab.cli.track_stream)
+    add_stream_arguments(k)
     k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
     k.add_argument("--n-rings", type=int, help="FEM mesh rings of --rig sim / --soft-ik (default: robot's)")
     k.add_argument("--n-axial", type=int, help="FEM mesh layers of --rig sim / --soft-ik (default: robot's)")
@@ -118,6 +121,8 @@ def run(args) -> int:
     from lab.rig import make_rig
     from lab.rig.sim import SimRig
 
+    if check_stream_flags(args):  # --period-s: streamed at speed (lab.cli.track_stream)
+        return run_streamed(args)
     if (args.model is None) == (not args.soft_ik):
         raise InputError("give exactly one of --model MODEL.npz and --soft-ik")
     correction = _correction(args)

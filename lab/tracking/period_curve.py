@@ -1,0 +1,125 @@
+"""The error against the period: a trajectory streamed open loop and pre-compensated, per robot.
+
+:func:`period_curve_rows` streams one trajectory (:func:`lab.tracking.stream.stream_trajectory`)
+at each period, open loop and through each robot's fitted relaxation filter, on a fresh rig per
+run (the same noise seed, settled from rest), and returns one row per (rig, period, mode).
+:func:`write_period_curve` writes them as CSV (atomic) with a JSON sidecar ``OUT.json``
+(command, code version, settings); ``benchmarks/bench_period_curve.py`` is its command line
+and makes ``data/period_curve.csv``.
+
+Columns: ``rig`` (its ``--rig`` spec), ``period_s``, ``mode`` ("open-loop" or
+"feed-forward"), ``mean_error_m`` and ``max_error_m`` over the last period's frames (m),
+then ``model`` (the quasi-static model the IK solved through), ``n_periods``,
+``n_knots_unreachable`` (equilibria the IK could not reach), ``max_motor_speed_rad_s`` (the
+fastest a motor had to turn between commands) and ``tau_s``/``weight`` of the filter used
+(";"-joined, empty in open loop).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.files import atomic_write_text, code_version
+
+__all__ = ["PERIOD_CURVE_COLUMNS", "period_curve_rows", "write_period_curve", "read_period_curve", "MODES"]
+
+PERIOD_CURVE_COLUMNS = (
+    "rig",
+    "period_s",
+    "mode",
+    "mean_error_m",
+    "max_error_m",
+    "model",
+    "n_periods",
+    "n_knots_unreachable",
+    "max_motor_speed_rad_s",
+    "tau_s",
+    "weight",
+)
+MODES = ("open-loop", "feed-forward")
+_FLOATS = ("period_s", "mean_error_m", "max_error_m", "max_motor_speed_rad_s")
+
+
+def period_curve_rows(make_rig, runs, targets_W, periods_s, *, log=None, **stream_kw):
+    """Rows (dicts with :data:`PERIOD_CURVE_COLUMNS`) for every run in ``runs`` -- tuples
+    ``(spec, model_label, solver, relax)``: a rig spec, the name of the quasi-static model the
+    ``solver`` (:class:`~lab.control.ik.IKSolver`) solves through, and the fitted
+    :class:`~lab.learn.relaxation.Relaxation` -- every period in ``periods_s`` (s) and both
+    modes. ``make_rig(spec)`` returns a fresh rig; ``stream_kw`` go to ``stream_trajectory``;
+    ``log(text)`` is told each result. Returns the rows and the results
+    ``{(spec, model_label, period, mode): StreamResult}``."""
+    from lab.tracking.stream import stream_trajectory
+
+    rows, results = [], {}
+    for spec, model_label, solver, relax in runs:
+        for period in periods_s:
+            for mode in MODES:
+                ff = mode == "feed-forward"
+                with make_rig(spec) as rig:
+                    res = stream_trajectory(
+                        rig, solver, targets_W, float(period), relax=relax if ff else None, **stream_kw
+                    )
+                results[(spec, model_label, float(period), mode)] = res
+                rows.append(
+                    {
+                        "rig": spec,
+                        "model": model_label,
+                        "period_s": float(period),
+                        "mode": mode,
+                        "mean_error_m": res.mean_error_m,
+                        "max_error_m": res.max_error_m,
+                        "n_periods": res.n_periods,
+                        "n_knots_unreachable": int(np.sum(~res.knots.reachable)),
+                        "max_motor_speed_rad_s": res.knots.max_motor_speed_rad_s,
+                        "tau_s": ";".join(f"{t:.6g}" for t in relax.tau_s) if ff else "",
+                        "weight": ";".join(f"{w:.6g}" for w in relax.weight) if ff else "",
+                    }
+                )
+                if log is not None:
+                    log(
+                        f"{spec} ({model_label}) T = {period:g} s {mode}: mean {1e3 * res.mean_error_m:.3f} mm, max "
+                        f"{1e3 * res.max_error_m:.3f} mm, {rows[-1]['n_knots_unreachable']} equilibria out of reach"
+                    )
+    return rows, results
+
+
+def write_period_curve(path, rows, sidecar: dict | None = None) -> None:
+    """Write ``rows`` as CSV (:data:`PERIOD_CURVE_COLUMNS`) to ``path`` and ``sidecar``
+    (JSON-able, plus the code version) to ``path.json``, both atomically."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=PERIOD_CURVE_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (repr(float(r[k])) if k in _FLOATS else r.get(k, "")) for k in w.fieldnames})
+    atomic_write_text(path, buf.getvalue())
+    meta = {"kind": "lab.period_curve", "format_version": 1, **(sidecar or {}), "code_version": code_version()}
+    atomic_write_text(f"{path}.json", json.dumps(meta, indent=1) + "\n")
+
+
+def read_period_curve(path) -> list[dict]:
+    """The rows of a period-curve CSV, numbers as floats (``n_*`` as ints); InputError for a
+    missing file or one without the columns."""
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise InputError(f"period curve not found: {path}") from None
+    need = set(PERIOD_CURVE_COLUMNS[:5])
+    if not rows or not need <= set(rows[0]):
+        raise InputError(f"{path}: not a period curve (needs the columns {sorted(need)})")
+    out = []
+    for r in rows:
+        d = dict(r)
+        for k in _FLOATS:
+            if d.get(k) not in (None, ""):
+                d[k] = float(d[k])
+        for k in ("n_periods", "n_knots_unreachable"):
+            if d.get(k) not in (None, ""):
+                d[k] = int(d[k])
+        out.append(d)
+    return out

@@ -1,0 +1,305 @@
+"""Trajectories at speed: a periodic trajectory streamed continuously, open loop or pre-compensated.
+
+:func:`run_trajectory` (:mod:`lab.tracking.track`) settles at every point; here the
+trajectory is commanded as a motion of period ``T`` (2-20 s), and the foam's lag
+(:class:`~lab.learn.relaxation.Relaxation`) makes a quasi-static open loop trail behind the
+target and shrink the shape. :func:`stream_trajectory`:
+
+1. **Timing.** Commands go out at a fixed rate (``command_rate_hz``, default 20 Hz: every
+   6th frame of a 120 Hz motion capture). At 2 rad/s the motors turn at most 0.1 rad in
+   1/20 s, so each command is reached before the next is sent, and the equilibrium, which
+   moves linearly while the motors turn, is a continuous, nearly piecewise-linear path --
+   what :class:`Relaxation` integrates exactly. Sending every frame would cost the
+   emulated twin one FEM solve per frame for no visible gain. Knot ``k`` is the command
+   for time ``t_k = k / rate``; it is *sent* at ``t_{k-1}``, one period of the rate ahead,
+   because the motors need that long to get there (the same for both modes).
+2. **Targets in time.** ``targets_W`` (N, 3) are N points along one period, the path closed
+   (linear between them, back to the first); the knots ``p_des(t_k)`` cover ``n_periods``
+   periods.
+3. **Equilibrium path.** Quasi-static open loop: ``p_in = p_des``. Feed-forward:
+   ``p_in = relax.invert(t, p_des)`` over the whole run, starting settled: the
+   equilibrium path whose filtered tip follows the target.
+4. **Commands** ``u_k = IK(p_in(t_k))`` through the learned quasi-static model, warm-started
+   along the path; an equilibrium out of reach gets the nearest allowed command (flagged
+   in ``knots.reachable``).
+5. **Run.** A settled lead-in at ``u_0`` (``lead_in_s``), then the stream; every
+   motion-capture frame is kept.
+6. **Error.** Over the last period (steady state), each valid frame (NaN frames skipped)
+   against the target at its time: ``errors_m`` (one per frame), their mean and maximum.
+
+The result (:class:`StreamResult`) writes the keys of a track result
+(:func:`lab.tracking.track.write_result`): one row per valid frame of the last period
+(``targets``, ``achieved``, ``commands`` in force, ``errors_m``; ``settled`` false and
+``settle_wait_s`` 0 -- nothing waits), plus ``mode`` ("open-loop" or "feed-forward"),
+``period_s``, ``n_periods``, ``command_rate_hz``, ``lead_in_s``, ``t_s`` (each row's time
+since the start of the last period), ``dynamic_model`` (its time constants and weights,
+null in open loop) and ``knots`` (the whole run: ``t_s``, ``p_des``, ``p_in``,
+``commands``, ``predicted``, ``reachable``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.control.ik import IKSolver, check_targets
+from lab.errors import InputError, LabRuntimeError
+from lab.files import code_version
+from lab.learn.relaxation import Relaxation
+from lab.rig.base import Rig
+from lab.tracking.track import TrackResult
+
+__all__ = [
+    "StreamResult",
+    "StreamPlan",
+    "plan_stream",
+    "stream_trajectory",
+    "target_at",
+    "default_n_periods",
+    "DEFAULT_COMMAND_RATE_HZ",
+    "DEFAULT_LEAD_IN_S",
+]
+
+DEFAULT_COMMAND_RATE_HZ = 20.0
+#: Settled lead-in at the first command, s (four slow time constants of the shipped twin).
+DEFAULT_LEAD_IN_S = 10.0
+#: Motion before the measured period, s: an open loop's start-up transient dies out.
+MIN_TRANSIENT_S = 8.0
+PERIOD_RANGE_S = (0.5, 600.0)
+
+
+def default_n_periods(period_s: float) -> int:
+    """Periods streamed by default: enough that at least :data:`MIN_TRANSIENT_S` of motion
+    precede the last (measured) one, and never fewer than 2."""
+    return max(2, 1 + math.ceil(MIN_TRANSIENT_S / float(period_s) - 1e-9))
+
+
+def target_at(targets_W, period_s: float, t_s) -> np.ndarray:
+    """The target (n, 3) m at times ``t_s`` (n,) s on a closed path through ``targets_W``
+    (N, 3) m, point ``i`` at ``i T / N``, linear in between, repeating every ``period_s``."""
+    p = np.asarray(targets_W, float)
+    n = len(p)
+    phase = np.mod(np.asarray(t_s, float) / period_s, 1.0) * n
+    i = np.minimum(np.floor(phase).astype(int), n - 1)
+    frac = (phase - i)[..., None]
+    return p[i] * (1 - frac) + p[(i + 1) % n] * frac
+
+
+@dataclass
+class StreamPlan:
+    """Knots of a streamed run: times ``t_s`` (K,) s from the start of the motion, desired
+    tips ``p_des_W`` and equilibria ``p_in_W`` (K, 3) m, commands ``u_motor`` (K, m) rad and
+    the model's tips there ``p_pred_W`` (K, 3) m, ``reachable`` (K,), ``ik_residual_m`` (K,),
+    ``ik_iterations`` (K,); ``timings`` s."""
+
+    t_s: np.ndarray
+    p_des_W: np.ndarray
+    p_in_W: np.ndarray
+    u_motor: np.ndarray
+    p_pred_W: np.ndarray
+    reachable: np.ndarray
+    ik_residual_m: np.ndarray
+    ik_iterations: np.ndarray
+    timings: dict
+
+    @property
+    def max_motor_speed_rad_s(self) -> float:
+        """The fastest a motor must turn between knots, rad/s."""
+        dt = np.diff(self.t_s)[:, None]
+        return float(np.max(np.abs(np.diff(self.u_motor, axis=0)) / dt)) if len(dt) else 0.0
+
+
+def plan_stream(
+    solver: IKSolver,
+    targets_W,
+    period_s: float,
+    *,
+    relax: Relaxation | None = None,
+    n_periods: int | None = None,
+    command_rate_hz: float = DEFAULT_COMMAND_RATE_HZ,
+    smoothing: float = 1e-3,
+) -> StreamPlan:
+    """The knots of the module docstring (steps 2-4): open loop without ``relax``,
+    feed-forward through ``relax.invert(..., smoothing)`` with it."""
+    targets = np.atleast_2d(check_targets(targets_W))
+    period_s, rate = float(period_s), float(command_rate_hz)
+    if not (PERIOD_RANGE_S[0] <= period_s <= PERIOD_RANGE_S[1]):
+        raise InputError(f"period must lie in [{PERIOD_RANGE_S[0]}, {PERIOD_RANGE_S[1]}] s, got {period_s}")
+    if not (np.isfinite(rate) and 1.0 <= rate <= 200.0):
+        raise InputError(f"command rate must lie in [1, 200] Hz, got {command_rate_hz}")
+    n_periods = default_n_periods(period_s) if n_periods is None else int(n_periods)
+    if n_periods < 1:
+        raise InputError(f"need at least one period, got {n_periods}")
+    if len(targets) < 3:
+        raise InputError(f"a streamed trajectory needs at least 3 points along its period, got {len(targets)}")
+    n_knots = int(round(n_periods * period_s * rate)) + 1
+    if n_knots > 20_000:
+        raise InputError(f"{n_knots} commands is too long a run (periods x period x rate)")
+    t = np.arange(n_knots) / rate
+    p_des = target_at(targets, period_s, t)
+    t0 = time.perf_counter()
+    p_in = p_des if relax is None else relax.invert(t, p_des, smoothing)
+    t_invert = time.perf_counter() - t0
+    plan = solver.follow(p_in, None)
+    timings = {
+        "invert_s": t_invert,
+        "ik_total_s": time.perf_counter() - t0 - t_invert,
+        "ik_per_target_mean_s": float(np.mean(plan.time_s)),
+        "ik_per_target_median_s": float(np.median(plan.time_s)),
+        "ik_per_target_max_s": float(np.max(plan.time_s)),
+    }
+    return StreamPlan(
+        t, p_des, p_in, plan.u_motor, plan.p_pred_W, plan.reachable, plan.residual_m, plan.iterations, timings
+    )
+
+
+@dataclass
+class StreamResult(TrackResult):
+    """A streamed run (module docstring): the rows of :class:`TrackResult` are the valid
+    frames of the last period; ``t_s`` (N,) s their times since its start."""
+
+    mode: str = "open-loop"
+    period_s: float = float("nan")
+    n_periods: int = 0
+    command_rate_hz: float = DEFAULT_COMMAND_RATE_HZ
+    lead_in_s: float = DEFAULT_LEAD_IN_S
+    t_s: np.ndarray | None = None
+    dynamic_model: dict | None = None
+    knots: StreamPlan | None = None
+
+    def to_json(self) -> dict:
+        doc = super().to_json()
+        k = self.knots
+        doc.update(
+            mode=self.mode,
+            period_s=self.period_s,
+            n_periods=self.n_periods,
+            command_rate_hz=self.command_rate_hz,
+            lead_in_s=self.lead_in_s,
+            t_s=self.t_s,
+            dynamic_model=self.dynamic_model,
+            knots=None
+            if k is None
+            else {
+                "t_s": k.t_s,
+                "p_des": k.p_des_W,
+                "p_in": k.p_in_W,
+                "commands": k.u_motor,
+                "predicted": k.p_pred_W,
+                "reachable": k.reachable,
+                "max_motor_speed_rad_s": k.max_motor_speed_rad_s,
+            },
+        )
+        return doc
+
+
+def stream_trajectory(
+    rig: Rig,
+    solver: IKSolver,
+    targets_W,
+    period_s: float,
+    *,
+    relax: Relaxation | None = None,
+    n_periods: int | None = None,
+    command_rate_hz: float = DEFAULT_COMMAND_RATE_HZ,
+    lead_in_s: float = DEFAULT_LEAD_IN_S,
+    smoothing: float = 1e-3,
+    name: str = "custom",
+    progress=None,
+) -> StreamResult:
+    """Stream ``targets_W`` (N, 3) m, one period of ``period_s`` s, on ``rig`` (module
+    docstring): open loop, or feed-forward through ``relax``. ``progress(k, K)`` after each
+    command. The rig is left open (the caller owns it)."""
+    if solver.commands.n != rig.robot.n_cables:
+        raise InputError(
+            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
+        )
+    if not (np.isfinite(lead_in_s) and lead_in_s >= 0):
+        raise InputError(f"lead-in must be a non-negative number of seconds, got {lead_in_s}")
+    t_start = time.perf_counter()
+    if n_periods is None and np.isfinite(period_s) and period_s > 0:
+        n_periods = default_n_periods(period_s)
+    plan = plan_stream(
+        solver, targets_W, period_s, relax=relax, n_periods=n_periods, command_rate_hz=command_rate_hz,
+        smoothing=smoothing,
+    )  # fmt: skip
+    t_rig = time.perf_counter()
+    t_frames, p_frames, k_frames = _run(rig, plan, lead_in_s, progress)
+    t_rig = time.perf_counter() - t_rig
+    # the last period, valid frames only
+    in_last = (t_frames >= plan.t_s[-1] - period_s - 1e-9) & (t_frames < plan.t_s[-1] - 1e-9)
+    last = in_last & np.all(np.isfinite(p_frames), axis=1)
+    if not np.any(last):
+        raise LabRuntimeError("no valid motion-capture frame in the last period: nothing to compare")
+    tf, pf, kf = t_frames[last], p_frames[last], k_frames[last]
+    targets = target_at(np.atleast_2d(targets_W), period_s, tf)
+    n = len(tf)
+    timings = {
+        **plan.timings,
+        "rig_wall_s": t_rig,
+        "settle_mean_s": 0.0,
+        "total_s": time.perf_counter() - t_start,
+        "rig_clock_s": float(lead_in_s + plan.t_s[-1]),
+    }
+    info = {
+        "rig": rig.describe(),
+        "robot": rig.robot.name,
+        "robot_sha256": rig.robot.sha256,
+        "solver": {"method": solver.method, "tol_m": solver.tol_m, "reach_tol_m": solver.reach_tol_m},
+        "smoothing": smoothing,
+        "n_frames": int(len(t_frames)),
+        "n_frames_last_period": int(np.sum(in_last)),
+        "n_knots_unreachable": int(np.sum(~plan.reachable)),
+        "code_version": code_version(),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+    }
+    return StreamResult(
+        name,
+        targets,
+        plan.u_motor[kf],
+        pf,
+        plan.p_pred_W[kf],
+        plan.ik_residual_m[kf],
+        plan.reachable[kf],
+        plan.ik_iterations[kf],
+        np.zeros(n, bool),
+        np.zeros(n),
+        timings,
+        info,
+        mode="open-loop" if relax is None else "feed-forward",
+        period_s=float(period_s),
+        n_periods=n_periods,
+        command_rate_hz=float(command_rate_hz),
+        lead_in_s=float(lead_in_s),
+        t_s=tf - (plan.t_s[-1] - period_s),
+        dynamic_model=None
+        if relax is None
+        else {"tau_s": relax.tau_s, "weight": relax.weight, "noise_sigma_m": relax.noise_sigma_m},
+        knots=plan,
+    )
+
+
+def _run(rig: Rig, plan: StreamPlan, lead_in_s: float, progress=None):
+    """Lead-in at knot 0, then knot k+1 sent at t_k; returns every frame after the lead-in:
+    times (n,) s since the motion began, tips (n, 3) m (NaN: occluded), and the knot in
+    force (the latest sent)."""
+    rig.send(plan.u_motor[0])
+    rig.wait(lead_in_s)
+    t0 = rig.now()
+    ts, ps, ks = [], [], []
+    n = len(plan.t_s)
+    for k in range(n - 1):
+        rig.send(plan.u_motor[k + 1])
+        t_next = t0 + plan.t_s[k + 1]
+        while rig.now() < t_next - 1e-9:
+            f = rig.next_frame()
+            ts.append(f.t_s - t0)
+            ps.append(f.p_tip_W)
+            ks.append(k + 1)
+        if progress is not None:
+            progress(k + 1, n - 1)
+    return np.asarray(ts), np.asarray(ps, float).reshape(-1, 3), np.asarray(ks, int)

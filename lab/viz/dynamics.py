@@ -1,0 +1,98 @@
+"""Figures of trajectories at speed: the error against the period, and a streamed shape drawn.
+
+:func:`plot_period_curve` draws the streamed tracking error (mean over the last period, mm)
+against the period (s) on log-log axes, one colour per robot, open loop dashed and
+feed-forward solid (rows of :mod:`lab.tracking.period_curve`). :func:`plot_streamed_trajectory`
+draws a target shape with what the tip did over the last period of two streamed runs (track
+results of :mod:`lab.tracking.stream`, e.g. open loop and feed-forward at T = 5 s), in the
+plane of the shape (y-z, cm).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["MODE_STYLES", "plot_period_curve", "plot_streamed_trajectory"]
+
+#: line style and marker per streaming mode
+MODE_STYLES = {"open-loop": ("--", "s"), "feed-forward": ("-", "o")}
+
+
+def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_period_s: float = 5.0):
+    """Mean error (mm) against period (s), log-log: ``rows`` are dicts with ``rig``,
+    ``period_s``, ``mode``, ``mean_error_m`` (and ``model``: one curve per rig and model).
+    With ``goal_ratio``, the goal -- the open loop's error divided by it at
+    ``goal_period_s`` -- is marked per curve. Returns ``ax``."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
+
+    def key(r):
+        return (r["rig"], r.get("model") or "")
+
+    keys = list(dict.fromkeys(key(r) for r in rows))
+    several_models = len({k[1] for k in keys}) > 1
+    for i, k in enumerate(keys):
+        color, label = f"C{i}", f"{k[0]} [{k[1]}]" if several_models else k[0]
+        mine = [r for r in rows if key(r) == k]
+        for mode, (ls, marker) in MODE_STYLES.items():
+            pts = sorted(
+                (float(r["period_s"]), 1e3 * float(r["mean_error_m"]))
+                for r in mine
+                if r["mode"] == mode and np.isfinite(float(r["mean_error_m"]))
+            )
+            if pts:
+                t, e = np.array(pts).T
+                ax.plot(t, e, ls=ls, marker=marker, color=color, ms=4, lw=1.5, label=f"{label}, {mode}")
+        open_at = [
+            float(r["mean_error_m"]) for r in mine if r["mode"] == "open-loop" and float(r["period_s"]) == goal_period_s
+        ]
+        if goal_ratio and open_at:
+            ax.plot(goal_period_s, 1e3 * open_at[0] / goal_ratio, marker="_", color=color, ms=16, mew=2)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    periods = sorted({float(r["period_s"]) for r in rows})
+    ax.set_xticks(periods, [f"{p:g}" for p in periods])
+    ax.minorticks_off()
+    ax.set_xlabel("period of the trajectory [s]")
+    ax.set_ylabel("mean tracking error, last period [mm]")
+    title = "streamed circle: quasi-static open loop (dashed) vs feed-forward (solid)"
+    if goal_ratio:
+        title += f"\n(bars: {goal_ratio:g}x below open loop at T = {goal_period_s:g} s)"
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def _doc(result):
+    """A track result as a dict (a StreamResult or what read_result returns)."""
+    return result.to_json() if hasattr(result, "to_json") else result
+
+
+def plot_streamed_trajectory(results: dict, ax=None):
+    """``results``: ``{label: streamed track result}`` (StreamResult or its JSON as read by
+    :func:`lab.tracking.track.read_result`). Draws the first one's targets (black) and each
+    result's measured tip over the last period, y-z plane in cm. Returns ``ax``."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(4.8, 4.8), layout="constrained")
+    docs = {label: _doc(r) for label, r in results.items()}
+    first = next(iter(docs.values()))
+    order = np.argsort(np.asarray(first.get("t_s", np.arange(len(first["targets"]))), float))
+    target = 100 * np.asarray(first["targets"], float)[order]
+    ax.plot(target[:, 1], target[:, 2], "k-", lw=2.0, label="target")
+    for i, (label, doc) in enumerate(docs.items()):
+        tip = 100 * np.asarray(doc["achieved"], float)
+        err = 100 * float(doc["mean_error_m"])
+        ax.plot(tip[:, 1], tip[:, 2], ".", ms=2, color=f"C{i + 1}", label=f"{label} (mean {err:.2f} cm)")
+    period = first.get("period_s")
+    ax.set_title(f"streamed at T = {period:g} s: last period" if period else "streamed trajectory", fontsize=9)
+    ax.set_xlabel("y [cm]")
+    ax.set_ylabel("z [cm]")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.grid(True, alpha=0.3)
+    return ax
