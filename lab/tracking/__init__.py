@@ -25,6 +25,8 @@ from lab.tracking.data_curve import (
     make_body,
     plan_rows,
 )
+from lab.tracking.period_curve import PERIOD_CURVE_COLUMNS, period_curve_rows, read_period_curve, write_period_curve
+from lab.tracking.stream import StreamPlan, StreamResult, plan_stream, stream_trajectory, target_at
 from lab.tracking.table1 import (
     COLUMNS,
     CONDITIONS,
@@ -102,4 +104,13 @@ __all__ = [
     "random_safe_commands",
     "read_curve",
     "smallest_n",
+    "StreamPlan",
+    "StreamResult",
+    "plan_stream",
+    "stream_trajectory",
+    "target_at",
+    "PERIOD_CURVE_COLUMNS",
+    "period_curve_rows",
+    "read_period_curve",
+    "write_period_curve",
 ]

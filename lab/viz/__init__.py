@@ -38,6 +38,7 @@ from lab.viz.arm import (
     update_scene,
 )
 from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_loop
+from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
 from lab.viz.setup import plot_setup, setup_geometry
@@ -110,4 +111,7 @@ __all__ = [
     "MODEL_COLORS",
     "TRAJECTORY_MARKERS",
     "plot_closed_loop",
+    "MODE_STYLES",
+    "plot_period_curve",
+    "plot_streamed_trajectory",
 ]
