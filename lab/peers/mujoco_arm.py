@@ -19,6 +19,14 @@ four nodes. Each via point is a site on the body of the node with the largest ba
 weight in its tet, at the via point's rest offset from that node (1.7 mm on the default
 mesh). The bodies only translate, so the offset keeps its world direction: the via point
 follows that node, not the tet's rotation (an error of offset x bend angle, < 3 mm at 90 deg).
+An exact embedding would be a via body coupled to its tet's four nodes by fixed-tendon
+equality constraints (via - sum_j w_j node_j = 0 per axis); MuJoCo's constraints are soft,
+and under cable tension they gave way by 2-30 mm at the default solref/solimp, while stiff
+ones (time constant 2 dt, impedance 0.9999) froze the arm at rest and made it diverge under a
+pull (tried on the (2, 10) mesh, via bodies of 0.1 mg with gravity compensation), so the
+nearest node it is. Its cost: a via point moves axially like its node, so its moment arm
+about the neutral axis is that node's radius (13.3 mm instead of 15 mm on the default mesh),
+and MuJoCo's arm bends less per cable length.
 
 Damping is not part of the statics but decides how fast a simulation settles. MuJoCo refuses
 joint damping on flex node bodies, so the only damping is the flex's own (``flex_damping_s``,

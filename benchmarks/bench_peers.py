@@ -1,0 +1,296 @@
+"""Our FEM and IK side by side with what users would pick instead: MuJoCo, and SciPy for the IK.
+
+    python benchmarks/bench_peers.py            # default mesh, 28 commands, circle of 100 (~20 minutes)
+    python benchmarks/bench_peers.py --quick    # coarse mesh, 8 commands, 20 targets (~1 minute)
+
+Physics: :func:`lab.peers.mujoco_arm` builds the arm in MuJoCo 4 on the same tet mesh (flex
+elasticity with our E, nu and lumped masses; each cable a tension-only spatial tendon through
+sites at our via points, each site riding on the nearest node of its tet). For the five
+commands of benchmarks/mesh_refinement.py, three small ones (0.1 rad on every cable plus 0.3 rad
+on one, where the two material laws agree) and 20 Sobol commands it measures the tip distance between
+MuJoCo's settled state and our static equilibrium; MuJoCo's time to settle (every node slower
+than V_TOL for HOLD_S simulated seconds) from rest and from the previous command's settled
+state, against our static solve from rest and warm-started from the previous equilibrium; and
+the tip Jacobian, ours by sensitivity analysis, MuJoCo's by central differences of settled
+states (+-H_RAD on each motor, from the settled state). One thread (OMP/MKL = 1).
+
+IK: the learned model data/model_sim_three_cable.npz on the circle, warm-started point to
+point: lab's bounded LM against scipy.optimize.least_squares (trf, box bounds, the model's
+analytic Jacobian) and scipy.optimize.minimize (L-BFGS-B), best of 3 passes each.
+"""
+
+import argparse
+import copy
+import os
+import time
+
+import numpy as np
+from scipy.optimize import least_squares, minimize
+
+from lab.control.command_set import CommandSet
+from lab.control.ik import IKSolver, grid_seeds
+from lab.control.trajectories import circle
+from lab.data.designs import sobol_commands
+from lab.description import load_robot
+from lab.fem.energy import ArmFEM
+from lab.fem.statics import sensitivities, solve_static
+from lab.learn.mlp import load_model
+from lab.peers import mujoco_arm
+
+V_TOL = 1e-4  # m/s: a node this slow is ~4 um from rest on the softest bending mode (~25 rad/s)
+HOLD_S = 0.1  # s simulated: longer than a quarter period of that mode, so no turning point counts
+MAX_SIM_S = 5.0  # s simulated before a run counts as not settled
+H_RAD = 0.05  # central-difference step of MuJoCo's Jacobian (tip moves ~1 mm)
+REACH_M = 1e-5  # an IK answer farther than this from its target is a failure
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--quick", action="store_true", help="coarse mesh, 3 Sobol commands, 20 targets")
+ap.add_argument("--model", default="data/model_sim_three_cable.npz")
+args = ap.parse_args()
+print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}")
+robot = load_robot("three-cable")
+n_sobol, n_targets = (3, 20) if args.quick else (20, 100)
+fem = ArmFEM(robot, n_rings=2, n_axial=10) if args.quick else ArmFEM(robot)
+u_max = robot.u_max_rad
+named = [("rest", np.zeros(3))] + [(f"cable {i} at u_max", u_max * np.eye(3)[i]) for i in range(3)]
+named += [("mixed (0.5, 1) u_max", np.array([0.0, 0.5, 1.0]) * u_max)]
+named += [(f"small: 0.1 rad + 0.3 on cable {i}", 0.1 + 0.3 * np.eye(3)[i]) for i in range(3)]
+named += [(f"Sobol {i}", u) for i, u in enumerate(sobol_commands(robot, n_sobol, seed=0))]
+labels, U = [n for n, _ in named], np.array([u for _, u in named])
+small = np.array([lab.startswith("small") or lab == "rest" for lab in labels])
+t0 = time.perf_counter()
+arm = mujoco_arm(fem)
+t_build = time.perf_counter() - t0
+print(
+    f"mesh {fem.mesh.n_nodes} nodes ({len(arm.free_nodes)} free), {len(fem.mesh.tets)} tets; MuJoCo model built in "
+    f"{t_build:.2f} s: {arm.model.nv} dofs, timestep {arm.model.opt.timestep * 1e3:.2f} ms, integrator discrete, "
+    f"flex damping {arm.model.flex_damping[0]:.3g} s; settled = every node below {V_TOL:g} m/s for {HOLD_S} s "
+    f"(at most {MAX_SIM_S} s simulated)"
+)
+
+# ------------------------------------------------------------------ ours
+solve_static(fem, U[1])  # first-call costs (imports, factorisation set-up) out of the timings
+cold_ours, warm_ours, sens_ours, tips_ours, J_ours, q_prev, fails_ours = [], [], [], [], [], None, 0
+for u in U:
+    t0 = time.perf_counter()
+    fails_ours += not solve_static(fem, u, raise_on_failure=False).converged
+    cold_ours.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    sol = solve_static(fem, u, q_prev, raise_on_failure=False)
+    warm_ours.append(time.perf_counter() - t0)
+    fails_ours += not sol.converged
+    q_prev = sol.q
+    tips_ours.append(sol.p_tip_W)
+    t0 = time.perf_counter()
+    J_ours.append(sensitivities(fem, sol.q, u)[1])
+    sens_ours.append(time.perf_counter() - t0)
+tips_ours = np.array(tips_ours)
+
+# ------------------------------------------------------------------ MuJoCo
+runs = []
+
+
+def settle(data, u):
+    arm.set_command(u)
+    r = arm.settle(data, v_tol_m_s=V_TOL, hold_s=HOLD_S, max_time_s=MAX_SIM_S)
+    runs.append(r)
+    return r
+
+
+cold_mj, warm_mj, tips_mj, J_mj, jac_mj_s, chain = [], [], [], [], [], None
+for i, u in enumerate(U):
+    d = arm.new_data()
+    cold_mj.append(settle(d, u))
+    if chain is None:  # the chain starts from the settled rest state
+        chain, warm_mj = d, [cold_mj[0]]
+    else:
+        warm_mj.append(settle(chain, u))
+    tips_mj.append(arm.tip(chain))
+    print(
+        f"  {labels[i]:<26} MuJoCo cold {cold_mj[-1].status} {cold_mj[-1].wall_s:6.2f} s, warm "
+        f"{warm_mj[-1].status} {warm_mj[-1].wall_s:6.2f} s; "
+        f"tip distance {1e3 * np.linalg.norm(tips_mj[-1] - tips_ours[i]):.2f} mm",
+        flush=True,
+    )
+    # Jacobians where every cable is pulled by more than H_RAD (no slack kink inside the
+    # central difference): the small commands and the first Sobol one (one small with --quick).
+    jac_here = labels[i] == "Sobol 0" or labels[i].startswith("small")
+    if jac_here and not (args.quick and labels[i][-1] in "12"):
+        cols, wall = [], 0.0
+        for j in range(3):
+            tip_pm = []
+            for s in (1, -1):
+                dj = copy.copy(chain)
+                r = settle(dj, u + s * H_RAD * np.eye(3)[j])
+                wall += r.wall_s
+                tip_pm.append(arm.tip(dj))
+            cols.append((tip_pm[0] - tip_pm[1]) / (2 * H_RAD))
+        arm.set_command(u)
+        J_mj.append((i, np.array(cols).T))
+        jac_mj_s.append(wall)
+tips_mj = np.array(tips_mj)
+dist = np.linalg.norm(tips_mj - tips_ours, axis=1)
+statuses = [r.status for r in runs]
+print("\ncommand                    ours tip (mm)              MuJoCo tip (mm)            distance mm")
+for lab, a, b, dd in zip(labels, tips_ours, tips_mj, dist):
+    print(
+        f"{lab:<26} {np.array2string(1e3 * a, precision=1):<26} "
+        f"{np.array2string(1e3 * b, precision=1):<26} {1e3 * dd:7.2f}"
+    )
+J_err = [np.linalg.norm(Jm - J_ours[i]) / np.linalg.norm(J_ours[i]) for i, Jm in J_mj]
+
+
+# ------------------------------------------------------------------ the material alone
+# Cables 1 cm slack (no cable force): gravity sag, then a downward tip load on top, added to
+# our external load vector (gravity's) and as MuJoCo's applied force on the tip node's body.
+mat_rows = []
+for what, F_n in (("gravity sag", 0.0), ("gravity + 5 mN tip load", 5e-3), ("gravity + 50 mN tip load", 50e-3)):
+    f = ArmFEM(robot, fem.mesh, cable_slack_m=[0.01] * 3)
+    tip_node = f.tip_nodes[np.argmax(f.tip_weights)]
+    f.f_gravity_W = f.f_gravity_W.copy()
+    f.f_gravity_W[tip_node, 2] -= F_n
+    t0 = time.perf_counter()
+    sol = solve_static(f, np.zeros(3))
+    t_ours = time.perf_counter() - t0
+    a = mujoco_arm(f)
+    d = a.new_data()
+    d.xfrc_applied[1 + int(np.flatnonzero(a.free_nodes == tip_node)[0]), 2] = -F_n
+    r = a.settle(d, v_tol_m_s=V_TOL, hold_s=HOLD_S, max_time_s=MAX_SIM_S)
+    p0 = f.tip(f.X_W)
+    mat_rows.append((what, 1e3 * (sol.p_tip_W - p0), 1e3 * (a.tip(d) - p0), t_ours, r))
+    print(f"  material: {what}: ours {1e3 * t_ours:.0f} ms, MuJoCo {r.status} {r.wall_s:.2f} s", flush=True)
+
+# ------------------------------------------------------------------ IK
+model = load_model(args.model)
+commands = CommandSet.from_robot(robot)
+targets = circle(n_targets)
+lm = IKSolver(model, commands, "lm", seeds=grid_seeds(model, commands, 7))
+u_start = lm.initial_guess(targets[0])
+bounds = (commands.lo, commands.hi)
+
+
+def ours_ik(t, u):
+    r = lm.solve(t, u0=u)
+    return r.u_motor
+
+
+def trf(t, u):
+    return least_squares(
+        lambda v: model.predict(v) - t,
+        np.clip(u, *bounds),
+        jac=model.jacobian,
+        bounds=bounds,
+        method="trf",
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+    ).x
+
+
+def lbfgsb(t, u):
+    def f(v):
+        y, J = model.predict_and_jacobian(v)
+        r = y - t
+        return 0.5 * r @ r, J.T @ r
+
+    return minimize(
+        f,
+        u,
+        jac=True,
+        method="L-BFGS-B",
+        bounds=list(zip(*bounds)),
+        options={"ftol": 1e-30, "gtol": 1e-13, "maxiter": 2000},
+    ).x
+
+
+ik_rows = []
+for name, fn in (("lab bounded LM", ours_ik), ("SciPy least_squares trf", trf), ("SciPy minimize L-BFGS-B", lbfgsb)):
+    best = None
+    for _ in range(3):
+        u, per, res, unsafe = u_start, [], [], 0
+        for t in targets:
+            t0 = time.perf_counter()
+            u = fn(t, u)
+            per.append(time.perf_counter() - t0)
+            res.append(np.linalg.norm(model.predict(u) - t))
+            unsafe += not commands.contains(u, 1e-9)
+        if best is None or np.mean(per) < np.mean(best[0]):
+            best = (per, np.array(res), unsafe)
+    ik_rows.append(
+        (name, 1e3 * np.mean(best[0]), best[1].max(), np.median(best[1]), int((best[1] > REACH_M).sum()), best[2])
+    )
+
+
+# ------------------------------------------------------------------ the table
+def row(*cells):
+    print("| " + " | ".join(cells) + " |")
+
+
+def mean_of(results, key):
+    return float(np.mean([getattr(r, key) for r in results])) if results else float("nan")
+
+
+ok = [r for r in cold_mj if r.status == "settled"]
+okw = [r for r in warm_mj[1:] if r.status == "settled"]
+c_ours, w_ours, s_ours = np.mean(cold_ours), np.mean(warm_ours[1:]), np.mean(sens_ours)
+c_mj, w_mj = mean_of(ok, "wall_s"), mean_of(okw, "wall_s")
+n_bad = sum(s != "settled" for s in statuses)
+print(f"\n## Peers: {len(U)} commands ({small.sum()} rest or small), mesh {fem.mesh.n_nodes} nodes, one thread\n")
+row("quantity", "ours (lab FEM)", "MuJoCo 4.0.0", "ratio")
+row("---", "---", "---", "---")
+row(
+    "tip distance to ours, all commands (median / max)",
+    "-",
+    f"{1e3 * np.median(dist):.2f} / {1e3 * dist.max():.2f} mm",
+    "",
+)
+row("tip distance, rest and small commands (max)", "-", f"{1e3 * dist[small].max():.2f} mm", "")
+row(
+    "static equilibrium from rest (mean)",
+    f"{1e3 * c_ours:.1f} ms",
+    f"{c_mj:.2f} s ({mean_of(ok, 'sim_time_s'):.2f} s simulated)",
+    f"{c_mj / c_ours:.0f}x",
+)
+row(
+    "from the previous command's state (mean)",
+    f"{1e3 * w_ours:.1f} ms",
+    f"{w_mj:.2f} s ({mean_of(okw, 'sim_time_s'):.2f} s simulated)",
+    f"{w_mj / w_ours:.0f}x",
+)
+if J_mj:
+    j_mj = float(np.mean(jac_mj_s))
+    row(
+        f"tip Jacobian (3x3) at {len(J_mj)} commands (mean)",
+        f"{1e3 * s_ours:.1f} ms (sensitivity)",
+        f"{j_mj:.1f} s (6 settles)",
+        f"{j_mj / s_ours:.0f}x",
+    )
+    row("Jacobian difference, rel. Frobenius (median / max)", "-", f"{np.median(J_err):.2f} / {max(J_err):.2f}", "")
+row(
+    "runs unstable / not settled",
+    f"{fails_ours} of {2 * len(U)} solves failed",
+    f"{statuses.count('unstable')} / {statuses.count('not_settled')} of {len(runs)} ({100 * n_bad / len(runs):.0f} %)",
+    "",
+)
+row("runs with MuJoCo warnings (ill-conditioned M + K)", "-", f"{sum(r.warnings > 0 for r in runs)} of {len(runs)}", "")
+print("\n## The material alone (cables slack): tip displacement\n")
+row("load", "ours (neo-Hookean)", "MuJoCo flex", "difference", "time ours / MuJoCo")
+row("---", "---", "---", "---", "---")
+for what, d_ours, d_mj, t_ours, r in mat_rows:
+    row(
+        what,
+        f"{np.linalg.norm(d_ours):.2f} mm",
+        f"{np.linalg.norm(d_mj):.2f} mm ({r.status})",
+        f"{np.linalg.norm(d_mj - d_ours):.3f} mm",
+        f"{1e3 * t_ours:.0f} ms / {r.wall_s:.2f} s",
+    )
+print(f"\n## IK: learned model, circle of {n_targets} targets, warm-started, best of 3 passes\n")
+row("solver", "ms per target", "max / median residual", "failures (> 10 um)", "outside the safety rule")
+row("---", "---", "---", "---", "---")
+for name, t_ms, rmax, rmed, fails, unsafe in ik_rows:
+    row(name, f"{t_ms:.3f}", f"{rmax:.1e} / {rmed:.1e} m", str(fails), str(unsafe))
+print(
+    f"\nratios: MuJoCo settle / our static solve = {c_mj / c_ours:.0f}x from rest, {w_mj / w_ours:.0f}x warm "
+    f"(goal >= 10x); SciPy / lab IK = {ik_rows[1][1] / ik_rows[0][1]:.1f}x (trf), "
+    f"{ik_rows[2][1] / ik_rows[0][1]:.1f}x (L-BFGS-B) (goal >= 3x)"
+)
