@@ -14,6 +14,12 @@ state, against our static solve from rest and warm-started from the previous equ
 the tip Jacobian, ours by sensitivity analysis, MuJoCo's by central differences of settled
 states (+-H_RAD on each motor, from the settled state). One thread (OMP/MKL = 1).
 
+The material alone: with the cables 1 cm slack, gravity sag and a 5 or 50 mN tip load, ours
+against MuJoCo's flex. (torch-fem, the issue's candidate for this part, does not fit the pinned
+environment: every release with a hyperelastic material, 0.4 to 0.14.0, imports pyvista at
+``import torchfem``, which needs vtk, a 140 MB wheel; 0.3.8 imports it lazily but has only
+small-strain materials. Its adjoint gradient is therefore not compared.)
+
 IK: the learned model data/model_sim_three_cable.npz on the circle, warm-started point to
 point: lab's bounded LM against scipy.optimize.least_squares (trf, box bounds, the model's
 analytic Jacobian) and scipy.optimize.minimize (L-BFGS-B), best of 3 passes each.

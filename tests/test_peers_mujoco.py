@@ -99,3 +99,14 @@ def test_bad_settings_raise(fem):
     arm = mujoco_arm(fem)
     with pytest.raises(InputError, match="u_motor"):
         arm.set_command(np.zeros(2))
+
+
+def test_settle_reports_divergence_and_timeouts(fem):
+    # Explicit Euler at 1 ms steps cannot carry the flex damping: MuJoCo flags a bad qacc at once.
+    arm = mujoco_arm(fem, integrator="Euler", timestep_s=1e-3)
+    res = arm.settle(arm.new_data(), max_time_s=1.0)
+    assert res.status == "unstable" and res.sim_time_s < 0.1
+    # 50 ms is far too short for the arm to come to rest (it still falls at ~0.1 m/s).
+    arm = mujoco_arm(fem)
+    res = arm.settle(arm.new_data(), max_time_s=0.05)
+    assert res.status == "not_settled" and res.max_speed_m_s > 1e-2
