@@ -9,9 +9,9 @@ For each ``--rig SPEC=DYN.npz[=MODEL.npz]`` (a rig spec of ``--rig``, the dynami
 ``python -m lab fit-dynamics`` fitted on it, and the quasi-static model to solve the IK
 through, default ``--model``) and period, the trajectory is streamed on a fresh rig open
 loop and with the feed-forward (:mod:`lab.tracking.stream`); one row each
-(:mod:`lab.tracking.period_curve`). With ``--traces T``, the two track results of the first
-rig at period ``T`` are written as ``stream_TRAJ_T{T}_{open_loop,feed_forward}.json`` in
-``--traces-dir`` (for the drawn-trajectory figure).
+(:mod:`lab.tracking.period_curve`). With ``--traces T``, what the tip did over the last
+period of the first rig's two runs at period ``T`` is written to ``stream_TRAJ_T{T}.csv`` in
+``--traces-dir`` (:func:`lab.tracking.period_curve.write_traces`, for the drawn-trajectory figure).
 """
 
 import argparse
@@ -25,8 +25,8 @@ from lab.description import load_robot
 from lab.learn import load_model
 from lab.learn.relaxation import load_relaxation
 from lab.rig import make_rig
-from lab.tracking.period_curve import period_curve_rows, write_period_curve
-from lab.tracking.track import make_solver, write_result
+from lab.tracking.period_curve import period_curve_rows, write_period_curve, write_traces
+from lab.tracking.track import make_solver
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--model", default="data/model_real_three_cable.npz", help="quasi-static model (.npz)")
@@ -71,8 +71,6 @@ write_period_curve(
 )
 if args.traces is not None:
     first = runs[0]
-    for mode in ("open-loop", "feed-forward"):
-        res = results[(first[0], first[1], float(args.traces), mode)]
-        path = Path(args.traces_dir) / f"stream_{args.trajectory}_T{args.traces:g}_{mode.replace('-', '_')}.json"
-        write_result(path, res, {"model": args.model, "command": command})
+    traces = {mode: results[(first[0], first[1], float(args.traces), mode)] for mode in ("open-loop", "feed-forward")}
+    write_traces(Path(args.traces_dir) / f"stream_{args.trajectory}_T{args.traces:g}.csv", traces)
 print(f"{len(rows)} rows -> {args.out} in {time.perf_counter() - t0:.0f} s", file=sys.stderr)

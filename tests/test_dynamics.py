@@ -4,6 +4,7 @@ hardware path."""
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +13,8 @@ from lab.cli import main
 from lab.learn.relaxation import Relaxation, load_relaxation
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
-MODEL = "data/model_real_three_cable.npz"
+DATA = Path(__file__).parents[1] / "data"
+MODEL = str(DATA / "model_real_three_cable.npz")
 COARSE = {"n_rings": 2, "n_axial": 8}
 COARSE_FLAGS = ["--n-rings", "2", "--n-axial", "8"]
 
@@ -288,7 +290,7 @@ def test_streams_through_the_hardware_path(three_cable, solver, tmp_path):
 
 # --- the period curve and its figures -----------------------------------------------------------------
 def test_period_curve_file_and_figures(streamed, tmp_path):
-    from lab.tracking.period_curve import read_period_curve, write_period_curve
+    from lab.tracking.period_curve import read_period_curve, read_traces, write_period_curve, write_traces
     from lab.viz.dynamics import plot_period_curve, plot_streamed_trajectory
 
     rows = [
@@ -308,6 +310,31 @@ def test_period_curve_file_and_figures(streamed, tmp_path):
     ax2 = plot_streamed_trajectory({"open loop": streamed["open-loop"], "feed-forward": streamed["feed-forward"]})
     assert len(ax2.get_lines()) == 3
     ax2.figure.savefig(tmp_path / "traj.png")
+    write_traces(tmp_path / "traces.csv", streamed)
+    traces = read_traces(tmp_path / "traces.csv")
+    assert traces["feed-forward"]["mean_error_m"] == pytest.approx(streamed["feed-forward"].mean_error_m, abs=1e-7)
+    assert len(plot_streamed_trajectory(traces).get_lines()) == 3
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+def test_cached_period_curve_meets_the_goal_where_the_model_is_the_robots_own():
+    """data/period_curve.csv (benchmarks/bench_period_curve.py): at T = 5 s the feed-forward
+    is >= 3x better than the quasi-static open loop wherever the quasi-static model is the
+    robot's own; the figures draw the cache."""
+    from lab.tracking.period_curve import read_period_curve, read_traces
+    from lab.viz.dynamics import plot_period_curve, plot_streamed_trajectory
+
+    rows = read_period_curve(DATA / "period_curve.csv")
+    at5 = {(r["rig"], r["model"], r["mode"]): r["mean_error_m"] for r in rows if r["period_s"] == 5.0}
+    own = {"twin": "model_real_three_cable.npz"} | {
+        f"twin:random:{s}": f"model_real_three_cable_random{s}.npz" for s in (1, 2)
+    }
+    for rig, model in own.items():
+        assert at5[(rig, model, "open-loop")] >= 3 * at5[(rig, model, "feed-forward")], rig
+    plot_period_curve(rows)
+    plot_streamed_trajectory(read_traces(DATA / "stream_circle_T5.csv"))
     import matplotlib.pyplot as plt
 
     plt.close("all")

@@ -26,7 +26,15 @@ import numpy as np
 from lab.errors import InputError
 from lab.files import atomic_write_text, code_version
 
-__all__ = ["PERIOD_CURVE_COLUMNS", "period_curve_rows", "write_period_curve", "read_period_curve", "MODES"]
+__all__ = [
+    "PERIOD_CURVE_COLUMNS",
+    "MODES",
+    "period_curve_rows",
+    "write_period_curve",
+    "read_period_curve",
+    "write_traces",
+    "read_traces",
+]
 
 PERIOD_CURVE_COLUMNS = (
     "rig",
@@ -122,4 +130,45 @@ def read_period_curve(path) -> list[dict]:
             if d.get(k) not in (None, ""):
                 d[k] = int(d[k])
         out.append(d)
+    return out
+
+
+TRACE_COLUMNS = ("label", "period_s", "t_s", "target_x", "target_y", "target_z", "x", "y", "z")
+
+
+def write_traces(path, results: dict) -> None:
+    """What the tip did over the last period of streamed runs, for figures: ``results``
+    ``{label: StreamResult or its JSON}`` -> CSV (:data:`TRACE_COLUMNS`; m, s; atomic)."""
+    lines = [",".join(TRACE_COLUMNS)]
+    for label, res in results.items():
+        doc = res.to_json() if hasattr(res, "to_json") else res
+        t, tg, tip = (np.asarray(doc[k], float) for k in ("t_s", "targets", "achieved"))
+        for i in np.argsort(t, kind="stable"):
+            nums = [f"{t[i]:.6f}", *(f"{v:.7f}" for v in tg[i]), *(f"{v:.7f}" for v in tip[i])]
+            lines.append(",".join([label, f"{float(doc['period_s']):g}", *nums]))
+    atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def read_traces(path) -> dict:
+    """{label: {"period_s", "t_s" (n,), "targets" (n, 3), "achieved" (n, 3), "mean_error_m"}}
+    from :func:`write_traces`' CSV (what :func:`lab.viz.dynamics.plot_streamed_trajectory` draws)."""
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise InputError(f"traces not found: {path}") from None
+    if not rows or not set(TRACE_COLUMNS) <= set(rows[0]):
+        raise InputError(f"{path}: not a traces file (needs the columns {list(TRACE_COLUMNS)})")
+    out = {}
+    for label in dict.fromkeys(r["label"] for r in rows):
+        mine = [r for r in rows if r["label"] == label]
+        tg = np.array([[float(r[f"target_{c}"]) for c in "xyz"] for r in mine])
+        tip = np.array([[float(r[c]) for c in "xyz"] for r in mine])
+        out[label] = {
+            "period_s": float(mine[0]["period_s"]),
+            "t_s": np.array([float(r["t_s"]) for r in mine]),
+            "targets": tg,
+            "achieved": tip,
+            "mean_error_m": float(np.mean(np.linalg.norm(tip - tg, axis=1))),
+        }
     return out
