@@ -134,6 +134,7 @@ def test_every_command_has_its_module():
             "transfer-curve",
             "data-curve",
             "calibrate",
+            "fit-dynamics",
         }
     )
     for name, module in cli.COMMANDS.items():
