@@ -175,6 +175,29 @@ def test_fit_dynamics_bad_input_exits_2(tmp_path, capsys, flags, message):
     assert message in capsys.readouterr().err and not out.exists()
 
 
+def test_fit_dynamics_exits_1_when_the_rig_fails(three_cable, tmp_path, capsys, monkeypatch):
+    from lab.cli import fit_dynamics
+    from lab.rig.base import RigError
+
+    class Failing(TwinRig):
+        n = 0
+
+        def _send(self, u_motor):
+            Failing.n += 1
+            if Failing.n > 3:
+                raise RigError("servo 2 stopped answering")
+            super()._send(u_motor)
+
+    monkeypatch.setattr(
+        fit_dynamics,
+        "make_dynamic_rig",
+        lambda *a, **k: Failing(three_cable, body=AsBuiltBody(three_cable, None, **COARSE)),
+    )
+    out = tmp_path / "d.npz"
+    assert main(["fit-dynamics", "--out", str(out), "--n-steps", "2", "--n-random", "4", "--step-hold-s", "1"]) == 1
+    assert "servo 2 stopped answering" in capsys.readouterr().err and not out.exists()
+
+
 def test_fit_dynamics_never_overwrites_its_inputs(tmp_path, capsys):
     robot = tmp_path / "robot.npz"
     robot.write_bytes(b"x")

@@ -2,8 +2,9 @@
 
 Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
 (:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`), ``defects``
-(:mod:`.defects`), ``transfer`` (:mod:`.transfer`) and ``calibrate`` (:mod:`.calibrate`); each module
-has ``add_parser(subparsers, parents)`` and ``run(args) -> exit code``.
+(:mod:`.defects`), ``transfer`` (:mod:`.transfer`), ``calibrate`` (:mod:`.calibrate`) and
+``fit-dynamics`` (:mod:`.fit_dynamics`); each module has ``add_parser(subparsers, parents)``
+and ``run(args) -> exit code``.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
 ``error: <message>`` and exits with its code -- 2 for bad input (a file, a field, an
