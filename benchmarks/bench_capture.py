@@ -25,7 +25,6 @@ Ratios compare protocols measured in this run. One thread per process.
 """
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -36,8 +35,7 @@ import numpy as np
 from timing import best_of
 
 from lab.description import load_robot
-from lab.files import atomic_write_text
-from lab.tracking.capture_rate import COLUMNS, capture_rate_study
+from lab.tracking.capture_rate import capture_rate_study, write_capture_rate
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -85,18 +83,6 @@ def part1(robot, args):
             f"({1e3 * r['mean_error_after_learning_m']:.3f})"
         )
     return rows + sweep
-
-
-def write_rows(rows, path, command):
-    lines = [",".join(COLUMNS)] + [
-        ",".join(repr(float(r[c])) if c not in ("robot", "protocol") else r[c] for c in COLUMNS) for r in rows
-    ]
-    atomic_write_text(path, "\n".join(lines) + "\n")
-    atomic_write_text(
-        f"{path}.json",
-        json.dumps({"format_version": 1, "kind": "lab.capture_rate", "command": command}, indent=1) + "\n",
-    )
-    print(f"-> {path}")
 
 
 def part2(robot):
@@ -186,7 +172,8 @@ def main():
     print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}")
     robot = load_robot("three-cable")
     rows = part1(robot, args)
-    write_rows(rows, args.out, "python benchmarks/bench_capture.py " + " ".join(sys.argv[1:]))
+    write_capture_rate(args.out, rows, "python benchmarks/bench_capture.py " + " ".join(sys.argv[1:]))
+    print(f"-> {args.out}")
     from lab.learn.relaxation import Relaxation
 
     r = next(r for r in rows if r["robot"] == "shipped" and r["protocol"] == "predictive")

@@ -122,3 +122,32 @@ def capture_rate_study(
             if progress is not None:
                 progress(row)
     return rows
+
+
+def write_capture_rate(path, rows, command: str) -> None:
+    """Rows of :data:`COLUMNS` as CSV (atomic) with a JSON sidecar ``PATH.json`` (``command``)."""
+    import json
+
+    from lab.files import atomic_write_text, code_version
+
+    text = ["robot,protocol," + ",".join(COLUMNS[2:])]
+    text += [",".join([r["robot"], r["protocol"], *(repr(float(r[c])) for c in COLUMNS[2:])]) for r in rows]
+    atomic_write_text(path, "\n".join(text) + "\n")
+    side = {"format_version": 1, "kind": "lab.capture_rate", "command": command, "code_version": code_version()}
+    atomic_write_text(f"{path}.json", json.dumps(side, indent=1) + "\n")
+
+
+def read_capture_rate(path) -> list[dict]:
+    """Rows written by :func:`write_capture_rate` (numbers as float); InputError names a bad file."""
+    import csv
+
+    from lab.errors import InputError
+
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise InputError(f"capture-rate table not found: {path}") from None
+    if not rows or not set(COLUMNS) <= set(rows[0]):
+        raise InputError(f"{path}: not a capture-rate table (needs the columns {list(COLUMNS)})")
+    return [{k: (v if k in ("robot", "protocol") else float(v)) for k, v in r.items()} for r in rows]

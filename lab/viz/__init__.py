@@ -37,6 +37,7 @@ from lab.viz.arm import (
     stop_visualizer,
     update_scene,
 )
+from lab.viz.capture_rate import PROTOCOL_STYLES, plot_capture_rate
 from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_loop
 from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
@@ -111,6 +112,8 @@ __all__ = [
     "MODEL_COLORS",
     "TRAJECTORY_MARKERS",
     "plot_closed_loop",
+    "PROTOCOL_STYLES",
+    "plot_capture_rate",
     "MODE_STYLES",
     "plot_period_curve",
     "plot_streamed_trajectory",

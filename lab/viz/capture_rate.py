@@ -1,0 +1,56 @@
+"""Samples per hour against accuracy, per capture protocol (rows of :mod:`lab.tracking.capture_rate`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["PROTOCOL_STYLES", "plot_capture_rate"]
+
+#: colour and marker per capture protocol
+PROTOCOL_STYLES = {"wait": ("C0", "s"), "predictive": ("C3", "o")}
+
+
+def plot_capture_rate(rows, ax=None, *, after_learning: bool = True, goal_rate_per_hour: float | None = 900.0):
+    """Samples per hour of robot time (y) against mean distance from the noise-free settled
+    tips (x, mm). ``rows``: dicts with ``robot``, ``protocol``, ``tol_m``, the rate and error
+    columns (CSV strings or numbers). The shipped robot's rows are joined into one line per
+    protocol (its tolerance sweep, each point labelled with the tolerance in mm); the family's
+    are single markers. ``after_learning``: the predictive protocol's rate and error after its
+    learning samples (else over every sample). Returns ``ax``."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.2, 4.2), layout="constrained")
+    rate_key = "rate_after_learning_per_hour" if after_learning else "rate_per_hour"
+    err_key = "mean_error_after_learning_m" if after_learning else "mean_error_m"
+    rows = [{**r, "tol_m": float(r["tol_m"]), rate_key: float(r[rate_key]), err_key: float(r[err_key])} for r in rows]
+    for protocol, (color, marker) in PROTOCOL_STYLES.items():
+        shipped = sorted(
+            {r["tol_m"]: r for r in rows if r["protocol"] == protocol and r["robot"] == "shipped"}.values(),
+            key=lambda r: r["tol_m"],
+        )
+        if shipped:
+            x = 1e3 * np.array([r[err_key] for r in shipped])
+            y = np.array([r[rate_key] for r in shipped])
+            ax.plot(x, y, "-", color=color, marker=marker, label=f"{protocol}, shipped robot (tolerance sweep)")
+            for r, xi, yi in zip(shipped, x, y):
+                ax.annotate(f"{1e3 * r['tol_m']:g}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        family = [r for r in rows if r["protocol"] == protocol and r["robot"] != "shipped"]
+        if family:
+            ax.plot(
+                [1e3 * r[err_key] for r in family],
+                [r[rate_key] for r in family],
+                marker,
+                mfc="none",
+                color=color,
+                ls="none",
+                label=f"{protocol}, family members (default tolerance)",
+            )
+    if goal_rate_per_hour:
+        ax.axhline(goal_rate_per_hour, color="0.5", lw=0.8, ls=":", label=f"goal {goal_rate_per_hour:g} per hour")
+    ax.set_xlabel("mean distance from the settled tip [mm]")
+    ax.set_ylabel("samples per hour of robot time" + (" (after learning)" if after_learning else ""))
+    ax.set_title("capture protocols on emulated as-built robots (labels: tolerance, mm)", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
