@@ -311,6 +311,23 @@ def test_streams_through_the_hardware_path(three_cable, solver, tmp_path):
     assert 75 < len(res.errors_m) <= 120 and np.all(np.isfinite(res.achieved_W))
 
 
+def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
+    """fit-dynamics with a tiny plan on --rig hardware:RIG.toml: the real dynamixel-sdk and
+    NatNet client against the emulated bench driving the coarse twin's body, in real time
+    (about 10 s); the lag comes out."""
+    from lab.rig.emulators import EmulatedBench
+
+    out = tmp_path / "dyn.npz"
+    with EmulatedBench(three_cable, AsBuiltBody(three_cable, None, **COARSE)) as bench:
+        cfg = bench.write_config(tmp_path / "rig.toml")
+        plan = ["--n-steps", "1", "--n-random", "2", "--step-hold-s", "3"]
+        assert main(["fit-dynamics", "--rig", f"hardware:{cfg}", *plan, "--out", str(out)]) == 0
+    relax = load_relaxation(out)
+    assert relax.tau_s == pytest.approx([0.4, 2.5], rel=0.25) and relax.weight == pytest.approx([0.7, 0.3], abs=0.1)
+    with np.load(out) as z:
+        assert json.loads(str(z["metadata"]))["rig"]["kind"] == "hardware"
+
+
 # --- the period curve and its figures -----------------------------------------------------------------
 def test_period_curve_file_and_figures(streamed, tmp_path):
     from lab.tracking.period_curve import read_period_curve, read_traces, write_period_curve, write_traces
