@@ -314,16 +314,21 @@ def test_streams_through_the_hardware_path(three_cable, solver, tmp_path):
 def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
     """fit-dynamics with a tiny plan on --rig hardware:RIG.toml: the real dynamixel-sdk and
     NatNet client against the emulated bench driving the coarse twin's body, in real time
-    (about 10 s); the lag comes out."""
+    (about 10 s); the lag comes out. The body's foam is made quicker (0.1 s / 0.6 s) so that
+    a 3 s hold shows all of a step, whatever the load on the machine does to the clock."""
+    import dataclasses
+
+    from lab.rig.asbuilt import load_defects
     from lab.rig.emulators import EmulatedBench
 
     out = tmp_path / "dyn.npz"
-    with EmulatedBench(three_cable, AsBuiltBody(three_cable, None, **COARSE)) as bench:
+    quick_foam = dataclasses.replace(load_defects(None, three_cable), tau_fast_s=0.1, tau_slow_s=0.6)
+    with EmulatedBench(three_cable, AsBuiltBody(three_cable, quick_foam, **COARSE)) as bench:
         cfg = bench.write_config(tmp_path / "rig.toml")
         plan = ["--n-steps", "1", "--n-random", "2", "--step-hold-s", "3"]
         assert main(["fit-dynamics", "--rig", f"hardware:{cfg}", *plan, "--out", str(out)]) == 0
     relax = load_relaxation(out)
-    assert relax.tau_s == pytest.approx([0.4, 2.5], rel=0.25) and relax.weight == pytest.approx([0.7, 0.3], abs=0.1)
+    assert relax.tau_s == pytest.approx([0.1, 0.6], rel=0.3) and relax.weight == pytest.approx([0.7, 0.3], abs=0.1)
     with np.load(out) as z:
         assert json.loads(str(z["metadata"]))["rig"]["kind"] == "hardware"
 
