@@ -4,8 +4,22 @@
 with spatial tendons as the cables; :mod:`.mujoco_arm`), so ``benchmarks/bench_peers.py`` can
 compare its settled states, times and Jacobians with our static FEM. ``mujoco`` is imported
 when a model is built, not when this package is.
+
+:class:`SkfemArm` is the arm's body (no cables) in scikit-fem with our neo-Hookean law on the
+same mesh (:mod:`.skfem_arm`): gravity sag, a tip load and the adjoint gradient of the tip with
+respect to that load, against ours. ``skfem`` too is imported when an arm is built.
 """
 
 from lab.peers.mujoco_arm import MujocoArm, SettleResult, mujoco_arm
+from lab.peers.skfem_arm import SkfemArm, SkfemSolution, lab_loaded_arm, lab_tip_load_gradient, tip_load_node
 
-__all__ = ["MujocoArm", "SettleResult", "mujoco_arm"]
+__all__ = [
+    "MujocoArm",
+    "SettleResult",
+    "SkfemArm",
+    "SkfemSolution",
+    "lab_loaded_arm",
+    "lab_tip_load_gradient",
+    "mujoco_arm",
+    "tip_load_node",
+]
