@@ -2,6 +2,7 @@
 
     python benchmarks/bench_peers.py            # default mesh, 28 commands, circle of 100 (~17 minutes)
     python benchmarks/bench_peers.py --quick    # coarse mesh, 8 commands, 20 targets (~1 minute)
+    python benchmarks/bench_peers.py --only-skfem   # only the scikit-fem section (~1 minute)
 
 Physics: :func:`lab.peers.mujoco_arm` builds the arm in MuJoCo 4 on the same tet mesh (flex
 elasticity with our E, nu and lumped masses; each cable a tension-only spatial tendon through
@@ -19,6 +20,16 @@ against MuJoCo's flex. (torch-fem, the issue's candidate for this part, does not
 environment: every release with a hyperelastic material, 0.4 to 0.14.0, imports pyvista at
 ``import torchfem``, which needs vtk, a 140 MB wheel; 0.3.8 imports it lazily but has only
 small-strain materials. Its adjoint gradient is therefore not compared.)
+
+A second tet FEM with a neo-Hookean material: :class:`lab.peers.SkfemArm`, the arm's body in
+scikit-fem (pure Python, numpy and scipy only) on the same mesh with our compressible
+neo-Hookean law written as its forms (so the two FEMs discretise the same energy and should
+agree to the solvers' tolerances), Newton with its assembled residual and tangent. Gravity sag
+and a 5 and 50 mN downward load on the tip node (cables 1 cm slack): tip displacement, time of
+a static solve from rest (best of 3), and d p_tip / d F (mm/N): ours by one solve with our
+exact Hessian, scikit-fem's by the adjoint method with its tangent, and central differences
+(h = 0.1 mN) of each. The cables are not compared: scikit-fem has no one-sided cable.
+``--skip-skfem`` leaves that section out, ``--only-skfem`` runs only it.
 
 IK: the learned model data/model_sim_three_cable.npz on the circle, warm-started point to
 point: lab's bounded LM against scipy.optimize.least_squares (trf, box bounds, the model's
@@ -42,7 +53,7 @@ from lab.description import load_robot
 from lab.fem.energy import ArmFEM
 from lab.fem.statics import sensitivities, solve_static
 from lab.learn.mlp import load_model
-from lab.peers import mujoco_arm
+from lab.peers import SkfemArm, lab_loaded_arm, lab_tip_load_gradient, mujoco_arm
 
 V_TOL = 1e-4  # m/s: a node this slow is ~4 um from rest on the softest bending mode (~25 rad/s)
 HOLD_S = 0.1  # s simulated: longer than a quarter period of that mode, so no turning point counts
@@ -53,11 +64,101 @@ REACH_M = 1e-5  # an IK answer farther than this from its target is a failure
 ap = argparse.ArgumentParser()
 ap.add_argument("--quick", action="store_true", help="coarse mesh, 3 Sobol commands, 20 targets")
 ap.add_argument("--model", default="data/model_sim_three_cable.npz")
+ap.add_argument("--skip-skfem", action="store_true", help="leave out the scikit-fem section")
+ap.add_argument("--only-skfem", action="store_true", help="run only the scikit-fem section")
 args = ap.parse_args()
 print(f"threads per process: OMP={os.environ.get('OMP_NUM_THREADS')} MKL={os.environ.get('MKL_NUM_THREADS')}")
 robot = load_robot("three-cable")
 n_sobol, n_targets = (3, 20) if args.quick else (20, 100)
 fem = ArmFEM(robot, n_rings=2, n_axial=10) if args.quick else ArmFEM(robot)
+
+
+def best_of(n, fn):
+    """(result of the last call, least wall time in s) of ``n`` calls of ``fn()``."""
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return out, min(times)
+
+
+def skfem_section():
+    """Our FEM against scikit-fem on the body alone (cables slack); prints its table."""
+    import skfem
+
+    H_N = 1e-4  # central-difference step of d p_tip / d F (N): moves the tip ~40 um
+    sk = SkfemArm(fem)
+    sk.solve(0.0), solve_static(lab_loaded_arm(fem, 0.0), np.zeros(3))  # first-call costs out
+    p0, rows = fem.tip(fem.X_W), []
+    for what, F_n in (("gravity sag", 0.0), ("gravity + 5 mN tip load", 5e-3), ("gravity + 50 mN tip load", 50e-3)):
+        arm = lab_loaded_arm(fem, F_n)
+        ours, t_ours = best_of(3, lambda: solve_static(arm, np.zeros(3)))  # noqa: B023
+        theirs, t_sk = best_of(3, lambda: sk.solve(F_n))  # noqa: B023
+        slack = bool(np.all(arm.cable_tensions(arm.to_nodes(ours.q), np.zeros(3)) == 0))
+        g_ours, tg_ours = best_of(3, lambda: lab_tip_load_gradient(arm, ours.q))  # noqa: B023
+        g_sk, tg_sk = best_of(3, lambda: sk.tip_load_gradient(theirs))  # noqa: B023
+
+        def tip_ours(F):
+            return solve_static(lab_loaded_arm(fem, F), np.zeros(3)).p_tip_W
+
+        fd_ours = (tip_ours(F_n + H_N) - tip_ours(F_n - H_N)) / (2 * H_N)
+        fd_sk = (sk.solve(F_n + H_N).p_tip_W - sk.solve(F_n - H_N).p_tip_W) / (2 * H_N)
+        dx = np.abs(theirs.x_W - arm.to_nodes(ours.q)).max()
+        rows.append((what, ours, theirs, t_ours, t_sk, slack, dx, g_ours, g_sk, fd_ours, fd_sk, tg_ours, tg_sk))
+        print(
+            f"  scikit-fem: {what}: ours {1e3 * t_ours:.0f} ms ({ours.iterations} steps), scikit-fem "
+            f"{1e3 * t_sk:.0f} ms ({theirs.iterations} Newton steps), largest node difference {1e3 * dx:.1e} mm",
+            flush=True,
+        )
+    print(
+        f"\n## The body alone in scikit-fem {skfem.__version__} (same mesh {fem.mesh.n_nodes} nodes, same "
+        "neo-Hookean law, cables 1 cm slack), one thread, times best of 3\n"
+    )
+    row("load", "tip displacement ours / scikit-fem", "difference", "static solve from rest ours / scikit-fem")
+    row("---", "---", "---", "---")
+    for what, ours, theirs, t_ours, t_sk, slack, dx, *_ in rows:
+        d_ours, d_sk = 1e3 * (ours.p_tip_W - p0), 1e3 * (theirs.p_tip_W - p0)
+        row(
+            what + ("" if slack else " (a cable taut!)"),
+            f"{np.linalg.norm(d_ours):.4f} / {np.linalg.norm(d_sk):.4f} mm",
+            f"{np.linalg.norm(d_sk - d_ours):.1e} mm (nodes: max {1e3 * dx:.1e} mm)",
+            f"{1e3 * t_ours:.0f} ms / {1e3 * t_sk:.0f} ms ({t_sk / t_ours:.1f}x)",
+        )
+    print()
+    row(
+        "load",
+        "d z_tip / d F: ours (Hessian solve) / scikit-fem (adjoint)",
+        "central FD ours / scikit-fem",
+        "largest rel. difference",
+        "gradient time ours / scikit-fem",
+    )
+    row("---", "---", "---", "---", "---")
+    for what, *_, g_ours, g_sk, fd_ours, fd_sk, tg_ours, tg_sk in rows:
+        worst = max(np.abs(g - g_ours).max() for g in (g_sk, fd_ours, fd_sk)) / np.abs(g_ours).max()
+        row(
+            what,
+            f"{1e3 * g_ours[2]:.4f} / {1e3 * g_sk[2]:.4f} mm/N",
+            f"{1e3 * fd_ours[2]:.4f} / {1e3 * fd_sk[2]:.4f} mm/N",
+            f"{worst:.1e} (all 3 components)",
+            f"{1e3 * tg_ours:.1f} ms / {1e3 * tg_sk:.1f} ms",
+        )
+    print(
+        "\nCables: not compared with scikit-fem, which has no one-sided cable (a tension-only spring along "
+        "a routed path through the body); only slack-cable states are comparable. torch-fem: not run "
+        "(every release with a hyperelastic material imports pyvista, which needs vtk, outside the pinned "
+        "environment)."
+    )
+
+
+def row(*cells):
+    print("| " + " | ".join(cells) + " |")
+
+
+if args.only_skfem:
+    print(f"mesh {fem.mesh.n_nodes} nodes, {len(fem.mesh.tets)} tets; only the scikit-fem section (--only-skfem)")
+    skfem_section()
+    raise SystemExit(0)
 u_max = robot.u_max_rad
 named = [("rest", np.zeros(3))] + [(f"cable {i} at u_max", u_max * np.eye(3)[i]) for i in range(3)]
 named += [("mixed (0.5, 1) u_max", np.array([0.0, 0.5, 1.0]) * u_max)]
@@ -238,10 +339,6 @@ for name, fn in SOLVERS:
 
 
 # ------------------------------------------------------------------ the table
-def row(*cells):
-    print("| " + " | ".join(cells) + " |")
-
-
 def mean_of(results, key):
     return float(np.mean([getattr(r, key) for r in results])) if results else float("nan")
 
@@ -305,6 +402,8 @@ print(
     "at `import torchfem`, which needs vtk (a 140 MB wheel) outside the pinned environment; 0.3.8 has "
     "only small-strain materials. The cables have no counterpart there either."
 )
+if not args.skip_skfem:
+    skfem_section()
 print(f"\n## IK: learned model, circle of {n_targets} targets, warm-started, best of 3 passes\n")
 row("solver", "ms per target", "max / median residual", "failures (> 10 um)", "outside the safety rule")
 row("---", "---", "---", "---", "---")

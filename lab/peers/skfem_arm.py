@@ -72,15 +72,15 @@ def lab_tip_load_gradient(arm: ArmFEM, q: np.ndarray, direction=(0.0, 0.0, -1.0)
 @dataclass
 class SkfemSolution:
     """Equilibrium of :meth:`SkfemArm.solve`: node positions ``x_W`` (N, 3) m, tip marker
-    ``p_tip_W`` (3,) m, Newton ``iterations``, wall ``time_s`` (s), and the factorised
-    tangent on the free dofs (for :meth:`SkfemArm.tip_load_gradient`)."""
+    ``p_tip_W`` (3,) m, the displacements in scikit-fem's dof order ``u_dofs`` (basis.N,) m,
+    the point load ``load_n`` (N), Newton ``iterations`` and wall ``time_s`` (s)."""
 
     x_W: np.ndarray
     p_tip_W: np.ndarray
+    u_dofs: np.ndarray
     load_n: float
     iterations: int
     time_s: float
-    tangent_lu: object
 
 
 def _unit(direction) -> np.ndarray:
@@ -180,10 +180,8 @@ class SkfemArm:
             step = float(np.abs(d).max())
             if step <= tol_step_m:  # Newton is quadratic here: take the step, no line search
                 u[I] += d
-                w = self._fields(u)
-                lu = spla.splu(sp.csc_matrix(tangent.assemble(self.basis, **w)[I][:, I]))
                 x = (self.X_flat + u)[self._dof]
-                return SkfemSolution(x, self.fem.tip(x), load_n, it, time.perf_counter() - t0, lu)
+                return SkfemSolution(x, self.fem.tip(x), u, load_n, it, time.perf_counter() - t0)
             alpha = 1.0
             for _ in range(40):
                 u_try = u.copy()
@@ -200,9 +198,11 @@ class SkfemArm:
     def tip_load_gradient(self, sol: SkfemSolution, direction=(0.0, 0.0, -1.0)) -> np.ndarray:
         """d p_tip / d F (3,) in m/N at ``sol`` by the adjoint method: for each tip coordinate,
         K lam = dp_tip/du (the marker's barycentric weights; K symmetric), then
-        dp_tip/dF = lam . df/dF, with the tangent factorised at the equilibrium."""
+        dp_tip/dF = lam . df/dF, with the tangent assembled and factorised at the equilibrium
+        (as our sensitivity does with our Hessian)."""
+        K = self._forms[2].assemble(self.basis, **self._fields(sol.u_dofs))[self.free][:, self.free]
         S = np.zeros((3, self.basis.N))
         for n, wgt in zip(self.fem.tip_nodes, self.fem.tip_weights):
             S[:, self._dof[n]] += wgt * np.eye(3)
-        lam = sol.tangent_lu.solve(np.ascontiguousarray(S[:, self.free].T))  # (n_free, 3)
+        lam = spla.splu(sp.csc_matrix(K)).solve(np.ascontiguousarray(S[:, self.free].T))  # (n_free, 3)
         return lam.T @ self._load(1.0, direction)[self.free]
