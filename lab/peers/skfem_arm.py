@@ -136,7 +136,6 @@ class SkfemArm:
             return mu * h.ddot(dF, dV) + lam * h.trace(A) * h.trace(B) + (mu - lam * lnJ) * h.ddot(A, h.transpose(B))
 
         self._forms = (energy, residual, tangent)
-        self._asm = skfem.asm
 
     def _fields(self, u_flat):
         rho_g = np.broadcast_to(self._rho_g[:, None, None], (3,) + self._mu.shape)
@@ -163,7 +162,8 @@ class SkfemArm:
         """Static equilibrium under gravity and a point load ``load_n`` (N) along ``direction``
         (3,) on :func:`tip_load_node`, by Newton from rest with scikit-fem's assembled residual
         and tangent (SciPy's sparse LU on the free dofs) and a backtracking line search on the
-        energy (an inverted tet has infinite energy). Converged when no dof moves more than
+        energy (an inverted tet has infinite energy); no safeguard against an indefinite tangent
+        (ours has one), none was needed up to 50 mN. Converged when no dof moves more than
         ``tol_step_m`` (m); raises :class:`LabRuntimeError` otherwise."""
         t0 = time.perf_counter()
         _, residual, tangent = self._forms
