@@ -81,20 +81,21 @@ class CommandSet:
     def contains(self, u, tol: float | None = None) -> bool:
         """Whether ``u`` (m,) lies in the set, up to ``tol`` rad (default: the set's slack)."""
         tol = self.tol if tol is None else tol
-        u = np.asarray(u, dtype=float)
-        return bool(np.all(np.isfinite(u)) and np.all(self.G @ u <= self.h + tol))
+        # NaN or inf in u gives NaN or inf in G u (G bounds every motor from both sides), and
+        # the comparison is then False: no separate finiteness test (this runs per IK step).
+        return bool((self.G @ np.asarray(u, dtype=float) <= self.h + tol).all())
 
     def project(self, v, x0=None) -> np.ndarray:
         """Euclidean projection of ``v`` (m,) onto the set (exact, see the module docstring).
 
         ``x0``: an optional feasible starting point (e.g. the previous iterate)."""
         v = np.asarray(v, dtype=float)
-        if v.shape != (self.n,) or not np.all(np.isfinite(v)):
+        if v.shape != (self.n,) or not np.isfinite(v).all():
             raise InputError(f"cannot project {v!r}: need a finite vector of {self.n} angles")
         if self.contains(v, 0.0):
             return v.copy()
         c = np.clip(v, self.lo, self.hi)
-        if np.all(self.A @ c <= self.b):
+        if (self.A @ c <= self.b).all():
             return c
         return self.solve_qp(np.eye(self.n), -v, x0)
 

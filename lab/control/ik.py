@@ -60,6 +60,7 @@ training data or :func:`grid_seeds`), else at the projection of the box centre.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -218,20 +219,26 @@ class IKSolver:
         if self.spread_weight > 0:
             r_s, J_s = spread_rows(self.forward, u, self.spread_weight)
             r, J_r = np.concatenate([r, r_s]), np.vstack([J, J_s])
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J_r))):
+        if not (np.isfinite(r).all() and np.isfinite(J_r).all()):
             return y, np.inf, (r, J_r)
-        return y, 0.5 * float(r @ r) + 0.5 * self.reg_weight * float(np.sum((u - u_ref) ** 2)), (r, J_r)
+        obj = 0.5 * float(r @ r)
+        if self.reg_weight:
+            du = u - u_ref
+            obj += 0.5 * self.reg_weight * float(du @ du)
+        return y, obj, (r, J_r)
 
     def _gradient(self, u, rows, u_ref):
-        return rows[1].T @ rows[0] + self.reg_weight * (u - u_ref)
+        g = rows[1].T @ rows[0]
+        return g + self.reg_weight * (u - u_ref) if self.reg_weight else g
 
     def _stationary(self, u, g, lipschitz, obj) -> bool:
         """Projected gradient small relative to |J_r|_F |r| (module docstring); lipschitz =
         |J|_F^2 + w, and |J_r|_F^2 = |J|_F^2 + m w <= m lipschitz bounds it from above."""
         if lipschitz <= 0:  # J = 0 and no regulariser (every cable slack): the gradient is zero
             return True
-        pg = lipschitz * np.linalg.norm(u - self.commands.project(u - g / lipschitz, x0=u))
-        return pg <= self.tol_stationary * np.sqrt(len(u) * lipschitz * 2.0 * obj)
+        step = u - self.commands.project(u - g / lipschitz, x0=u)
+        pg = lipschitz * math.sqrt(step @ step)
+        return pg <= self.tol_stationary * math.sqrt(len(u) * lipschitz * 2.0 * obj)
 
     def _result(self, u, y, obj, target, status, it, n_eval, history) -> IKResult:
         res = float(np.linalg.norm(y - target))
@@ -255,12 +262,13 @@ class IKSolver:
         status, history = "max_iter", []
         self._record(history, y, target)
         for it in range(self.max_iter):  # noqa: B007 (it is the iteration count after the loop)
-            if self.spread_weight == 0 and np.linalg.norm(y - target) <= self.tol_m:
+            e = y - target
+            if self.spread_weight == 0 and math.sqrt(e @ e) <= self.tol_m:
                 status = "converged"
                 break
             g, J_r = self._gradient(u, rows, u_ref), rows[1]
-            JtJ = J_r.T @ J_r + w * eye
-            lip = float(np.sum(J_r * J_r)) + w
+            JtJ = J_r.T @ J_r + w * eye if w else J_r.T @ J_r
+            lip = float((J_r * J_r).sum()) + w
             if self._stationary(u, g, lip, obj):
                 status = "stationary"
                 break
@@ -278,7 +286,7 @@ class IKSolver:
                 nu *= 2.0
                 continue
             predicted = -(g @ d + 0.5 * d @ JtJ @ d)
-            if predicted <= 1e-30 or np.max(np.abs(d)) <= 1e-15 * self.commands.scale:
+            if predicted <= 1e-30 or abs(d).max() <= 1e-15 * self.commands.scale:
                 status = "stalled"
                 break
             u_new = u + d

@@ -220,6 +220,8 @@ class MLP:
 
         A single u (n_u,) gives y (n_y,) and dy/du (n_y, n_u)."""
         u2, single = self._as_batch(u)
+        if single:
+            return self._one(u2[0])
         y, J = np.empty((len(u2), self.n_y)), np.empty((len(u2), self.n_y, self.n_u))
         piece = self._piece
         for s in range(0, len(u2), piece):
@@ -227,6 +229,20 @@ class MLP:
             np.multiply(self._backward(acts, overwrite=True)[-1], self._J_scale, out=J[s : s + piece])
             y[s : s + piece] = self._denormalise(y_n)
         return (y[0], J[0]) if single else (y, J)
+
+    def _one(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """y (n_y,) and dy/du (n_y, n_u) for one u (n_u,): the same chain rule with vectors,
+        without the batch machinery, whose overhead dominates for one point (the IK's case)."""
+        a = (u - self.u_min) * self.u_gain - 1.0
+        slopes = []
+        for w, b in zip(self.weights[:-1], self.biases[:-1]):
+            a = _activate(self.activation, w @ a + b)
+            slopes.append(_slope(self.activation, a))
+        y_n = self.weights[-1] @ a + self.biases[-1]
+        grad = self.weights[-1]
+        for w, slope in zip(reversed(self.weights[:-1]), reversed(slopes)):
+            grad = (grad * slope) @ w
+        return self._denormalise(y_n), grad * self._J_scale[0]
 
     def jacobian(self, u) -> np.ndarray:
         """Network Jacobian dy/du (N, n_y, n_u), or (n_y, n_u) for a single u (n_u,)."""
