@@ -93,3 +93,21 @@ def code_version() -> str:
     except (OSError, subprocess.SubprocessError):
         pass
     return __version__
+
+
+def read_csv_table(path: str | Path, columns, what: str) -> list[dict]:
+    """The rows of the CSV at ``path`` as dicts of strings; :class:`lab.errors.InputError`
+    naming ``what`` (e.g. "period curve") for a missing file, an empty one or one without
+    every name in ``columns``."""
+    import csv
+
+    from lab.errors import InputError
+
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise InputError(f"{what} not found: {path}") from None
+    if not rows or not set(columns) <= set(rows[0]):
+        raise InputError(f"{path}: not a {what} (needs the columns {list(columns)})")
+    return rows

@@ -139,15 +139,7 @@ def write_capture_rate(path, rows, command: str) -> None:
 
 def read_capture_rate(path) -> list[dict]:
     """Rows written by :func:`write_capture_rate` (numbers as float); InputError names a bad file."""
-    import csv
+    from lab.files import read_csv_table
 
-    from lab.errors import InputError
-
-    try:
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise InputError(f"capture-rate table not found: {path}") from None
-    if not rows or not set(COLUMNS) <= set(rows[0]):
-        raise InputError(f"{path}: not a capture-rate table (needs the columns {list(COLUMNS)})")
+    rows = read_csv_table(path, COLUMNS, "capture-rate table")
     return [{k: (v if k in ("robot", "protocol") else float(v)) for k, v in r.items()} for r in rows]

@@ -23,8 +23,7 @@ import json
 
 import numpy as np
 
-from lab.errors import InputError
-from lab.files import atomic_write_text, code_version
+from lab.files import atomic_write_text, code_version, read_csv_table
 
 __all__ = [
     "PERIOD_CURVE_COLUMNS",
@@ -112,14 +111,7 @@ def write_period_curve(path, rows, sidecar: dict | None = None) -> None:
 def read_period_curve(path) -> list[dict]:
     """The rows of a period-curve CSV, numbers as floats (``n_*`` as ints); InputError for a
     missing file or one without the columns."""
-    try:
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise InputError(f"period curve not found: {path}") from None
-    need = set(PERIOD_CURVE_COLUMNS[:5])
-    if not rows or not need <= set(rows[0]):
-        raise InputError(f"{path}: not a period curve (needs the columns {sorted(need)})")
+    rows = read_csv_table(path, PERIOD_CURVE_COLUMNS[:5], "period curve")
     out = []
     for r in rows:
         d = dict(r)
@@ -152,13 +144,7 @@ def write_traces(path, results: dict) -> None:
 def read_traces(path) -> dict:
     """{label: {"period_s", "t_s" (n,), "targets" (n, 3), "achieved" (n, 3), "mean_error_m"}}
     from :func:`write_traces`' CSV (what :func:`lab.viz.dynamics.plot_streamed_trajectory` draws)."""
-    try:
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise InputError(f"traces not found: {path}") from None
-    if not rows or not set(TRACE_COLUMNS) <= set(rows[0]):
-        raise InputError(f"{path}: not a traces file (needs the columns {list(TRACE_COLUMNS)})")
+    rows = read_csv_table(path, TRACE_COLUMNS, "traces file")
     out = {}
     for label in dict.fromkeys(r["label"] for r in rows):
         mine = [r for r in rows if r["label"] == label]
