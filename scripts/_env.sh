@@ -81,7 +81,8 @@ _lab_bootstrap() {
 
     printf '%s\n' "$want" >"$venv/.environment.sha256" || return 1
     echo "lab: .venv is ready" >&2
-    exec 9<&- 2>/dev/null || true
+    # (a redirection on `exec` itself would apply to the shell for good: close fd 9 only)
+    { exec 9<&-; } 2>/dev/null || true
     return 0
 }
 

@@ -2,8 +2,11 @@
 
     python scripts/compare_tables.py REFERENCE_DIR NEW_DIR table1.csv table_model_ten_splits.csv ...
 
-Rows are matched by their first column; every numeric cell is compared except timings and
-bookkeeping (columns named like wall/time/ms/date/updated/source). A cell *moved* when
+Rows are matched by a key: the columns declared for the table in ``KEYS``, else every
+non-numeric column and every index column (``INDEX``: split, run, seed, width, ...). The key
+must be unique in both tables; a key that is not is an error of the comparison (exit 2), not a
+moved cell. Every numeric cell is compared except timings and bookkeeping (columns named like
+wall/time/ms/date/updated/source). A cell *moved* when
 
     |new - ref| > RTOL * max(|new|, |ref|) + RTOL * max |ref column|
 
@@ -21,6 +24,21 @@ from pathlib import Path
 
 RTOL = 1e-3
 SKIP = re.compile(r"wall|time|_ms|date|updated|source|command", re.I)
+#: Row keys of the tables scripts/reproduce compares.
+KEYS = {
+    "table1.csv": ("condition",),
+    "table_model_ten_splits.csv": ("split",),
+    "table_model_ten_splits_real.csv": ("split",),
+    "table_six_cable_tracking.csv": ("path",),
+    "fig6_network_size.csv": ("width",),
+    "fig6_network_size_real.csv": ("width",),
+}
+#: Columns that index rows wherever they appear (numeric, but part of an undeclared key).
+INDEX = {"split", "run", "seed", "width", "n", "n_real", "member", "robot_seed", "pass", "period_s"}
+
+
+class KeyError_(Exception):
+    """The table's key does not identify its rows."""
 
 
 def _num(text: str) -> float | None:
@@ -30,37 +48,71 @@ def _num(text: str) -> float | None:
         return None
 
 
+def key_columns(name: str, rows: list[dict]) -> tuple[str, ...]:
+    """The columns that identify a row of table ``name`` (declared, or inferred from ``rows``)."""
+    if name in KEYS:
+        return KEYS[name]
+
+    def text(c):  # a column with a non-numeric, non-empty value
+        return not SKIP.search(c) and any(_num(r.get(c)) is None and r.get(c) not in ("", None) for r in rows)
+
+    return tuple(c for c in rows[0] if c in INDEX or text(c))
+
+
+def _index(rows: list[dict], key: tuple[str, ...], where: str) -> dict:
+    if not key:
+        raise KeyError_(f"{where}: no key column identifies its rows")
+    missing = [c for c in key if c not in rows[0]]
+    if missing:
+        raise KeyError_(f"{where}: key column(s) {', '.join(missing)} missing")
+    out = {}
+    for i, r in enumerate(rows):
+        k = tuple(r[c] for c in key)
+        if k in out:
+            raise KeyError_(f"{where}: key ({', '.join(key)}) = {k} is not unique (rows {out[k][0] + 2} and {i + 2})")
+        out[k] = (i, r)
+    return out
+
+
 def moved_cells(ref_path: Path, new_path: Path) -> list[str]:
-    """Descriptions of the cells of ``new_path`` that moved from ``ref_path`` (see module doc)."""
+    """Descriptions of the cells of ``new_path`` that moved from ``ref_path`` (see module doc).
+    Raises :class:`KeyError_` when the key does not identify the rows of either table."""
     if not ref_path.exists() or not new_path.exists():
         return [f"{new_path.name}: missing ({'reference' if not ref_path.exists() else 'new run'})"]
     ref = list(csv.DictReader(ref_path.open(newline="")))
     new = list(csv.DictReader(new_path.open(newline="")))
     if not ref:
         return []
-    key = list(ref[0])[0]
-    by_key = {r[key]: r for r in new}
-    out = []
+    key = key_columns(ref_path.name, ref)
+    ref_by = _index(ref, key, f"{ref_path} (reference)")
+    new_by = _index(new, key, str(new_path)) if new else {}
+    label = lambda k: ", ".join(f"{c}={v}" for c, v in zip(key, k))  # noqa: E731
+    out = [f"{new_path.name}: row {label(k)} is gone" for k in ref_by if k not in new_by]
     for col in ref[0]:
-        if col == key or SKIP.search(col):
+        if col in key or SKIP.search(col):
             continue
         scale = max((abs(v) for r in ref if (v := _num(r.get(col))) is not None), default=0.0)
-        for r in ref:
-            a, row = _num(r.get(col)), by_key.get(r[key])
-            if a is None:
+        for k, (_, r) in ref_by.items():
+            a = _num(r.get(col))
+            if a is None or k not in new_by:
                 continue
-            if row is None:
-                out.append(f"{new_path.name}: row {key}={r[key]} is gone")
-                break
-            b = _num(row.get(col))
-            if b is None or abs(b - a) > RTOL * max(abs(a), abs(b)) + RTOL * scale:
-                out.append(f"{new_path.name}: {key}={r[key]}, {col}: {a:.6g} -> {b if b is None else f'{b:.6g}'}")
+            b = _num(new_by[k][1].get(col))
+            if a != a and b is not None and b != b:  # NaN in both: unchanged
+                continue
+            if b is None or not abs(b - a) <= RTOL * max(abs(a), abs(b)) + RTOL * scale:
+                out.append(f"{new_path.name}: {label(k)}, {col}: {a:.6g} -> {b if b is None else f'{b:.6g}'}")
     return out
 
 
 def main(argv: list[str]) -> int:
     ref_dir, new_dir, *names = argv
-    moved = [m for name in names for m in moved_cells(Path(ref_dir) / name, Path(new_dir) / name)]
+    moved = []
+    try:
+        for name in names:
+            moved += moved_cells(Path(ref_dir) / name, Path(new_dir) / name)
+    except KeyError_ as err:
+        print(f"error: cannot compare: {err}")
+        return 2
     for m in moved:
         print(f"moved: {m}")
     print(

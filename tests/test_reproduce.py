@@ -78,3 +78,44 @@ def test_compare_tables_reports_moved_cells(tmp_path, capsys):
 def test_full_reproduce_compares_with_the_committed_tables():
     text = (ROOT / "scripts" / "reproduce").read_text()
     assert "compare_tables.py" in text and "table1.csv" in text and "table_model_ten_splits.csv" in text
+
+
+def test_compare_tables_matches_rows_by_a_unique_key(tmp_path, capsys):
+    """Rows whose first column repeats (every row 'hidden' = '20-20') are matched by the
+    declared key, so a re-run that changed only timings moves nothing; a wrong value in one
+    of those rows is still found, and a key that is not unique is a comparison error."""
+    compare = _compare()
+    ref, new = tmp_path / "ref", tmp_path / "new"
+    ref.mkdir(), new.mkdir()
+    committed = ROOT / "figures" / "table_model_ten_splits_real.csv"
+    text = committed.read_text()
+    (ref / committed.name).write_text(text)
+    rows = text.splitlines()
+    head = rows[0].split(",")
+    wall = head.index("wall_s")
+    retimed = [rows[0]] + [",".join(c if j != wall else "99.0" for j, c in enumerate(r.split(","))) for r in rows[1:]]
+    (new / committed.name).write_text("\n".join(retimed) + "\n")
+    assert len({r.split(",")[0] for r in rows[1:]}) == 1  # the first column alone is no key
+    assert compare.main([str(ref), str(new), committed.name]) == 0
+    assert "nothing moved" in capsys.readouterr().out
+    test_col = head.index("test_mean_distance_m")
+    bad = [r.split(",") for r in retimed]
+    bad[3][test_col] = str(float(bad[3][test_col]) * 1.5)
+    (new / committed.name).write_text("\n".join(",".join(r) for r in bad) + "\n")
+    assert compare.main([str(ref), str(new), committed.name]) == 1
+    out = capsys.readouterr().out
+    assert "split=2, test_mean_distance_m" in out and "1 cell(s) moved" in out
+    # an undeclared table keys on its non-numeric and index columns; duplicates are an error
+    (ref / "u.csv").write_text("hidden,seed,err\n20-20,1,0.5\n20-20,2,0.6\n")
+    (new / "u.csv").write_text("hidden,seed,err\n20-20,2,0.6\n20-20,1,0.5\n")
+    assert compare.main([str(ref), str(new), "u.csv"]) == 0
+    (ref / "u.csv").write_text("hidden,err\n20-20,0.5\n20-20,0.6\n")
+    assert compare.main([str(ref), str(ref), "u.csv"]) == 2
+    assert "not unique" in capsys.readouterr().out
+
+
+def test_compare_tables_compares_every_committed_table_with_itself():
+    compare = _compare()
+    names = [p.name for p in (ROOT / "figures").glob("*.csv") if p.name in compare.KEYS]
+    assert len(names) == len(compare.KEYS)
+    assert compare.main([str(ROOT / "figures"), str(ROOT / "figures"), *names]) == 0

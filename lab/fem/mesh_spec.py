@@ -1,0 +1,45 @@
+"""The mesh a command builds its FEM on: the robot description's, or overridden.
+
+:class:`MeshSpec` is the one setting behind every ``--n-rings``/``--n-axial`` flag. Unset
+fields keep the description's resolution; :meth:`MeshSpec.resolve` fills them in and
+refuses, before any work, a mesh that is not positive or would not fit in memory
+(:func:`lab.fem.mesh.check_mesh_size`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from lab.fem.mesh import TetMesh, check_mesh_size, cylinder_mesh
+from lab.specs import Spec, option, positive_int
+
+__all__ = ["MeshSpec"]
+
+
+@dataclass(frozen=True)
+class MeshSpec(Spec):
+    """Mesh resolution overrides; ``None`` keeps the robot description's value."""
+
+    n_rings: int | None = option(help="FEM mesh rings across the radius", type=int, check=positive_int)
+    n_axial: int | None = option(help="FEM mesh layers along the length", type=int, check=positive_int)
+
+    @property
+    def is_default(self) -> bool:
+        """True when neither field overrides the description."""
+        return self.n_rings is None and self.n_axial is None
+
+    def overrides(self) -> dict:
+        """The set fields as keyword arguments (``n_rings``/``n_axial``)."""
+        return {k: v for k, v in (("n_rings", self.n_rings), ("n_axial", self.n_axial)) if v is not None}
+
+    def resolve(self, robot) -> tuple[int, int]:
+        """(n_rings, n_axial) for ``robot``, checked to fit in memory (InputError if not)."""
+        n_rings = robot.n_rings if self.n_rings is None else self.n_rings
+        n_axial = robot.n_axial if self.n_axial is None else self.n_axial
+        check_mesh_size(n_rings, n_axial)
+        return n_rings, n_axial
+
+    def mesh(self, robot) -> TetMesh:
+        """The structured cylinder mesh of ``robot`` at the resolved resolution."""
+        n_rings, n_axial = self.resolve(robot)
+        return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)

@@ -1,0 +1,89 @@
+"""The scripts' first-build path (scripts/_env.sh creating .venv) keeps stderr.
+
+Each script is run in a copy of the repository's scripts/ with a stand-in interpreter:
+``LAB_PYTHON`` "creates" the virtual environment by writing a fake ``.venv/bin/python``
+that answers pip and ipykernel with success and everything else with a deliberate error on
+stderr. A build that silenced the shell's stderr (as ``exec 9<&- 2>/dev/null`` did) loses
+that error and the build's own progress lines; this test sees both, on the first run and
+on the second (when .venv is up to date and the build is skipped).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+FAKE_VENV_PYTHON = """#!/usr/bin/env bash
+# stand-in for .venv/bin/python
+case "$1 $2" in
+    "-c "*) exec {real} "$@" ;;
+    "-m pip" | "-m ipykernel") exit 0 ;;
+    "-m jupyterlab") echo "    http://127.0.0.1:8888/lab?token=deliberate-token" >&2; exit 0 ;;
+esac
+echo "deliberate error from python $*" >&2
+exit 3
+"""
+
+FAKE_BASE_PYTHON = """#!/usr/bin/env bash
+# stand-in for LAB_PYTHON: `-m venv --clear DIR` writes the fake venv interpreter
+if [ "$1 $2" = "-m venv" ]; then
+    dir="${{@: -1}}"
+    mkdir -p "$dir/bin"
+    cp "{fake_venv}" "$dir/bin/python"
+    chmod +x "$dir/bin/python"
+    exit 0
+fi
+exec {real} "$@"
+"""
+
+
+@pytest.fixture
+def repo(tmp_path):
+    root = tmp_path / "repo"
+    shutil.copytree(ROOT / "scripts", root / "scripts")
+    (root / "notebooks").mkdir()
+    (root / "notebooks" / "01_x.ipynb").write_text("{}")
+    (root / "environment.txt").write_text("numpy\n")
+    (root / "pyproject.toml").write_text("[project]\nname = 'x'\n")
+    fake_venv = tmp_path / "fake_venv_python"
+    fake_venv.write_text(FAKE_VENV_PYTHON.format(real=sys.executable))
+    fake_base = tmp_path / "fake_python"
+    fake_base.write_text(FAKE_BASE_PYTHON.format(real=sys.executable, fake_venv=fake_venv))
+    for f in (fake_venv, fake_base):
+        f.chmod(0o755)
+    return root, fake_base
+
+
+def _run(root: Path, fake_base: Path, script: str, *args: str):
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "LAB_ROOT")}
+    env["LAB_PYTHON"] = str(fake_base)
+    return subprocess.run(
+        ["bash", str(root / "scripts" / script), *args], capture_output=True, text=True, timeout=100, env=env
+    )
+
+
+@pytest.mark.parametrize("script", ["test", "reproduce", "student-edition"])
+def test_first_build_keeps_stderr(repo, script):
+    root, fake_base = repo
+    for attempt in ("first build", "built"):
+        r = _run(root, fake_base, script)
+        assert r.returncode != 0, (attempt, r.stderr)
+        assert "deliberate error from python" in r.stderr, (attempt, r.stderr)
+        if attempt == "first build":
+            assert "lab: .venv is ready" in r.stderr, r.stderr
+        else:
+            assert "lab: installing" not in r.stderr, r.stderr
+
+
+def test_first_build_of_jupyter_prints_its_url(repo):
+    root, fake_base = repo
+    r = _run(root, fake_base, "jupyter", "--no-browser")
+    assert r.returncode == 0, r.stderr
+    assert "lab: .venv is ready" in r.stderr and "token=deliberate-token" in r.stderr, r.stderr
