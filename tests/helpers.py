@@ -58,3 +58,21 @@ def subprocess_env() -> dict:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     return env
+
+
+#: Time limits that turn a hang into a named failure. A notebook cell gets CELL_TIMEOUT_S
+#: (papermill's execution_timeout: the error names the cell); a whole chapter's test gets
+#: NOTEBOOK_TEST_TIMEOUT_S (pytest-timeout, names the test). Every other test has pytest.ini's
+#: ``timeout``. The slowest quick-mode cell takes about a minute on an idle 2-core machine, a
+#: whole quick chapter about 1.5 min; the limits leave 5-10x for a loaded machine.
+CELL_TIMEOUT_S = 600
+NOTEBOOK_TEST_TIMEOUT_S = 1800
+
+
+def execute_notebook(notebook, out, **kwargs):
+    """papermill.execute_notebook with the per-cell limit and no progress bar."""
+    import papermill
+
+    kwargs.setdefault("execution_timeout", CELL_TIMEOUT_S)
+    kwargs.setdefault("progress_bar", False)
+    return papermill.execute_notebook(str(notebook), str(out), **kwargs)

@@ -9,8 +9,8 @@ import json
 from pathlib import Path
 
 import numpy as np
-import papermill
 import pytest
+from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook
 
 from lab.course import NOT_IMPLEMENTED, grade, stub_source, student_edition
 
@@ -59,18 +59,18 @@ def test_every_exercise_is_followed_by_its_grader():
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(NOTEBOOK_TEST_TIMEOUT_S)
 @pytest.mark.parametrize("notebook", WITH_EXERCISES, ids=[nb.name for nb in WITH_EXERCISES])
 def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
     student = ROOT / "build" / "student" / notebook.name
     assert student_edition(notebook, student, up="../") >= 1
     out = tmp_path / notebook.name
-    papermill.execute_notebook(
-        str(student),
-        str(out),
+    execute_notebook(
+        student,
+        out,
         parameters={"quick": True, "figures_dir": str(tmp_path / "f")},
         cwd=str(student.parent),
         kernel_name="python3",
-        progress_bar=False,
     )
     graders = [c for c in json.loads(out.read_text())["cells"] if "grader" in c.get("metadata", {}).get("tags", [])]
     assert graders
@@ -80,7 +80,7 @@ def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
 
 
 def test_chapters_01_to_07_pose_two_to_four_exercises():
-    # issue 13: each chapter 01-07 gets 2-4 exercises, each a solution cell and its grader
+    # each chapter 01-07 poses 2-4 exercises, each a solution cell and its grader
     for nb in sorted((ROOT / "notebooks").glob("0[1-7]_*.ipynb")):
         cells = json.loads(nb.read_text())["cells"]
         n = sum("solution" in c.get("metadata", {}).get("tags", []) for c in cells)

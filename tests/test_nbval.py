@@ -15,6 +15,7 @@ from pathlib import Path
 
 import papermill
 import pytest
+from helpers import CELL_TIMEOUT_S, NOTEBOOK_TEST_TIMEOUT_S
 
 ROOT = Path(__file__).resolve().parent.parent
 TAG = "nbval-check-output"
@@ -37,6 +38,7 @@ def test_only_checked_cells_keep_outputs():
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(NOTEBOOK_TEST_TIMEOUT_S)
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[nb.name for nb in NOTEBOOKS])
 def test_headline_numbers(notebook, tmp_path):
     prepared = ROOT / ".nbval" / notebook.name
@@ -58,6 +60,9 @@ def test_headline_numbers(notebook, tmp_path):
             "-p",
             "no:xdist",
             "--nbval-lax",
+            f"--nbval-cell-timeout={CELL_TIMEOUT_S}",
+            "-o",
+            f"timeout={NOTEBOOK_TEST_TIMEOUT_S}",
             "--nbval-current-env",
             f"--nbval-sanitize-with={ROOT / 'notebooks' / 'nbval-sanitize.cfg'}",
             str(prepared),
@@ -65,7 +70,7 @@ def test_headline_numbers(notebook, tmp_path):
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=900,
+        timeout=NOTEBOOK_TEST_TIMEOUT_S - 60,
     )
     assert r.returncode == 0, (
         f"nbval: a headline number of {notebook.name} moved (or the notebook failed):\n{r.stdout[-6000:]}"

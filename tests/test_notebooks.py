@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook
 
 NOTEBOOKS_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOKS_DIR.glob("[0-9][0-9]_*.ipynb"))
@@ -40,18 +41,18 @@ def this_interpreter_kernel(tmp_path_factory, monkeypatch):
 if NOTEBOOKS:
 
     @pytest.mark.slow
+    @pytest.mark.timeout(NOTEBOOK_TEST_TIMEOUT_S)
     @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[nb.name for nb in NOTEBOOKS])
     def test_notebook_runs(notebook, tmp_path, this_interpreter_kernel):
         import papermill
 
         figures_dir = tmp_path / "figures"
-        papermill.execute_notebook(
-            str(notebook),
-            str(tmp_path / notebook.name),
+        execute_notebook(
+            notebook,
+            tmp_path / notebook.name,
             parameters={"quick": True, "figures_dir": str(figures_dir)},
             cwd=str(NOTEBOOKS_DIR),
             kernel_name=this_interpreter_kernel,
-            progress_bar=False,
         )
 
         # Every exercise's reference solution passes its grader (lab.course.grade).
