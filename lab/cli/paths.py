@@ -53,7 +53,8 @@ def check_paths(inputs: dict, outputs: dict) -> None:
 
 def check_writable(path, what: str = "--out") -> None:
     """Raise InputError unless a file can be written (atomically) at ``path``: it is not a
-    directory, its parent is (or can be made) a directory, and that directory is writable."""
+    directory, its nearest existing ancestor is a writable directory. Missing parents are
+    created only when the output is written, so a refused run leaves nothing behind."""
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{what} {path} is a directory; give a file name")
@@ -64,11 +65,13 @@ def check_writable(path, what: str = "--out") -> None:
                 raise InputError(f"{what} {path}: {ancestor} is a file, not a directory")
             break
     try:
-        parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=parent, prefix=f".{p.name}.", suffix=".probe"):
-            pass
+        if ancestor == parent:
+            with tempfile.NamedTemporaryFile(dir=parent, prefix=f".{p.name}.", suffix=".probe"):
+                pass
+        elif not os.access(ancestor, os.W_OK | os.X_OK):
+            raise PermissionError(13, "Permission denied")
     except OSError as err:
-        raise InputError(f"{what} {path}: cannot write in {parent} ({err.strerror or err})") from None
+        raise InputError(f"{what} {path}: cannot write in {ancestor} ({err.strerror or err})") from None
 
 
 def existing(arg) -> str | None:
@@ -83,6 +86,7 @@ def output_lock(path, what: str = "--out"):
     from filelock import FileLock, Timeout
 
     lock_file = Path(f"{path}.lock")
+    lock_file.parent.mkdir(parents=True, exist_ok=True)  # the run starts writing here
     lock = FileLock(lock_file, timeout=0)
     try:
         lock.acquire()
