@@ -35,7 +35,7 @@ import numpy as np
 from timing import best_of
 
 from lab.description import load_robot
-from lab.tracking.capture_rate import capture_rate_study, write_capture_rate
+from lab.studies.capture_rate import capture_rate_study, write_capture_rate
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -135,15 +135,15 @@ def part3(robot, relax, n):
 
 
 def part4(robot):
+    from lab.control.ik import IKSolver
     from lab.control.trajectories import builtin
     from lab.learn.models import load_model
     from lab.rig.twin import AsBuiltBody, TwinRig
     from lab.tracking.closed_loop import Correction, correct_command, run_closed_loop
-    from lab.tracking.track import make_solver
 
     print("\n4. closed-loop correction latency (model data/model_real_three_cable.npz, circle)")
     model = load_model(ROOT / "data" / "model_real_three_cable.npz")
-    solver = make_solver(robot, model)
+    solver = IKSolver.for_model(model, robot)
     targets = builtin("circle", 12)
     u0 = np.full(robot.n_cables, 0.8)
     measured = targets[0] + 1e-3
@@ -174,7 +174,7 @@ def main():
     rows = part1(robot, args)
     write_capture_rate(args.out, rows, "python benchmarks/bench_capture.py " + " ".join(sys.argv[1:]))
     print(f"-> {args.out}")
-    from lab.learn.relaxation import Relaxation
+    from lab.dynamics.relaxation import Relaxation
 
     r = next(r for r in rows if r["robot"] == "shipped" and r["protocol"] == "predictive")
     relax = Relaxation([r["tau_fast_s"], r["tau_slow_s"]], [1 - r["slow_fraction"], r["slow_fraction"]], 1.5e-4)

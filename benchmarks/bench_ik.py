@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from lab.control.command_set import CommandSet
-from lab.control.ik import IKSolver, grid_seeds
+from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import BUILTIN, load_trajectory
 from lab.description import load_robot
@@ -51,7 +51,7 @@ def summary(name, run, wall_s):
 
 
 print("\nlearned model (network Jacobian):")
-lm = IKSolver(model, commands, "lm", seeds=grid_seeds(model, commands, 7))
+lm = IKSolver(model, commands, IKConfig("lm"), seeds=grid_seeds(model, commands, 7))
 best = None
 for _ in range(5):
     t0 = time.perf_counter()
@@ -61,7 +61,7 @@ for _ in range(5):
         best = (run, wall)
 t_model = summary("LM, warm-started", *best)
 t0 = time.perf_counter()
-warm_gd = IKSolver(model, commands, "gd", seeds=grid_seeds(model, commands, 7)).follow(targets)
+warm_gd = IKSolver(model, commands, IKConfig("gd"), seeds=grid_seeds(model, commands, 7)).follow(targets)
 t_gd = summary("gradient descent, warm", warm_gd, time.perf_counter() - t0)
 
 print("\nSoft IK (FEM statics + sensitivity analysis, default mesh):")
@@ -69,7 +69,7 @@ fem = ArmFEM(robot)
 print(f"  mesh: {fem.mesh.n_nodes} nodes, {len(fem.mesh.tets)} tets")
 fmap = FEMForwardMap(fem)
 t0 = time.perf_counter()
-soft = IKSolver(fmap, commands, "lm").follow(targets)
+soft = IKSolver(fmap, commands, IKConfig("lm")).follow(targets)
 t_soft = summary("LM, warm-started", soft, time.perf_counter() - t0)
 print(
     f"  {fmap.n_solves} static solves ({fmap.n_solves / len(targets):.2f} per target), "

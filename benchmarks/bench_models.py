@@ -11,7 +11,7 @@ dataset (one thread, as everywhere here), it prints:
 * the prediction time of a batch of 10,000 commands and of one command with its Jacobian
   (best of several repetitions);
 * the IK time per target along the Table I circle (24 targets, warm-started, through
-  ``lab.tracking.make_solver``: bounded LM through the exact Jacobian, or the derivative-free
+  ``lab.control.ik.IKSolver.for_model``: bounded LM through the exact Jacobian, or the derivative-free
   IK (secant LM + compass poll) for a model without one, which the output says), the IK's residual on the
   model (how well it inverted its own model, m) and the targets flagged unreachable. The
   direct inverse has no IK: one ``command(y)`` evaluation per target.
@@ -27,11 +27,11 @@ from pathlib import Path
 import numpy as np
 from timing import best_of
 
+from lab.control.ik import IKSolver
 from lab.control.trajectories import builtin
 from lab.data.dataset import read_dataset
 from lab.description import load_robot
 from lab.learn.models import fit_model
-from lab.tracking.track import make_solver
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = [
@@ -78,7 +78,7 @@ for label, name, kw in MODELS:
     t_batch = best_of(lambda m=model: m.predict(U), 5)
     has_j = getattr(model, "has_jacobian", True)
     t_one = best_of(lambda m=model: m.predict_and_jacobian(U[0]), 200) if has_j else float("nan")
-    solver = make_solver(robot, model)
+    solver = IKSolver.for_model(model, robot)
     t0 = time.perf_counter()
     plan = solver.follow(targets)
     t_ik = (time.perf_counter() - t0) / len(targets)

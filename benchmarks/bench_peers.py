@@ -46,7 +46,7 @@ import numpy as np
 from scipy.optimize import least_squares, minimize
 
 from lab.control.command_set import CommandSet
-from lab.control.ik import IKSolver, grid_seeds
+from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.trajectories import circle
 from lab.data.designs import sobol_commands
 from lab.description import load_robot
@@ -272,7 +272,7 @@ for what, F_n in (("gravity sag", 0.0), ("gravity + 5 mN tip load", 5e-3), ("gra
 model = load_model(args.model)
 commands = CommandSet.from_robot(robot)
 targets = circle(n_targets)
-lm = IKSolver(model, commands, "lm", seeds=grid_seeds(model, commands, 7))
+lm = IKSolver(model, commands, IKConfig("lm"), seeds=grid_seeds(model, commands, 7))
 u_start = lm.initial_guess(targets[0])
 bounds = (commands.lo, commands.hi)
 

@@ -9,9 +9,9 @@ For each ``--rig SPEC=DYN.npz[=MODEL.npz]`` (a rig spec of ``--rig``, the dynami
 ``python -m lab fit-dynamics`` fitted on it, and the quasi-static model to solve the IK
 through, default ``--model``) and period, the trajectory is streamed on a fresh rig open
 loop and with the feed-forward (:mod:`lab.tracking.stream`); one row each
-(:mod:`lab.tracking.period_curve`). With ``--traces T``, what the tip did over the last
+(:mod:`lab.studies.period_curve`). With ``--traces T``, what the tip did over the last
 period of the first rig's two runs at period ``T`` is written to ``stream_TRAJ_T{T}.csv`` in
-``--traces-dir`` (:func:`lab.tracking.period_curve.write_traces`, for the drawn-trajectory figure).
+``--traces-dir`` (:func:`lab.studies.period_curve.write_traces`, for the drawn-trajectory figure).
 """
 
 import argparse
@@ -20,13 +20,13 @@ import sys
 import time
 from pathlib import Path
 
+from lab.control.ik import IKSolver
 from lab.control.trajectories import load_trajectory
 from lab.description import load_robot
+from lab.dynamics.relaxation import load_relaxation
 from lab.learn import load_model
-from lab.learn.relaxation import load_relaxation
 from lab.rig import make_rig
-from lab.tracking.period_curve import period_curve_rows, write_period_curve, write_traces
-from lab.tracking.track import make_solver
+from lab.studies.period_curve import period_curve_rows, write_period_curve, write_traces
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--model", default="data/model_real_three_cable.npz", help="quasi-static model (.npz)")
@@ -47,7 +47,7 @@ for item in args.rig:
     spec, dyn, *model = item.split("=")
     model_path = model[0] if model else args.model
     if model_path not in solvers:
-        solvers[model_path] = make_solver(robot, load_model(model_path))
+        solvers[model_path] = IKSolver.for_model(load_model(model_path), robot)
     runs.append((spec, Path(model_path).name, solvers[model_path], load_relaxation(dyn)))
 t0 = time.perf_counter()
 rows, results = period_curve_rows(

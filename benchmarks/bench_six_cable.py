@@ -12,7 +12,7 @@ reads) it prints and, with ``--out``, writes one row:
   (seeded, solved by the FEM on the description's default mesh: never lattice points);
 * per Figure 5 path (``six-circle``, ``six-ring``, ``six-saddle``, ``six-spiral``, their
   default targets) the mean distance in cm between target and the tip the simulated
-  robot settles at under the IK's commands (``lab.tracking.evaluate_model``: the IK of
+  robot settles at under the IK's commands (``lab.studies.evaluate_model``: the IK of
   ``python -m lab track`` with its defaults, the equilibria of the nominal FEM), their mean
   ``tracking_mean_cm`` and the targets the IK flagged unreachable.
 
@@ -36,7 +36,7 @@ from lab.data.designs import nearest_neighbour_chunks, random_commands
 from lab.description import load_robot
 from lab.files import atomic_write_text, code_version
 from lab.learn import load_model
-from lab.tracking import NominalBody, evaluate_model
+from lab.studies import NominalBody, evaluate_model
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--model", action="append", required=True, metavar="LABEL=PATH", help="a model to measure")

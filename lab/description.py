@@ -369,9 +369,13 @@ def read_toml(path: str | Path, error: type[Exception], what: str) -> dict:
     """Parse the TOML file ``path``; a missing or malformed file raises ``error`` naming
     the file (``what`` says which kind of file, e.g. "defects file")."""
     try:
-        return tomllib.loads(Path(path).read_text())
+        return tomllib.loads(Path(path).read_bytes().decode("utf-8"))
     except FileNotFoundError:
         raise error(f"{what} not found: {path}") from None
+    except UnicodeDecodeError as err:
+        raise error(
+            f"{path}: not a TOML {what} (not UTF-8 text: byte {err.start} is 0x{err.object[err.start]:02x})"
+        ) from None
     except tomllib.TOMLDecodeError as err:
         raise error(f"{path}: not valid TOML: {err}") from None
 

@@ -15,7 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_open", "atomic_write_text", "atomic_write_group", "json_default", "code_version"]
+__all__ = [
+    "atomic_open",
+    "atomic_write_text",
+    "atomic_write_group",
+    "json_default",
+    "code_version",
+    "remove_and_release",
+]
 
 
 @contextlib.contextmanager
@@ -111,3 +118,24 @@ def read_csv_table(path: str | Path, columns, what: str) -> list[dict]:
     if not rows or not set(columns) <= set(rows[0]):
         raise InputError(f"{path}: not a {what} (needs the columns {list(columns)})")
     return rows
+
+
+def remove_and_release(lock) -> None:
+    """Release a held ``filelock`` lock, removing its file first where that is safe.
+
+    The lock is filelock's ``UnixFileLock``: an ``flock`` on the file's inode, taken with
+    ``timeout=0``, so no writer ever waits for it. The file is unlinked while the lock is
+    still held, then released. A second writer that opened the file before the unlink
+    either tries its ``flock`` while we hold it (refused at once) or after our release, on
+    an inode without a name, which filelock (4.2.11, as pinned) checks (``st_nlink == 0``)
+    and does not count as acquired (refused too); any later writer creates a new file.
+    The other order -- release, then unlink -- would be a race: a writer could take the
+    lock in between and lose its file, and a third would then lock a new file beside it.
+    Other locks (Windows, the soft fallback) are left as filelock leaves them.
+    """
+    from filelock import UnixFileLock
+
+    if isinstance(lock, UnixFileLock) and lock.is_locked:
+        with contextlib.suppress(OSError):  # left behind, it is harmless
+            os.unlink(lock.lock_file)
+    lock.release()

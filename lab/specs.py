@@ -35,9 +35,12 @@ def option(
     choices=None,
     action: str | None = None,
     cli: bool = True,
+    nargs=None,
+    required: bool = False,
 ):
     """A spec field with its flag. ``check(value) -> None | message`` is run on every value
-    but ``None``; ``flag`` defaults to ``--field-name``; ``cli=False`` keeps it out of the flags."""
+    but ``None``; ``flag`` defaults to ``--field-name``; ``cli=False`` keeps it out of the flags.
+    ``nargs``: as argparse's (the value is then a tuple); ``required``: None is refused."""
     meta = {
         "help": help,
         "flag": flag,
@@ -47,6 +50,8 @@ def option(
         "choices": tuple(choices) if choices is not None else None,
         "action": action,
         "cli": cli,
+        "nargs": nargs,
+        "required": required,
     }
     return dataclasses.field(default=default, metadata={_KEY: meta})
 
@@ -61,6 +66,16 @@ def flag_of(f: dataclasses.Field) -> str:
     return m.get("flag") or "--" + f.name.replace("_", "-")
 
 
+def label_of(f: dataclasses.Field) -> str:
+    """How an error names a field: its flag; the field's name too where the flag spells it
+    differently (``--solver (method)``); only the name for a field without a flag."""
+    m = meta(f) or {}
+    if not m.get("cli", True):
+        return f.name
+    flag = flag_of(f)
+    return flag if flag == "--" + f.name.replace("_", "-") else f"{flag} ({f.name})"
+
+
 class Spec:
     """Mixin for frozen dataclasses whose fields are :func:`option` declarations."""
 
@@ -71,13 +86,15 @@ class Spec:
                 continue
             value = getattr(self, f.name)
             if value is None:
+                if m.get("required"):
+                    raise InputError(f"{flag_of(f)} is required")
                 continue
             if m["choices"] is not None and value not in m["choices"]:
-                raise InputError(f"{flag_of(f)} must be one of {', '.join(map(str, m['choices']))}, got {value!r}")
+                raise InputError(f"{label_of(f)} must be one of {', '.join(map(str, m['choices']))}, got {value!r}")
             if m["check"] is not None:
                 problem = m["check"](value)
                 if problem:
-                    raise InputError(f"{flag_of(f)} {problem}, got {value!r}")
+                    raise InputError(f"{label_of(f)} {problem}, got {value!r}")
 
     def replace(self, **changes):
         """A copy with ``changes`` (validated again)."""

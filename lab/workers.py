@@ -15,34 +15,52 @@ import os
 import signal
 import threading
 
-__all__ = ["WATCH_INTERVAL_S", "watch_parent", "kill_local_workers", "default_jobs"]
+__all__ = ["WATCH_INTERVAL_S", "watch_parent", "worker_config", "kill_local_workers", "default_jobs"]
 
 #: How often a worker checks that its parent is alive, seconds.
 WATCH_INTERVAL_S = 0.5
 _watched_parent: int | None = None
 
 
-def watch_parent(interval_s: float = WATCH_INTERVAL_S) -> None:
+def watch_parent(interval_s: float = WATCH_INTERVAL_S, parent_pid: int | None = None) -> None:
     """In a worker process: start (once) a daemon thread that ends the process when its
     parent dies. Does nothing in a main process, which may rightly outlive its shell.
 
-    The worker also ignores SIGINT from then on: Ctrl-C reaches the whole process group,
-    and the run (main process) stops its workers itself; a worker would only print a
-    traceback for every task it was running."""
+    ``parent_pid``: the run's process id, when the caller knows it (the workers' initializer
+    passes it, so a run killed while its workers were still starting is noticed too); default
+    the parent now. The worker also ignores SIGINT from then on: Ctrl-C reaches the whole
+    process group, and the run stops its workers itself."""
     global _watched_parent
     if _watched_parent is not None or multiprocessing.current_process().name == "MainProcess":
         return
-    _watched_parent = os.getppid()
+    _watched_parent = os.getppid() if parent_pid is None else parent_pid
     if threading.current_thread() is threading.main_thread():  # signal handlers live there only
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch():
         while True:
-            threading.Event().wait(interval_s)
             if os.getppid() != _watched_parent:  # re-parented: the run that started us is gone
                 os._exit(1)
+            threading.Event().wait(interval_s)
 
     threading.Thread(target=watch, name="lab-watch-parent", daemon=True).start()
+
+
+def _watch_run(parent_pid: int) -> None:
+    """The workers' initializer (runs in each worker as it starts)."""
+    watch_parent(parent_pid=parent_pid)
+
+
+def worker_config():
+    """``joblib.parallel_config`` for lab's worker processes: loky, one thread each, and every
+    worker watching this process from the moment it starts (not only from its first task), so
+    a run killed (``kill -9``) while its workers are still starting leaves no worker -- and so
+    no resource tracker, which lives until the last worker holding its pipe is gone -- behind."""
+    from joblib import parallel_config
+    from joblib.parallel import LokyBackend
+
+    backend = LokyBackend(initializer=_watch_run, initargs=(os.getpid(),))
+    return parallel_config(backend=backend, inner_max_num_threads=1)
 
 
 def kill_local_workers(wait: bool = True) -> None:

@@ -16,6 +16,17 @@ def wait_until(predicate, timeout_s=5.0, what="condition"):
         time.sleep(0.01)
 
 
+def wait_on_rig(rig, predicate, timeout_s=10.0, what="condition", step_s=0.05):
+    """Let time pass on the rig clock (reading frames, ``step_s`` at a time) until
+    ``predicate()``; AssertionError naming ``what`` after ``timeout_s`` s of rig time. On a
+    bench on virtual time this is the same run whatever the machine's load."""
+    t_end = rig.now() + timeout_s
+    while not predicate():
+        if rig.now() > t_end:
+            raise AssertionError(f"timed out after {timeout_s} s of rig time waiting for {what}")
+        rig.wait(step_s)
+
+
 def fd_jacobian(f, x, h=1e-6):
     """Central differences ``(f(x + h e_j) - f(x - h e_j)) / 2h`` for every unit vector e_j of
     the *last* axis of ``x``: shape ``f(x).shape + (n,)``, so ``J[..., i, j] = d f_i / d x_j``.

@@ -131,6 +131,7 @@ def test_capture_active_finishes_the_batch_it_was_killed_in(tmp_path, monkeypatc
     assert main([*args, "--out", str(out)]) == 130
     journal = tmp_path / "killed.journal.csv"
     assert sum(line[:1].isdigit() for line in journal.read_text().splitlines()) == 9
+    assert not (tmp_path / "killed.journal.csv.lock").exists()  # killed, it still let go of the journal
     monkeypatch.undo()
     capsys.readouterr()
     assert main([*args, "--out", str(out)]) == 0
@@ -184,3 +185,46 @@ def test_batch_store_round_trip_and_a_corrupt_batch(tmp_path):
     assert sorted(p.name for p in (tmp_path / "ck").glob("chunk_*")) == ["chunk_00000.npz"]  # later ones re-measured
     with pytest.raises(CheckpointError, match="belongs to another run"):
         BatchStore(tmp_path / "ck", {**fp, "n": 10})
+
+
+def test_design_spec_reads_and_reproduces_the_flags():
+    from lab.data import DesignSpec
+    from lab.errors import InputError
+
+    robot = load_robot("three-cable")
+    assert (DesignSpec().kind, DesignSpec().levels, DesignSpec().words()) == ("grid", 7, ["--grid", "7"])
+    s = DesignSpec(sobol=8, seed=3)
+    assert (s.kind, s.method, s.n_commands, s.words()) == ("design", "sobol", 8, ["--design", "sobol", "--n", "8"])
+    u, meta = s.commands(robot)
+    assert np.array_equal(u, design_commands(robot, 8, "sobol", seed=3)) and meta["name"] == "sobol"
+    a = DesignSpec(active=20, batch=5, ensemble_hidden=[4, 4])
+    assert (
+        a.ensemble_hidden == (4, 4)
+        and " ".join(a.words()) == "--active 20 --batch 5 --ensemble-members 5 --ensemble-hidden 4 4"
+    )
+    for kwargs, words in [
+        (dict(grid=3, sobol=4), "are different designs"),
+        (dict(lhs=200_000), "at most 100000"),
+        (dict(active=10**6, batch=5), "--active must be at most"),
+        (dict(active=100, batch=5000), "--batch must be at most 4096"),
+        (dict(seed=-1), "--seed must be an integer >= 0"),
+    ]:
+        with pytest.raises(InputError, match=words):
+            DesignSpec(**kwargs)
+    with pytest.raises(InputError, match="at most 4,194,304"):
+        DesignSpec(grid=2000).check(robot)
+    with pytest.raises(InputError, match="no fixed commands"):
+        a.commands(robot)
+
+
+def test_an_active_budget_must_fit_the_first_ensemble():
+    from lab.data import DesignSpec
+    from lab.errors import InputError
+    from lab.learn.active_design import check_active
+
+    for name, ok, bad in (("three-cable", 12, 11), ("six-cable", 16, 15)):
+        robot = load_robot(name)
+        check_active(DesignSpec(active=ok, batch=2), robot)
+        with pytest.raises(InputError, match=f"use --active {ok} or more"):
+            check_active(DesignSpec(active=bad, batch=2), robot)
+    check_active(DesignSpec(active=1, batch=1), load_robot("three-cable"))  # the initial design is all of it

@@ -179,7 +179,7 @@ def test_cli_bad_inputs_exit_2(real_csv, tmp_path, capsys):
     write_dataset(unsafe, np.full((1, 3), 2.9), np.zeros((1, 3)), {})
     cases = [
         ([str(tmp_path / "none.csv")], "dataset not found"),
-        ([str(real_csv), "--n-rings", "0"], "--n-rings must be positive"),
+        ([str(real_csv), "--n-rings", "0"], "--n-rings must be a positive integer"),
         ([str(real_csv), "--noise-m", "-1"], "--noise-m"),
         ([str(real_csv), "--robot", "no-such-robot"], "unknown robot"),
         ([str(six)], "six-cable"),

@@ -1,21 +1,27 @@
-"""The capture protocol: settle detection, reset, the append-only resumable journal, CLI."""
+"""The capture protocol: settle detection, reset, the append-only resumable journal, its settings, CLI."""
 
 import json
+import re
 import subprocess
 import sys
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from lab.data.dataset import read_dataset
+from lab.data.design_spec import DesignSpec
 from lab.data.designs import grid_commands
+from lab.errors import InputError
 from lab.rig.asbuilt import default_defects_path, parse_defects
 from lab.rig.base import MocapError, MocapFrame, Rig
 from lab.rig.capture import capture
-from lab.rig.journal import Journal, JournalError
+from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
+from lab.rig.journal import Journal, JournalError, lock_path
 from lab.rig.protocol import Protocol, SettleDetector, measure
 from lab.rig.sim import SimRig
+from lab.rig.spec import RigSpec
 from lab.rig.twin import AsBuiltBody, TwinRig
 
 COMMANDS = np.array(
@@ -210,6 +216,57 @@ def test_journal_refuses_other_settings_corruption_and_a_second_writer(three_cab
         Journal.open(path, header, cols)
 
 
+def _header_and_columns(path):
+    lines = path.read_text().split("\n")
+    return json.loads(lines[0][len("# lab.journal 1 ") :]), lines[1].split(",")
+
+
+def test_a_finished_capture_leaves_no_lock_file_and_a_held_journal_refuses_a_second(three_cable, coarse_fem, tmp_path):
+    path, lock = tmp_path / "j.csv", lock_path(tmp_path / "j.csv")
+    capture(SimRig(three_cable, coarse_fem), COMMANDS[:2], path)
+    assert path.exists() and not lock.exists()  # removed when the capture ended
+    with pytest.raises(JournalError, match="protocol.wait"):  # refused for other settings: no lock left either
+        capture(SimRig(three_cable, coarse_fem), COMMANDS[:2], path, Protocol(wait=False))
+    assert not lock.exists()
+    with Journal.open(path, *_header_and_columns(path)):  # another writer holds the journal
+        with pytest.raises(JournalError, match="being written by another process"):
+            capture(SimRig(three_cable, coarse_fem), COMMANDS[:2], path)
+        assert lock.exists()  # the refused capture left the holder's lock alone
+    assert not lock.exists()
+    again = capture(SimRig(three_cable, coarse_fem), COMMANDS[:2], path)
+    assert again.new_samples == 0 and not lock.exists()
+
+
+def test_capture_settings_name_the_flag_and_reproduce_the_command():
+    for kwargs, words in [
+        ({"settle_tol_mm": 0.0}, "--settle-tol-mm must be finite and > 0"),
+        ({"reset_rad": -1.0}, "--reset-rad must be finite and >= 0"),
+        ({"kind": "predictive", "predict_tol_mm": float("nan")}, "--predict-tol-mm must be a positive number of mm"),
+        ({"dynamic_model": "d.npz"}, "--dynamic-model is for --protocol predictive"),
+        ({"kind": "predictive", "no_wait": True}, "it cannot run with --no-wait or --no-reset"),
+        ({"kind": "fast"}, "--protocol (kind) must be one of wait, predictive"),
+    ]:
+        with pytest.raises(InputError, match=re.escape(words)):
+            ProtocolSpec(**kwargs)
+    p = ProtocolSpec(kind="predictive", predict_tol_mm=0.2, settle_tol_mm=0.05, reset_rad=0.5)
+    protocol = p.protocol()
+    assert protocol.kind == "predictive" and protocol.wait and protocol.reset and protocol.reset_u_rad == 0.5
+    assert (protocol.predict_tol_m, protocol.settle_tol_m) == pytest.approx((2e-4, 5e-5))
+    assert ProtocolSpec().protocol() == Protocol()  # the defaults are the shipped data's protocol
+    design = DesignSpec(sobol=5, seed=2)
+    spec = CaptureSpec(rig=RigSpec.parse("twin:random:3"), design=design, out="o.csv", order="grid", protocol=p)
+    assert spec.journal_path == Path("o.journal.csv") and spec.seed == 2 and spec.progress
+    assert spec.command == (
+        "python -m lab capture --rig twin:random:3 --robot three-cable --design sobol --n 5 --out o.csv --seed 2 "
+        "--order grid --protocol predictive --predict-tol-mm 0.2 --settle-tol-mm 0.05 --reset-rad 0.5"
+    )
+    assert CaptureSpec(out="o.csv", journal="j.csv").command.endswith("--order shuffled --journal j.csv")
+    with pytest.raises(InputError, match="--out is required"):
+        CaptureSpec()
+    with pytest.raises(InputError, match="--order must be one of shuffled, grid"):
+        CaptureSpec(out="o.csv", order="random")
+
+
 def test_unsafe_command_is_refused_before_anything_moves(three_cable, coarse_fem, tmp_path):
     rig = SimRig(three_cable, coarse_fem)
     with pytest.raises(ValueError, match="safety rule"):
@@ -247,9 +304,14 @@ def test_cli_end_to_end(three_cable, tmp_path):
     assert meta["capture"]["n_unsettled"] == 0 and 150 < meta["capture"]["rate_samples_per_hour"] < 600
     assert meta["rig"]["kind"] == "twin" and meta["protocol"]["wait"] and meta["sampler"]["order"] == "shuffled"
     assert meta["command"].startswith("python -m lab capture --rig twin:")
-    assert (tmp_path / "real.journal.csv").exists()
+    journal = tmp_path / "real.journal.csv"
+    assert journal.exists() and not lock_path(journal).exists()
+    with Journal.open(journal, *_header_and_columns(journal)):  # a second, concurrent writer is refused
+        r = _cli(*args, cwd=root)
+        assert r.returncode == 2 and "being written by another process" in r.stderr
+        assert lock_path(journal).exists()
     r = _cli(*args, cwd=root)  # complete: rewrites, adds nothing
-    assert r.returncode == 0 and "(0 new)" in r.stderr
+    assert r.returncode == 0 and "(0 new)" in r.stderr and not lock_path(journal).exists()
     assert np.array_equal(read_dataset(out)[1], y)
     r = _cli(*args, "--no-reset", cwd=root)
     assert r.returncode == 2 and "protocol.reset" in r.stderr

@@ -1,4 +1,4 @@
-"""The capture-rate study (lab.tracking.capture_rate) and its figure (lab.viz.capture_rate)."""
+"""The capture-rate study (lab.studies.capture_rate) and its figure (lab.viz.capture_rate)."""
 
 import json
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lab.errors import InputError
-from lab.tracking.capture_rate import COLUMNS, capture_rate_study, read_capture_rate, write_capture_rate
+from lab.studies.capture_rate import COLUMNS, capture_rate_study, read_capture_rate, write_capture_rate
 from lab.viz import plot_capture_rate
 
 matplotlib.use("Agg")

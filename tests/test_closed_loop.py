@@ -303,7 +303,7 @@ def test_an_unconstrained_correction_is_the_damped_pseudo_inverse_step(three_cab
 def test_pass_table_and_figure(three_cable, tmp_path):
     """Result files -> one row per pass (the numbers of the files) -> the figure (log y, one
     line per model and trajectory in each mode's panel); an open-loop file is refused."""
-    from lab.tracking.closed_loop_table import pass_rows
+    from lab.studies.closed_loop_table import pass_rows
     from lab.tracking.track import TrackResultError, run_trajectory, write_result
     from lab.viz.closed_loop import plot_closed_loop
 

@@ -1,18 +1,18 @@
-"""Error against N per sampling strategy (issue 15): the rows, the common held-out set, grid
+"""Error against N per sampling strategy: the rows, the common held-out set, grid
 sizes, noise on emulated samples, resuming, the summaries and the command's refusals."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from lab.cli import main
-from lab.cli.data_curve import COLUMNS, read_data_curve
 from lab.data.designs import DESIGNS, grid_commands
 from lab.description import load_robot
 from lab.rig.twin import quasi_static_tips
-from lab.tracking.data_curve import (
+from lab.studies.data_curve import (
     PAPER_GRID_N,
     draw_and_measure,
     grid_levels_for,
@@ -22,6 +22,7 @@ from lab.tracking.data_curve import (
     plan_rows,
     smallest_n,
 )
+from lab.studies.data_curve_run import COLUMNS, read_data_curve
 
 COARSE = ["--n-rings", "1", "--n-axial", "4"]
 FAST = ["--heldout", "12", "--epochs", "8", "--n-points", "4", "--jobs", "1", "--samples-per-hour", "300"]
@@ -211,3 +212,72 @@ def test_any_robot_six_cables_model_error_only(tmp_path):
     grid, sobol = read_data_curve(out)
     assert (grid["robot"], grid["grid_levels"], grid["n"]) == ("six-cable", 2, len(grid_commands(six, 2)))
     assert sobol["n"] == 30 and 0 < sobol["model_error_m"] < 0.1 and np.isnan(sobol["tracking_mean_m"])
+
+
+def test_flags_keep_their_names_and_defaults():
+    from lab.cli import build_parser
+    from lab.fem.mesh_spec import MeshSpec
+    from lab.studies.data_curve_spec import DEFAULT_NS, DEFAULT_RATE_FROM, DataCurveSpec, default_strategies
+
+    (sub,) = [a for a in build_parser()._actions if a.dest == "command"]
+    flags = {s for a in sub.choices["data-curve"]._actions for s in a.option_strings}
+    assert flags >= {"--robot", "--rig", "--strategies", "--ns", "--grid-levels", "--model", "--hidden", "--epochs",
+                     "--algorithm", "--heldout", "--seeds", "--heldout-seed", "--batch", "--n-initial", "--n-points",
+                     "--no-tracking", "--n-rings", "--n-axial", "--samples-per-hour", "--rate-from", "--jobs",
+                     "--out"}  # fmt: skip
+    spec = DataCurveSpec()
+    assert (spec.robot, spec.rig, spec.ns, spec.model, spec.hidden, spec.algorithm) == (
+        "three-cable", "sim", DEFAULT_NS, "mlp", (20, 20), "lm"
+    )  # fmt: skip
+    assert (spec.heldout, spec.seeds, spec.heldout_seed, spec.batch, spec.n_points, spec.tracking) == (
+        200, (0,), 1, 25, 24, True
+    )  # fmt: skip
+    assert spec.strategies == default_strategies() and "active" not in spec.strategies
+    assert spec.rate_from == DEFAULT_RATE_FROM and spec.mesh == MeshSpec() and spec.epochs is None
+    assert DataCurveSpec(rig="twin:random:3").rig_spec.family_seed == 3
+
+
+@pytest.mark.parametrize(
+    "fields, words",
+    [
+        ({"ns": (0,)}, "--ns must be integers >= 1"),
+        ({"ns": (10**9,)}, "--ns must be at most 100000"),
+        ({"strategies": ("maximin",), "ns": (5000,)}, "a maximin design takes at most 2000"),
+        ({"seeds": (-1,)}, "--seeds must be integers >= 0"),
+        ({"seeds": tuple(range(1001))}, "at most 1000 seeds"),
+        ({"strategies": ("sobol", "random"), "ns": tuple(range(1, 5002))}, "at most 10,000"),
+        ({"heldout": 10**7}, "--heldout must be at most 100000"),
+        ({"n_points": 1}, "--n-points must be an integer >= 2"),
+        ({"hidden": (20, 0)}, "--hidden must be widths >= 1"),
+        ({"algorithm": "magic"}, "--algorithm must be one of"),
+        ({"model": "inverse-mlp"}, "unknown model 'inverse-mlp'"),
+        ({"samples_per_hour": 0.0}, "--samples-per-hour must be finite and > 0"),
+        ({"strategies": ("active",), "batch": 5000, "ns": (6000,)}, "--batch must be at most 4096"),
+        ({"rig": "hardware:rig.toml"}, "measures through a body's quasi-static map"),
+        ({"grid_levels": (1,)}, "--grid-levels must be integers >= 2"),
+    ],
+)
+def test_spec_refuses_bad_settings_naming_the_flag(fields, words):
+    from lab.studies.data_curve_spec import DataCurveSpec
+
+    with pytest.raises(ValueError, match=re.escape(words)):
+        DataCurveSpec(**fields)
+
+
+def test_unreadable_results_files_are_refused_naming_the_file(tmp_path):
+    from lab.errors import InputError
+
+    out = tmp_path / "c.csv"
+    row = "three-cable,FEM,sim,random,8,,0,mlp,0.02,nan,nan,nan,nan,0.1,0.1,0.02,ab"
+    out.write_text(",".join(COLUMNS) + "\n" + row + "\n")
+    assert read_data_curve(out)[0]["n"] == 8
+    out.write_text(",".join(COLUMNS) + "\n" + row.replace(",mlp,0.02,", ",mlp,x,") + "\n")
+    with pytest.raises(InputError, match=r"c.csv: line 2: model_error_m 'x' is not a number"):
+        read_data_curve(out)
+    out.write_text(",".join(COLUMNS) + "\n" + row.rsplit(",", 3)[0] + "\n")
+    with pytest.raises(InputError, match="line 2 does not have the 17 columns"):
+        read_data_curve(out)
+    out.write_text(",".join(COLUMNS) + "\n" + row + "\n")
+    Path(f"{out}.json").write_text('{"settings": [1]}')
+    with pytest.raises(InputError, match=r"c.csv.json: the sidecar of .* must be a JSON object with settings"):
+        read_data_curve(out)

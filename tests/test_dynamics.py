@@ -1,4 +1,4 @@
-"""Trajectories at speed (issue 16, item 3): the relaxation filter's inversion, the twin in
+"""Trajectories at speed: the relaxation filter's inversion, the twin in
 continuous time, fit-dynamics, streamed tracking open loop vs feed-forward, its CLI and the
 hardware path."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lab.cli import main
-from lab.learn.relaxation import Relaxation, load_relaxation
+from lab.dynamics.relaxation import Relaxation, load_relaxation
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 
 DATA = Path(__file__).parents[1] / "data"
@@ -130,7 +130,7 @@ def test_probe_plan_is_allowed_and_reproducible(three_cable):
 
 
 def test_fit_recovers_the_twins_lag(three_cable):
-    from lab.learn.relaxation_fit import fit_stream
+    from lab.dynamics.relaxation_fit import fit_stream
     from lab.rig.dynamics_probe import probe_plan, run_probe
 
     rig = coarse_rig(three_cable)
@@ -163,6 +163,8 @@ def test_fit_dynamics_cli_writes_a_model(three_cable, tmp_path):
         (["--modes", "0"], "--modes"),
         (["--n-steps", "0"], "--n-steps"),
         (["--step-hold-s", "-1"], "--step-hold-s"),
+        (["--step-hold-s", "1e9"], "--step-hold-s must be at most 600 s"),
+        (["--n-random", "100000"], "--n-random must be at most 10000"),
         (["--rig", "hardware:/nonexistent/rig.toml"], "rig.toml"),
         (["--rig", "hardware"], "configuration file"),
         (["--robot", "nope"], "nope"),
@@ -176,7 +178,6 @@ def test_fit_dynamics_bad_input_exits_2(tmp_path, capsys, flags, message):
 
 
 def test_fit_dynamics_exits_1_when_the_rig_fails(three_cable, tmp_path, capsys, monkeypatch):
-    from lab.cli import fit_dynamics
     from lab.rig.base import RigError
 
     class Failing(TwinRig):
@@ -189,8 +190,7 @@ def test_fit_dynamics_exits_1_when_the_rig_fails(three_cable, tmp_path, capsys, 
             super()._send(u_motor)
 
     monkeypatch.setattr(
-        fit_dynamics,
-        "make_dynamic_rig",
+        "lab.rig.make_rig",
         lambda *a, **k: Failing(three_cable, body=AsBuiltBody(three_cable, None, **COARSE)),
     )
     out = tmp_path / "d.npz"
@@ -209,10 +209,10 @@ def test_fit_dynamics_never_overwrites_its_inputs(tmp_path, capsys):
 # --- streaming ---------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def solver(three_cable):
+    from lab.control.ik import IKSolver
     from lab.learn.models import load_model
-    from lab.tracking.track import make_solver
 
-    return make_solver(three_cable, load_model(MODEL))
+    return IKSolver.for_model(load_model(MODEL), three_cable)
 
 
 @pytest.fixture(scope="module")
@@ -276,6 +276,9 @@ def test_track_period_cli_streams_and_refuses_bad_flags(tmp_path, capsys):
         (["--period-s", "5", "--dynamic-model", MODEL], "not a readable dynamic-model"),
         (["--period-s", "5", "--n-periods", "0"], "--n-periods"),
         (["--period-s", "5", "--command-rate-hz", "0"], "--command-rate-hz"),
+        (["--period-s", "5", "--lead-in-s", "1e9"], "--lead-in-s must be at most 600 s"),
+        (["--period-s", "5", "--max-spread-mm", "-1"], "--max-spread-mm is not used in a streamed run"),
+        (["--period-s", "5", "--posture-weight", "1"], "--posture-weight is not used in a streamed run"),
     ]:
         assert main([*base, *flags, "--out", str(tmp_path / "bad.json")]) == 2, flags
         assert message in capsys.readouterr().err
@@ -335,7 +338,7 @@ def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
 
 # --- the period curve and its figures -----------------------------------------------------------------
 def test_period_curve_file_and_figures(streamed, tmp_path):
-    from lab.tracking.period_curve import read_period_curve, read_traces, write_period_curve, write_traces
+    from lab.studies.period_curve import read_period_curve, read_traces, write_period_curve, write_traces
     from lab.viz.dynamics import plot_period_curve, plot_streamed_trajectory
 
     rows = [
@@ -368,7 +371,7 @@ def test_cached_period_curve_meets_the_goal_where_the_model_is_the_robots_own():
     """data/period_curve.csv (benchmarks/bench_period_curve.py): at T = 5 s the feed-forward
     is >= 3x better than the quasi-static open loop wherever the quasi-static model is the
     robot's own; the figures draw the cache."""
-    from lab.tracking.period_curve import read_period_curve, read_traces
+    from lab.studies.period_curve import read_period_curve, read_traces
     from lab.viz.dynamics import plot_period_curve, plot_streamed_trajectory
 
     rows = read_period_curve(DATA / "period_curve.csv")

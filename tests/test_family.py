@@ -237,7 +237,7 @@ CASES = [
         "defects-mesh-zero",
         ["defects", "--random", "1", "--n-rings", "0", "--out", "{dir}/d.toml"],
         2,
-        ("--n-rings must be at least 1",),
+        ("--n-rings must be a positive integer",),
         absent=("{dir}/d.toml",),
     ),
     Case(

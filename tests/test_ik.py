@@ -7,7 +7,7 @@ import pytest
 from helpers import fd_jacobian
 
 from lab.control.command_set import CommandSet
-from lab.control.ik import IKSolver, grid_seeds
+from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import circle
 from lab.data.dataset import read_dataset
@@ -94,7 +94,7 @@ def random_safe_commands(cset, n, seed):
 
 @pytest.mark.parametrize("method", ["lm", "gd"])
 def test_converges_on_reachable_targets(small_model, cset, method):
-    solver = IKSolver(small_model, cset, method, tol_m=1e-8, seeds=grid_seeds(small_model, cset, 5))
+    solver = IKSolver(small_model, cset, IKConfig(method, tol_m=1e-8), seeds=grid_seeds(small_model, cset, 5))
     for u_star in random_safe_commands(cset, 6 if method == "lm" else 3, seed=3):
         target = small_model.predict(u_star)
         res = solver.solve(target)
@@ -109,8 +109,8 @@ def test_converges_on_reachable_targets(small_model, cset, method):
 def test_gd_and_lm_agree(small_model, cset):
     u_star = np.array([1.2, 0.4, 2.0])
     target = small_model.predict(u_star)
-    a = IKSolver(small_model, cset, "lm").solve(target, u0=[1.0, 0.5, 1.8])
-    b = IKSolver(small_model, cset, "gd", tol_m=1e-9).solve(target, u0=[1.0, 0.5, 1.8])
+    a = IKSolver(small_model, cset, IKConfig("lm")).solve(target, u0=[1.0, 0.5, 1.8])
+    b = IKSolver(small_model, cset, IKConfig("gd", tol_m=1e-9)).solve(target, u0=[1.0, 0.5, 1.8])
     np.testing.assert_allclose(a.u_motor, u_star, atol=1e-4)  # |du| ~ tol_m / sigma_min(J)
     np.testing.assert_allclose(b.u_motor, u_star, atol=1e-4)
     assert b.iterations > 5 * a.iterations  # why LM is the default
@@ -119,7 +119,7 @@ def test_gd_and_lm_agree(small_model, cset):
 @pytest.mark.parametrize("method", ["lm", "gd"])
 def test_unreachable_target_returns_best_allowed_command(small_model, cset, method):
     u_grid, y_grid = grid_seeds(small_model, cset, 13)
-    solver = IKSolver(small_model, cset, method, seeds=(u_grid, y_grid))
+    solver = IKSolver(small_model, cset, IKConfig(method), seeds=(u_grid, y_grid))
     for target in ([0.30, 0.10, 0.20], [0.10, 0.0, -0.02], [0.17, 0.0, -0.007]):
         target = np.array(target)
         res = solver.solve(target)
@@ -132,7 +132,7 @@ def test_unreachable_target_returns_best_allowed_command(small_model, cset, meth
 
 def test_pulling_the_arm_short_stops_at_the_safety_limit(small_model, cset):
     """A target beyond the largest allowed contraction: the optimum lies on the safety plane."""
-    res = IKSolver(small_model, cset, "lm").solve([0.15, 0.0, -0.007])
+    res = IKSolver(small_model, cset, IKConfig("lm")).solve([0.15, 0.0, -0.007])
     assert not res.reachable
     assert res.u_motor.sum() == pytest.approx(cset.b[0], abs=1e-9)
     assert cset.contains(res.u_motor)
@@ -147,7 +147,7 @@ def test_non_finite_targets_raise(small_model, cset, bad):
 
 def test_bad_arguments_raise(small_model, cset):
     with pytest.raises(ValueError, match="method"):
-        IKSolver(small_model, cset, "newton")
+        IKSolver(small_model, cset, IKConfig("newton"))
     with pytest.raises(ValueError, match=r"\(3,\)"):
         IKSolver(small_model, cset).solve([0.2, 0.0])
     with pytest.raises(ValueError, match="u0"):
@@ -156,7 +156,7 @@ def test_bad_arguments_raise(small_model, cset):
 
 def test_warm_starts_reduce_iterations(small_model, cset):
     targets = circle(200)[:40]  # 1.1 mm apart
-    solver = IKSolver(small_model, cset, "lm")
+    solver = IKSolver(small_model, cset, IKConfig("lm"))
     warm = solver.follow(targets)
     cold = [solver.solve(t) for t in targets]  # each from the centre of the command set
     assert warm.reachable.all() and all(r.reachable for r in cold)
@@ -169,7 +169,7 @@ def test_regulariser_trades_residual_for_staying_close(small_model, cset):
     target = small_model.predict(np.array([1.5, 0.5, 1.2]))
     dist, resid = [], []
     for w in (0.0, 1e-5, 1e-3):
-        r = IKSolver(small_model, cset, reg_weight=w).solve(target, u0=u_ref, u_ref=u_ref)
+        r = IKSolver(small_model, cset, IKConfig(reg_weight=w)).solve(target, u0=u_ref, u_ref=u_ref)
         dist.append(np.linalg.norm(r.u_motor - u_ref))
         resid.append(r.residual_m)
     assert resid[0] < 1e-8 < resid[1] < resid[2]
@@ -308,7 +308,7 @@ def test_follow_leaves_a_slack_plateau_by_a_cold_retry():
     arm = _SlackArm()
     targets = np.array([[1.0, 0.0, 0.0], [1.2, 0.5, 0.0], [1.4, 0.6, 0.0]])
     seeds = grid_seeds(arm, cs, 7)
-    plain = IKSolver(arm, cs, retry_cold=False, seeds=seeds).follow(targets, u0=np.array([1.0, 0.0]))
+    plain = IKSolver(arm, cs, IKConfig(retry_cold=False), seeds=seeds).follow(targets, u0=np.array([1.0, 0.0]))
     assert not plain.reachable[1] and plain.residual_m[1] > 0.4
     fixed = IKSolver(arm, cs, seeds=seeds).follow(targets, u0=np.array([1.0, 0.0]))
     assert np.all(fixed.reachable) and np.all(fixed.residual_m < 1e-8)

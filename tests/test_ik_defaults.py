@@ -7,12 +7,12 @@ from helpers import fd_jacobian
 
 from lab.control.command_set import CommandSet
 from lab.control.follow import AUTO_WEIGHT_REL, auto_weight, follow_weights, slack_motors
-from lab.control.ik import IKSolver, grid_seeds
+from lab.control.ik import IKConfig, IKSolver, grid_seeds
+from lab.control.ik_objective import Objective
 from lab.control.spread import DEFAULT_MAX_SPREAD_M, predicted_spread_m, spread_rows
 from lab.control.trajectories import circle
 from lab.data.dataset import read_dataset
 from lab.learn.mlp import init_mlp
-from lab.tracking.track import make_solver
 
 ANGLES = np.radians([45.0, 135.0, 225.0, 315.0])
 #: Tip displacement per rad of cable tension (3, 4) m/rad: each cable bends the tip
@@ -65,9 +65,9 @@ def test_auto_restarts_a_redundant_arm_off_its_slack_plateau(box4):
     regularised towards the posture (every cable taut), polishes, and reaches it exactly; the
     later points follow from there by warm starts, unregularised."""
     arm, targets, u0 = SlackArm4(), slack_targets(), np.zeros(4)
-    plain = IKSolver(arm, box4, retry_cold=False).follow(targets, u0=u0)
+    plain = IKSolver(arm, box4, IKConfig(retry_cold=False)).follow(targets, u0=u0)
     assert not plain.reachable.any() and plain.info["regularisation"] == "explicit: none"
-    auto = IKSolver(arm, box4, reg_weight=None, posture_weight=None).follow(targets, u0=u0)
+    auto = IKSolver(arm, box4, IKConfig(reg_weight=None, posture_weight=None)).follow(targets, u0=u0)
     assert auto.reachable.all() and auto.residual_m.max() < 1e-8
     assert all(box4.contains(u) for u in auto.u_motor)
     w = AUTO_WEIGHT_REL * np.sum(B_CABLES**2) / 4  # |J|_F^2 / m at the centre, every cable taut
@@ -76,7 +76,7 @@ def test_auto_restarts_a_redundant_arm_off_its_slack_plateau(box4):
     assert auto.info["redundant"] and auto.info["regularisation"].startswith("auto: none while targets are reached")
     assert auto.info["restarts"] == 1 and auto.info["recovered"] == 1 and auto.info["slack_plateaus"] == 1
     # the restart is regularised: a plain restart from the posture lands elsewhere on the family
-    plain_restart = IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0).follow(targets[:1], u0=u0)
+    plain_restart = IKSolver(arm, box4, IKConfig(reg_weight=0.0, posture_weight=0.0)).follow(targets[:1], u0=u0)
     assert plain_restart.reachable.all()
     assert np.linalg.norm(auto.u_motor[0] - 1.5) < np.linalg.norm(plain_restart.u_motor[0] - 1.5)
 
@@ -85,7 +85,8 @@ def test_explicit_weights_regularise_every_point(box4):
     """Explicit weights: every point regularised (then polished) -- from the slack start the
     pull towards the posture alone lifts the cables, no restart needed."""
     arm, targets = SlackArm4(), slack_targets()
-    res = IKSolver(arm, box4, reg_weight=1e-6, posture_weight=1e-6, retry_cold=False).follow(targets, u0=np.zeros(4))
+    config = IKConfig(reg_weight=1e-6, posture_weight=1e-6, retry_cold=False)
+    res = IKSolver(arm, box4, config).follow(targets, u0=np.zeros(4))
     assert res.reachable.all() and res.info["restarts"] == 0
     assert res.info["reg_weight"] == 1e-6 and res.info["regularisation"].startswith("explicit: continuity + posture")
 
@@ -94,10 +95,10 @@ def test_slack_plateau_miss_restarts_from_the_posture(box4):
     """Without a regulariser and without seeds, a point that misses on a slack plateau is solved
     again from the posture, where every cable is taut; the info counts it."""
     arm, targets = SlackArm4(), slack_targets(4)
-    res = IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0).follow(targets, u0=np.zeros(4))
+    res = IKSolver(arm, box4, IKConfig(reg_weight=0.0, posture_weight=0.0)).follow(targets, u0=np.zeros(4))
     assert res.reachable.all()
     assert res.info["slack_plateaus"] == 1 and res.info["restarts"] == 1 and res.info["recovered"] == 1
-    first = IKSolver(arm, box4, retry_cold=False).follow(targets[:1], u0=np.zeros(4))
+    first = IKSolver(arm, box4, IKConfig(retry_cold=False)).follow(targets[:1], u0=np.zeros(4))
     assert res.iterations[0] > first.iterations[0]  # the restart's work is counted
 
 
@@ -105,7 +106,7 @@ def test_slack_restart_also_for_a_non_redundant_arm():
     cs = CommandSet([0.0, 0.0], [3.0, 3.0])
     arm = SlackArm2()
     targets = np.array([[1.0, 0.0, 0.0], [1.2, 0.5, 0.0], [1.4, 0.6, 0.0]])
-    solver = IKSolver(arm, cs, reg_weight=None, posture_weight=None)  # no seeds: only the posture
+    solver = IKSolver(arm, cs, IKConfig(reg_weight=None, posture_weight=None))  # no seeds: only the posture
     res = solver.follow(targets, u0=np.array([1.0, 0.0]))
     assert res.reachable.all() and res.info["slack_plateaus"] == 1 and res.info["recovered"] == 1
     assert res.info["reg_weight"] == 0.0 and "not redundant" in res.info["regularisation"]
@@ -115,12 +116,13 @@ def test_slack_restart_also_for_a_non_redundant_arm():
 
 def test_explicit_weights_override_and_zero_is_off(box4):
     arm = SlackArm4()
-    s = IKSolver(arm, box4, reg_weight=2e-6, posture_weight=0.0)
+    s = IKSolver(arm, box4, IKConfig(reg_weight=2e-6, posture_weight=0.0))
     assert follow_weights(s)[:4] == (2e-6, 0.0, 2e-6, False)
-    w_c, w_p, w_r, to_posture, how = follow_weights(IKSolver(arm, box4, reg_weight=None, posture_weight=3e-6))
+    w_c, w_p, w_r, to_posture, how = follow_weights(IKSolver(arm, box4, IKConfig(reg_weight=None, posture_weight=3e-6)))
     assert (w_c, w_p, w_r, to_posture) == (0.0, 3e-6, 3e-6, True) and "auto where not given" in how
-    assert follow_weights(IKSolver(arm, box4, reg_weight=0.0, posture_weight=0.0))[:4] == (0.0, 0.0, 0.0, False)
-    w_r, to_posture = follow_weights(IKSolver(arm, box4, reg_weight=None, posture_weight=None))[2:4]
+    off = IKSolver(arm, box4, IKConfig(reg_weight=0.0, posture_weight=0.0))
+    assert follow_weights(off)[:4] == (0.0, 0.0, 0.0, False)
+    w_r, to_posture = follow_weights(IKSolver(arm, box4, IKConfig(reg_weight=None, posture_weight=None)))[2:4]
     assert w_r == pytest.approx(auto_weight(s)) and to_posture
 
 
@@ -141,8 +143,9 @@ def test_auto_weight_without_a_jacobian_fits_the_seeds(box4):
     want = AUTO_WEIGHT_REL * np.sum(B_CABLES**2) / 4
     assert auto_weight(IKSolver(Linear(), box4)) == pytest.approx(want, rel=1e-12)
     blind = Linear(has_jacobian=False)
-    assert auto_weight(IKSolver(blind, box4, "dfo", seeds=grid_seeds(blind, box4, 3))) == pytest.approx(want, rel=1e-9)
-    assert auto_weight(IKSolver(blind, box4, "dfo")) == pytest.approx(want, rel=1e-9)  # a cross about the posture
+    dfo = IKConfig("dfo")
+    assert auto_weight(IKSolver(blind, box4, dfo, seeds=grid_seeds(blind, box4, 3))) == pytest.approx(want, rel=1e-9)
+    assert auto_weight(IKSolver(blind, box4, dfo)) == pytest.approx(want, rel=1e-9)  # a cross about the posture
 
 
 @pytest.fixture(scope="module")
@@ -158,13 +161,13 @@ def test_non_redundant_arm_is_unchanged_by_auto(three_net, three_cable):
     targets = circle(30)
     seeds = grid_seeds(three_net, CommandSet.from_robot(three_cable), 5)
     cs = CommandSet.from_robot(three_cable)
-    auto = IKSolver(three_net, cs, reg_weight=None, posture_weight=None, seeds=seeds).follow(targets)
+    auto = IKSolver(three_net, cs, IKConfig(reg_weight=None, posture_weight=None), seeds=seeds).follow(targets)
     off = IKSolver(three_net, cs, seeds=seeds).follow(targets)
     np.testing.assert_array_equal(auto.u_motor, off.u_motor)
     np.testing.assert_array_equal(auto.iterations, off.iterations)
     assert auto.info["reg_weight"] == 0.0 and "not redundant" in auto.info["regularisation"]
-    solver = make_solver(three_cable, three_net)
-    assert solver.reg_weight_setting is None and solver.posture_weight_setting is None and not solver.redundant
+    solver = IKSolver.for_model(three_net, three_cable)
+    assert solver.config.reg_weight is None and solver.config.posture_weight is None and not solver.redundant
 
 
 # ------------------------------------------------------------------ ensemble spread
@@ -209,11 +212,12 @@ def test_spread_rows_and_their_gradient_against_finite_differences():
 @pytest.mark.parametrize("method", ["lm", "gd"])
 def test_ik_gradient_with_spread_and_regulariser_is_exact(box4, method):
     ens = FakeEnsemble()
-    solver = IKSolver(ens, box4, method, reg_weight=3e-4, spread_weight=0.5)
+    solver = IKSolver(ens, box4, IKConfig(method, reg_weight=3e-4, spread_weight=0.5))
     target, u_ref, u = np.array([0.17, 0.01, -0.005]), np.full(4, 1.2), np.array([0.8, 1.9, 1.1, 2.4])
-    _, _, rows = solver._evaluate(u, target, u_ref)
-    g = solver._gradient(u, rows, u_ref)
-    g_fd = fd_jacobian(lambda v: solver._evaluate(v, target, u_ref)[1], u)
+    f = Objective(solver.forward, target, u_ref, solver.config.reg_weight, solver.config.spread_weight)
+    _, _, rows = f.evaluate(u)
+    g = f.gradient(u, rows)
+    g_fd = fd_jacobian(lambda v: f.evaluate(v)[1], u)
     np.testing.assert_allclose(g, g_fd, rtol=1e-6, atol=1e-12)
 
 
@@ -223,33 +227,33 @@ def test_spread_penalty_picks_where_the_members_agree_and_flags(box4):
     target = ens.predict(u_star)
     plain = IKSolver(ens, box4).solve(target, u0=u_star)
     assert plain.residual_m < 1e-8 and plain.spread_m == pytest.approx(predicted_spread_m(ens, u_star))
-    pen = IKSolver(ens, box4, spread_weight=0.01).solve(target, u0=u_star)
+    pen = IKSolver(ens, box4, IKConfig(spread_weight=0.01)).solve(target, u0=u_star)
     # four motors: along the family of commands that reach the target, to where the members
     # agree better, paying a small tip error for it (more for a larger weight)
     assert pen.spread_m < 0.5 * plain.spread_m and pen.residual_m < 0.02 * plain.spread_m
     assert box4.contains(pen.u_motor) and pen.status == "stationary"
-    heavy = IKSolver(ens, box4, spread_weight=1.0).solve(target, u0=u_star)
+    heavy = IKSolver(ens, box4, IKConfig(spread_weight=1.0)).solve(target, u0=u_star)
     assert heavy.spread_m < pen.spread_m and heavy.residual_m > pen.residual_m
     limit = 0.75 * plain.spread_m
-    flagged = IKSolver(ens, box4, max_spread_m=limit).follow([target], u0=u_star)
+    flagged = IKSolver(ens, box4, IKConfig(max_spread_m=limit)).follow([target], u0=u_star)
     assert flagged.uncertain.tolist() == [True] and flagged.info["n_uncertain"] == 1
     assert flagged.spread_m[0] == pytest.approx(flagged.results[0].spread_m)
-    calm = IKSolver(ens, box4, spread_weight=0.01, max_spread_m=limit).follow([target], u0=u_star)
+    calm = IKSolver(ens, box4, IKConfig(spread_weight=0.01, max_spread_m=limit)).follow([target], u0=u_star)
     assert calm.uncertain.tolist() == [False] and calm.info["n_uncertain"] == 0
 
 
 def test_spread_flag_defaults_and_bad_settings(box4):
-    assert IKSolver(FakeEnsemble(), box4).max_spread_m == DEFAULT_MAX_SPREAD_M
+    assert IKSolver(FakeEnsemble(), box4).config.max_spread_m == DEFAULT_MAX_SPREAD_M
     no_spread = IKSolver(SlackArm4(), box4)
-    assert no_spread.max_spread_m is None
+    assert no_spread.config.max_spread_m is None
     res = no_spread.solve(slack_targets(1)[0], u0=np.full(4, 1.5))
     assert np.isnan(res.spread_m) and not res.uncertain
     with pytest.raises(ValueError, match="ensemble members"):
-        IKSolver(SlackArm4(), box4, spread_weight=1.0)
+        IKSolver(SlackArm4(), box4, IKConfig(spread_weight=1.0))
     with pytest.raises(ValueError, match="max_spread_m"):
-        IKSolver(FakeEnsemble(), box4, max_spread_m=-1.0)
-    with pytest.raises(ValueError, match="spread_weight"):
-        IKSolver(FakeEnsemble(), box4, spread_weight=np.nan)
+        IKSolver(FakeEnsemble(), box4, IKConfig(max_spread_m=-1.0))
+    with pytest.raises(ValueError, match="spread.weight"):
+        IKSolver(FakeEnsemble(), box4, IKConfig(spread_weight=np.nan))
 
 
 # ------------------------------------------------------------------ derivative-free IK
@@ -280,7 +284,7 @@ def toy_net():
 def test_dfo_reaches_targets_inside_the_allowed_set(toy_net, three_cable):
     cs = CommandSet.from_robot(three_cable)
     blind = Blind(toy_net)
-    solver = IKSolver(blind, cs, "dfo", seeds=grid_seeds(blind, cs, 5))
+    solver = IKSolver(blind, cs, IKConfig("dfo"), seeds=grid_seeds(blind, cs, 5))
     rng = np.random.default_rng(1)
     for _ in range(5):
         u_star = cs.project(rng.uniform(0.2, 2.8, 3))
@@ -304,7 +308,7 @@ def test_dfo_reaches_targets_inside_the_allowed_set(toy_net, three_cable):
 def test_dfo_follows_a_trajectory_warm_started(toy_net, three_cable):
     cs = CommandSet.from_robot(three_cable)
     blind = Blind(toy_net)
-    solver = IKSolver(blind, cs, "dfo", seeds=grid_seeds(blind, cs, 5))
+    solver = IKSolver(blind, cs, IKConfig("dfo"), seeds=grid_seeds(blind, cs, 5))
     u_path = cs.project(np.array([1.5, 1.0, 1.2])) + 0.3 * np.column_stack(
         [np.cos(np.linspace(0, 2, 15) + k) for k in range(3)]
     )
@@ -315,12 +319,15 @@ def test_dfo_follows_a_trajectory_warm_started(toy_net, three_cable):
     assert sum(r.evaluations for r in plan.results[1:]) < 0.8 * sum(r.evaluations for r in cold)
 
 
-def test_make_solver_picks_the_derivative_free_ik_and_says_so(toy_net, three_cable):
-    solver = make_solver(three_cable, Blind(toy_net))
-    assert solver.method == "dfo" and any("no Jacobian" in n for n in solver.notes)
+def test_for_model_picks_the_derivative_free_ik_and_says_so(toy_net, three_cable):
+    solver = IKSolver.for_model(Blind(toy_net), three_cable)
+    assert solver.config.method == "dfo" and any("no Jacobian" in n for n in solver.notes)
     with pytest.raises(ValueError, match="needs the model's Jacobian"):
-        make_solver(three_cable, Blind(toy_net), method="lm")
-    assert make_solver(three_cable, toy_net).method == "lm" and not make_solver(three_cable, toy_net).notes
+        IKSolver.for_model(Blind(toy_net), three_cable, IKConfig.automatic(method="lm"))
+    explicit = IKSolver.for_model(Blind(toy_net), three_cable, IKConfig.automatic(method="dfo"))
+    assert explicit.config.method == "dfo" and not explicit.notes
+    plain = IKSolver.for_model(toy_net, three_cable)
+    assert plain.config.method == "lm" and not plain.notes
 
 
 def test_track_cli_records_the_regularisation_and_the_uncertainty_keys(tmp_path, three_net):
@@ -370,8 +377,8 @@ def test_a_deep_ensemble_flags_targets_just_outside_its_data(three_cable):
     u, y, _ = read_dataset("data/sim_three_cable.csv")
     inside = u[:, 0] <= 2.0
     ens = train_ensemble(u[inside], y[inside], (10, 10), k=5, seed=0, epochs=60)
-    solver = make_solver(three_cable, ens)
-    assert solver.max_spread_m == DEFAULT_MAX_SPREAD_M
+    solver = IKSolver.for_model(ens, three_cable)
+    assert solver.config.max_spread_m == DEFAULT_MAX_SPREAD_M
     known = solver.follow(y[inside][::20])
     beyond = solver.follow(y[np.isclose(u[:, 0], 2.5)][::4])
     assert not known.uncertain.any()
@@ -416,7 +423,7 @@ def test_track_cli_with_an_ensemble_flags_and_penalises_the_spread(tmp_path):
 def test_lm_damps_more_when_its_step_matrix_is_singular(box4, monkeypatch):
     """On a redundant arm J^T J is singular; after many good steps mu can vanish against it
     (seen on a four-cable net: LinAlgError). LM then damps more instead of failing."""
-    import lab.control.ik as ik_module
+    import lab.control.ik_descent as ik_module
 
     real_solve, calls = np.linalg.solve, []
 

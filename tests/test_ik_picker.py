@@ -9,7 +9,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from lab.control import CommandSet, IKSolver, projected_gradient_step, trajectories  # noqa: E402
+from lab.control import CommandSet, IKConfig, IKSolver, projected_gradient_step, trajectories  # noqa: E402
 from lab.errors import InputError  # noqa: E402
 from lab.learn import load_model  # noqa: E402
 from lab.viz import IKPicker  # noqa: E402
@@ -115,7 +115,7 @@ def test_projected_gradient_step_is_the_solvers_trial_step(model, three_cable):
         u0 = commands.project(rng.uniform(0, 3, 3))
         target = model.predict(commands.project(rng.uniform(0, 3, 3)))
         _, J = model.predict_and_jacobian(u0)
-        first = IKSolver(model, commands, "gd", max_iter=1).solve(target, u0)
+        first = IKSolver(model, commands, IKConfig("gd", max_iter=1)).solve(target, u0)
         assert first.evaluations == 2  # Armijo took the first trial step, 1 / |J|_F^2
         step = projected_gradient_step(model, u0, target, 1.0 / np.sum(J * J), commands)
         np.testing.assert_array_equal(step, first.u_motor)

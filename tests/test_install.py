@@ -60,7 +60,7 @@ def test_wheel_contents(wheel):
     ):
         assert data in names, f"{data} missing from the wheel"
     assert not any(n.startswith(("tests/", "notebooks/", "data/")) for n in names)
-    assert "lab = lab.cli:main" in entry_points
+    assert "lab = lab.__main__:run" in entry_points
     assert "License-Expression: MIT" in metadata and "Name: softarm-lab" in metadata
     assert any(n.endswith("licenses/LICENSE") for n in names)
 

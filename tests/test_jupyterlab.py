@@ -6,7 +6,8 @@ runs chapter 01's import cell in a kernel the server starts, through its REST an
 websocket API, and checks that the kernel is this .venv's Python with the repository's
 ``lab`` and draws figures inline; the other loads the JupyterLab page with chapter 01 open
 in headless Chromium and checks that the notebook's title is drawn. A third, without a
-server, checks the README's "Notebook parameters" tables against the parameters cells.
+server, checks the "Notebook parameters" tables (docs/notebook-parameters.md) against the
+parameters cells.
 """
 
 import json
@@ -207,13 +208,13 @@ def test_jupyterlab_page_draws_chapter_01(server, tmp_path):
     assert title.split("—")[0].strip() in run.stdout and "finite-element" in run.stdout, "title cell not drawn"
 
 
-def test_readme_documents_every_notebook_parameter():
-    """README "Notebook parameters": one table per chapter, a row per parameter of its
+def test_docs_document_every_notebook_parameter():
+    """docs/notebook-parameters.md: one table per chapter, a row per parameter of its
     parameters cell (papermill's reading of it) with the same default."""
     import re
 
-    readme = (ROOT / "README.md").read_text()
-    section = readme.split("## Notebook parameters", 1)[1].split("\n## ", 1)[0]
+    doc = "docs/notebook-parameters.md"
+    section = (ROOT / doc).read_text()
     problems = []
     for nb in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb")):
         if f"**`{nb.name}`**" not in section:
@@ -224,9 +225,9 @@ def test_readme_documents_every_notebook_parameter():
         params = papermill.inspect_notebook(str(nb))
         for name, p in params.items():
             if name not in rows:
-                problems.append(f"{nb.name}: {name} (default {p['default']}) is not in the README")
+                problems.append(f"{nb.name}: {name} (default {p['default']}) is not in {doc}")
             elif rows[name] != p["default"]:
-                problems.append(f"{nb.name}: {name} default {p['default']}, README says {rows[name]}")
+                problems.append(f"{nb.name}: {name} default {p['default']}, {doc} says {rows[name]}")
         extra = rows.keys() - params
-        problems += [f"{nb.name}: README lists {name}, the notebook has no such parameter" for name in extra]
+        problems += [f"{nb.name}: {doc} lists {name}, the notebook has no such parameter" for name in extra]
     assert not problems, "\n".join(problems)

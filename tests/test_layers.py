@@ -3,13 +3,16 @@
 Every import of a ``lab`` module -- at module level *or inside a function* -- is read from
 the source with :mod:`ast`. Each module belongs to a layer (its top-level subpackage or
 module under ``lab``); a module may import only from its own layer or from layers listed
-before it in ``LAYERS``, and the module graph has no cycle.
+before it in ``LAYERS``, and the module graph has no cycle. The same reading checks the
+shape of the code: the rigs alone parse ``--rig`` strings, command modules stay thin and
+independent, every subpackage declares ``__all__``, and no code cites an issue number.
 """
 
 from __future__ import annotations
 
 import ast
 import importlib
+import re
 from pathlib import Path
 
 import pytest
@@ -17,27 +20,43 @@ import pytest
 LAB = Path(__file__).resolve().parent.parent / "lab"
 
 #: The pipeline, lowest first: description -> fem (mesh, energy, statics) -> data -> model
-#: (learn) -> IK and trajectories (control) -> rig -> tracking; drawing and the CLI on top.
+#: (learn) -> IK and trajectories (control) -> rig -> tracking -> studies; drawing and the CLI on top.
 LAYERS = [
     "lab",
     "errors",
+    "specs",
     "files",
     "workers",
     "description",
     "fem",
     "data",
     "learn",
+    "dynamics",
     "control",
     "rig",
     "transfer",
     "tracking",
+    "studies",
     "peers",
     "viz",
     "course",
     "cli",
     "__main__",
 ]
-SUBPACKAGES = ["fem", "data", "learn", "control", "rig", "transfer", "tracking", "peers", "viz", "cli"]
+SUBPACKAGES = [
+    "fem",
+    "data",
+    "learn",
+    "dynamics",
+    "control",
+    "rig",
+    "transfer",
+    "tracking",
+    "studies",
+    "peers",
+    "viz",
+    "cli",
+]
 
 
 def module_name(path: Path) -> str:
@@ -101,6 +120,18 @@ def test_control_does_not_import_learn():
         f"{a} imports {b}"
         for a, deps in graph().items()
         if a.startswith("lab.control")
+        for b in deps
+        if b.startswith("lab.learn")
+    ]
+    assert not bad, bad
+
+
+def test_rig_does_not_import_learn():
+    # A rig drives a robot; the foam's dynamics it needs live below it (lab.dynamics), not in the model stage.
+    bad = [
+        f"{a} imports {b}"
+        for a, deps in graph().items()
+        if a.startswith("lab.rig")
         for b in deps
         if b.startswith("lab.learn")
     ]
@@ -185,3 +216,180 @@ def test_errors_derive_from_lab_error():
                 and not issubclass(obj, Warning)
             ):
                 assert issubclass(obj, LabError), f"{info.name}.{name} does not derive from LabError"
+
+
+# --- the command line: one thin module per command --------------------------------------
+
+#: the most lines a command's ``run`` may have: it reads its settings and calls the stages
+RUN_MAX_LINES = 40
+
+
+def command_modules() -> dict[str, str]:
+    """Command name -> module name, from :data:`lab.cli.COMMANDS`."""
+    import lab.cli
+
+    return {cmd: m if isinstance(m, str) else m.__name__ for cmd, m in lab.cli.COMMANDS.items()}
+
+
+def cli_path_to_command(g: dict[str, set[str]], start: str, commands: set[str]) -> list[str] | None:
+    """The import chain from command module ``start`` to another command module through
+    shared ``lab.cli`` helper modules, or None."""
+    seen, todo = {start}, [[start]]
+    while todo:
+        chain = todo.pop(0)
+        for m in sorted(g.get(chain[-1], ())):
+            if m in seen or not m.startswith("lab.cli.") or m == "lab.cli":
+                continue
+            if m in commands:
+                return chain + [m]
+            seen.add(m)
+            todo.append(chain + [m])
+    return None
+
+
+def test_commands_do_not_import_each_other():
+    # Code two commands share lives in a helper module of lab/cli (paths, signals, flags, ...)
+    # or in the stages, never in another command's module.
+    commands = set(command_modules().values())
+    g = graph()
+    bad = [" -> ".join(chain) for c in sorted(commands) if (chain := cli_path_to_command(g, c, commands))]
+    assert not bad, "command modules importing other command modules:\n" + "\n".join(bad)
+
+
+def test_command_run_is_short():
+    long = {}
+    for module in sorted(set(command_modules().values())):
+        path = LAB.parent / Path(*module.split("."))
+        path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+        runs = [n for n in ast.parse(path.read_text()).body if isinstance(n, ast.FunctionDef) and n.name == "run"]
+        assert runs, f"{module} has no run(args) function"
+        if (n := runs[0].end_lineno - runs[0].lineno + 1) > RUN_MAX_LINES:
+            long[module] = n
+    assert not long, f"run() over {RUN_MAX_LINES} lines: {long}"
+
+
+# --- the --rig grammar is read in lab/rig only ------------------------------------------
+
+#: a literal in the --rig grammar: ``twin:...``, ``hardware:...``, ``random:...``, ``sim:...``
+RIG_LITERAL = re.compile(r"^(sim|twin|hardware|random):")
+
+
+def _rig_named(node: ast.AST) -> bool:
+    """Whether an expression is a rig string by its name: ``rig``, ``args.rig``, ``str(spec)``,
+    ``rig_spec`` -- not a field of a parsed spec such as ``rig_spec.kind``."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "str" and node.args:
+        return _rig_named(node.args[0])
+    name = node.id if isinstance(node, ast.Name) else node.attr if isinstance(node, ast.Attribute) else ""
+    return name in ("rig", "spec", "rig_spec")
+
+
+def _str_literals(node: ast.AST) -> list[str]:
+    items = node.elts if isinstance(node, ast.Tuple | ast.List | ast.Set) else [node]
+    return [i.value for i in items if isinstance(i, ast.Constant) and isinstance(i.value, str)]
+
+
+def rig_string_parsing(source: str) -> list[tuple[int, str]]:
+    """(line, code) of every place ``source`` takes a ``--rig`` string apart: a ``":"`` split or
+    partition of a rig-named value, a prefix test or comparison against a literal of the rig
+    grammar (``"twin:"``, ``"hardware:"``, ...), or a rig-named value tested against any string
+    literal. Help and error texts that only mention the forms are not parsing."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            method, receiver, args = node.func.attr, node.func.value, node.args
+            literals = [v for a in args for v in _str_literals(a)]
+            if method in ("partition", "rpartition", "split", "rsplit") and literals[:1] == [":"]:
+                hit = _rig_named(receiver)
+            elif method in ("startswith", "endswith"):
+                hit = any(RIG_LITERAL.match(v) for v in literals) or (bool(literals) and _rig_named(receiver))
+            else:
+                continue
+        elif isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+            literals = [v for o in operands for v in _str_literals(o)]
+            hit = any(RIG_LITERAL.match(v) for v in literals) or (
+                bool(literals) and any(_rig_named(o) for o in operands if not _str_literals(o))
+            )
+        else:
+            continue
+        if hit:
+            found.append((node.lineno, ast.unparse(node)))
+    return sorted(found)
+
+
+def test_rig_parser_finder():
+    src = (
+        'kind, _, arg = str(spec).partition(":")\n'
+        'f = args.rig.partition(":")[2]\n'
+        'a = arg.startswith("random:")\n'
+        'b = args.rig == "sim"\n'
+        'c = rig.startswith("twin")\n'
+        'd = label in ("hardware:x", "y")\n'
+        'p.add_argument("--rig", help="sim, twin, twin:DEFECTS.toml, twin:random:SEED or hardware:RIG.toml")\n'
+        'raise InputError(f"rig {rig!r}: expected twin:random:SEED")\n'
+        'e = f"random:{k}"\n'
+        'g = name.split(":")\n'
+        'h = mode == "sim-only"\n'
+        'i = rig_spec.kind != "twin"\n'
+    )
+    assert [line for line, _ in rig_string_parsing(src)] == [1, 2, 3, 4, 5, 6]
+
+
+def test_only_rigs_parse_rig_strings():
+    bad = [
+        f"{module_name(p)}:{line}: {code}"
+        for p in sorted(LAB.rglob("*.py"))
+        if not module_name(p).startswith("lab.rig")
+        for line, code in rig_string_parsing(p.read_text())
+    ]
+    assert not bad, "--rig strings taken apart outside lab/rig (use lab.rig's parser):\n" + "\n".join(bad)
+
+
+# --- every subpackage exports, no issue numbers -------------------------------------------
+
+
+def declares_all(path: Path) -> bool:
+    """Whether the module at ``path`` assigns ``__all__`` at its top level."""
+    for node in ast.parse(path.read_text()).body:
+        targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+        if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+            return True
+    return False
+
+
+def test_every_subpackage_declares_all():
+    packages = sorted(p.parent for p in LAB.rglob("__init__.py") if p.parent != LAB)
+    unlisted = [p.name for p in packages if p.parent == LAB and p.name not in SUBPACKAGES]
+    assert not unlisted, f"subpackages missing from SUBPACKAGES: {unlisted}"
+    missing = [module_name(p / "__init__.py") for p in packages if not declares_all(p / "__init__.py")]
+    assert not missing, f"subpackages without __all__: {missing}"
+
+
+#: "issue 12", "issues 3", "issue #4": the history lives in git and docs/design, not in the code
+ISSUE_CITATION = re.compile(r"\bissues?\s*#?\d+", re.IGNORECASE)
+
+
+def test_no_issue_numbers_in_code_or_readme():
+    files = [p for p in LAB.rglob("*") if p.is_file() and "__pycache__" not in p.parts]
+    files.append(LAB.parent / "README.md")
+    bad = []
+    for p in sorted(files):
+        try:
+            text = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            continue
+        for i, line in enumerate(text.splitlines(), 1):
+            if m := ISSUE_CITATION.search(line):
+                bad.append(f"{p.relative_to(LAB.parent)}:{i}: {m.group(0)}")
+    assert not bad, f"{len(bad)} issue citations:\n" + "\n".join(bad)
+
+
+def test_no_test_named_after_an_issue():
+    bad = [
+        f"{p.name}::{n.name}"
+        for p in sorted((LAB.parent / "tests").rglob("*.py"))
+        for n in ast.walk(ast.parse(p.read_text()))
+        if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef)
+        and re.search(r"issues?_?\d+", n.name, re.IGNORECASE)
+    ]
+    assert not bad, f"tests named after issue numbers: {bad}"

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from lab.data.designs import random_commands
+from lab.dynamics.relaxation import Relaxation
 from lab.errors import InputError
-from lab.learn.relaxation import Relaxation
 from lab.rig.asbuilt import load_defects
 from lab.rig.capture import capture
 from lab.rig.protocol import Protocol
@@ -151,7 +151,8 @@ def test_capture_cli_predictive_writes_protocol_and_uncertainty(three_cable, tmp
 @pytest.mark.slow
 def test_predictive_capture_through_the_hardware_path(three_cable, tmp_path):
     """The real dynamixel-sdk and NatNet client against the emulated bus and server, driving an
-    as-built body with a quick foam (real time): the predictive capture runs unchanged."""
+    as-built body with a quick foam: the predictive capture runs unchanged. On the bench's
+    virtual clock, so the frames' times and the body's lag do not depend on the machine's load."""
     from lab.rig.emulators import EmulatedBench
     from lab.rig.hardware import HardwareRig
 
@@ -159,8 +160,9 @@ def test_predictive_capture_through_the_hardware_path(three_cable, tmp_path):
     body = AsBuiltBody(three_cable, fast, **COARSE)
     u = random_commands(three_cable, 5, seed=7)
     protocol = Protocol(kind="predictive", n_learn=3, reset_u_rad=0.5, settle_timeout_s=10.0)
-    with EmulatedBench(three_cable, body, noise_m=5e-5) as bench:
-        with HardwareRig.from_config(bench.write_config(tmp_path / "rig.toml"), three_cable) as rig:
+    with EmulatedBench(three_cable, body, noise_m=5e-5, virtual_time=True) as bench:
+        cfg = bench.write_config(tmp_path / "rig.toml")
+        with HardwareRig.from_config(cfg, three_cable, **bench.rig_options()) as rig:
             res = capture(rig, u, tmp_path / "j.csv", protocol)
     assert res.predicted.tolist() == [False] * 3 + [True] * 2
     truth = np.array([body.quasi_static_tip(ui) for ui in u])

@@ -5,7 +5,7 @@ import pytest
 from helpers import fd_jacobian
 
 from lab.control.command_set import CommandSet
-from lab.control.ik import IKSolver
+from lab.control.ik import IKConfig, IKSolver
 from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 from lab.description import load_robot
 from lab.learn.mlp import init_mlp
@@ -76,10 +76,11 @@ def test_frozen_arm_misses_a_target_the_full_arm_reaches(six_net, six_commands):
     # them frozen at 0 the tip can only move on a 3-parameter family that generally misses it.
     u_star = np.array([2.0, 1.5, 0.5, 2.5, 1.0, 2.2])
     target = six_net.predict(u_star)
-    full = IKSolver(six_net, six_commands, "lm").solve(target, u0=np.full(6, 1.0))
+    full = IKSolver(six_net, six_commands, IKConfig("lm")).solve(target, u0=np.full(6, 1.0))
     assert full.reachable
     frozen = FrozenMotors(six_net, FREE, np.zeros(6))
-    part = IKSolver(frozen, frozen_commands(six_commands, FREE, np.zeros(6)), "lm").solve(target, u0=np.ones(3))
+    part_commands = frozen_commands(six_commands, FREE, np.zeros(6))
+    part = IKSolver(frozen, part_commands, IKConfig("lm")).solve(target, u0=np.ones(3))
     assert part.u_motor.shape == (3,)
     assert np.allclose(part.p_pred_W, six_net.predict(frozen.full(part.u_motor)))
     assert part.residual_m > 100 * full.residual_m
@@ -95,8 +96,8 @@ def _small_circle(net, u_centre, n=12, radius_rad=0.3):
 def test_follow_polishes_away_the_regulariser_bias(six_net, six_commands):
     targets = _small_circle(six_net, np.full(6, 1.5))
     kw = dict(reg_weight=1e-5, posture_weight=1e-5, u_posture=np.full(6, 1.0))
-    biased = IKSolver(six_net, six_commands, polish=False, **kw).follow(targets, u0=np.full(6, 1.5))
-    exact = IKSolver(six_net, six_commands, **kw).follow(targets, u0=np.full(6, 1.5))
+    biased = IKSolver(six_net, six_commands, IKConfig(polish=False, **kw)).follow(targets, u0=np.full(6, 1.5))
+    exact = IKSolver(six_net, six_commands, IKConfig(**kw)).follow(targets, u0=np.full(6, 1.5))
     assert biased.residual_m.min() > 1e-5  # the regulariser alone pulls the tip off
     assert exact.reachable.all() and exact.residual_m.max() < 1e-8
     assert all(r.iterations > b.iterations for r, b in zip(exact.results, biased.results))
@@ -107,7 +108,7 @@ def test_posture_term_pulls_the_redundant_solution_towards_the_posture(six_net, 
     u_posture = np.array([0.5, 2.5, 0.5, 2.5, 0.5, 2.5])
     dist = {}
     for wp in (0.0, 1e-6):
-        tr = IKSolver(six_net, six_commands, reg_weight=1e-6, posture_weight=wp, u_posture=u_posture).follow(
+        tr = IKSolver(six_net, six_commands, IKConfig(reg_weight=1e-6, posture_weight=wp, u_posture=u_posture)).follow(
             targets, u0=np.full(6, 1.5)
         )
         assert tr.reachable.all()
@@ -118,12 +119,12 @@ def test_posture_term_pulls_the_redundant_solution_towards_the_posture(six_net, 
 @pytest.mark.parametrize(
     "kw, match",
     [
-        ({"posture_weight": -1.0}, "posture_weight"),
-        ({"posture_weight": np.nan}, "posture_weight"),
+        ({"posture_weight": -1.0}, "posture.weight"),
+        ({"posture_weight": np.nan}, "posture.weight"),
         ({"u_posture": np.full(6, 3.0)}, "u_posture"),
         ({"u_posture": np.ones(3)}, "u_posture"),
     ],
 )
 def test_bad_posture_settings_raise(six_net, six_commands, kw, match):
     with pytest.raises(ValueError, match=match):
-        IKSolver(six_net, six_commands, **kw)
+        IKSolver(six_net, six_commands, IKConfig(**kw))

@@ -1,12 +1,12 @@
-"""The relaxation filter (lab.learn.relaxation) and its fits (lab.learn.relaxation_fit)."""
+"""The relaxation filter (lab.dynamics.relaxation) and its fits (lab.dynamics.relaxation_fit)."""
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from lab.dynamics.relaxation import DynamicsFileError, Relaxation, load_relaxation
+from lab.dynamics.relaxation_fit import Segment, Stream, fit_exponentials, fit_stream, input_knots
 from lab.errors import InputError
-from lab.learn.relaxation import DynamicsFileError, Relaxation, load_relaxation
-from lab.learn.relaxation_fit import Segment, Stream, fit_exponentials, fit_stream, input_knots
 
 RELAX = Relaxation([0.4, 2.5], [0.7, 0.3])
 

@@ -23,7 +23,19 @@ TRAIN = ["train", "{dir}/data.csv", "--hidden", "3", "--epochs", "3"]
 SPLITS = ["splits", "{dir}/data.csv", "--hidden", "3", "--n-splits", "2", "--jobs", "1"]
 TRACK = ["track", "--model", "{dir}/model.npz", "--trajectory", "{dir}/traj.csv", *COARSE]
 CAPTURE = ["capture", "--rig", "twin", "--grid", "2", "--no-progress"]
+DATA_CURVE = ["data-curve", "--n-rings", "1", "--n-axial", "4", "--heldout", "12", "--epochs", "3", "--no-tracking",
+              "--samples-per-hour", "300", "--jobs", "1", "--strategies", "random"]  # fmt: skip
+#: A data-curve file of one row, as `data-curve ... --ns 8` writes it.
+CURVE_ROW = (
+    "robot,rig,rig_spec,strategy,n,grid_levels,seed,model,model_error_m,circle_m,square_m,rose_m,tracking_mean_m,"
+    "fit_s,design_s,capture_h,heldout_id\nthree-cable,FEM,sim,random,8,,0,mlp,0.02,nan,nan,nan,nan,0.1,0.1,0.02,ab\n"
+)
 INPUTS = ("{dir}/data.csv", "{dir}/data.csv.json", "{dir}/model.npz", "{dir}/robot.toml", "{dir}/traj.csv")
+#: A points file of two measured points, as an interrupted `track` on the three-cable arm leaves it.
+KEPT_POINTS = (
+    "i,target_x,target_y,target_z,u0,u1,u2,x,y,z,settled,wait_s\n"
+    "0,0.18,0.0,-0.01,1.0,1.0,1.0,0.18,0.0,-0.01,1,2.0\n1,0.18,0.01,-0.01,1.0,1.2,0.8,0.18,0.01,-0.01,1,2.0\n"
+)
 
 
 def edit(name, old, new):
@@ -75,6 +87,18 @@ def rig_config(d: Path):
     (d / "rig.toml").write_text((ROOT / "lab" / "rigs" / "hardware-example.toml").read_text())
 
 
+def dynamic_model(metadata: str | None):
+    """A setup writing ``dyn.npz``: empty (``None``) or a dynamic model with this metadata text."""
+
+    def setup(d: Path):
+        if metadata is None:
+            (d / "dyn.npz").write_bytes(b"")
+        else:
+            np.savez(d / "dyn.npz", metadata=np.array(metadata), tau_s=np.array([0.5]), weight=np.array([[1.0]]))
+
+    return setup
+
+
 _held = {}
 
 
@@ -88,6 +112,51 @@ def hold_lock(path):
 
 
 CASES = [
+    # --- 0. inputs that are not what they claim to be: binary files, broken metadata ----------
+    Case(
+        "robot-toml-not-utf8",
+        [*SIM, "--robot", "{dir}/model.npz", "--out", "{dir}/o.csv"],
+        2,
+        ("model.npz", "not UTF-8"),
+        ("{dir}/model.npz",),
+        absent=("{dir}/o.csv",),
+    ),
+    Case(
+        "defects-toml-not-utf8",
+        [*TRACK[:5], "--rig", "twin:{dir}/model.npz", "--out", "{dir}/r.json"],
+        2,
+        ("model.npz", "not UTF-8"),
+        ("{dir}/model.npz",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "hardware-config-not-utf8",
+        ["capture", "--rig", "hardware:{dir}/model.npz", "--grid", "2", "--out", "{dir}/o.csv"],
+        2,
+        ("model.npz", "not UTF-8"),
+        ("{dir}/model.npz",),
+        absent=("{dir}/o.csv",),
+    ),
+    *(
+        Case(
+            f"{cmd}-dynamic-model-{name}",
+            [*argv, "--dynamic-model", "{dir}/dyn.npz", "--out", "{dir}/o.json"],
+            2,
+            ("dyn.npz", words),
+            ("{dir}/dyn.npz",),
+            absent=("{dir}/o.json",),
+            setup=dynamic_model(metadata),
+        )
+        for cmd, argv in (
+            ("track", [*TRACK[:5], "--rig", "twin", "--period-s", "5"]),
+            ("capture", [*CAPTURE, "--protocol", "predictive"]),
+        )
+        for name, metadata, words in (
+            ("empty", None, "not a readable dynamic-model file"),
+            ("list-metadata", "[1, 2]", "metadata must be a JSON object"),
+            ("text-version", '{"kind": "lab.dynamics", "format_version": "x"}', "format_version must be an integer"),
+        )
+    ),
     # --- 1. checkpoints: only what the run made is ever deleted ---------------------------
     Case(
         "checkpoint-with-foreign-files",
@@ -246,6 +315,29 @@ CASES = [
         setup=hold_lock("o.csv"),
         absent=("{dir}/o.csv",),
     ),
+    Case(
+        "capture-journal-locked",
+        [*CAPTURE, "--out", "{dir}/c.csv"],
+        2,
+        ("c.journal.csv is being written by another process",),
+        setup=hold_lock("c.journal.csv"),
+        unchanged=("{dir}/c.journal.csv.lock",),  # the holder's lock file stays
+        absent=("{dir}/c.csv",),
+    ),
+    Case(
+        "capture-settle-tol-zero",
+        [*CAPTURE, "--settle-tol-mm", "0", "--out", "{dir}/c.csv"],
+        2,
+        ("--settle-tol-mm must be finite and > 0",),
+        absent=("{dir}/c.csv", "{dir}/c.journal.csv"),
+    ),
+    Case(
+        "capture-predictive-without-reset",
+        [*CAPTURE, "--protocol", "predictive", "--no-reset", "--out", "{dir}/c.csv"],
+        2,
+        ("--protocol predictive", "--no-reset"),
+        absent=("{dir}/c.csv", "{dir}/c.journal.csv"),
+    ),
     # --- 8. unknown fields are refused, with the closest name ----------------------------
     Case(
         "robot-misspelt-field",
@@ -301,7 +393,62 @@ CASES = [
         ("would need about", "TB of memory", "available"),
     ),
     Case(
-        "zero-rings", [*SIM[:5], "--n-rings", "0", "--out", "{dir}/o.csv"], 2, ("n_rings must be a positive integer",)
+        "zero-rings", [*SIM[:5], "--n-rings", "0", "--out", "{dir}/o.csv"], 2, ("--n-rings must be a positive integer",)
+    ),
+    # --- sampling designs: refused before any work; counts bounded by what the machine holds --
+    Case(
+        "sobol-huge",
+        [SIM[0], *SIM[3:], "--sobol", "1000000000", "--out", "{dir}/o.csv"],
+        2,
+        ("--design sobol --n 1000000000", "at most 100000"),
+        absent=("{dir}/o.csv", "{dir}/o.csv.chunks"),
+    ),
+    Case("lhs-huge", [SIM[0], *SIM[3:], "--lhs", "200000", "--out", "{dir}/o.csv"], 2, ("at most 100000",)),
+    Case(
+        "design-n-huge",
+        [SIM[0], *SIM[3:], "--design", "random", "--n", "1000000000", "--out", "{dir}/o.csv"],
+        2,
+        ("--design random --n 1000000000", "at most 100000"),
+    ),
+    Case(
+        "grid-huge",
+        [SIM[0], *SIM[3:], "--grid", "100000", "--out", "{dir}/o.csv"],
+        2,
+        ("--grid 100000", "candidate commands", "at most 4,194,304"),
+        absent=("{dir}/o.csv", "{dir}/o.csv.chunks"),
+    ),
+    Case(
+        "active-huge",
+        [SIM[0], *SIM[3:], "--active", "1000000000", "--batch", "10", "--out", "{dir}/o.csv"],
+        2,
+        ("--active must be at most 100000",),
+    ),
+    Case(
+        "active-batch-over-pool",
+        [SIM[0], *SIM[3:], "--active", "100", "--batch", "5000", "--out", "{dir}/o.csv"],
+        2,
+        ("--batch must be at most 4096",),
+    ),
+    Case(
+        "active-initial-too-small",
+        [SIM[0], *SIM[3:], "--active", "10", "--batch", "4", "--out", "{dir}/o.csv"],
+        2,
+        ("--active 10", "too few", "--active 12 or more"),
+        absent=("{dir}/o.csv", "{dir}/o.csv.chunks"),
+    ),
+    Case(
+        "capture-active-initial-too-small",
+        [*CAPTURE[:3], *CAPTURE[5:], "--active", "10", "--batch", "4", "--out", "{dir}/c.csv"],
+        2,
+        ("--active 10", "too few"),
+        absent=("{dir}/c.csv", "{dir}/c.journal.csv"),
+    ),
+    Case(
+        "chunk-size-zero",
+        [SIM[0], *SIM[3:], "--sobol", "4", "--chunk-size", "0", "--out", "{dir}/o.csv"],
+        2,
+        ("--chunk-size must be a positive integer",),
+        absent=("{dir}/o.csv", "{dir}/o.csv.chunks"),
     ),
     Case(
         "safety-limits-not-a-list",
@@ -344,6 +491,28 @@ CASES = [
         ("too few",),
         setup=dataset_of([[0.1, 0.2, 0.3]]),
     ),
+    Case(
+        "train-min-grad-nan",
+        [*TRAIN, "--algorithm", "br", "--min-grad", "nan", "--out", "{dir}/m.npz"],
+        2,
+        ("--min-grad", "finite"),
+        absent=("{dir}/m.npz",),
+    ),
+    Case(
+        "train-network-too-big",
+        ["train", "{dir}/data.csv", "--hidden", "100000", "100000", "--out", "{dir}/m.npz"],
+        2,
+        ("--hidden 100000 100000", "of memory"),
+        absent=("{dir}/m.npz",),
+    ),
+    Case(
+        "transfer-network-too-big",
+        ["transfer", "--method", "real-only", "--real", "{dir}/data.csv", "--hidden", "100000", "--out", "{dir}/m.npz"],
+        2,
+        ("--hidden 100000:", "of memory"),
+        absent=("{dir}/m.npz",),
+    ),
+    Case("splits-negative-seed", [*SPLITS, "--seed", "-1", "--out", "{dir}/s.csv"], 2, ("--seed", ">= 0")),
     # --- classes that already held -----------------------------------------------------------
     Case("unknown-robot", [*SIM, "--robot", "no-such-robot", "--out", "{dir}/o.csv"], 2, ("unknown robot",)),
     Case("dataset-missing", ["train", "{dir}/none.csv", "--out", "{dir}/m.npz"], 2, ("dataset not found",)),
@@ -388,12 +557,172 @@ CASES = [
         ("not valid TOML",),
         setup=write("robot.toml", "[body\n"),
     ),
+    # --- data-curve: one run per output, a results file that cannot be read, bounded studies ---
+    Case(
+        "data-curve-output-locked",
+        [*DATA_CURVE, "--ns", "8", "--out", "{dir}/dc.csv"],
+        2,
+        ("being written by another run",),
+        setup=hold_lock("dc.csv"),
+        absent=("{dir}/dc.csv", "{dir}/dc.csv.json"),
+    ),
+    Case(
+        "data-curve-sidecar-not-json",
+        [*DATA_CURVE, "--ns", "8", "--out", "{dir}/dc.csv"],
+        2,
+        ("{dir}/dc.csv.json", "not valid JSON"),
+        ("{dir}/dc.csv", "{dir}/dc.csv.json"),
+        setup=both(write("dc.csv", CURVE_ROW), write("dc.csv.json", '{"settings": {')),
+    ),
+    Case(
+        "data-curve-sidecar-a-list",
+        [*DATA_CURVE, "--ns", "8", "--out", "{dir}/dc.csv"],
+        2,
+        ("{dir}/dc.csv.json", "must be a JSON object"),
+        ("{dir}/dc.csv", "{dir}/dc.csv.json"),
+        setup=both(write("dc.csv", CURVE_ROW), write("dc.csv.json", "[1, 2]")),
+    ),
+    Case(
+        "data-curve-n-not-a-number",
+        [*DATA_CURVE, "--ns", "8", "--out", "{dir}/dc.csv"],
+        2,
+        ("{dir}/dc.csv: line 2", "n 'eight' is not a number"),
+        ("{dir}/dc.csv",),
+        setup=write("dc.csv", CURVE_ROW.replace(",random,8,", ",random,eight,")),
+        absent=("{dir}/dc.csv.json",),
+    ),
+    Case(
+        "data-curve-ns-huge",
+        [*DATA_CURVE, "--ns", "8", "1000000000", "--out", "{dir}/dc.csv"],
+        2,
+        ("--ns must be at most 100000",),
+        absent=("{dir}/dc.csv",),
+    ),
+    Case(
+        "data-curve-maximin-over-its-limit",
+        [*DATA_CURVE, "maximin", "--ns", "5000", "--out", "{dir}/dc.csv"],
+        2,
+        ("--ns: a maximin design takes at most 2000",),
+    ),
+    Case(
+        "data-curve-seeds-many",
+        [*DATA_CURVE, "--ns", "8", "--seeds", *map(str, range(1001)), "--out", "{dir}/dc.csv"],
+        2,
+        ("--seeds: at most 1000 seeds",),
+        absent=("{dir}/dc.csv",),
+    ),
+    Case(
+        "data-curve-rows-many",
+        [*DATA_CURVE, "sobol", "--ns", *map(str, range(1, 5002)), "--out", "{dir}/dc.csv"],
+        2,
+        ("10,002 rows", "at most 10,000"),
+    ),
+    Case(
+        "data-curve-grid-levels-huge",
+        [*DATA_CURVE, "grid", "--grid-levels", "1000", "--ns", "8", "--out", "{dir}/dc.csv"],
+        2,
+        ("--grid-levels 1000", "candidate commands", "at most 4,194,304"),
+    ),
     Case(
         "unknown-rig",
         [*TRACK[:5], "--rig", "warp", "--out", "{dir}/r.json"],
         2,
         ("unknown rig 'warp'",),
         absent=("{dir}/r.json", "{dir}/r.json.points.csv"),
+    ),
+    # --- track: kept points are never lost or overwritten; one run per output; bounded runs ---
+    Case(
+        "track-points-file-the-user-wrote",
+        [*TRACK, "--out", "{dir}/r.json"],
+        2,
+        ("{dir}/r.json.points.csv", "not a points file", "nothing was changed"),
+        ("{dir}/r.json.points.csv",),
+        absent=("{dir}/r.json",),
+        setup=write("r.json.points.csv", "my own notes\n"),
+    ),
+    Case(
+        "track-rig-fails-at-once-keeps-points",
+        [*TRACK[:-4], "--rig", "hardware:{dir}/rig.toml", "--out", "{dir}/r.json"],
+        1,
+        ("the 2 points kept from an earlier run are still in {dir}/r.json.points.csv",),
+        ("{dir}/r.json.points.csv",),
+        absent=("{dir}/r.json",),
+        setup=both(rig_config, write("r.json.points.csv", KEPT_POINTS)),
+    ),
+    Case(
+        "track-output-locked",
+        [*TRACK, "--closed-loop", "ilc", "--out", "{dir}/r.json"],
+        2,
+        ("being written by another run",),
+        absent=("{dir}/r.json", "{dir}/r.json.points.csv"),
+        setup=hold_lock("r.json"),
+    ),
+    Case(
+        "track-stream-max-spread-negative",
+        [*TRACK, "--period-s", "2", "--max-spread-mm", "-1", "--out", "{dir}/r.json"],
+        2,
+        ("--max-spread-mm is not used in a streamed run",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-stream-ignored-ik-flags",
+        [*TRACK, *"--period-s 2 --max-spread-mm 0.001 --spread-weight 5 --reg-weight 1 --out {dir}/r.json".split()],
+        2,
+        ("--reg-weight, --spread-weight, --max-spread-mm are not used in a streamed run",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-stream-passes-ignored",
+        [*TRACK, "--period-s", "2", "--passes", "3", "--out", "{dir}/r.json"],
+        2,
+        ("--passes is not used in a streamed run",),
+    ),
+    Case(
+        "track-soft-ik-max-spread",
+        ["track", "--soft-ik", *TRACK[3:], "--max-spread-mm", "1", "--out", "{dir}/r.json"],
+        2,
+        ("--max-spread-mm is not used with --soft-ik",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-lead-in-huge",
+        [*TRACK, "--period-s", "2", "--lead-in-s", "1e9", "--out", "{dir}/r.json"],
+        2,
+        ("--lead-in-s must be at most 600 s",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-periods-huge",
+        [*TRACK, "--period-s", "2", "--n-periods", "1000000000", "--out", "{dir}/r.json"],
+        2,
+        ("commands: at most 20000",),
+    ),
+    Case(
+        "track-passes-huge",
+        [*TRACK, "--closed-loop", "ilc", "--passes", "1000000", "--out", "{dir}/r.json"],
+        2,
+        ("--passes must be at most 100",),
+        absent=("{dir}/r.json", "{dir}/r.json.points.csv"),
+    ),
+    Case(
+        "track-n-points-huge",
+        [*TRACK[:4], "circle", "--n-points", "1000000000", *COARSE, "--out", "{dir}/r.json"],
+        2,
+        ("--n-points must be at most 10000",),
+    ),
+    Case(
+        "fit-dynamics-step-hold-huge",
+        ["fit-dynamics", "--rig", "twin", "--step-hold-s", "1e9", "--out", "{dir}/d.npz"],
+        2,
+        ("--step-hold-s must be at most 600 s",),
+        absent=("{dir}/d.npz",),
+    ),
+    Case(
+        "fit-dynamics-probe-too-long",
+        ["fit-dynamics", "--rig", "twin", "--n-steps", "1000", "--step-hold-s", "600", "--out", "{dir}/d.npz"],
+        2,
+        ("hold the rig up to", "at most 4 h"),
+        absent=("{dir}/d.npz",),
     ),
 ]
 
@@ -410,7 +739,7 @@ def test_sweep(case, tmp_path, capsys, monkeypatch):
 
 def test_sweep_covers_every_command():
     commands = {c.argv[0] for c in CASES}
-    assert commands == {"simulate", "train", "splits", "track", "capture"}
+    assert commands == {"simulate", "train", "splits", "track", "capture", "data-curve", "fit-dynamics"}
 
 
 # --- mechanisms -------------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from lab.data.dataset import read_dataset
 from lab.fem.statics import solve_static
 from lab.rig.base import MocapFrame, Rig, RigError
 from lab.rig.sim import SimRig
-from lab.tracking import table1
+from lab.studies import table1
 from lab.tracking.track import REQUIRED_KEYS, read_result, run_trajectory, write_result
 
 
@@ -293,3 +293,47 @@ def test_table1_rows_merge(tmp_path):
         table1.update_table1({"Sim Data + Sim Robot": {"star": 1.0}}, csv, md, source="x")
     with pytest.raises(table1.Table1Error, match="finite"):
         table1.update_table1({"Sim Data + Sim Robot": {"circle": float("nan")}}, csv, md, source="x")
+
+
+def test_a_rerun_never_loses_the_kept_points(model_file, tmp_path, monkeypatch, capsys):
+    """An ILC run stopped after 6 points, a rerun stopped after 2, a rerun whose rig fails at
+    once: the points file only grows (6, then 8 rows, then the same bytes); a run that
+    completes writes the result and removes it."""
+    from lab.rig.protocol import measure as real_measure
+
+    out, points = tmp_path / "r.json", tmp_path / "r.json.points.csv"
+    argv = ["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "4", *COARSE]
+    argv += ["--closed-loop", "ilc", "--passes", "3", "--out", str(out)]
+
+    def stop_after(n):
+        calls = []
+
+        def measure(rig, u, protocol):
+            calls.append(1)
+            if len(calls) > n:
+                raise KeyboardInterrupt
+            return real_measure(rig, u, protocol)
+
+        return measure
+
+    monkeypatch.setattr("lab.tracking.closed_loop.measure", stop_after(6))
+    assert main(argv) == 130
+    assert len(points.read_text().splitlines()) == 1 + 6 and "the 6 points measured so far" in capsys.readouterr().err
+    monkeypatch.setattr("lab.tracking.closed_loop.measure", stop_after(2))
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert "the 2 points measured so far" in err and "after 6 kept from an earlier run" in err
+    lines = points.read_text().splitlines()
+    assert (
+        len(lines) == 1 + 8 and lines[0].startswith("i,target_x") and [r.split(",")[0] for r in lines[7:]] == ["0", "1"]
+    )
+    kept = points.read_bytes()
+
+    def no_rig(*args, **kwargs):
+        raise RigError("servo bus: no such device")
+
+    monkeypatch.setattr("lab.tracking.job.make_rig", no_rig)
+    assert main(argv) == 1
+    assert points.read_bytes() == kept and "the 8 points kept from an earlier run" in capsys.readouterr().err
+    monkeypatch.undo()
+    assert main(argv) == 0 and len(json.loads(out.read_text())["passes"]) == 3 and not points.exists()

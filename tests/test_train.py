@@ -290,3 +290,43 @@ def test_cli_splits_writes_one_row_per_split(tmp_path, capsys):
     )
     assert f"{1e3 * np.mean([r['test_mean_distance_m'] for r in ref]):.4f} mm" in printed
     assert main(["splits", str(DATA), "--n-splits", "0", "--out", str(out)]) == 2
+
+
+# ---- the training spec and the memory check ------------------------------------------------
+
+
+def test_train_spec_refuses_bad_settings_naming_the_flag():
+    from lab.errors import InputError
+    from lab.learn.train_spec import TrainSpec
+
+    assert TrainSpec().fit_kwargs()["hidden"] == (20, 20)
+    for kwargs, words in (
+        (dict(min_grad=float("nan")), "--min-grad"),
+        (dict(min_grad=-1.0), "--min-grad"),
+        (dict(epochs=0), "--epochs"),
+        (dict(hidden=(20, 0)), "--hidden widths must be positive"),
+        (dict(ratios=(1.0, -1.0, 0.0)), "--split"),
+        (dict(ratios=(float("nan"), 0.0, 0.0)), "--split"),
+        (dict(model="ensemble", members=1), "--members must be at least 2"),
+        (dict(seed=-1), "--seed"),
+        (dict(jobs=0), "--jobs"),
+    ):
+        with pytest.raises(InputError, match=words):
+            TrainSpec(**kwargs)
+
+
+def test_network_size_follows_the_lm_system_and_refuses_what_cannot_fit():
+    from lab.errors import InputError
+    from lab.learn.network_size import check_network_size, n_parameters, training_bytes
+
+    assert n_parameters((3, 20, 20, 3)) == 563
+    # 700,003 parameters: on 9 samples LM solves the 27 x 27 kernel system, on 277 the
+    # 700,003^2 primal one (terabytes)
+    assert training_bytes((3, 100000, 3), 9) < 1e9 < 1e12 < training_bytes((3, 100000, 3), 277)
+    assert training_bytes((3, 100000, 3), 277, "adam") < 1e9
+    assert check_network_size((3, 20, 20, 3), 277, available_bytes=10**9) < 10**8
+    with pytest.raises(InputError, match="--hidden 100000: .* would need about .* of memory"):
+        check_network_size((3, 100000, 3), 277, available_bytes=10**10)
+    u, y = smooth_problem()
+    with pytest.raises(InputError, match="--hidden 100000 100000"):
+        train(u, y, (100000, 100000))

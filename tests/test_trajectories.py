@@ -134,7 +134,7 @@ def test_six_cable_paths_need_the_second_stage_and_are_reachable_with_it():
     """Through the shipped six-cable model, with the regularised IK of notebook 06, every
     target is reached; with the short cables slack (first stage only) six-ring is not."""
     from lab.control.command_set import CommandSet
-    from lab.control.ik import IKSolver, grid_seeds
+    from lab.control.ik import IKConfig, IKSolver, grid_seeds
     from lab.control.redundancy import FrozenMotors, frozen_commands
     from lab.description import load_robot
     from lab.learn.mlp import load_model
@@ -143,7 +143,7 @@ def test_six_cable_paths_need_the_second_stage_and_are_reachable_with_it():
     model = load_model("data/model_sim_six_cable.npz")
     cs = CommandSet.from_robot(six)
     seeds = grid_seeds(model, cs, 4)
-    solver = IKSolver(model, cs, seeds=seeds, reg_weight=1e-6, posture_weight=1e-6)
+    solver = IKSolver(model, cs, IKConfig(reg_weight=1e-6, posture_weight=1e-6), seeds=seeds)
     for name in T.SIX_CABLE:
         tr = solver.follow(T.builtin(name))
         assert tr.reachable.all(), (name, int((~tr.reachable).sum()))

@@ -1,4 +1,4 @@
-"""The sim-to-real curve (issue 14): its measurements on an emulated as-built robot, the
+"""The sim-to-real curve: its measurements on an emulated as-built robot, the
 family statistics and findings, the figure, and the resumable ``transfer-curve`` command."""
 
 import csv
@@ -14,7 +14,7 @@ from lab.cli import main  # noqa: E402
 from lab.description import load_robot  # noqa: E402
 from lab.learn import load_model  # noqa: E402
 from lab.rig.twin import AsBuiltBody  # noqa: E402
-from lab.tracking.transfer_study import (  # noqa: E402
+from lab.studies.transfer_study import (  # noqa: E402
     curve_rows,
     evaluate_model,
     family_table1,

@@ -1,4 +1,4 @@
-"""Sim-to-real transfer from data (issue 14): fine-tuning with its prior, the GP residual
+"""Sim-to-real transfer from data: fine-tuning with its prior, the GP residual
 model (Jacobian against central differences, torch autograd and scikit-learn's own
 prediction), one-file storage that ``track --model`` reads, and the ``transfer`` command."""
 

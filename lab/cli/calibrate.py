@@ -2,9 +2,10 @@
 the calibrated robot as a description TOML that every command accepts as ``--robot``.
 
 The real samples are a dataset from ``capture`` (any rig: ``twin``, ``twin:random:SEED``,
-``hardware:RIG.toml``). The identified parameters (softness, stiffness gradient, eyelet
-shifts, slack per cable) and their standard deviations are comments at the top of the
-TOML; a JSON summary goes to stdout (and to ``--report``), progress to stderr.
+``hardware:RIG.toml``); the fit's flags are :class:`lab.transfer.CalibrationSpec`'s. The
+identified parameters (softness, stiffness gradient, eyelet shifts, slack per cable) and
+their standard deviations are comments at the top of the TOML; a JSON summary goes to
+stdout (and to ``--report``), progress to stderr.
 """
 
 from __future__ import annotations
@@ -14,8 +15,12 @@ import json
 import shlex
 import sys
 
+from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
-from lab.errors import InputError, LabRuntimeError
+from lab.fem.mesh_spec import MeshSpec
+from lab.transfer.calibration_run import CalibrationSpec
+
+MESH_HELP = {"n_rings": "mesh rings of the FEM fitted", "n_axial": "mesh layers of the FEM fitted"}
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -32,30 +37,20 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     c.add_argument("--robot", default="three-cable", help="nominal robot: shipped name or description TOML")
     c.add_argument("--out", required=True, help="output robot description (.toml)")
     c.add_argument("--report", help="also write the JSON summary here")
-    c.add_argument("--n-rings", type=int, help="mesh rings of the FEM fitted (default: the description's)")
-    c.add_argument("--n-axial", type=int, help="mesh layers of the FEM fitted (default: the description's)")
-    c.add_argument(
-        "--noise-m",
-        type=float,
-        default=5e-4,
-        help="tip error per coordinate the fit expects, m: mocap noise plus what the static FEM cannot "
-        "model; weighs the data against the prior (default 5e-4)",
-    )
-    c.add_argument(
-        "--axes", choices=["yz", "xyz"], default="yz", help="eyelet-shift components identified (default yz)"
-    )
-    c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")
+    words = {"n_rings": "the description's", "n_axial": "the description's"}
+    add_spec_flags(c, MeshSpec, help=MESH_HELP, default_words=words)
+    add_spec_flags(c, CalibrationSpec)
     c.set_defaults(func=run)
     return c
 
 
 def run(args) -> int:
-    from lab.data.dataset import read_dataset
     from lab.description import load_robot
-    from lab.fem.mesh import check_mesh_size
-    from lab.files import atomic_write_text, code_version, json_default
-    from lab.transfer import calibrate, write_calibrated_robot
+    from lab.files import atomic_write_text, json_default
+    from lab.transfer import write_calibrated_robot
+    from lab.transfer.calibration_run import calibration_run, calibration_summary
 
+    spec = spec_from_args(CalibrationSpec, args, mesh=spec_from_args(MeshSpec, args))
     check_paths(
         {"REAL.csv": args.real, "REAL.csv sidecar": f"{args.real}.json", "--robot": existing(args.robot)},
         {"--out": args.out, "--report": args.report},
@@ -63,58 +58,11 @@ def run(args) -> int:
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
-    for flag, v in (("--n-rings", args.n_rings), ("--n-axial", args.n_axial), ("--max-iter", args.max_iter)):
-        if v is not None and v < 1:
-            raise InputError(f"{flag} must be positive, got {v}")
-    if not args.noise_m > 0:
-        raise InputError(f"--noise-m must be a positive length in m, got {args.noise_m}")
     robot = load_robot(args.robot)
-    n_rings = robot.n_rings if args.n_rings is None else args.n_rings
-    n_axial = robot.n_axial if args.n_axial is None else args.n_axial
-    check_mesh_size(n_rings, n_axial)
-    u, y, meta = read_dataset(args.real)
-    name = (meta.get("robot") or {}).get("name")
-    if name is not None and name != robot.name:
-        raise InputError(f"REAL.csv {args.real} was captured on robot {name!r}, but --robot is {robot.name!r}")
-    if u.shape[1] != robot.n_cables:
-        raise InputError(f"{args.real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
-    print(
-        f"{robot.name}: calibrating on {len(u)} real samples from {args.real}, mesh n_rings={n_rings} "
-        f"n_axial={n_axial}, eyelet shifts in {args.axes}",
-        file=sys.stderr,
-    )
-    try:
-        result = calibrate(
-            robot,
-            u,
-            y,
-            n_rings=n_rings,
-            n_axial=n_axial,
-            axes=args.axes,
-            noise_m=args.noise_m,
-            max_iter=args.max_iter,
-            log=lambda line: print(line, file=sys.stderr),
-        )
-    except InputError as err:
-        raise InputError(f"{args.real}: {err}") from None
-    if not result.converged:
-        raise LabRuntimeError(
-            f"calibration did not converge in {result.iterations} iterations (RMS tip misfit "
-            f"{1e3 * result.rms_m:.3f} mm); nothing written: raise --max-iter, or check the data"
-        )
+    result = calibration_run(robot, args.real, spec, log=lambda line: print(line, file=sys.stderr))
     command = "python -m lab " + shlex.join(args.argv)
     write_calibrated_robot(args.out, robot, result, source=str(args.real), command=command)
-    summary = {
-        "kind": "lab.calibration",
-        "format_version": 1,
-        "robot": robot.name,
-        "real": str(args.real),
-        "out": str(args.out),
-        **result.summary(),
-        "command": command,
-        "code_version": code_version(),
-    }
-    text = json.dumps(summary, indent=2, default=json_default)
+    text = json.dumps(calibration_summary(robot, result, args.real, args.out, command), indent=2, default=json_default)
     if args.report:
         atomic_write_text(args.report, text + "\n")
     print(

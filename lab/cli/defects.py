@@ -17,8 +17,15 @@ import argparse
 import shlex
 import sys
 
+from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
-from lab.errors import InputError
+from lab.fem.mesh_spec import MeshSpec
+from lab.rig.member_spec import FamilyMemberSpec
+
+MESH_HELP = {
+    "n_rings": "FEM mesh rings of the emulator, written to [emulator]",
+    "n_axial": "FEM mesh layers of the emulator, written to [emulator]",
+}
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -30,28 +37,19 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--random",
-        type=int,
-        required=True,
-        metavar="SEED",
-        help="the robot of the family to draw (an integer >= 0; the same as --rig twin:random:SEED)",
-    )
+    add_spec_flags(p, FamilyMemberSpec)
     p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
-    p.add_argument(
-        "--n-rings", type=int, help="FEM mesh rings of the emulator, written to [emulator] (default: robot's)"
-    )
-    p.add_argument("--n-axial", type=int, help="FEM mesh layers of the emulator, written to [emulator]")
+    add_spec_flags(p, MeshSpec, help=MESH_HELP, default_words={"n_rings": "robot's"})
     p.add_argument("--out", required=True, help="output defects file (TOML)")
     p.set_defaults(func=run)
     return p
 
 
-def command_line(args) -> str:
+def command_line(spec: FamilyMemberSpec, robot: str) -> str:
     """The command that makes the same file (recorded in its header; without ``--out``, so
     that the file depends only on the robot, the seed and the mesh)."""
-    words = ["python", "-m", "lab", "defects", "--random", str(args.random), "--robot", str(args.robot)]
-    for flag, value in (("--n-rings", args.n_rings), ("--n-axial", args.n_axial)):
+    words = ["python", "-m", "lab", "defects", "--random", str(spec.seed), "--robot", str(robot)]
+    for flag, value in (("--n-rings", spec.mesh.n_rings), ("--n-axial", spec.mesh.n_axial)):
         if value is not None:
             words += [flag, str(value)]
     return shlex.join(words) + " --out D.toml"
@@ -59,21 +57,14 @@ def command_line(args) -> str:
 
 def run(args) -> int:
     from lab.description import load_robot
-    from lab.rig.family import write_random_defects
 
-    if args.random < 0:
-        raise InputError(f"--random: the robot seed must be an integer >= 0, got {args.random}")
-    for flag, value in (("--n-rings", args.n_rings), ("--n-axial", args.n_axial)):
-        if value is not None and value < 1:
-            raise InputError(f"{flag} must be at least 1, got {value}")
+    spec = spec_from_args(FamilyMemberSpec, args, mesh=spec_from_args(MeshSpec, args))
     check_paths({"--robot": existing(args.robot)}, {"--out": args.out})
     check_writable(args.out)
     robot = load_robot(args.robot)
-    defects = write_random_defects(
-        args.out, robot, args.random, n_rings=args.n_rings, n_axial=args.n_axial, command=command_line(args)
-    )
+    defects = spec.write(args.out, robot, command=command_line(spec, args.robot))
     print(
-        f"wrote {args.out}: {robot.name} as built, member {args.random} of the family (softness "
+        f"wrote {args.out}: {robot.name} as built, member {spec.seed} of the family (softness "
         f"{defects.softness:g}, gradient {defects.gradient:g}, slack up to {1e3 * defects.slack_m.max():.1f} mm); "
         f"use it as --rig twin:{args.out}",
         file=sys.stderr,

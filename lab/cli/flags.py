@@ -25,21 +25,26 @@ def _cli_fields(spec_cls, only=None, exclude=()):
         yield f, m
 
 
-def add_spec_flags(parser, spec_cls, *, only=None, exclude=(), help: dict | None = None, default_words=None):
+def add_spec_flags(parser, spec_cls, *, only=None, exclude=(), help: dict | None = None, default_words=None, base=None):
     """Add ``spec_cls``'s flags to ``parser`` (an argparse parser or group); returns the group.
 
     ``only``/``exclude``: field names to keep or drop; ``help``: per-field help overrides.
     ``default_words``: per field, how the help names the default (e.g. "the description's").
+    ``base``: an instance whose values are the command's defaults (else the spec's defaults;
+    pass the same ``base`` to :func:`spec_from_args`).
     """
     help = help or {}
     default_words = default_words or {}
     for f, m in _cli_fields(spec_cls, only, exclude):
         text = help.get(f.name, m["help"])
+        default = f.default if base is None else getattr(base, f.name)
         if f.name in default_words:
             text += f" (default: {default_words[f.name]})"
-        elif f.default is not None and f.default is not dataclasses.MISSING and m["action"] is None:
-            text += f" (default: {f.default})"
+        elif default is not None and default is not dataclasses.MISSING and m["action"] is None:
+            text += f" (default: {' '.join(map(str, default)) if isinstance(default, tuple) else default})"
         kwargs = {"dest": f.name, "default": None, "help": text}
+        if m.get("required"):
+            kwargs["required"] = True
         if m["action"] is not None:
             kwargs["action"] = m["action"]
         else:
@@ -49,20 +54,23 @@ def add_spec_flags(parser, spec_cls, *, only=None, exclude=(), help: dict | None
                 kwargs["choices"] = m["choices"]
             if m["metavar"] is not None:
                 kwargs["metavar"] = m["metavar"]
+            if m.get("nargs") is not None:
+                kwargs["nargs"] = m["nargs"]
         parser.add_argument(flag_of(f), **kwargs)
     return parser
 
 
-def spec_from_args(spec_cls, args, **extra):
-    """The spec built from the flags ``args`` holds (unset flags take the spec's defaults),
-    with ``extra`` fields given directly; an invalid value raises InputError naming its flag."""
+def spec_from_args(spec_cls, args, base=None, **extra):
+    """The spec built from the flags ``args`` holds (unset flags take the spec's defaults, or
+    ``base``'s values), with ``extra`` fields given directly; an invalid value raises
+    InputError naming its flag."""
     values = {}
     for f, m in _cli_fields(spec_cls):
         v = getattr(args, f.name, None)
         if v is not None and not (m["action"] == "store_true" and v is False):
-            values[f.name] = v
+            values[f.name] = tuple(v) if isinstance(v, list) else v
     values.update(extra)
-    return spec_cls(**values)
+    return spec_cls(**values) if base is None else dataclasses.replace(base, **values)
 
 
 def given(args, *dests: str) -> list[str]:

@@ -19,6 +19,7 @@ import tempfile
 from pathlib import Path
 
 from lab.errors import InputError
+from lab.files import remove_and_release
 
 __all__ = ["check_paths", "check_writable", "dataset_outputs", "existing", "output_lock", "ignore_file_size_signal"]
 
@@ -95,9 +96,7 @@ def output_lock(path, what: str = "--out"):
     try:
         yield
     finally:
-        lock.release()
-        with contextlib.suppress(OSError):
-            lock_file.unlink()
+        remove_and_release(lock)  # unlink while held: see lab.files.remove_and_release
 
 
 def ignore_file_size_signal() -> None:

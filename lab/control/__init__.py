@@ -3,7 +3,8 @@
 :class:`IKSolver` (:mod:`.ik`) minimises ``1/2 |y(u) - y'|^2`` over the allowed commands
 (:class:`CommandSet`, :mod:`.command_set`) through *any* forward map with a Jacobian: a
 learned model, or the FEM itself (:class:`FEMForwardMap`, :mod:`.soft_ik`: Soft IK); a
-model without one by a derivative-free search (:mod:`.dfo`). :mod:`.follow` follows a
+model without one by a derivative-free search (:mod:`.dfo`). Its settings are one
+:class:`IKConfig` (:mod:`.ik_config`). :mod:`.follow` follows a
 trajectory (redundant arms regularised automatically); :mod:`.spread` penalises and flags
 an ensemble's spread.
 :mod:`.redundancy` holds motors fixed and measures motor paths; :mod:`.trajectories`
@@ -17,6 +18,7 @@ from lab.control.follow import AUTO_WEIGHT_REL, SLACK_COLUMN_REL, auto_weight, f
 from lab.control.ik import (
     ARMIJO,
     METHODS,
+    IKConfig,
     IKResult,
     IKSolver,
     TrajectoryIK,
@@ -49,6 +51,7 @@ from lab.control.trajectories import (
 
 __all__ = [
     "CommandSet",
+    "IKConfig",
     "METHODS",
     "ARMIJO",
     "IKResult",

@@ -1,30 +1,11 @@
 """The set of allowed motor commands and exact projections / small QPs over it.
 
 A robot may only be sent commands ``u`` (m,) rad in the polyhedron
-
-    C = { u : lo <= u <= hi,  A u <= b }
-
-with ``lo = 0``, ``hi = u_max`` and one row of ``A`` per safety limit of the robot
-description (the listed cables' angles sum to at most ``max_sum_over_u_max * u_max``).
-Inverse kinematics keeps every iterate in ``C``; this module provides what it needs:
-
-* :meth:`CommandSet.project` -- the Euclidean projection ``argmin_{x in C} |x - v|``;
-* :meth:`CommandSet.solve_qp` -- ``argmin_{x in C} 1/2 x^T H x + c^T x`` for symmetric
-  positive-definite ``H`` (m, m) (the bounded Gauss-Newton / Levenberg-Marquardt step).
-
-Both are solved **exactly** (to rounding) by a primal active-set method (Nocedal &
-Wright, *Numerical Optimization*, Alg. 16.3) on the stacked constraints ``G x <= h``
-(2m box rows, then the rows of ``A``): start from a feasible point with a linearly
-independent working set of active constraints; repeatedly solve the equality-constrained
-QP on the working set (a KKT system of at most 2m+k unknowns); step to it or to the
-first constraint that blocks, which joins the working set; at a working-set minimiser
-drop the constraint with the most negative multiplier, or stop when all multipliers
-are >= 0 (the KKT conditions, sufficient for a convex QP). A strictly convex QP is solved
-in finitely many steps; the problems here (m <= 6) take a handful.
-
-Cheap exact shortcuts come first: a point inside ``C`` is its own projection, and if
-clipping to the box already satisfies ``A u <= b`` the clipped point is the projection
-(it is the closest point of the larger box, and lies in ``C``).
+``C = {u : lo <= u <= hi, A u <= b}`` (``lo = 0``, ``hi = u_max``, one row of ``A`` per
+safety limit of the robot description). Inverse kinematics keeps every iterate in ``C``
+with :meth:`CommandSet.project` (the Euclidean projection) and :meth:`CommandSet.solve_qp`
+(the bounded Levenberg-Marquardt step), both solved exactly by a primal active-set method
+after cheap exact shortcuts (docs/design/ik.md: the allowed commands).
 """
 
 from __future__ import annotations

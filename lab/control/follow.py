@@ -2,43 +2,13 @@
 regularisation that picks one of a redundant arm's many answers.
 
 :func:`follow_trajectory` (what :meth:`lab.control.ik.IKSolver.follow` runs) solves the
-targets in order, warm-starting each from the previous answer (Section II-D).
-
-**Regularised solves.** With weights ``w_c`` (``reg_weight``, continuity) and ``w_p``
-(``posture_weight``), each point is first solved regularised towards
-``u_ref = (w_c u_prev + w_p u_posture) / (w_c + w_p)``: the previous command, and a posture
-(default the centre of the allowed set, where every cable is taut: away from the slack
-plateaus where a cable's Jacobian column is zero and a warm start gets stuck). A redundant
-arm (more motors than tip coordinates) reaches a target with a whole family of commands;
-the regulariser picks the one nearest ``u_ref``. It also pulls the tip off the target, so
-the answer is then *polished*: solved again unregularised from there, which moves it only a
-little (the branch of solutions is already chosen) and removes that bias. A cold first
-point is pulled to the posture alone.
-
-**Restarts.** A point that misses its target (residual > ``reach_tol_m``) while the answer
-should be exact (no regulariser, or a polished one) is solved again -- when the solver's
-``retry_cold`` allows it -- from other starts: from the posture first if a cable is slack at
-the miss (a Jacobian column below :data:`SLACK_COLUMN_REL` of the largest: the plateau,
-where the gradient cannot see that pulling that cable would help) or the arm is
-redundant, then from the ``4`` seeds whose tips are nearest the target (or the centre).
-On a redundant arm each restart is regularised towards the posture and polished, so it
-lands on the taut branch; if none of those reaches the target, the same starts are tried
-unregularised. The best answer is kept; the work of every try is counted.
-
-**Automatic weights** (a weight given as ``None``: the default of ``make_solver`` and of
-``python -m lab track``). Measured on two redundant arms (issue 15: the six-cable arm's
-Figure 5 paths and a user's four-cable arm, sim data + sim robot), regularising every
-point made the mean tracking error *worse* than plain warm starts (six-cable 0.14-0.20 cm
-against 0.12-0.15 cm) -- the model is no more accurate near the posture -- while the
-misses of plain warm starts (slack plateaus: unreachable flags, 0.5-0.6 cm outliers) are
-what hurt. So the automatic choice is: no regulariser while the targets are reached (the
-unregularised IK, unchanged for a non-redundant arm: Table I), and at a miss on a
-redundant arm the restarts above, regularised with ``w = AUTO_WEIGHT_REL |J|_F^2 / m``
-(``J`` the model's Jacobian at the posture, m/rad; for a model without one, a least-squares
-linear fit to the cold-start seeds): a thousandth of the mean squared column of ``J``
-(0.97e-6 m^2/rad^2 on the six-cable network, the weight the README had recommended by
-hand). Explicit weights override: they regularise every point, and their restarts use
-them; 0 is off.
+targets in order, warm-starting each from the previous answer (Section II-D). With weights
+``w_c`` (``reg_weight``) and ``w_p`` (``posture_weight``) each point is first solved
+regularised towards the previous command and the posture, then *polished* unregularised. A
+point that misses its target is solved again from the posture and the nearest seeds
+(``retry_cold``). Weights given as ``None`` are automatic: none while targets are reached,
+and regularised restarts at a miss on a redundant arm (:func:`auto_weight`). It uses only
+the solver's public API. Why, and what was measured: docs/design/ik.md.
 """
 
 from __future__ import annotations
@@ -46,6 +16,16 @@ from __future__ import annotations
 import numpy as np
 
 from lab.control.ik_result import TrajectoryIK, check_targets, count_work
+
+__all__ = [
+    "follow_trajectory",
+    "follow_weights",
+    "auto_weight",
+    "slack_motors",
+    "AUTO_WEIGHT_REL",
+    "SLACK_COLUMN_REL",
+    "N_COLD_STARTS",
+]
 
 #: Automatic restart regularisation weight of a redundant arm, relative to |J|_F^2 / m at the posture.
 AUTO_WEIGHT_REL = 1e-3
@@ -79,7 +59,8 @@ def _jacobian_scale(solver) -> np.ndarray:
 
 
 def auto_weight(solver) -> float:
-    """The automatic regularisation weight (m^2/rad^2) of ``solver``: module docstring."""
+    """The automatic regularisation weight (m^2/rad^2) of ``solver``:
+    ``AUTO_WEIGHT_REL |J|_F^2 / m`` with ``J`` the Jacobian near the posture (m/rad)."""
     J = _jacobian_scale(solver)
     return float(AUTO_WEIGHT_REL * np.sum(J * J) / J.shape[1])
 
@@ -87,9 +68,9 @@ def auto_weight(solver) -> float:
 def follow_weights(solver) -> tuple[float, float, float, bool, str]:
     """``(reg_weight, posture_weight, restart_weight, restart_to_posture, how)`` that
     :func:`follow_trajectory` uses: the weights of every point's solve (explicit settings as
-    given, ``None`` ones 0), those of a restart after a miss (module docstring), and ``how``
+    given, ``None`` ones 0), those of a restart after a miss (docs/design/ik.md), and ``how``
     in words."""
-    settings = (solver.reg_weight_setting, solver.posture_weight_setting)
+    settings = (solver.config.reg_weight, solver.config.posture_weight)
     w_c, w_p = (0.0 if s is None else float(s) for s in settings)
     shape = f"{solver.commands.n} motors for {solver.n_tip} tip coordinates"
     if w_c + w_p > 0:
@@ -118,12 +99,12 @@ def slack_motors(solver, u_motor) -> np.ndarray:
 
 
 def _solve_point(solver, target, u_start, u_ref, weight):
-    """Regularised solve towards ``u_ref`` with ``weight`` and then (``solver.polish``) the
+    """Regularised solve towards ``u_ref`` with ``weight`` and then (``config.polish``) the
     unregularised polish, or a plain solve when ``weight`` is 0."""
     if weight <= 0:
         return solver.solve(target, u_start, u_ref=u_start, reg_weight=0.0)
     res = solver.solve(target, u_start, u_ref=u_ref, reg_weight=weight)
-    if solver.polish:
+    if solver.config.polish:
         first, res = res, solver.solve(target, res.u_motor, reg_weight=0.0)
         res = count_work(res, [first])
         res.history_m = first.history_m + res.history_m
@@ -148,7 +129,7 @@ def _recover(solver, target, first, start, w_restart, to_posture, stats):
     plans = [(u0, w_restart) for u0 in starts] + ([(u0, 0.0) for u0 in starts] if w_restart > 0 else [])
     tries, tried = [first], [(start, 0.0)]
     for u0, w in plans:
-        if min(r.residual_m for r in tries) <= solver.reach_tol_m:
+        if min(r.residual_m for r in tries) <= solver.config.reach_tol_m:
             break
         if any(np.allclose(u0, t) and w == wt for t, wt in tried):
             continue
@@ -163,7 +144,7 @@ def _recover(solver, target, first, start, w_restart, to_posture, stats):
 def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
     """IK through ``solver`` (:class:`lab.control.ik.IKSolver`) for the targets (N, 3) m in
     order, warm-started from the previous answer (the first from ``u0`` (m,) rad or a cold
-    start); weights, polish and restarts as in the module docstring. ``TrajectoryIK.info``
+    start); weights, polish and restarts as in docs/design/ik.md. ``TrajectoryIK.info``
     says what was applied (the weights used, why, and the restart counts)."""
     targets = np.atleast_2d(check_targets(targets_W))
     w_c, w_p, w_restart, to_posture, how = follow_weights(solver)
@@ -178,7 +159,7 @@ def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
             u_start = solver.commands.project(np.asarray(u_prev, dtype=float))
             u_ref, w_now = ((w_c * u_start + w_p * solver.u_posture) / w if w > 0 else u_start), w
         res = _solve_point(solver, target, u_start, u_ref, w_now)
-        if not res.reachable and solver.retry_cold and (w_now <= 0 or solver.polish):
+        if not res.reachable and solver.config.retry_cold and (w_now <= 0 or solver.config.polish):
             res = _recover(solver, target, res, u_start, w_restart, to_posture, stats)
         results.append(res)
         u_prev = res.u_motor
@@ -191,8 +172,8 @@ def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
         "regularisation": how,
         "redundant": bool(solver.redundant),
         **stats,
-        "spread_weight": solver.spread_weight,
-        "max_spread_m": solver.max_spread_m,
+        "spread_weight": solver.config.spread_weight,
+        "max_spread_m": solver.config.max_spread_m,
         "n_uncertain": int(uncertain.sum()),
     }
     return TrajectoryIK(

@@ -1,19 +1,13 @@
 """One update of the paper's minimiser on its own: the projected gradient step (chapter 04).
 
 Projected gradient descent on Eq. (1), ``O(u) = 1/2 |y(u) - y'|^2``, updates
-
-    u+ = P_C(u - alpha J^T (y(u) - y'))
-
-with ``J = dy/du`` (3, m) m/rad the forward map's Jacobian at ``u`` and ``P_C`` the Euclidean
-projection onto the allowed commands ``C``
-(:meth:`lab.control.command_set.CommandSet.project`). On a box ``C = [lo, hi]`` the
-projection is clipping, the paper's ``u <- clip(u - alpha J^T (y(u) - y'), u_min, u_max)``;
-with a safety limit (``A u <= b``) clipping is not enough and ``P_C`` is the exact projection.
-
-:meth:`lab.control.ik.IKSolver.solve` with ``method="gd"`` tries exactly this step at
-every iteration (its Armijo rule picks ``alpha``; without a regulariser its gradient is
-``J^T (y - y')``). :func:`projected_gradient_step` is that trial step with a given
-``alpha``, for the course's exercise and for tests; the solver does not call it.
+``u+ = P_C(u - alpha J^T (y(u) - y'))`` with ``J = dy/du`` (3, m) m/rad and ``P_C`` the
+Euclidean projection onto the allowed commands
+(:meth:`lab.control.command_set.CommandSet.project`; on a box it is clipping, the paper's
+``clip(u - alpha J^T (y - y'), u_min, u_max)``). :func:`projected_gradient_step` is that
+step with a given ``alpha``, for the course's exercise and for tests: the trial step that
+:meth:`lab.control.ik.IKSolver.solve` with method ``"gd"`` takes at every iteration (its
+Armijo rule picks ``alpha``); the solver does not call it.
 """
 
 from __future__ import annotations
@@ -21,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.control.command_set import CommandSet
-from lab.control.ik import check_targets
+from lab.control.ik_result import check_targets
 from lab.errors import InputError
 
 __all__ = ["projected_gradient_step"]

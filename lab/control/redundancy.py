@@ -10,7 +10,7 @@ three-dimensional family of commands that reach it. Two tools for studying that:
 * :func:`motor_path_stats` measures a motor trajectory (N, m): the largest jump between
   consecutive targets and the total travel. Without a regulariser, IK on a redundant arm
   is free to wander along the family of solutions between targets; the pull towards the
-  previous command (``IKSolver(reg_weight=w)``) keeps the path short and smooth.
+  previous command (``IKConfig(reg_weight=w)``) keeps the path short and smooth.
 """
 
 from __future__ import annotations

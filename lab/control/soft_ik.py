@@ -1,22 +1,12 @@
 """Soft IK (Section II-B): inverse kinematics with the FEM in the loop.
 
-The paper's prior, simulation-only method: the same objective ``O(u) = 1/2 |y(u) - y'|^2``
-as the learned-model IK (:mod:`lab.control.ik`), but ``y(u)`` is the tip of the static
-equilibrium ``x(u) = argmin_x E(x, u)`` (:func:`lab.fem.statics.solve_static`) and
-``dy/du`` comes from sensitivity analysis, ``J_tip_u = -S H^-1 d2E/dx du``.
-
-:class:`FEMForwardMap` puts the FEM behind the ``predict_and_jacobian`` interface the
-IK solvers use, so Soft IK is simply ``IKSolver(FEMForwardMap(fem), commands)``. Every
-solve is warm-started from the nearest earlier equilibrium it has seen (the last one),
-moved forward with the first-order predictor ``q0 = q + dq/du (u - u_last)``: along
-an IK iteration or a trajectory consecutive commands are close, so each evaluation costs
-a few Newton iterations plus one factorisation for the sensitivity.
-
-One property of the FEM map the learned one lacks: a **slack cable has an exactly zero
-Jacobian column** (winding it a little changes nothing, its spring is flat for negative
-stretch). IK started where a cable is slack cannot "see" that pulling it would help and
-may stop at such a flat point; start Soft IK where every cable is taut, e.g. the default
-cold start at the centre of the command set. (The smooth network has no such plateaus.)
+:class:`FEMForwardMap` puts the FEM behind the ``predict_and_jacobian`` interface of the IK:
+``y(u)`` is the tip of the static equilibrium (:func:`lab.fem.statics.solve_static`) and
+``dy/du`` comes from sensitivity analysis, so Soft IK is
+``IKSolver(FEMForwardMap(fem), commands)``. Each evaluation is warm-started from the last
+equilibrium with a first-order predictor. A slack cable has an exactly zero Jacobian
+column, so start Soft IK where every cable is taut (the default centre of the command
+set). Details: docs/design/ik.md (Soft IK).
 """
 
 from __future__ import annotations

@@ -1,28 +1,12 @@
 """A model's predicted spread in the IK: a penalty on it, and a flag where it is large.
 
-A forward model may say how sure it is (duck-typed; e.g. a deep ensemble,
-``lab.learn.ensemble.Ensemble``):
-
-* ``predict_with_std(u) -> (mean (3,) m, std (3,) m)``: its predictive mean and spread;
-* ``members``: K >= 2 forward maps, each with ``predict_and_jacobian(u) -> (y_k (3,) m,
-  J_k (3, m) m/rad)`` and a batched ``predict`` (N, m) -> (N, 3).
-
-**The spread of the members** at ``u`` is ``S(u) = 1/K sum_k |y_k(u) - ybar(u)|^2`` (m^2),
-``ybar`` their mean. The IK can add ``s/2 S(u)`` to its objective (``spread_weight`` ``s``,
-dimensionless: ``s = 1`` weighs a metre of spread like a metre of tip error), written as
-least-squares rows so that Levenberg-Marquardt's Gauss-Newton model covers it::
-
-    r_s = sqrt(s/K) (y_k - ybar)  (3K,),     J_s = sqrt(s/K) (J_k - Jbar)  (3K, m)
-
-``1/2 |r_s|^2 = s/2 S`` and ``J_s^T r_s = s/K sum_k (J_k - Jbar)^T (y_k - ybar) = s/2 dS/du``
-exactly (the ``Jbar`` part adds ``Jbar^T sum_k (y_k - ybar) = 0``). On a redundant arm the
-term picks, of the commands that reach a target, the one where the members agree; near
-the edge of the data it trades tip error for confidence.
-
-**The flag**: :func:`predicted_spread_m` is ``|std|`` (from ``predict_with_std``, else
-``sqrt(S)``, the same number for a population std); the IK marks a target ``uncertain``
-when the spread at its answer exceeds ``max_spread_m`` (default :data:`DEFAULT_MAX_SPREAD_M`
-for a model with a spread; never for one without).
+A forward model may say how sure it is (duck-typed, e.g. a deep ensemble): by
+``predict_with_std(u) -> (mean (3,) m, std (3,) m)`` and by ``members``, K >= 2 forward
+maps with ``predict_and_jacobian`` and a batched ``predict``. The IK can add ``s/2 S(u)``,
+``S`` the members' spread (m^2), to its objective as least-squares rows
+(:func:`spread_rows`; ``spread_weight`` ``s``, dimensionless), and flags an answer
+``uncertain`` when :func:`predicted_spread_m` exceeds ``max_spread_m`` (default
+:data:`DEFAULT_MAX_SPREAD_M` for a model with a spread). Derivation: docs/design/ik.md.
 """
 
 from __future__ import annotations

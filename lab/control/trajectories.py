@@ -1,44 +1,12 @@
 """Target trajectories for the tip: the paper's circle, square and rose, a 3-D helix, or a CSV.
 
 All targets are tip-marker positions ``p_tip_W`` (N, 3) in metres, frame W (base centre
-at the origin, arm along +x, gravity along -z). The paper's shapes (Fig. 3) are drawn
-in the plane facing the arm, here the y-z plane ``x = CENTRE_W[0]``, and are "around 6 cm
-to 10 cm across" (Section V-A); the helix (Fig. 4) winds around the x axis while moving
-along it. The same targets serve every condition (sim/real data, sim/real robot).
-
-Placement. The three-cable arm cannot shorten much (all cables at the safety limit
-bring the tip only from x = 19.9 cm to about 18.2 cm), so each plane x = const meets the
-reachable workspace in a disc (x above ~18.3 cm) or an annulus (below). ``CENTRE_W``
-= (18.4, 0, -0.6) cm is the plane, and the point in it, whose reachable disc is largest:
-through the model learned from the nominal FEM robot it reaches 4.6-5.8 cm from the
-centre depending on the direction (the study is in
-``notebooks/04_trajectory_following.ipynb``, where Soft IK also reaches every target on
-the FEM itself). The shapes keep at least 0.6 cm inside that:
-
-* ``circle``: radius 3.5 cm (7 cm across), counter-clockwise from +y as seen from the tip;
-* ``square``: side 6 cm (corners 4.2 cm from the centre), starting at a corner;
-* ``rose``:   the rhodonea ``r = a cos(k t)``, ``a`` = 3.5 cm. With even ``k`` it has 2k
-  petals traced once for t in [0, 2 pi), with odd ``k`` k petals traced for t in [0, pi).
-  Default ``k = 2``: four petals along +-y and +-z, 7 cm across, passing through the centre.
-  (The paper's text does not give k; four petals is the classic choice.)
-* ``helix``:  radius 3 cm, 3 turns, from x = 18.9 cm (near rest length) to 18.0 cm (the
-  tip drawn 0.9 cm towards the base), about the centre's y-z position.
-
-Six-cable paths (:data:`SIX_CABLE`, Section V-B). The two-stage arm reaches much further:
-its workspace is a bowl-shaped shell about the axis (y, z) = (0, 0) -- at x = 17 cm the
-tip reaches radii of about 3.5 to 8 cm, at 16 cm 7 to 9 cm -- while with its short cables
-slack (the first stage alone) the shell is thinner and stops near x = 16.5 cm (the study
-is in ``notebooks/06_six_cable_arm.ipynb``). Centred on that axis:
-
-* ``six-circle``: radius 4 cm in the plane x = 18 cm, which the first stage alone also
-  reaches (six motors for three coordinates: redundancy without need);
-* ``six-ring``:   radius 7 cm in the plane x = 16.5 cm, out of the first stage's reach;
-* ``six-saddle``: radius 6 cm with x = 17 +- 0.4 cm going up and down twice per turn
-  (a 3-D curve on the shell), partly out of the first stage's reach;
-* ``six-spiral``: a conical spiral, 3 turns from radius 1 cm at x = 18.8 cm out to 8 cm at
-  x = 16 cm, from the first stage's workspace into the second's.
-
-A CSV trajectory has the header ``x,y,z`` and one point per row, in metres, frame W.
+at the origin, arm along +x, gravity along -z). The three-cable shapes (:data:`BUILTIN`:
+circle, square, rose, helix; Fig. 3-4) are drawn about :data:`CENTRE_W` in the plane
+facing the arm, 6 to 10 cm across (Section V-A); the six-cable paths (:data:`SIX_CABLE`,
+Section V-B) are centred on the two-stage arm's axis. A CSV trajectory has the header
+``x,y,z`` and one point per row, in metres, frame W. Why each shape sits where it does
+(the reachable workspace): docs/design/ik.md (trajectories).
 """
 
 from __future__ import annotations

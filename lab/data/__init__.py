@@ -3,7 +3,9 @@
 :mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and cuts
 them into walks; :mod:`.simulation` solves them with the FEM on joblib workers or a Dask
 cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV +
-JSON-sidecar format that simulated and captured data share.
+JSON-sidecar format that simulated and captured data share. The sampling flags are one
+:class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a simulated
+fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
 """
 
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
@@ -14,6 +16,7 @@ from lab.data.dataset import (
     sidecar_path,
     write_dataset,
 )
+from lab.data.design_spec import DesignSpec
 from lab.data.designs import (
     DESIGNS,
     Chunk,
@@ -30,9 +33,14 @@ from lab.data.designs import (
     random_commands,
     sobol_commands,
 )
+from lab.data.simulated_dataset import simulate_fixed, solve_batch, write_simulated
 from lab.data.simulation import default_jobs, simulate, solve_chunk
 
 __all__ = [
+    "DesignSpec",
+    "simulate_fixed",
+    "solve_batch",
+    "write_simulated",
     "Chunk",
     "grid_commands",
     "sobol_commands",

@@ -1,15 +1,12 @@
 """Which motor commands to sample, and the walks (chunks) they are solved in.
 
-Samplers give safe motor commands (N, m) in radians:
-
-* :func:`grid_commands` — ``levels`` equally spaced angles per motor in [0, u_max]
-  (the paper's 7x7x7 grid), minus what the safety rule forbids;
-* :func:`sobol_commands` — a scrambled Sobol sequence (seeded), safe points only;
-* :func:`lhs_commands` — a Latin hypercube (seeded) restricted to the safe set;
-* :func:`design_commands` — ``n`` commands of a space-filling design over the safe set
-  (``"random"``, ``"sobol"``, ``"maximin"`` or ``"lhs"``) for capturing a few real samples;
-  :func:`min_distance` scores a design (its smallest pairwise distance),
-  :func:`empty_strata` its stratification per motor.
+Samplers give safe motor commands (N, m) in radians: :func:`grid_commands` (``levels``
+equally spaced angles per motor in [0, u_max], the paper's 7x7x7 grid, minus what the
+safety rule forbids), :func:`sobol_commands` (a scrambled Sobol sequence, seeded),
+:func:`lhs_commands` (a Latin hypercube, seeded, restricted to the safe set) and
+:func:`design_commands` (``n`` commands of a ``"random"``, ``"sobol"``, ``"maximin"`` or
+``"lhs"`` design over the safe set, for capturing a few real samples); :func:`min_distance`
+scores a design (its smallest pairwise distance), :func:`empty_strata` its stratification.
 
 Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands into
 walks whose neighbours are close, so that :func:`lab.data.simulation.simulate` can

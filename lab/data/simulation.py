@@ -114,6 +114,7 @@ def simulate(
     from tqdm.auto import tqdm
 
     from lab.data.chunkstore import ChunkStore, fingerprint
+    from lab.workers import worker_config
 
     n_rings, n_axial = n_rings or robot.n_rings, n_axial or robot.n_axial
     t0 = time.perf_counter()
@@ -147,7 +148,7 @@ def simulate(
             config = parallel_config(backend="dask")
             n_jobs = -1
         else:
-            config = parallel_config(backend="loky", inner_max_num_threads=1)
+            config = worker_config()
         with config:
             runner = Parallel(n_jobs=n_jobs, return_as="generator_unordered")
             for i, res in runner(jobs):

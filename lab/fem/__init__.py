@@ -16,6 +16,7 @@ from lab.fem.elasticity import InvertedElementError, NeoHookean, lame, project_p
 from lab.fem.energy import ArmFEM
 from lab.fem.linsolve import SingularMatrixError, default_backend, factorize
 from lab.fem.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, robot_mesh, save_mesh
+from lab.fem.mesh_spec import MeshSpec
 from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM, as_built_description
 from lab.fem.statics import (
     StaticSolution,
@@ -35,6 +36,7 @@ from lab.fem.warmstart import WalkPredictor
 
 __all__ = [
     "TetMesh",
+    "MeshSpec",
     "cylinder_mesh",
     "robot_mesh",
     "load_mesh",

@@ -1,20 +1,16 @@
 """Cables as one-sided quadratic springs on the length of a polyline through via points.
 
-A cable leaves its fixed anchor in the base plate and runs through eyelets embedded in
-the body (barycentric weights of a tet), frictionless, so only its total length
+A cable runs from its fixed anchor in the base plate through eyelets embedded in the body
+(barycentric weights of a tet), frictionless, so only its length (m) matters:
 
     L(x) = |p_1 - anchor| + sum_k |p_{k+1} - p_k|,   p_k = sum_j w_kj x_{n_kj}
 
-matters. Pulling motor angle ``u`` onto a spool of radius ``r`` shortens the free
-length to ``L* = L0 + slack - r u``. The cable pulls only when stretched, d = L - L* > 0:
-
-    E = k/2 max(d, 0)^2,  smoothed over 0 < d < eps (eps = ``slack_smoothing_m``)
-
-The plain one-sided spring has a jump in stiffness at d = 0 that makes Newton
-oscillate whenever a cable sits near taut (every cable at rest does); :func:`spring`
-blends in a cubic so the energy is C2, with no tension at all while slack.
-L is convex in x (a sum of norms of affine maps) and E is convex increasing in L, so
-the cable Hessian is always positive semi-definite.
+Motor angle ``u`` (rad) on a spool of radius ``r`` sets the free length
+``L* = L0 + slack - r u``; the cable pulls only when stretched, d = L - L* > 0:
+``E = k/2 max(d, 0)^2``, which :func:`spring` smooths with a cubic over 0 < d < eps
+(``slack_smoothing_m``) so the energy is C2 and Newton does not oscillate near taut (a
+plain one-sided spring jumps in stiffness at d = 0), with no tension while slack.
+L is convex in x and E convex increasing in L, so the cable Hessian is always PSD.
 """
 
 from __future__ import annotations

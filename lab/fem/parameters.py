@@ -1,48 +1,17 @@
 """The as-built arm as a parametrised FEM: parameters theta -> :class:`ArmFEM`, and dx/dtheta.
 
 The same defects as the emulated as-built robot (``lab.rig.asbuilt``), as one vector
-theta (p,) = ``[ln s, g_y, g_z, delta_1, ..., delta_m, sigma_1, ..., sigma_m]``:
+theta (p,) = ``[ln s, g_y, g_z, delta_1, ..., delta_m, sigma_1, ..., sigma_m]``: log softness
+``ln s`` (s = E_as-built / E), stiffness gradient ``g`` across the section (dimensionless,
+|g| < 1), eyelet shift ``delta_c`` of cable c (m; (y, z) by default, (x, y, z) with
+``axes="xyz"``) and slack ``sigma_c`` (m, added to the free length: L* = L0 + sigma_c - r u).
+The nominal theta (:attr:`ParametrisedFEM.nominal`) gives exactly the FEM of ``ArmFEM(robot)``.
 
-* ``ln s`` -- log softness (dimensionless): s = E_as-built / E, the description's modulus
-  ``E``; the log keeps E positive and makes a step a relative change;
-* ``g = (g_y, g_z)`` -- stiffness gradient across the section (dimensionless; its size
-  |g| < 1 and direction g/|g| in the y-z plane): tet t has E_t = s E (1 + g . c_t / R),
-  with c_t the (y, z) of its centroid and R the body radius (the defects file's
-  ``gradient`` times its ``gradient_direction``);
-* ``delta_c`` -- eyelet shift of cable c in m, the same for all its eyelets (its anchor in
-  the base plate stays): 2 components (y, z) in the section plane by default, 3 (x, y, z)
-  with ``axes="xyz"``;
-* ``sigma_c`` -- slack of cable c in m, added to its free length: L* = L0 + sigma_c - r u.
+Sensitivities: at an equilibrium dE/dq = 0, so dq/dtheta = -H^-1 dg/dtheta and
+J_tip_theta = S dq/dtheta, with the exact Hessian H factorised once for dq/du and dq/dtheta
+together (as :func:`lab.fem.statics.sensitivities`) and the mixed derivative dg/dtheta analytic.
 
-Why only (y, z) shifts by default: they set each cable's lever arm (radial) and bending
-plane (round the section), first-order effects on the tip (1.2-2.1 mm of tip per mm of
-shift, RMS over 30 commands on the three-cable arm). An axial shift slides a cable's
-eyelets along it; its rest length is re-measured, so only its last eyelet's point of
-action moves: 0.6-1.1 mm per mm, and 30 samples with 0.5 mm noise pin it down to ~0.9 mm
-(half its 2 mm prior), against ~0.35 mm in y and z. And the last eyelet sits on the tip
-face, which it cannot pass: a one-sided bound at the nominal. ``axes="xyz"`` keeps it, to
-reproduce a defects file exactly (``benchmarks/bench_calibrate.py`` prints these figures).
-
-The nominal theta (:attr:`ParametrisedFEM.nominal`) is the description's own
-``[0, its stiffness gradient (y, z), 0, ..., its cables' slack_m]``: it gives exactly the
-FEM of ``ArmFEM(robot)``.
-
-**Sensitivities.** At an equilibrium g(q(theta), theta) = dE/dq = 0, so
-
-    dq/dtheta = -H^-1 dg/dtheta,     J_tip_theta = S dq/dtheta
-
-with the exact Hessian H, factorised once for dq/du and dq/dtheta together (as
-:func:`lab.fem.statics.sensitivities`). The mixed derivative dg/dtheta is analytic:
-
-* material: elastic forces are linear in each tet's modulus, so column ``ln s`` is the
-  elastic force g_el and column ``g_k`` is sum_t (c_tk / R) / (1 + g . c_t / R) g_el,t;
-* slack: dg/dsigma_c = -k_c dL_c/dq (k_c the cable spring's stiffness at its stretch);
-* eyelet shift: eyelet k of cable c is p_k = sum_j w_kj(X_k + P delta) x_j, barycentric
-  weights w of its tet at the shifted rest point, so dp_k/ddelta = F_k P (F_k the
-  deformation gradient of that tet) and dw_kj/ddelta = grad(w_kj) P; with tension T and
-  stretch d = L - L0 - sigma + r u (L0 the rest length, which moves too),
-
-      dg/ddelta = k dL/dq (dL/ddelta - dL0/ddelta) + T d(dL/dq)/ddelta.
+Each parameter, why (y, z) shifts by default (measured), and the derivatives: docs/design/fem.md.
 """
 
 from __future__ import annotations

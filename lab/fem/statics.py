@@ -1,19 +1,16 @@
 """Static equilibrium x(u) = argmin_x E(x, u) by Newton's method, and its sensitivity.
 
-Newton uses the exact Hessian, in cable-condensed steps that keep the cables' stiff,
-smoothed one-sided spring law exact (:mod:`lab.fem.steps`). Where the Hessian is
-indefinite (the factorisation reports negative eigenvalues) a diagonally shifted one
-is used instead; only if that gives no descent direction either is the elastic part
-projected to positive semi-definite element by element, which always descends but
-converges slowly and is expensive. A backtracking line search treats inverted
-elements as infinite energy, with an Armijo slack of 1e-14 |E| so rounding does not
-reject the last, converged steps. Near the equilibrium, chord steps reuse the last
-factorisation, updated with the secant pairs of the steps since (quasi-Newton), while
-they contract well (see ``CHORD_WINDOW``).
+Newton uses the exact Hessian in cable-condensed steps (:mod:`lab.fem.steps`); where it is
+indefinite, a diagonally shifted one; only if that gives no descent direction either is the
+elastic part projected to PSD element by element (always descends, but slow and expensive).
+A backtracking line search treats inverted elements as infinite energy, with an Armijo slack
+of 1e-14 |E| so rounding does not reject the last, converged steps. Near the equilibrium,
+chord steps reuse the last factorisation with secant updates while they contract well
+(``CHORD_WINDOW``).
 
 Sensitivity analysis differentiates the equilibrium condition dE/dx (x(u), u) = 0:
 
-    dx/du = -H^-1 d2E/dx du,     J_tip_u = S dx/du
+    dx/du = -H^-1 d2E/dx du,     J_tip_u = S dx/du   (m/rad)
 
 with the *exact* Hessian H at the equilibrium (a projected one gives wrong Jacobians).
 """

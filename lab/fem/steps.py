@@ -1,40 +1,16 @@
 """The steps of :func:`lab.fem.statics.solve_static`, and sensitivities from a reused factorisation.
 
-Newton steps (:func:`newton_step`) are cable-condensed (below); chord steps near the
-equilibrium (:func:`secant_step`) reuse that factorisation with BFGS updates from
-the steps taken since; where the exact Hessian is indefinite, :func:`shifted_step`.
+:func:`newton_step`: cable-condensed Newton steps. A taut cable often sits inside its 0.2 mm
+smoothing zone, where Newton's quadratic model of the spring is poor, so each step keeps the
+spring law tau(d) exact in the m-dimensional space of cable stretches d = L - L* (m) and
+linearises the rest: an m-dimensional equation for the stretch change (:func:`condensed_step`)
+around one (m + 1)-column solve with the factorisation; it has Newton's fixed point.
+:func:`secant_step`: chord steps near the equilibrium, reusing that factorisation with BFGS
+updates. :func:`shifted_step`: H + s I where the exact Hessian is indefinite (``SHIFTS``).
+:func:`reused_sensitivity`: dq/du = -H^-1 d2E/dq du (m/rad) from the last factorisation, the
+springs' stiffness corrected exactly (Woodbury) and the rest refined by conjugate gradients.
 
-Cable-condensed Newton steps. A cable is a stiff spring smoothed over only
-``slack_smoothing_m`` (0.2 mm) of stretch, and a taut cable often sits inside that
-zone, where its stiffness changes by 100 % over a tenth of a millimetre: Newton's
-quadratic model of the spring is then poor even microns from the equilibrium (the
-first step from a 10 um prediction gained only 5x). So each step keeps the spring law
-tau(d) exact in the m-dimensional space of cable stretches d = L - L* and linearises
-the rest. With the exact Hessian H, A = dL/dq (n_free, m) and the spring stiffnesses
-K (m,) at the factorised point, H - A K A^T is everything but the springs' axial
-stiffness, and the step dq solves
-
-    (H - A K A^T) dq + g - A tau(d) + A tau(d + A^T dq) = 0
-    =>  dq = -H^-1 g + S psi(e),  S = H^-1 A,  e = A^T dq,  psi(e) = tau(d) + K e - tau(d + e),
-
-an m-dimensional equation for the stretch change e (solved by Newton in
-:func:`condensed_step`) around one (m + 1)-column solve with the factorisation. Where
-the springs are linear, psi = 0 and this is the plain Newton step; it has the same
-fixed point, and near it converges like Newton (from 10 um: to <1 um, then 1e-11 m).
-
-Indefinite Hessians. Where the exact Hessian has negative eigenvalues (above -1 N/m
-where met on the default mesh, against a median diagonal entry of ~900 N/m),
-:func:`shifted_step` uses H + s I, s = ``SHIFTS`` times the median diagonal entry: one
-more factorisation, against another assembly, a factorisation and ~50 ms of 12x12
-eigen-decompositions for the element-wise PSD projection that remains the last resort
-in :func:`lab.fem.statics.solve_static` (and converges slowly).
-
-Reused sensitivities. dq/du = -H^-1 d2E/dq du, at the equilibrium, from the last
-factorisation, which may be up to a few chord steps (~1 mm) away. The springs'
-stiffness changes fastest, and is corrected exactly (Woodbury); the arm's softest
-bending mode (~0.015 N/m at rest) stiffens or softens by tens of % within 10 um as
-well, so along the motor steps a caller will predict along, dq/du is refined by
-conjugate gradients (:func:`reused_sensitivity`).
+The derivation and the measurements behind each step: docs/design/fem.md.
 """
 
 from __future__ import annotations

@@ -1,30 +1,17 @@
 """Warm starts along a walk of commands: predict the next equilibrium from solved ones.
 
-A walk (:func:`lab.data.simulation.solve_chunk`) solves commands one after the other, each
-a small step from solved ones. :class:`WalkPredictor` keeps every equilibrium of the
-walk (u, q, dq/du, which cables are taut) and offers several predictions for a new
-command ``u``, built from its nearest solved neighbours ``u - s``:
+A walk (:func:`lab.data.simulation.solve_chunk`) solves commands one after the other, each a
+small step from solved ones. :class:`WalkPredictor` keeps every equilibrium of the walk
+(u, q, dq/du, which cables are taut) and offers predictions for a new command ``u`` from its
+nearest solved neighbours ``u - s``: linear, Hermite (the cubic through two solved points),
+and either of those corrected by the error the same prediction made one row back.
+:meth:`WalkPredictor.ranked` orders them by energy E(q, u), lowest first, except that those
+where a cable changes state although its motor did not move come last. The Hermite and
+corrected predictions need dq/du refined along the walk (``refine_du`` of
+:func:`lab.fem.statics.solve_static`). Everything depends only on the walk, so a walk gives
+the same numbers wherever it runs.
 
-* linear:      q(u - s) + dq/du(u - s) s;
-* Hermite:     the cubic through q and dq/du s at u - 2s and u - s, evaluated at u
-               (where the walk goes straight: ~10 um from the equilibrium on the
-               default grid, against ~1 mm for linear);
-* corrected:   either of those plus the error the same prediction made one row back,
-               q(u - t) - P(u - t), for another neighbour offset t when u - s - t is
-               solved too (a parallelogram of the grid). That error varies slowly
-               from row to row, so this removes most of it, also where a cable goes
-               taut or slack within the step, as it did one row back. It is used
-               only when u - s and u - s - t have the same cables taut.
-
-:meth:`WalkPredictor.ranked` orders them by energy E(q, u) (one energy each, ~0.2 ms),
-lowest first: closest to the equilibrium in the energy norm; but predictions where a
-cable changes state (taut/slack) although its motor did not move come last: on the
-grid those were where the exact Hessian is indefinite, costing several extra
-factorisations, although their energy was lowest. The Hermite and
-corrected predictions need dq/du accurate along their steps; the solver refines it
-along the walk's previous and next steps (``refine_du`` of
-:func:`lab.fem.statics.solve_static`). Everything depends only on the walk, so a walk
-gives the same numbers wherever it runs.
+Each prediction, its accuracy on the grid and the ranking rule: docs/design/fem.md.
 """
 
 from __future__ import annotations

@@ -5,13 +5,17 @@
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
 point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
+A run's settings are one :class:`TrainSpec` (:mod:`.train_spec`; memory check in
+:mod:`.network_size`); :mod:`.runs` runs ``train`` and ``splits`` from dataset files.
 Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), the GP
 residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
-The foam in time: the learned relaxation filter on top of the quasi-static model
-(:mod:`.relaxation`) and its fits (:mod:`.relaxation_fit`).
+Active sampling (:mod:`.active`), run from a design's settings by :mod:`.active_design`;
+:func:`simulate_design` (:mod:`.simulate_design`) simulates any design into a dataset.
+The foam in time (the relaxation filter and its fits) is :mod:`lab.dynamics`.
 """
 
 from lab.learn.active import active_sampling, pick_apart
+from lab.learn.active_design import active_settings, check_active, run_active
 from lab.learn.bayes import br_options, effective_parameters, train_br
 from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
@@ -22,10 +26,11 @@ from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_s
 from lab.learn.mlp import MLP, init_mlp, minmax_gain
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
+from lab.learn.network_size import check_network_size, n_parameters, training_bytes
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
-from lab.learn.relaxation import DynamicsFileError, Relaxation, load_relaxation
-from lab.learn.relaxation_fit import Segment, Stream, fit_exponentials, fit_stream
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
+from lab.learn.runs import TrainRun, splits_run, train_run
+from lab.learn.simulate_design import simulate_design
 from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
 from lab.learn.studies import (
     evaluate_splits,
@@ -35,16 +40,10 @@ from lab.learn.studies import (
     write_csv,
 )
 from lab.learn.train import TrainResult, data_sha256, train
+from lab.learn.train_spec import SplitsSpec, TrainSpec
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
-    "DynamicsFileError",
-    "Relaxation",
-    "load_relaxation",
-    "Segment",
-    "Stream",
-    "fit_exponentials",
-    "fit_stream",
     "br_options",
     "effective_parameters",
     "train_br",
@@ -56,6 +55,10 @@ __all__ = [
     "evaluate_model_splits",
     "fit_model",
     "active_sampling",
+    "run_active",
+    "active_settings",
+    "check_active",
+    "simulate_design",
     "pick_apart",
     "InverseModel",
     "fit_inverse",
@@ -100,6 +103,14 @@ __all__ = [
     "data_sha256",
     "TrainResult",
     "train",
+    "TrainSpec",
+    "SplitsSpec",
+    "TrainRun",
+    "train_run",
+    "splits_run",
+    "check_network_size",
+    "n_parameters",
+    "training_bytes",
     "mse_m2",
     "mean_distance_m",
     "error_report",

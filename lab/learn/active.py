@@ -1,30 +1,16 @@
 """Active sampling: measure, batch after batch, the allowed commands where a model ensemble disagrees most.
 
 :func:`active_sampling` starts from a scrambled-Sobol design of ``n_initial`` safe
-commands (Sobol rather than maximin: a maximin design fills the safe set's boundary
-first, issue 14), then repeats until ``n_total`` samples are measured:
-
-1. fit an ensemble of ``k`` networks to all ``(u, y)`` so far (by default
-   :func:`lab.learn.ensemble.train_ensemble`);
-2. draw a fresh, seeded pool of ``pool_size`` safe Sobol candidates and score each by
-   the ensemble's spread ``|std(u)|`` (m: the norm of the per-coordinate standard
-   deviations of the members' tip predictions) times its *density*, the share of the
-   pool within ``density_radius`` of it (relative to the largest): the spread is largest
-   on the boundary of the safe set, where a sample informs the least volume, and picking
-   by spread alone put two thirds of the picks there and gave a larger held-out error
-   (three-cable FEM, N = 100 / 200: 36 / 10 % larger than with the density on the
-   default mesh, 17 / 23 % on a 1x6 mesh);
-3. pick ``batch`` candidates (:func:`pick_apart`): greedily the highest score, each
-   scaled down by ``min(1, d / radius)`` where ``d`` is the distance (in ``u / u_max``)
-   to the nearest sample measured or already picked, so a batch does not pile up on one
-   peak of the spread;
-4. measure them with ``measure(u_batch) -> y_batch`` (the simulator or a rig: the caller
-   wires it) and append.
-
-Every random choice is seeded by ``(seed, number of samples so far)``, so the next batch
-depends only on the seed and the data so far: a run killed after some batches and
-restarted with the data it had measured (``u_done``, ``y_done``) continues exactly as
-the uninterrupted run, given a deterministic ensemble fit.
+commands, then until ``n_total`` samples are measured: fits an ensemble of ``k`` networks
+to all ``(u, y)`` so far; scores a fresh, seeded pool of ``pool_size`` safe Sobol
+candidates by the ensemble's spread (m) times their density in the pool
+(:func:`pool_density`: the spread alone crowds the picks on the safe set's boundary);
+picks ``batch`` of them apart from each other and from the data (:func:`pick_apart`);
+measures them with the caller's ``measure(u_batch) -> y_batch`` (the simulator or a rig).
+Every random choice is seeded by ``(seed, number of samples so far)``, so a run killed
+after some batches and restarted with the data it had measured (``u_done``, ``y_done``)
+continues exactly as the uninterrupted run, given a deterministic ensemble fit. Why these
+choices, with their measured effect: ``docs/design/sampling.md``.
 """
 
 from __future__ import annotations

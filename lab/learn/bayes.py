@@ -1,37 +1,16 @@
 """Bayesian regularisation (MATLAB ``trainbr``, MacKay 1992) for the forward model.
 
-Small noisy datasets are where an unregularised Levenberg-Marquardt fit either stops early
-(the paper's rules) or fits the noise (1000 epochs). ``trainbr`` minimises instead
+:func:`train_br` minimises F(theta) = beta E_D + alpha E_W, with E_D = sum_i |y(u_i) - y_i|^2
+(m^2) and E_W = |theta|^2 (every weight and bias, normalised space), and re-estimates alpha
+and beta after every accepted step from the evidence (MacKay's fixed point):
+gamma = sum_k lambda_k / (lambda_k + alpha / beta) (lambda_k: eigenvalues of J^T J; gamma: the
+effective number of parameters), alpha = gamma / (2 E_W), beta = (N_e - gamma) / (2 E_D), with
+N_e = N n_y residuals; 1 / sqrt(2 beta) estimates the noise per coordinate (m). Steps use
+``trainlm``'s damping schedule and :mod:`lab.learn.lm`'s linear algebra, not copies. Defaults
+are ``trainbr``'s: ``mu = 0.005``, ``min_grad = 1e-7``, 1000 epochs; the validation set never
+stops training, and the last network is returned.
 
-    F(theta) = beta * E_D + alpha * E_W,    E_D = sum_i |y(u_i) - y_i|^2 (m^2),  E_W = |theta|^2
-
-(``theta``: every weight and bias, normalised space), and re-estimates the two
-hyperparameters after every accepted step from the evidence (MacKay's fixed point, with
-the Gauss-Newton Hessian ``H = 2 (beta J^T J + alpha I)``):
-
-    gamma = sum_k lambda_k / (lambda_k + alpha / beta)     (lambda_k: eigenvalues of J^T J)
-    alpha = gamma / (2 E_W),    beta = (N_e - gamma) / (2 E_D)
-
-``gamma`` is the *effective number of parameters* (0 <= gamma < min(n_params, N_e)),
-``N_e = N * n_y`` the number of residuals, and ``1 / sqrt(2 beta)`` the estimated noise
-standard deviation per coordinate (m). Only the ratio ``r = alpha / beta`` enters the
-step, so everything is solved in the units of :mod:`lab.learn.lm`:
-
-    (J^T J / N_e + (mu + r / N_e) I) dtheta = -(J^T e + r theta) / N_e
-
-with ``trainlm``'s damping schedule (accept when ``E_D + r E_W`` decreases; mu * 0.1 on
-success, * 10 on failure). The Jacobian products, the Cholesky step and its kernel form
-(more parameters than residuals) are :mod:`lab.learn.lm`'s, not copies. The evidence
-needs the spectrum of ``J^T J``: one symmetric eigenvalue solve per epoch on the smaller
-of ``J^T J`` and ``J J^T`` (they share their non-zero eigenvalues).
-
-Differences from MATLAB, on purpose: the initial ``gamma`` is ``min(n_params, N_e / 2)``
-(MATLAB takes n_params and falls back to beta = 1 when that exceeds N_e, which in metres
-would be meaningless); the hyperparameters are updated at the *new* point after each
-accepted step; the validation set is recorded but never stops training (``trainbr``'s
-default ``max_fail = 0``), and the network returned is the last one (the objective
-changes with alpha and beta, so "best so far" has no meaning). Defaults are ``trainbr``'s:
-``mu = 0.005``, ``min_grad = 1e-7`` (on the gradient ``2 |J^T e + r theta| / N_e``), 1000 epochs.
+The step in lm's units and the deliberate differences from MATLAB: docs/design/learn.md.
 """
 
 from __future__ import annotations

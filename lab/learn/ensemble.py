@@ -1,23 +1,16 @@
 """A deep ensemble of forward networks: a predictive mean, its Jacobian, and a spread.
 
 K networks (:class:`lab.learn.mlp.MLP`, K >= 2) trained on the same data from different
-seeds -- different initial weights and, with a validation set, a different random
-validation split each (:func:`train_ensemble`) -- give, for a command u (rad):
+seeds (:func:`train_ensemble`) give, for a command u (rad): the mean of the members' tips
+(m), its Jacobian (the mean of theirs, m/rad), and the spread std(u) (m, per coordinate):
+the sample standard deviation across members times a post-hoc **spread scale** ``s`` (1
+unless fitted with :meth:`Ensemble.fit_spread_scale` on held-out data: deep ensembles of a
+few members are usually over-confident). :meth:`Ensemble.std_and_jacobian` also gives
+dstd/du, for IK that penalises the spread; :func:`calibration` measures how well the spread
+predicts held-out errors. One ``.npz`` file (no pickle) holds every member's arrays under
+``m0.``, ``m1.``, ... and a ``metadata`` JSON with ``kind: "lab.ensemble"`` and the spread scale.
 
-    mean(u)  = 1/K sum_k f_k(u)                                  (m)
-    dmean/du = 1/K sum_k J_k(u),   J_k = df_k/du                 (m/rad)
-    std(u)   = s * sqrt( 1/(K-1) sum_k (f_k(u) - mean(u))^2 )     (m, per coordinate)
-
-the sample standard deviation across members, times a post-hoc **spread scale** ``s``
-(1 unless fitted with :meth:`Ensemble.fit_spread_scale` on held-out data: deep ensembles
-of a few members are usually over-confident). Its gradient, for IK that penalises the
-spread, follows by the chain rule (:meth:`Ensemble.std_and_jacobian`):
-
-    dstd_i/du = s^2 / ((K-1) std_i) * sum_k (f_ki - mean_i) (J_ki - dmean_i/du)
-
-:func:`calibration` measures how well the spread predicts held-out errors; one ``.npz``
-file (no pickle) holds every member's arrays under ``m0.``, ``m1.``, ... and a top-level
-``metadata`` JSON with ``kind: "lab.ensemble"`` and the spread scale.
+The formulas: docs/design/learn.md.
 """
 
 from __future__ import annotations
@@ -199,12 +192,12 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
     if n_jobs == 1:
         members = [_train_member(*job) for job in jobs]
     else:
-        from joblib import Parallel, delayed, parallel_config
+        from joblib import Parallel, delayed
 
-        from lab.workers import kill_local_workers
+        from lab.workers import kill_local_workers, worker_config
 
         try:
-            with parallel_config(backend="loky", inner_max_num_threads=1):
+            with worker_config():
                 members = Parallel(n_jobs=n_jobs)(delayed(_train_member)(*job) for job in jobs)
         except BaseException:  # Ctrl-C / SIGTERM: stop the workers
             kill_local_workers()

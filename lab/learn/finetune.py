@@ -1,19 +1,18 @@
 """Fine-tuning a simulation-trained network on a few real samples (paper, Section VI-B).
 
-The paper proposes to "first train a network on a large amount of simulated data, and
-then fine-tune on real data". With N real samples (3N residuals) and 563 parameters, plain
+The paper proposes to "first train a network on a large amount of simulated data, and then
+fine-tune on real data". With N real samples (3N residuals) and 563 parameters, plain
 Levenberg-Marquardt would fit the samples exactly and move the network anywhere between
-them. The rule against over-fitting used here is a **prior towards the simulated
-weights**: :func:`finetune` minimises
+them. The rule against over-fitting used here is a **prior towards the simulated weights**:
+:func:`finetune` minimises
 
     F(theta) = |e(theta)|^2 / N_e + lam |theta - theta_sim|^2
 
-(``e`` the residuals on the real samples in metres, ``N_e = 3N``) by Levenberg-Marquardt,
-so every parameter the real data do not determine keeps its simulated value, and ``lam``
-is **chosen by cross-validation** on the real samples themselves (leave-one-out below 10
-samples, else 5-fold) over a log grid, then the fit is redone on all N with that ``lam``.
-``last_layer_only``: only the output layer moves (63 parameters for 3-20-20-3); the
-problem is then linear least squares and LM solves it in one step.
+(``e`` the residuals on the real samples in metres, ``N_e = 3N``) by Levenberg-Marquardt, with
+``lam`` **chosen by cross-validation** on the real samples (leave-one-out below 10 samples,
+else 5-fold) over a log grid, then the fit redone on all N with that ``lam``.
+``last_layer_only``: only the output layer moves (63 parameters for 3-20-20-3); the problem
+is then linear least squares and LM solves it in one step.
 """
 
 from __future__ import annotations

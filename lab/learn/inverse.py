@@ -1,22 +1,17 @@
 """The direct inverse model ``u = g(y)``: the approach the paper argues against.
 
-Section I of the paper: instead of learning the forward map y(u) and inverting it by
-optimisation, one can regress the command on the tip position directly. On a
-**redundant** robot (more motors than tip coordinates, or several commands reaching
-the same tip) the training data hold many valid u for one y, and least-squares
-regression returns their **average** -- which need not be valid: the mean of two
-commands that reach y generally reaches somewhere else. On an invertible map there is
-one u per y and the direct inverse works.
+Instead of learning the forward map y(u) and inverting it by optimisation, one can regress
+the command on the tip directly (the paper's Section I). On a **redundant** robot the data
+hold many valid u for one y, and least-squares regression returns their **average**, which
+need not reach y; on an invertible map the direct inverse works.
 
-:func:`fit_inverse` trains a :class:`lab.learn.MLP` from tips to commands with the
-lab's trainer (:func:`lab.learn.train`, Levenberg-Marquardt by default);
-:class:`InverseModel` gives ``command(y)``, clipped to the box of commands seen in the
-training data. It has no forward map (no ``predict``, no Jacobian). :func:`inverse_tip_errors`
-measures the averaging failure: the tip distance of ``forward(g(y))`` from ``y``, with a
-forward model or the robot (any callable) as the judge.
-
-File: ``.npz`` (no pickle) with the network under ``net.``, the command box ``u_lo,
-u_hi`` and a top-level ``metadata`` JSON of ``kind: "lab.inverse_mlp"``.
+:func:`fit_inverse` trains a :class:`lab.learn.MLP` from tips (m) to commands (rad) with the
+lab's trainer (:func:`lab.learn.train`); :class:`InverseModel` gives ``command(y)``, clipped to
+the box of commands seen in training, and has no forward map (no ``predict``, no Jacobian).
+:func:`inverse_tip_errors` measures the averaging failure: the distance of ``forward(g(y))``
+from ``y``, judged by a forward model or the robot (any callable). File: ``.npz`` (no pickle)
+with the network under ``net.``, the box ``u_lo, u_hi`` and a ``metadata`` JSON of
+``kind: "lab.inverse_mlp"``.
 """
 
 from __future__ import annotations

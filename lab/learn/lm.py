@@ -1,34 +1,17 @@
 """MATLAB-faithful Levenberg-Marquardt (``trainlm``) for the forward model.
 
-The paper trained its networks with MATLAB's Deep Learning Toolbox (``feedforwardnet`` +
-``trainlm``). :func:`train_lm` reproduces ``trainlm`` with its parameters
+:func:`train_lm` reproduces the ``trainlm`` the paper trained with, with its parameters
+(mu = 1e-3, mu_dec = 0.1, mu_inc = 10, mu_max = 1e10, 1000 epochs, max_fail = 6, min_grad =
+1e-6: the paper's value, MATLAB's default is 1e-7) and its semantics: MATLAB's stop checks in
+its order, the step (J^T J / N_e + mu I) dtheta = -J^T e / N_e (Cholesky; the kernel form when
+there are more parameters than residuals), the validation failures, and the best network seen
+returned. Errors e = y(u) - y_data are in metres; the performance is MATLAB's ``mse`` over
+N_e = N n_y elements; J = dy/dtheta is :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
 
-    mu = 1e-3, mu_dec = 0.1, mu_inc = 10, mu_max = 1e10, epochs = 1000,
-    max_fail = 6, min_grad = 1e-6 (the paper's value; MATLAB's default is 1e-7), goal = 0
-
-and its semantics, epoch by epoch:
-
-1. **Stop checks**, in MATLAB's order: performance goal met, maximum epoch reached,
-   gradient ``2 |J^T e| / N_e`` below ``min_grad``, ``mu >= mu_max``, or ``max_fail``
-   consecutive validation failures. Whatever the reason, the network returned is the
-   **best one seen**: lowest validation MSE (lowest training MSE without a validation set).
-2. **Step**: solve ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` (Cholesky). If the
-   training MSE decreases, accept and set ``mu <- max(mu * mu_dec, 1e-20)``; otherwise
-   ``mu <- mu * mu_inc`` and retry, until ``mu > mu_max``. A matrix that is not
-   numerically positive definite counts as a failed trial (MATLAB: singular-matrix warning).
-3. **Validation**: MSE on the validation set; lower than the best so far -> new best and
-   ``val_fail = 0``; higher -> ``val_fail += 1``; equal -> unchanged.
-
-Errors ``e = y(u) - y_data`` are in the data's units (metres), the performance is MATLAB's
-``mse`` (mean over samples *and* coordinates, ``N_e = N * n_y`` elements), as with
-``feedforwardnet``'s default ``performParam.normalization = 'none'``. The Jacobian
-``J = d y / d theta`` comes in closed form from :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
-When there are more parameters than residuals the identical step is computed in the
-kernel form ``dtheta = -J^T (J J^T + mu N_e I)^{-1} e`` (cheaper: an N_e x N_e system).
-
-Splits (``dividerand``) are in :mod:`lab.learn.split`; :func:`lab.learn.train.train` does
-split + init + fit with one seeded random stream. Adam and L-BFGS for large datasets live
-in :mod:`lab.learn.gradient`; error metrics in :mod:`lab.learn.metrics`.
+Splits (``dividerand``): :mod:`lab.learn.split`; split + init + fit with one seeded random
+stream: :func:`lab.learn.train.train`; Adam and L-BFGS for large datasets:
+:mod:`lab.learn.gradient`; error metrics: :mod:`lab.learn.metrics`.
+Each rule, epoch by epoch: docs/design/learn.md.
 """
 
 from __future__ import annotations

@@ -1,34 +1,18 @@
 """The learned forward model ``y(u)``: a small multilayer perceptron in NumPy float64.
 
-Section II-C of the paper learns the quasi-static forward kinematics, motor angles
-``u`` (rad) -> tip position ``y`` (m), with a feed-forward network and controls the
-robot through its **network Jacobian** ``dy/du`` (Appendix). This module is that
-network, written for speed on small batches (inverse kinematics evaluates it once
-per target, so it must cost microseconds, not a deep-learning framework's overhead).
+Section II-C of the paper learns the quasi-static forward kinematics, motor angles ``u``
+(rad) -> tip position ``y`` (m), and controls the robot through its **network Jacobian**
+dy/du (Appendix). This is that network, written for speed on small batches (IK evaluates it
+once per target). Layers as MATLAB's ``feedforwardnet``: ``mapminmax`` scaling of u to
+[-1, 1], hidden layers sigma(W_l a_{l-1} + b_l) (tanh or logistic; ``W_l`` (n_l, n_{l-1})), a
+linear output, and y's scaling undone. The Jacobian is the Appendix's chain rule,
 
-Layers, as MATLAB's ``feedforwardnet`` builds them::
+    dy/du = diag(1/g_y) W_L D_{L-1} W_{L-1} ... D_1 W_1 diag(g_u),   D_l = diag(sigma'(z_l)),
 
-    u_n  = (u - u_min) * g_u - 1,            g_u = 2 / (u_max - u_min)     (mapminmax)
-    a_0  = u_n
-    a_l  = sigma(W_l a_{l-1} + b_l),          l = 1 .. L-1  (hidden; tanh or logistic)
-    y_n  = W_L a_{L-1} + b_L                                (linear output)
-    y    = (y_n + 1) / g_y + y_min,          g_y = 2 / (y_max - y_min)     (mapminmax^-1)
-
-``W_l`` has shape (n_l, n_{l-1}). A constant input or output column (max == min)
-gets gain 1, as in ``mapminmax``.
-
-The Jacobian is the Appendix's chain rule, with the normalisation scalings at both
-ends and ``D_l = diag(sigma'(z_l))``::
-
-    dy/du = diag(1/g_y) W_L D_{L-1} W_{L-1} ... D_1 W_1 diag(g_u)
-
-It is accumulated from the output side ("reverse mode", cost proportional to
-``n_y``), batched over samples. The same per-layer products give the per-sample
-parameter Jacobian ``dy/dtheta`` that Levenberg-Marquardt needs (:meth:`MLP.parameter_jacobian`).
-
-The flat parameter vector ``theta`` is, layer by layer, ``W_l`` (row-major) then
-``b_l``. Files: :meth:`MLP.save` / :func:`load_model` (``.npz``, no pickle, JSON
-metadata; see :mod:`lab.learn.model_io`), failures raise :class:`ModelFileError`.
+accumulated from the output side, batched; the same products give dy/dtheta for
+Levenberg-Marquardt (:meth:`MLP.parameter_jacobian`), ``theta`` being, layer by layer, ``W_l``
+(row-major) then ``b_l``. Files: :meth:`MLP.save` / :func:`load_model` (``.npz``, no pickle;
+:mod:`lab.learn.model_io`); failures raise :class:`ModelFileError`. Layers: docs/design/learn.md.
 """
 
 from __future__ import annotations

@@ -1,19 +1,18 @@
 """Saving and loading :class:`lab.learn.mlp.MLP` as ``.npz`` (NumPy arrays + a JSON string; no pickle).
 
 Arrays: ``W0, b0, W1, b1, ...`` (normalised-space weights and biases, layer by layer),
-``u_min, u_max, y_min, y_max`` (the ``mapminmax`` ranges, units of u and y) and
-``metadata``, a JSON string::
+``u_min, u_max, y_min, y_max`` (the ``mapminmax`` ranges, units of u and y) and ``metadata``::
 
     {"format_version": 1, "kind": "lab.mlp",
      "architecture": {"layer_sizes": [3, 20, 20, 3], "activation": "tanh", "output": "linear"},
      "normalisation": {"method": "mapminmax", "range": [-1, 1]},
      "units": {...}, "training": {...}, "code_version": "...", "created": "..."}
 
-``training`` is whatever the trainer recorded (algorithm, epochs, stop reason, seed,
-split sizes, errors, SHA-256 of the training data, ...). Files are written atomically
-(temporary file + rename) and read with ``allow_pickle=False``. Anything wrong with a
-file -- missing, truncated, corrupt, a newer format, a missing array, inconsistent
-shapes -- raises :class:`ModelFileError` naming the file and the problem.
+``training`` is whatever the trainer recorded (algorithm, epochs, stop reason, seed, split
+sizes, errors, SHA-256 of the training data, ...). Files are written atomically (temporary
+file + rename) and read with ``allow_pickle=False``. Anything wrong with a file -- missing,
+truncated, corrupt, a newer format, a missing array, inconsistent shapes -- raises
+:class:`ModelFileError` naming the file and the problem.
 """
 
 from __future__ import annotations

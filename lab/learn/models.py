@@ -1,21 +1,15 @@
 """Every forward (and the direct inverse) model behind one name: fit, load, ten-split study.
 
-``MODEL_CHOICES`` are the names ``python -m lab train/splits --model`` takes:
-
-* ``mlp`` -- :func:`lab.learn.train.train` (LM by default; ``algorithm="br"`` for Bayesian
-  regularisation, :mod:`lab.learn.bayes`);
-* ``ensemble`` -- :func:`lab.learn.ensemble.train_ensemble`, ``members`` networks;
-* ``gpr``, ``knn``, ``sklearn-mlp`` -- the scikit-learn peers (:mod:`lab.learn.peers`);
-* ``inverse-mlp`` -- the direct inverse u = g(y) (:mod:`lab.learn.inverse`): no forward
-  map, so its held-out error is the **command error** ``|g(y) - u|`` (rad) and, given a
-  forward model to judge it, the **tip error** ``|forward(g(y)) - y|`` (m), reported as
-  its ``mean_distance_m``; without one, ``mean_distance_m`` is NaN.
-
-:func:`load_model` reads any model file by the ``kind`` in its metadata (``lab.mlp``,
-``lab.residual``, ``lab.ensemble``, ``lab.gpr``, ``lab.knn``, ``lab.sklearn_mlp``,
-``lab.inverse_mlp``). :func:`evaluate_model_splits` is the paper's ten-split study for
-any model; its splits are :func:`lab.learn.train.train`'s for the same seeds (the same
-test indices), so models are compared on paired splits.
+``MODEL_CHOICES`` are the names ``python -m lab train/splits --model`` takes: ``mlp``
+(:func:`lab.learn.train.train`, LM or ``algorithm="br"``), ``ensemble``
+(:func:`lab.learn.ensemble.train_ensemble`), the scikit-learn peers ``gpr``, ``knn``,
+``sklearn-mlp`` (:mod:`lab.learn.peers`), and ``inverse-mlp``, the direct inverse u = g(y)
+(:mod:`lab.learn.inverse`): its held-out error is the command error ``|g(y) - u|`` (rad)
+and, given a forward model, the tip error ``|forward(g(y)) - y|`` (m) as ``mean_distance_m``
+(NaN without one). :func:`load_model` reads any model file by the ``kind`` in its metadata
+through :data:`MODEL_KINDS`, a dict of loader functions imported here by name.
+:func:`evaluate_model_splits` is the paper's ten-split study for any model, on
+:func:`lab.learn.train.train`'s splits for the same seeds, so models compare split by split.
 """
 
 from __future__ import annotations
@@ -25,8 +19,14 @@ import time
 import numpy as np
 
 from lab.errors import InputError
+from lab.learn.ensemble import load_ensemble, member_ratios, train_ensemble
+from lab.learn.inverse import fit_inverse, load_inverse
 from lab.learn.metrics import error_report
-from lab.learn.model_io import ModelFileError, file_metadata
+from lab.learn.mlp import ACTIVATIONS, MLP
+from lab.learn.model_io import ModelFileError, file_metadata, read_model
+from lab.learn.peers import fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
+from lab.learn.residual import load_residual
+from lab.learn.train import train
 
 __all__ = [
     "MODEL_CHOICES",
@@ -40,15 +40,25 @@ __all__ = [
 ]
 
 MODEL_CHOICES = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp")
-#: file kind -> (module, loader function)
+
+
+def _load_mlp(path) -> MLP:
+    return MLP(**read_model(path, ACTIVATIONS))
+
+
+def _load_residual(path):
+    return load_residual(path, MLP, ACTIVATIONS)
+
+
+#: file kind -> loader function (path -> model)
 MODEL_KINDS = {
-    "lab.mlp": ("lab.learn.mlp", None),
-    "lab.residual": ("lab.learn.residual", None),
-    "lab.ensemble": ("lab.learn.ensemble", "load_ensemble"),
-    "lab.gpr": ("lab.learn.peers", "load_peer"),
-    "lab.knn": ("lab.learn.peers", "load_peer"),
-    "lab.sklearn_mlp": ("lab.learn.peers", "load_peer"),
-    "lab.inverse_mlp": ("lab.learn.inverse", "load_inverse"),
+    "lab.mlp": _load_mlp,
+    "lab.residual": _load_residual,
+    "lab.ensemble": load_ensemble,
+    "lab.gpr": load_peer,
+    "lab.knn": load_peer,
+    "lab.sklearn_mlp": load_peer,
+    "lab.inverse_mlp": load_inverse,
 }
 
 
@@ -83,8 +93,6 @@ def fit_model(
     stopping, none for ``algorithm="br"``). ``members`` is the ensemble's K, ``n_jobs``
     its worker processes; ``n_neighbors`` is k-NN's k. The scikit-learn peers take
     ``seed`` (gpr, sklearn-mlp) and ``hidden`` (sklearn-mlp) and ignore the rest."""
-    from lab.learn.ensemble import member_ratios
-
     _check_name(name)
     u, y = np.asarray(u, float), np.asarray(y, float)
     hidden = tuple(int(h) for h in hidden)
@@ -96,19 +104,11 @@ def fit_model(
         "ratios": tuple(ratios) if ratios is not None else member_ratios(algorithm),
     }
     if name == "mlp":
-        from lab.learn.train import train
-
         return train(u, y, hidden, seed=seed, **net_kwargs).model
     if name == "ensemble":
-        from lab.learn.ensemble import train_ensemble
-
         return train_ensemble(u, y, hidden, k=members, seed=seed, n_jobs=n_jobs, **net_kwargs)
     if name == "inverse-mlp":
-        from lab.learn.inverse import fit_inverse
-
         return fit_inverse(u, y, hidden, seed=seed, **net_kwargs)
-    from lab.learn.peers import fit_gpr, fit_knn, fit_sklearn_mlp
-
     if name == "gpr":
         return fit_gpr(u, y, seed=seed)
     if name == "knn":
@@ -134,23 +134,10 @@ def load_model(path):
     """Any lab model file, by the ``kind`` in its metadata (:data:`MODEL_KINDS`); raises
     :class:`lab.learn.model_io.ModelFileError` naming the file and the problem, an
     unknown kind included."""
-    import importlib
-
-    from lab.learn.mlp import ACTIVATIONS, MLP
-
     kind = file_metadata(path).get("kind")
     if kind not in MODEL_KINDS:
         raise ModelFileError(f"{path}: unknown model kind {kind!r} (known: {sorted(MODEL_KINDS)})")
-    if kind == "lab.mlp":
-        from lab.learn.model_io import read_model
-
-        return MLP(**read_model(path, ACTIVATIONS))
-    if kind == "lab.residual":
-        from lab.learn.residual import load_residual
-
-        return load_residual(path, MLP, ACTIVATIONS)
-    module, loader = MODEL_KINDS[kind]
-    return getattr(importlib.import_module(module), loader)(path)
+    return MODEL_KINDS[kind](path)
 
 
 def outer_split(n: int, ratios, seed: int):
@@ -248,12 +235,12 @@ def evaluate_model_splits(
     if n_jobs == 1:
         rows = [_one_split(*job) for job in jobs]
     else:
-        from joblib import Parallel, delayed, parallel_config
+        from joblib import Parallel, delayed
 
-        from lab.workers import kill_local_workers
+        from lab.workers import kill_local_workers, worker_config
 
         try:
-            with parallel_config(backend="loky", inner_max_num_threads=1):
+            with worker_config():
                 rows = Parallel(n_jobs=n_jobs)(delayed(_one_split)(*job) for job in jobs)
         except BaseException:  # Ctrl-C, SIGTERM: stop the workers
             kill_local_workers()

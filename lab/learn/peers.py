@@ -1,21 +1,18 @@
-"""scikit-learn peers of the network, side by side with it (issue 15): GP, k-NN, MLPRegressor.
+"""scikit-learn peers of the network, side by side with it: GP, k-NN, MLPRegressor.
 
 The paper cites Gaussian-process regression and k-nearest-neighbour models as related
 work; these are those models with the network's forward-map interface
 (:mod:`lab.learn.peers_base`), so the same error metrics, studies and inverse kinematics
 take any of them:
 
-* :func:`fit_gpr` -- ``GaussianProcessRegressor`` with an exact closed-form Jacobian and
-  a predictive standard deviation (:mod:`lab.learn.peers_gp`; refuses more than
+* :func:`fit_gpr` -- ``GaussianProcessRegressor`` with an exact closed-form Jacobian and a
+  predictive standard deviation (:mod:`lab.learn.peers_gp`; refuses more than
   :data:`GP_MAX_SAMPLES` samples unless told to subsample);
 * :func:`fit_knn` -- ``KNeighborsRegressor`` (:class:`KNNModel`): **no useful Jacobian**
-  (piecewise smooth with kinks and jumps where the neighbour set changes), so its
-  ``jacobian`` raises and inverse kinematics with it must be derivative-free;
-* :func:`fit_sklearn_mlp` -- ``MLPRegressor`` with its Jacobian from ``coefs_`` and
-  ``intercepts_`` (:mod:`lab.learn.peers_mlp`).
+  (kinks and jumps where the neighbour set changes), so IK with it must be derivative-free;
+* :func:`fit_sklearn_mlp` -- ``MLPRegressor``, its Jacobian from its weights (:mod:`lab.learn.peers_mlp`).
 
-:func:`load_peer` reads any of the three files (kinds ``lab.gpr``, ``lab.knn``,
-``lab.sklearn_mlp``; ``.npz``, no pickle).
+:func:`load_peer` reads any of the three (``.npz``, no pickle; kinds ``lab.gpr``, ``lab.knn``, ``lab.sklearn_mlp``).
 """
 
 from __future__ import annotations
@@ -98,8 +95,8 @@ def fit_knn(u, y, n_neighbors: int = 5, *, weights: str = "distance") -> KNNMode
     ``weights="distance"`` by default: on smooth, nearly noise-free kinematics (FEM data,
     motion capture at ~0.1 mm) the inverse-distance average interpolates, reproducing a
     sample exactly at its command, whereas the uniform mean of the k neighbours is biased
-    towards their centroid by about the sample spacing (measured in the issue-15 report:
-    distance weights are more accurate on both three-cable datasets)."""
+    towards their centroid by about the sample spacing (measured when the peers were
+    compared: distance weights are more accurate on both three-cable datasets)."""
     u, y = check_data(u, y, need=1)
     t0 = time.perf_counter()
     meta = {"model": "KNeighborsRegressor", "units": dict(UNITS), "training": {"n_samples": len(u)}}

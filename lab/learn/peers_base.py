@@ -4,11 +4,9 @@ Every peer is a forward map u (rad) -> y (m) with the interface of :class:`lab.l
 ``predict(u)`` takes one command (n_u,) -> (n_y,) or a batch (N, n_u) -> (N, n_y);
 ``predict_and_jacobian(u)`` also gives dy/du, (n_y, n_u) or (N, n_y, n_u), m/rad;
 ``jacobian(u)``; ``save(path)``; ``n_u``, ``n_y``, ``kind``, ``has_jacobian`` and a
-``metadata`` dict (fit time, hyperparameters, units).
-
-Inputs are scaled as ``mapminmax`` scales the network's (:func:`lab.learn.mlp.minmax_gain`):
-``x = (u - u_min) g_u - 1`` in [-1, 1] over the training data, gain 1 for a constant
-column; ``dx/du = diag(g_u)`` enters every Jacobian.
+``metadata`` dict (fit time, hyperparameters, units). Inputs are scaled as ``mapminmax``
+scales the network's (:func:`lab.learn.mlp.minmax_gain`): ``x = (u - u_min) g_u - 1`` in
+[-1, 1] over the training data, gain 1 for a constant column; ``dx/du = diag(g_u)``.
 
 Files are ``.npz`` (no pickle) with a JSON ``metadata`` string holding ``format_version``
 and ``kind`` (``lab.gpr``, ``lab.knn``, ``lab.sklearn_mlp``), written atomically;

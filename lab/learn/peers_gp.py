@@ -1,30 +1,18 @@
 """Gaussian-process regression of the forward map, scikit-learn fitted, NumPy evaluated.
 
-:func:`fit_gpr` fits scikit-learn's ``GaussianProcessRegressor`` with the kernel
+:func:`fit_gpr` fits scikit-learn's ``GaussianProcessRegressor`` (``ConstantKernel * RBF``
+with one length scale per motor, plus ``WhiteKernel``) on inputs scaled to [-1, 1]
+(:mod:`lab.learn.peers_base`) and outputs standardised per coordinate, hyperparameters by
+maximum marginal likelihood (L-BFGS-B, ``n_restarts`` seeded random starts), one kernel for
+the three coordinates. The file stores the training inputs, ``alpha = (K + noise I)^-1 t``,
+the hyperparameters and the scalings; :class:`GPRModel` evaluates the posterior mean (m) and
+its Jacobian (m/rad) in closed form (:class:`lab.learn.residual.GPCorrection`), and
+:meth:`GPRModel.predict_with_std` the posterior standard deviation (m).
 
-    k(x, x') = s2 exp(-1/2 sum_j (x_j - x'_j)^2 / l_j^2) + noise [x == x']
-
-(``ConstantKernel * RBF`` with one length scale per motor, ARD, plus ``WhiteKernel``) on
-inputs scaled to [-1, 1] (:mod:`lab.learn.peers_base`) and outputs standardised per
-coordinate, ``t = (y - y_mean) / y_scale``; hyperparameters maximise the marginal
-likelihood (L-BFGS-B from the initial kernel and ``n_restarts`` seeded random starts). One
-kernel serves the three coordinates (their likelihoods add). The file stores the
-training inputs, ``alpha = (K + noise I)^-1 t``, the hyperparameters and the scalings;
-after loading, :class:`GPRModel` evaluates the posterior mean and its Jacobian in closed
-form (:class:`lab.learn.residual.GPCorrection`),
-
-    y(u) = y_mean + y_scale * sum_i alpha_i k(x(u), x_i),
-    dy/du_j = y_scale * (-sum_i alpha_i k(x, x_i) (x_j - x_ij) / l_j^2) * g_j,
-
-and :meth:`GPRModel.predict_with_std` the posterior standard deviation (the Cholesky
-factor is rebuilt from the stored inputs on first use, so files stay O(N)).
-
-**Size limit.** Each likelihood evaluation costs O(N^3) time and O(N^2 n_u) memory, and
-the optimiser needs ~100 of them per start: 308 samples fit in seconds, 15,000 (the
-six-cable grid) would need hours and gigabytes. :func:`fit_gpr` therefore *refuses*
-more than ``max_samples`` (default :data:`GP_MAX_SAMPLES`) with an InputError, unless
-``subsample=True``, which fits a seeded random subset of ``max_samples`` rows and
-records that in ``metadata["training"]``.
+**Size limit.** Each likelihood evaluation costs O(N^3) time and O(N^2 n_u) memory, so
+:func:`fit_gpr` refuses more than ``max_samples`` (default :data:`GP_MAX_SAMPLES`) with an
+InputError unless ``subsample=True`` (a seeded random subset, recorded in the metadata).
+The kernel, the Jacobian and the cost measured: docs/design/learn.md.
 """
 
 from __future__ import annotations

@@ -1,22 +1,17 @@
 """The residual transfer model: the simulation network plus a Gaussian-process correction.
 
 A network trained on simulated data is wrong on the real arm by a smooth, command-
-dependent bias ``r(u) = y_real(u) - y_sim(u)`` (the as-built defects: softer foam, shifted
-eyelets, slack). With a few real samples, :func:`fit_residual` learns ``r`` by Gaussian-
-process regression (scikit-learn: a constant times an anisotropic RBF kernel plus white
-noise, hyperparameters by maximum marginal likelihood), and :class:`ResidualModel` is
+dependent bias ``r(u) = y_real(u) - y_sim(u)`` (m; the as-built defects: softer foam,
+shifted eyelets, slack). With a few real samples, :func:`fit_residual` learns ``r`` by
+Gaussian-process regression (scikit-learn: a constant times an anisotropic RBF kernel plus
+white noise, maximum marginal likelihood), and :class:`ResidualModel` is
+``y(u) = y_sim(u) + m(u)``, ``m`` the posterior mean, whose Jacobian (m/rad) is closed-form
+and added to the network's, so inverse kinematics still gets an exact Jacobian. Far from
+the real samples ``m`` falls back to a constant (the mean residual).
 
-    y(u) = y_sim(u) + m(u),    m(u) = c + sum_i alpha_i k(u, u_i),
-    k(u, u') = s^2 exp(-1/2 sum_j (u_j - u'_j)^2 / l_j^2),
-
-with the posterior mean's Jacobian in closed form,
-``dm/du_j = -sum_i alpha_i k(u, u_i) (u_j - u_ij) / l_j^2``, added to the network's, so
-inverse kinematics still gets an exact Jacobian. Far from the real samples ``m`` falls
-back to the constant ``c`` (the mean residual), i.e. to the simulation network shifted.
-
-One ``.npz`` holds both parts (no pickle): the network's arrays under ``base.``, the
-process under ``gp.``, and a top-level ``metadata`` JSON with ``kind: "lab.residual"``.
-:func:`lab.learn.mlp.load_model` reads either kind, so ``track --model`` takes it.
+One ``.npz`` holds both parts (no pickle): the network's arrays under ``base.``, the process
+under ``gp.``, and a ``metadata`` JSON with ``kind: "lab.residual"``; :func:`lab.learn.mlp.load_model`
+reads either kind, so ``track --model`` takes it. The formulas: docs/design/learn.md.
 """
 
 from __future__ import annotations

@@ -53,10 +53,12 @@ def _one_run(u, y, hidden, ratios, seed, train_kwargs) -> dict:
 def _run_all(jobs, n_jobs: int) -> list[dict]:
     if n_jobs == 1:
         return [_one_run(*job) for job in jobs]
-    from joblib import Parallel, delayed, parallel_config
+    from joblib import Parallel, delayed
+
+    from lab.workers import worker_config
 
     try:
-        with parallel_config(backend="loky", inner_max_num_threads=1):
+        with worker_config():
             return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
     except BaseException:  # Ctrl-C, SIGTERM (lab.cli): stop the workers, do not leave them training
         kill_local_workers()

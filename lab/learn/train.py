@@ -18,6 +18,7 @@ from lab.errors import InputError
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP, init_mlp
+from lab.learn.network_size import check_network_size
 from lab.learn.split import Split, check_enough_data, divide_random
 
 ALGORITHMS = ("lm", "adam", "lbfgs", "br")
@@ -80,6 +81,8 @@ def train(
     check_enough_data(u, ratios)
     rng = np.random.default_rng(seed)
     split = divide_random(len(u), ratios, rng)
+    sizes = init.layer_sizes if init is not None else (u.shape[1], *hidden, y.shape[1])
+    check_network_size(sizes, len(split.train), algorithm)  # before allocating any weight
     model = init_mlp(u, y, hidden, activation, rng)
     if init is not None:
         if (init.n_u, init.n_y) != (u.shape[1], y.shape[1]):

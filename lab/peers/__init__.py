@@ -1,4 +1,4 @@
-"""Peers: the arm in the simulators and solvers users would pick instead of ours (issue 17).
+"""Peers: the arm in the simulators and solvers users would pick instead of ours.
 
 :func:`mujoco_arm` builds the cable-driven arm as a MuJoCo model on our tet mesh (a 3D flex
 with spatial tendons as the cables; :mod:`.mujoco_arm`), so ``benchmarks/bench_peers.py`` can

@@ -1,40 +1,18 @@
 """The cable-driven arm in MuJoCo: the same tet mesh as a 3D flex, cables as spatial tendons.
 
-What users would pick instead of our FEM (issue 17). :func:`mujoco_arm` builds an MJCF model
-from an :class:`lab.fem.energy.ArmFEM`:
+What users would pick instead of our FEM. :func:`mujoco_arm` builds an MJCF model from an
+:class:`lab.fem.energy.ArmFEM`: one body per free node at its rest position (m), with three
+slide joints and the node's lumped mass, the clamped base nodes on the world body; one
+``<flex dim="3">`` over our tetrahedra with our Young's modulus and Poisson ratio (equal to
+our neo-Hookean law at small strain only), no contacts; each cable a spatial tendon from its
+anchor through one site per via point, stiffness ``k`` (N/m) and ``springlength = (0, L0 +
+slack - r u)``, so tension-only. Each via point is a site on the body of the node with the
+largest barycentric weight in its tet (a site belongs to one body), so its moment arm is that
+node's radius and MuJoCo's arm bends less per cable length. The only damping is the flex's
+own (``flex_damping_s``, s); the integrator is ``discrete`` (MuJoCo 4 refuses implicit flex).
 
-* one body per free node at its rest position, with three slide joints (so bodies only
-  translate) and the node's lumped mass (a quarter of each adjacent tet's, as ours); the
-  clamped base nodes are vertices of the world body;
-* one ``<flex dim="3">`` over our tetrahedra with our Young's modulus and Poisson ratio
-  (MuJoCo's 3D flex elasticity: a Saint Venant-Kirchhoff-type law on the element edge
-  strains, equal to our neo-Hookean law at small strain only); no contacts;
-* each cable a spatial tendon from a world site at its anchor through one site per via
-  point, with spring stiffness ``k`` and ``springlength = (0, L0 + slack - r u)``: MuJoCo's
-  dead band makes it tension-only (no force while shorter than ``L*``). MuJoCo has no sharp
-  kink smoothing, so the spring is exactly one-sided (ours is smoothed over 0.2 mm).
-
-Via points: a MuJoCo site is fixed to one body, it cannot follow a barycentric combination of
-four nodes. Each via point is a site on the body of the node with the largest barycentric
-weight in its tet, at the via point's rest offset from that node (1.7 mm on the default
-mesh). The bodies only translate, so the offset keeps its world direction: the via point
-follows that node, not the tet's rotation (an error of offset x bend angle, < 3 mm at 90 deg).
-An exact embedding would be a via body coupled to its tet's four nodes by fixed-tendon
-equality constraints (via - sum_j w_j node_j = 0 per axis); MuJoCo's constraints are soft,
-and under cable tension they gave way by 2-30 mm at the default solref/solimp, while stiff
-ones (time constant 2 dt, impedance 0.9999) froze the arm at rest and made it diverge under a
-pull (tried on the (2, 10) mesh, via bodies of 0.1 mg with gravity compensation), so the
-nearest node it is. Its cost: a via point moves axially like its node, so its moment arm
-about the neutral axis is that node's radius (13.3 mm instead of 15 mm on the default mesh),
-and MuJoCo's arm bends less per cable length.
-
-Damping is not part of the statics but decides how fast a simulation settles. MuJoCo refuses
-joint damping on flex node bodies, so the only damping is the flex's own (``flex_damping_s``,
-stiffness-proportional Rayleigh damping, s); 0.03 s settled the default arm fastest of 0.01,
-0.03 and 0.08 s under a full pull. MuJoCo 4 no longer integrates flex elasticity implicitly
-under ``implicit``/``implicitfast``: the choice is ``discrete`` (its effective-metric M + K
-solve; the default, stable at 0.5 ms steps) or ``Euler``, explicit, which needs steps far
-below 0.1 ms with this damping (it diverged within 1 ms at 0.1 ms steps).
+Why the nearest node rather than an exact embedding, and how damping and integrator were
+chosen (measured): docs/design/peers.md.
 """
 
 from __future__ import annotations

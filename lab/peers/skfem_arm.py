@@ -1,22 +1,16 @@
 """The arm's body in scikit-fem: the same tet mesh and neo-Hookean law, assembled by another FEM.
 
-What a user would pick instead of our FEM for the material alone (issue 17; torch-fem, the
-issue's first candidate, does not fit the pinned environment, see benchmarks/bench_peers.py).
-:class:`SkfemArm` builds, from an :class:`lab.fem.energy.ArmFEM`:
-
-* ``MeshTet`` on our nodes and tets, a vector P1 basis (``ElementVector(ElementTetP1())``);
-* our compressible neo-Hookean law, psi = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2,
-  with our per-tet mu, lam, written as scikit-fem forms: the residual P(F) : grad v - rho g . v
-  and the tangent dP[du] : grad v, P = mu F - (mu - lam ln J) F^-T. P1 gradients are constant
-  per tet, so every quadrature rule is exact and the one-point rule is used; the body force
-  rho g integrates to rho g V / 4 per node, our lumped gravity. The two FEMs assemble the same
-  discrete energy: differences are rounding and the solvers' tolerances only;
-* the base nodes (x at its minimum, within ``clamp_tol_m``) clamped, as ours;
-* an optional point load on one node (:func:`tip_load_node`, the tip marker's node of largest
-  weight), the load benchmarks/bench_peers.py puts on our arm.
-
-The cables are not modelled: scikit-fem has no one-sided cable (tension-only spring along a
-routed path), so only slack-cable states compare. ``skfem`` is imported when an arm is built.
+What a user would pick instead of our FEM for the material alone (torch-fem, the first
+candidate, does not fit the pinned environment: docs/results-peers.md). :class:`SkfemArm`
+builds, from an :class:`lab.fem.energy.ArmFEM`: ``MeshTet`` on our nodes and tets with a
+vector P1 basis; our compressible neo-Hookean law with our per-tet mu, lam as scikit-fem
+forms (residual and tangent; P1 gradients are constant per tet, so the one-point rule is
+exact and the body force integrates to our lumped gravity); the base nodes (x at its
+minimum, within ``clamp_tol_m``) clamped; an optional point load on one node
+(:func:`tip_load_node`). The two FEMs assemble the same discrete energy: differences are
+rounding and the solvers' tolerances only. The cables are not modelled (scikit-fem has no
+one-sided cable), so only slack-cable states compare. ``skfem`` is imported when an arm is
+built. The forms in full: docs/design/peers.md.
 """
 
 from __future__ import annotations

@@ -1,23 +1,14 @@
 """The as-built arm: a defect file the nominal model does not know, and its statics.
 
 A *defects file* (TOML, user-editable) says how the robot that was actually built
-differs from its description, and how the emulated rig (``twin``) behaves in time:
-
-* ``[material]``  ``softness`` (E_as-built / E_nominal, mean over the section) and a
-  casting ``gradient``: per-tet ``E = softness E_nom (1 + gradient s)``, with
-  ``s = (centroid . gradient_direction) / radius`` in [-1, 1] across the section;
-* ``[[cables]]``  per cable (in the description's order, matched by name):
-  ``via_shift_m`` moves every eyelet (via point) of that cable, ``slack_m`` is extra
-  free length, ``play_m`` the half-width of the friction play on its contraction;
-* ``[lag]``       the tip relaxes toward equilibrium with two exponential modes;
-* ``[motors]``    encoder ticks per revolution and profile velocity;
-* ``[mocap]``     frame rate, Gaussian noise, occlusion bursts;
-* ``[emulator]``  optional FEM mesh resolution (default: the description's).
-
-:func:`load_defects` validates every field and raises :class:`DefectsError` naming
-the bad one. The shipped default for a robot is ``lab/rig/defects/<robot>.toml``.
-:class:`EquilibriumCache` solves the as-built FEM for effective cable contractions,
-warm-started from the nearest cached equilibrium.
+differs from its description (``[material]`` softness and casting gradient,
+``[[cables]]`` eyelet shifts, slack and play) and how the emulated rig (``twin``) behaves
+in time (``[lag]``, ``[motors]``, ``[mocap]``; ``[emulator]`` an optional FEM mesh).
+:func:`load_defects` validates every field and raises :class:`DefectsError` naming the
+bad one; the shipped default for a robot is ``lab/rig/defects/<robot>.toml``.
+:func:`as_built_fem` is the FEM of the as-built arm and :class:`EquilibriumCache` solves
+it for effective cable contractions, warm-started from the nearest cached equilibrium.
+Every field is described in ``docs/design/rig.md``.
 """
 
 from __future__ import annotations

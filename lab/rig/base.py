@@ -1,23 +1,17 @@
 """The rig interface: send motor angles, read a stream of tip-marker frames, stop safely.
 
-One interface, three implementations, chosen by ``make_rig`` (``lab.rig``):
-
-* ``sim``       -- ``SimRig``: the nominal quasi-static FEM, instantaneous, noise-free
-                   (the paper's "Sim Robot");
-* ``twin[:F]``  -- the emulated as-built robot (defects from the TOML file ``F``), with lag,
-                   hysteresis and motion-capture noise on a virtual clock;
-                   ``twin:random:S`` is member ``S`` of a family of them (``lab.rig.family``);
-* ``hardware:C``-- Dynamixel XM430 servos + OptiTrack, configured by the TOML file ``C``.
-
-Everything downstream (capture protocol, trajectory tracking) uses only this interface:
+One interface, three implementations, built by :func:`lab.rig.make_rig`: ``sim``
+(:class:`~lab.rig.sim.SimRig`, the nominal quasi-static FEM), ``twin`` (the emulated
+as-built robot, :mod:`lab.rig.twin`) and ``hardware`` (:mod:`lab.rig.hardware`). Capture
+and tracking use only this interface::
 
     with make_rig("twin", robot) as rig:
         rig.send(u_motor)                 # rad, validated by the robot's limits and safety rule
         frame = rig.next_frame()          # MocapFrame(t_s, p_tip_W), NaN while occluded
 
 ``close()`` (also run by ``with`` on any exception) leaves the robot safe: torque off on
-hardware. Frames are timestamped on the rig's clock (seconds): wall time on hardware,
-a virtual clock on the emulated rigs, which therefore run much faster than real time.
+hardware. Frames are stamped on the rig's clock (s): wall time on hardware, a virtual
+clock on the emulated rigs. More in ``docs/design/rig.md``.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 :func:`capture` runs a list of commands through an append-only :class:`~lab.rig.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. ``python -m lab capture``
-(:mod:`lab.cli.capture`) adds the grid, the rig and the dataset.
+(:func:`lab.tracking.capture_design.capture_design`) adds the design, the rig and the dataset.
 """
 
 from __future__ import annotations
@@ -211,7 +211,7 @@ def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):
     :class:`~lab.rig.predictive.PredictiveSampler` (with the relaxation a resumed journal learned)."""
     if protocol.kind != "predictive":
         return lambda u: measure(rig, u, protocol)
-    from lab.learn.relaxation import Relaxation
+    from lab.dynamics.relaxation import Relaxation
     from lab.rig.predictive import PredictiveSampler
 
     learned = journal.notes_tagged("relaxation")

@@ -1,22 +1,14 @@
 """Exciting the rig to learn its dynamics: step responses and short random motions.
 
 ``python -m lab fit-dynamics`` learns the foam's relaxation filter
-(:class:`~lab.learn.relaxation.Relaxation`) from what the motion capture sees while the rig
-is driven through a :class:`ProbePlan`:
-
-1. **step responses** (``n_steps``): random allowed commands, each held ``step_hold_s``
-   (default 10 s, four times a slow time constant of 2.5 s: the slow mode is seen to its
-   end, which pins the equilibria and so the weights). No reset in between: every command
-   is its own pose with its own equilibrium (the fit finds them), so hysteresis does no harm;
-2. **random motions** (``n_random``): random allowed commands held 0.3-1.5 s (uniform)
-   after the motors arrive, each interrupting the creep toward the last: fast content that
-   separates the fast mode from the slow one;
-3. a final hold of ``step_hold_s``, so the last equilibria are seen too.
-
-Commands are drawn uniformly in ``[0, u_max]`` per motor and kept if the robot's safety
-rule allows them. The plan is a pure function of the robot and the seed; :func:`run_probe`
-drives a rig through it with a :class:`~lab.rig.recorder.StreamRecorder` and returns the
-:class:`~lab.learn.relaxation_fit.Stream` to fit.
+(:class:`~lab.dynamics.relaxation.Relaxation`) from what the motion capture sees while the
+rig is driven through a :class:`ProbePlan`: ``n_steps`` random allowed commands each held
+``step_hold_s`` (the slow mode seen to its end), then ``n_random`` commands held 0.3-1.5 s
+(fast content that separates the modes), then a final hold. No reset in between: every
+command is its own pose with its own equilibrium. The plan is a pure function of the
+robot and the seed; :func:`run_probe` drives a rig through it with a
+:class:`~lab.rig.recorder.StreamRecorder` and returns the
+:class:`~lab.dynamics.relaxation_fit.Stream` to fit. Why these holds: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -26,12 +18,90 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.description import RobotDescription
+from lab.dynamics.relaxation_fit import Stream
 from lab.errors import InputError
-from lab.learn.relaxation_fit import Stream
 from lab.rig.base import Rig
 from lab.rig.recorder import StreamRecorder
+from lab.specs import Spec, at_most, non_negative_int, option, positive, positive_int
 
-__all__ = ["ProbePlan", "probe_plan", "random_allowed_commands", "run_probe"]
+__all__ = [
+    "MAX_MODES",
+    "MAX_HOLD_S",
+    "MAX_PROBE_S",
+    "ProbeSpec",
+    "ProbePlan",
+    "probe_plan",
+    "random_allowed_commands",
+    "run_probe",
+    "plan_info",
+]
+
+#: The most relaxation modes a probe's recording can tell apart.
+MAX_MODES = 4
+#: The longest hold of a step response, s: sixty times the default, far past the foam's
+#: slowest relaxation (seconds); a longer one only keeps the servos loaded.
+MAX_HOLD_S = 600.0
+#: The longest probe, s (its holds, upper estimate): four hours of servos under load and of
+#: motion capture, beyond which a session on the rig does not go.
+MAX_PROBE_S = 4 * 3600.0
+#: The most step responses and random motions of one probe.
+MAX_STEPS = 1000
+MAX_RANDOM = 10_000
+#: Hold range of a random motion, s.
+RANDOM_HOLD_S = (0.3, 1.5)
+
+
+def _modes(v) -> str | None:
+    problem = positive_int(v)
+    if problem:
+        return problem
+    return None if v <= MAX_MODES else f"must be at most {MAX_MODES} (more relaxation modes cannot be told apart)"
+
+
+def _seconds(v) -> str | None:
+    if positive(v) is not None:
+        return "must be a positive number of seconds"
+    return None if v <= MAX_HOLD_S else f"must be at most {MAX_HOLD_S:g} s"
+
+
+@dataclass(frozen=True)
+class ProbeSpec(Spec):
+    """How ``fit-dynamics`` excites the rig (:func:`probe_plan`) and how many relaxation
+    modes it fits to the recording. Every count and hold is bounded, and so is the whole
+    probe (:data:`MAX_PROBE_S`)."""
+
+    n_steps: int = option(
+        6, help="step responses, each held --step-hold-s", type=int, check=at_most(MAX_STEPS, positive_int)
+    )
+    n_random: int = option(
+        40, help="random commands held 0.3-1.5 s each", type=int, check=at_most(MAX_RANDOM, non_negative_int)
+    )
+    modes: int = option(2, help="relaxation modes K to fit", type=int, check=_modes)
+    step_hold_s: float = option(
+        10.0,
+        help="hold of each step response, s: about four times the slowest time constant",
+        type=float,
+        check=_seconds,
+    )
+
+    def __post_init__(self):
+        super().__post_init__()
+        longest = self.longest_s
+        if longest > MAX_PROBE_S:
+            raise InputError(
+                f"--n-steps {self.n_steps} x --step-hold-s {self.step_hold_s:g} and --n-random {self.n_random} "
+                f"hold the rig up to {longest / 3600:.1f} h: at most {MAX_PROBE_S / 3600:g} h in one probe"
+            )
+
+    @property
+    def longest_s(self) -> float:
+        """The probe's holds at their longest, s (each random motion held its upper bound)."""
+        n_last = 1 if self.n_random else 0
+        return (self.n_steps + n_last) * float(self.step_hold_s) + self.n_random * RANDOM_HOLD_S[1]
+
+    def plan(self, robot: RobotDescription, seed: int = 0) -> ProbePlan:
+        """The :class:`ProbePlan` of these settings for ``robot``, drawn with ``seed``."""
+        return probe_plan(robot, seed, self.n_steps, self.n_random, self.step_hold_s)
 
 
 @dataclass(frozen=True)
@@ -70,15 +140,15 @@ def probe_plan(
     n_steps: int = 6,
     n_random: int = 40,
     step_hold_s: float = 10.0,
-    random_hold_s: tuple[float, float] = (0.3, 1.5),
+    random_hold_s: tuple[float, float] = RANDOM_HOLD_S,
 ) -> ProbePlan:
     """The excitation of the module docstring: ``n_steps`` commands held ``step_hold_s`` s,
-    then ``n_random`` held ``random_hold_s`` (lo, hi) s each, then one last long hold."""
-    if n_steps < 1 or n_random < 0:
-        raise InputError(f"need n_steps >= 1 and n_random >= 0, got {n_steps} and {n_random}")
+    then ``n_random`` held ``random_hold_s`` (lo, hi) s each, then one last long hold. The
+    counts and the step hold are bounded as a :class:`ProbeSpec`'s (InputError)."""
+    ProbeSpec(n_steps=n_steps, n_random=n_random, step_hold_s=step_hold_s)
     lo, hi = (float(v) for v in random_hold_s)
-    if not (step_hold_s > 0 and 0 < lo <= hi):
-        raise InputError(f"hold times must be positive (step {step_hold_s} s, random {lo}..{hi} s)")
+    if not (0 < lo <= hi <= MAX_HOLD_S):
+        raise InputError(f"random hold times must satisfy 0 < lo <= hi <= {MAX_HOLD_S:g} s, got {lo}..{hi} s")
     rng = np.random.default_rng(seed)
     n_last = 1 if n_random else 0
     u = random_allowed_commands(robot, n_steps + n_random + n_last, rng)

@@ -1,28 +1,16 @@
 """Dynamixel XM430 servos on one bus, through the real ``dynamixel_sdk`` (Protocol 2.0).
 
-``XM430Bus`` opens the serial port, pings every servo, switches torque off, sets
-extended position mode (4) and the profile velocity, and then moves all motors at once:
-``write_goal_u`` (a GroupSyncWrite of goal positions) and ``read_present_u`` (a sync
-read of present positions, checking every servo's error byte).
-
-Motor angle convention: ``u`` (rad) >= 0 winds the cable onto its spool, contracting it
-by ``spool_radius_m * u``. Ticks (4096 per revolution) map to u per servo as
-
-    u = direction * (ticks - zero_ticks) * 2 pi / 4096
-
-with ``direction`` = +1 if increasing ticks wind the cable in, and ``zero_ticks`` the
-present position with the cable just taut. At power-up an X-series servo reports its
-position within one turn, so only ``zero_offset_ticks`` modulo 4096 is meaningful: on
-connecting, each servo's zero is moved by whole turns to the turn that puts its present
-angle nearest u = 0, and a present angle outside ``[-start_margin, u_max + start_margin]``
-is refused (a wrong zero or direction, or a spool left wound up).
-
-Errors: every failed exchange (no answer, corrupt answer, an error number in the status
-packet, the hardware-error alert bit such as an overload) raises ``ServoError`` naming the
-servo ID, its cable and the SDK's message, after trying to switch torque off on every
-servo: a broadcast write, then a read-back from each servo; the message says whether
-torque off was confirmed. A failing serial port (adapter unplugged) is a ``ServoError``
-too.
+``XM430Bus`` opens the serial port, pings every servo, switches torque off, sets extended
+position mode and the profile velocity, then moves all motors at once (``write_goal_u``,
+a sync write) and reads them back (``read_present_u``, a sync read checking every error
+byte). Motor angle ``u`` (rad) >= 0 winds the cable in; per servo
+``u = direction * (ticks - zero_ticks) * 2 pi / 4096``, with each zero moved by whole
+turns on connecting to the turn nearest u = 0 (an X-series servo reports within one turn),
+and a start-up angle outside the allowed range refused. The Bus Watchdog is cleared on
+connecting (a killed session leaves it fired, locking goals and profile) and re-armed, the
+last goal written again, after any quiet spell it may have fired in. Every failed exchange
+raises ``ServoError`` naming the servo ID and its cable, after trying to switch torque off
+on every servo (the message says whether that was confirmed). Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -89,6 +77,11 @@ __all__ = [
 # what pyserial raises when the adapter goes away (termios.error is no OSError)
 IO_ERRORS = (serial.SerialException, OSError, termios.error)
 
+#: A quiet spell longer than this fraction of the Bus Watchdog time counts as one the watchdog
+#: may have fired in: the servo times from a packet's arrival, the host from the end of an
+#: exchange, and the two differ by the host's and the adapter's delays.
+WATCHDOG_MARGIN = 0.5
+
 
 def _bytes4(value: int) -> list[int]:
     v = int(value) & 0xFFFFFFFF
@@ -112,7 +105,8 @@ class XM430Bus:
     """A connected, configured bus of XM430 servos (torque off until ``torque_on``).
 
     ``servos`` are in motor (cable) order; ``profile_velocity_rad_s`` caps each spool's
-    speed; ``u_max_rad`` with ``start_margin_rad`` bounds the accepted start-up angles.
+    speed; ``u_max_rad`` with ``start_margin_rad`` bounds the accepted start-up angles;
+    ``clock`` (s) times the quiet spells of the bus for the Bus Watchdog.
     Raises ``ServoError`` (port closed, torque off) if any of it fails.
     """
 
@@ -127,6 +121,7 @@ class XM430Bus:
         start_margin_rad: float = 0.5,
         latency_timer_ms: float = 16.0,
         bus_watchdog_ms: float = 0.0,
+        clock=time.monotonic,
     ):
         self.servos = tuple(servos)
         self.ids = [s.dxl_id for s in self.servos]
@@ -148,7 +143,11 @@ class XM430Bus:
             0 if not bus_watchdog_ms else min(127, max(1, round(bus_watchdog_ms / BUS_WATCHDOG_UNIT_MS)))
         )
         self.watchdog_s = self.watchdog_units * BUS_WATCHDOG_UNIT_MS / 1000
-        self._t_io = time.monotonic()
+        self._clock = clock
+        self._t_io = clock()
+        self._watchdog_armed = False  # armed since torque on, and not switched off since
+        self._watchdog_lapsed = False  # a quiet spell since arming in which it may have fired
+        self._goal_ticks: np.ndarray | None = None  # the last goal written
         self.model_numbers: dict[int, int] = {}
         self._closed = False
         self._unconfirmed_at_fail: list[int] | None = None  # torque-off result of the last failure
@@ -193,6 +192,9 @@ class XM430Bus:
             self.model_numbers[s.dxl_id] = model
         for s in self.servos:
             self.write_register(s.dxl_id, *TORQUE_ENABLE, 0)
+            # A Bus Watchdog that fired in an earlier session (its host killed) reads -1 and
+            # refuses goal and profile writes until cleared: clear it before writing them.
+            self.write_register(s.dxl_id, *BUS_WATCHDOG, 0)
             if self.read_register(s.dxl_id, *OPERATING_MODE) != EXTENDED_POSITION_MODE:
                 self.write_register(s.dxl_id, *OPERATING_MODE, EXTENDED_POSITION_MODE)  # EEPROM: only if needed
             limit = self.read_register(s.dxl_id, *VELOCITY_LIMIT)
@@ -244,6 +246,12 @@ class XM430Bus:
             for dxl_id in self.ids:
                 self.write_register(dxl_id, *BUS_WATCHDOG, 0)
                 self.write_register(dxl_id, *BUS_WATCHDOG, self.watchdog_units)
+            self._watchdog_armed, self._watchdog_lapsed = True, False
+
+    def _note_quiet_spell(self) -> None:
+        """Remember a quiet spell since the last exchange long enough for the watchdog to fire."""
+        if self._watchdog_armed and self._clock() - self._t_io > WATCHDOG_MARGIN * self.watchdog_s:
+            self._watchdog_lapsed = True
 
     def write_goal_u(self, u_rad) -> np.ndarray:
         """Sync-write goal angles ``u_rad`` (n,) rad; returns the goal ticks sent."""
@@ -260,18 +268,29 @@ class XM430Bus:
         for dxl_id, t in zip(self.ids, ticks):
             if abs(int(t)) > GOAL_LIMIT_TICKS:
                 raise InputError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
-        if self.watchdog_units and time.monotonic() - self._t_io > 0.8 * self.watchdog_s:
-            # The bus was quiet long enough for the watchdog to fire, which locks the goals
-            # (a sync write gets no answer to say so): re-arm it before moving.
+        self._note_quiet_spell()
+        if self._watchdog_lapsed:
+            # The watchdog may have fired, which locks the goals (a sync write gets no
+            # answer to say so): re-arm it before moving.
             self.arm_watchdog()
+        self._write_goal(ticks)
+
+    def _write_goal(self, ticks: np.ndarray) -> None:
         self._sync_write.clearParam()
         for dxl_id, t in zip(self.ids, ticks):
             self._sync_write.addParam(dxl_id, _bytes4(t))
         result = self._sdk(self._sync_write.txPacket)
         self._check(self.ids[0], "sync write of goal positions", result, 0, who="bus")
+        self._goal_ticks = ticks.copy()
 
     def read_present_ticks(self) -> np.ndarray:
-        """Sync-read present positions (n,) ticks (signed), checking each status packet."""
+        """Sync-read present positions (n,) ticks (signed), checking each status packet.
+        After a quiet spell the watchdog may have fired in, it is re-armed and the last goal
+        written again first: the servos stopped where they were, and go on."""
+        self._note_quiet_spell()
+        if self._watchdog_lapsed and self._goal_ticks is not None:
+            self.arm_watchdog()
+            self._write_goal(self._goal_ticks)
         result = self._sdk(self._sync_read.txPacket)
         self._check(self.ids[0], "sync read of present positions", result, 0, who="bus")
         out = np.zeros(len(self.ids), dtype=np.int64)
@@ -314,9 +333,10 @@ class XM430Bus:
 
     # --- errors and shutdown --------------------------------------------------------
     def _sdk(self, fn, *args):
+        self._note_quiet_spell()
         try:
             out = fn(*args)
-            self._t_io = time.monotonic()
+            self._t_io = self._clock()
             return out
         except IO_ERRORS as err:
             self._fail(None, "serial I/O", f"port {self.port_name} failed: {err}")
@@ -357,6 +377,7 @@ class XM430Bus:
         """Best effort, never raises: broadcast torque off, then read torque enable back from
         each servo (if not 0: write it once more, read again). Returns the IDs whose torque
         off could not be confirmed."""
+        self._watchdog_armed = False
         if self._port.ser is None or not self._port.is_open:
             return list(self.ids)
         unconfirmed = []

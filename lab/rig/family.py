@@ -1,70 +1,20 @@
 """A family of emulated as-built robots: seeded, random defects files (``--rig twin:random:SEED``).
 
-The shipped defects file (``lab/rig/defects/three-cable.toml``) is *one* as-built arm,
-tuned so that the paper's experiment comes out the same kind and size. A finding that
-holds on it may hold only on it. :func:`random_defects` draws member ``seed`` of a family
-of as-built arms instead, for any robot description (any number of cables), from the
-ranges below; every range contains the shipped value and is wider than the spread of the
-shipped file. Results on such a robot are an **emulated as-built robot**, never the real
-arm. Draws are uniform over each range and independent. The global fields come from
-the random stream ``[seed, 0]``; cable ``i``'s slack and play from ``[seed, 1 + i, 0]``,
-its eyelet shift from ``[seed, 1 + j, 1]`` where ``j`` is the first cable through the same
-first eyelet (cables routed through the same eyelets, like the six-cable arm's pairs, share
-one shift; otherwise ``j = i``). So a cable's draws do not depend on how many cables the
-robot has, and the same seed gives the same robot and the same file.
-
-Ranges (shipped three-cable value in brackets) and why:
-
-* ``softness`` U(0.55, 1.10) x the nominal E [0.75]. FlexFoam-iT! III's modulus is not
-  published (the nominal 40 kPa is itself an estimate) and open-cell foams stiffen as
-  density squared (E ~ rho^2, Gibson-Ashby). A hand-mixed, expanding cast varies in
-  density by +-10-15 % from batch to batch (mix ratio, temperature, how full the mould
-  is), i.e. +-20-30 % in E, around a nominal that may be off by as much.
-* ``gradient`` U(0, 0.60) [0.5] and its direction uniform round the section [-z].
-  Cast lying down, the rising foam traps voids on its upper side and is overpacked at
-  the bottom; a 2x density ratio across the section is 4x in E, ``(1 + g) / (1 - g) = 4``
-  at g = 0.6. The arm's roll about its axis when clamped after demoulding is not
-  controlled, so the stiff side can face any way (the shipped -z is "mounted as cast").
-* ``via_shift_m`` per cable, in the cable's own frame: radial U(-3, +3) mm [-1 .. +2.5]
-  (+ = towards the surface), round the section U(-1.5, +1.5) mm [0.3], along the body
-  U(-2, +2) mm [0]. The eyelets are placed by hand and "shallowly embedded in the foam
-  during casting" (the paper): the expanding foam pushes them by about their own size
-  (3 mm) in depth; marks round a 4 cm cylinder are good to ~5 degrees (1.3 mm at 15 mm
-  from the axis); stations along 20 cm are marked with a ruler (+-2 mm). A shift is
-  shrunk along its direction (never redrawn) where it would put an eyelet less than
-  ``SURFACE_COVER_M`` (1 mm; thinner foam tears out under cable load) under the
-  surface, less than ``MESH_MARGIN_M`` inside the FEM mesh's polygonal section, less
-  than 1 mm from the base face, or beyond the tip face; the file's comment says so.
-* ``slack_m`` U(0, 5) mm [0, 3, 2.7]: each cable is tied off by hand at the tip and
-  wound on its spool; the knot tightens and braided line creeps by a few mm. 5 mm is a
-  dead zone of 0.5 rad of the 3 rad range (spool radius 10 mm).
-* ``play_m`` U(0.03, 0.3) mm [0.1]: friction of braided line in plastic eyelets; the
-  capture protocol's 1 rad (10 mm) reset still erases the largest.
-* ``[lag]`` ``tau_fast_s`` U(0.2, 0.8) s [0.4], ``tau_slow_s`` U(1.5, 4.0) s [2.5],
-  ``slow_fraction`` U(0.15, 0.45) [0.3]: polyurethane foam relaxes on 0.1-10 s scales
-  that change with temperature, humidity, age and batch. The upper ends keep a sample
-  settled well inside the protocol's 60 s timeout.
-* ``[motors]`` ``profile_velocity_rad_s`` U(1.5, 2.5) [2.0]: the geared XM430 slows under
-  cable load. ``ticks_per_rev`` = 4096 (the XM430's encoder; not a tolerance).
-* ``[mocap]`` ``frame_rate_hz`` = 120 (a setting of the cameras). ``noise_sigma_m``
-  U(0.05, 0.30) mm per axis [0.15]: OptiTrack Prime 13 systems reach sub-millimetre
-  accuracy with jitter of about a tenth of a millimetre after a good wand calibration,
-  a few times that after a poor one or with a small marker far from the cameras; at
-  0.3 mm the settle detector (0.1 mm on 0.1 s means of 12 frames) still settles.
-  ``dropout_rate_hz`` U(0, 0.2) [0.05]: an occlusion burst every 5 s at worst, when the
-  bent arm hides its own tip marker; ``dropout_max_frames`` U{6 .. 48} [24]: bursts up
-  to 0.05-0.4 s, well under the protocol's 2 s occlusion limit.
-
-:func:`random_defects_toml` writes member ``seed`` as a commented defects file in the
-format of the shipped one (:func:`lab.rig.asbuilt.parse_defects` reads it back to the
-same :class:`~lab.rig.asbuilt.Defects`); :func:`write_random_defects` writes it
-atomically; ``python -m lab defects --random SEED`` is the command line.
+The shipped defects file is *one* as-built arm; a finding that holds on it may hold only on
+it. :func:`random_defects` draws member ``seed`` of a family of as-built arms instead, for
+any robot description, uniformly and independently from :data:`RANGES` (every range
+contains the shipped value and is wider than its spread; :data:`FIXED` holds hardware
+settings). A cable's draws do not depend on how many cables the robot has, and the same
+seed gives the same robot and the same file. Results on such a robot are an **emulated
+as-built robot** (:data:`LABEL`), never the real arm. :func:`random_defects_toml` writes a
+member as a commented defects file (``python -m lab defects --random SEED``),
+:func:`write_random_defects` atomically; :class:`FamilyTwinRig` is the twin rig on one.
+Every range and why it is that wide: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 
 import numpy as np
@@ -73,6 +23,7 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.files import atomic_write_text
 from lab.rig.asbuilt import FORMAT_VERSION, Defects, as_built_robot, load_defects, parse_defects
+from lab.rig.spec import parse_robot_seed
 from lab.rig.twin import AsBuiltBody, TwinRig
 
 __all__ = [
@@ -116,17 +67,6 @@ FIXED = {"ticks_per_rev": 4096, "frame_rate_hz": 120.0}
 SURFACE_COVER_M = 1e-3
 MESH_MARGIN_M = 2.5e-4
 _BASE_MARGIN_M = 1e-3
-
-
-def parse_robot_seed(text: str, spec: str | None = None) -> int:
-    """The robot seed of ``twin:random:SEED`` (a non-negative integer), or InputError."""
-    where = f"rig {spec!r}: " if spec else ""
-    if not re.fullmatch(r"[0-9]+", str(text)):
-        raise InputError(
-            f"{where}the robot seed must be a non-negative integer (--rig twin:random:SEED, e.g. twin:random:3), "
-            f"got {text!r}"
-        )
-    return int(text)
 
 
 def _check_seed(seed) -> int:

@@ -1,29 +1,22 @@
 """``HardwareRig``: Dynamixel XM430 servos pulling the cables, OptiTrack watching the tip.
 
 ``HardwareRig.from_config("RIG.toml", robot)`` (or ``make_rig("hardware:RIG.toml", robot)``)
-connects motion capture first (nothing moves until it works: connection, marker names,
-frame W from the base markers), then the servo bus (ping, extended position mode,
-profile velocity, start-up angle check), then enables torque holding the present pose.
-
-* ``send(u)``: validated by the robot description, sync-written as goal positions;
-  the present positions are read back at once, so a dead or overloaded servo is caught
-  on the command that meets it;
-* ``next_frame()``: the next NatNet frame, tip in W (NaN while occluded), stamped on
-  the rig clock ``now()`` (host monotonic time since the rig was made, s); servos are
-  polled every ``servos.poll_interval_s`` of frames read, so an overload is caught while
-  the caller only watches the tip;
-* any error on the way (``ServoError``, ``MocapError``, a serial failure, even
-  KeyboardInterrupt) closes the rig -- torque off on every servo, confirmed by read-back
-  -- before it propagates; ``failure`` keeps the reason. ``close()`` is idempotent and
-  also runs at interpreter exit. Not made safe: a process killed by a signal (SIGTERM,
-  SIGKILL: no Python cleanup runs) or a lost USB link, which leave the servos holding
-  their last goal; cut servo power then.
+connects motion capture first (nothing moves until it works), then the servo bus, then
+enables torque holding the present pose. ``send(u)`` is validated by the robot
+description, sync-written and read back at once; ``next_frame()`` is the next NatNet
+frame, tip in W, stamped on the rig clock (host monotonic time, s; the emulators' virtual
+clock in tests), with the servos polled every ``servos.poll_interval_s``. Any error on the
+way (even KeyboardInterrupt) closes the rig -- torque off on every servo, confirmed by
+read-back -- before it propagates; ``close()`` is idempotent and also runs at interpreter
+exit. Not made safe: a process killed by a signal (the servos' Bus Watchdog, when on, stops
+them) or a lost USB link (cut servo power then). Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
 
 import atexit
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -36,21 +29,34 @@ from lab.rig.optitrack import OptiTrackStream
 
 
 class HardwareRig(Rig):
-    """The physical robot behind the rig interface (wall clock, real servos and mocap)."""
+    """The physical robot behind the rig interface (wall clock, real servos and mocap).
+
+    ``clock`` (s) is the rig clock's source; ``frame_wanted`` is called before each wait
+    for a frame. Both are for emulated hardware on a virtual clock
+    (``EmulatedBench.rig_options()``); on real hardware leave them out.
+    """
 
     kind = "hardware"
 
-    def __init__(self, robot: RobotDescription, config: HardwareConfig):
+    def __init__(
+        self,
+        robot: RobotDescription,
+        config: HardwareConfig,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+        frame_wanted: Callable[[], None] | None = None,
+    ):
         super().__init__(robot, config.frame_rate_hz)
         self.config = config
         self.failure: str | None = None
         self.torque_unconfirmed: list[int] = []
-        self._t0 = time.monotonic()
+        self._clock = clock
+        self._t0 = clock()
         self._bus: XM430Bus | None = None
         self._mocap: OptiTrackStream | None = None
         atexit.register(self.close)
         try:
-            self._mocap = OptiTrackStream(config.natnet, clock=self.now)
+            self._mocap = OptiTrackStream(config.natnet, clock=self.now, frame_wanted=frame_wanted)
             self._bus = XM430Bus(
                 config.port,
                 config.baud_rate,
@@ -60,6 +66,7 @@ class HardwareRig(Rig):
                 start_margin_rad=config.start_margin_rad,
                 latency_timer_ms=config.latency_timer_ms,
                 bus_watchdog_ms=config.bus_watchdog_ms,
+                clock=self.now,
             )
             self._bus.torque_on()
             self._poll()
@@ -68,13 +75,14 @@ class HardwareRig(Rig):
             raise
 
     @classmethod
-    def from_config(cls, path: str | Path, robot: RobotDescription) -> HardwareRig:
-        """Rig from a TOML file (``lab/rigs/hardware-example.toml`` documents the format)."""
-        return cls(robot, load_hardware_config(path, robot))
+    def from_config(cls, path: str | Path, robot: RobotDescription, **options) -> HardwareRig:
+        """Rig from a TOML file (``lab/rigs/hardware-example.toml`` documents the format);
+        ``options``: ``clock``/``frame_wanted`` as for the constructor."""
+        return cls(robot, load_hardware_config(path, robot), **options)
 
     # --- the rig interface ------------------------------------------------------------
     def now(self) -> float:
-        return time.monotonic() - self._t0
+        return self._clock() - self._t0
 
     def _send(self, u_motor: np.ndarray) -> None:
         self._guard(lambda: (self._bus.write_goal_u(u_motor), self._poll()))

@@ -1,19 +1,13 @@
 """An append-only, resumable CSV journal: one fsynced line per record.
 
-Layout of ``NAME`` (plain text, readable with any CSV reader that skips ``#`` lines)::
-
-    # lab.journal 1 {"...header JSON: what this journal is a record of..."}
-    index,u0,u1,...                      <- column names
-    # session {"...": "who appended the lines below, when"}
-    0,0.5,1.0,...                        <- one line per record, in order
-    # session-end {"...": "..."}
-
-Records are only ever appended, each line written, flushed and fsynced before the
-next one starts, so killing the writer loses at most the line being written. Such a
-torn last line (no newline) is cut off when the journal is reopened; any other
-malformed line is an error. Reopening compares the header with the one given and
-refuses to continue a journal made with different settings, naming the fields that
-differ. An exclusive lock (the file ``JOURNAL.lock`` beside it) stops two processes appending at once.
+A journal is plain CSV with ``#`` lines: a header line (``# lab.journal 1 {JSON}``: what it
+is a record of), the column names, then records, with ``# session`` and ``# session-end``
+lines around each appending run. Each record is written, flushed and fsynced before the
+next starts, so killing the writer loses at most that line; such a torn last line is cut
+off on reopening, any other malformed line is an error. Reopening refuses a journal made
+with different settings, naming the fields that differ, and an exclusive lock
+(``JOURNAL.lock``, removed on closing) stops two processes appending at once. Layout:
+``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -26,13 +20,13 @@ import numpy as np
 from filelock import FileLock, Timeout
 
 from lab.errors import InputError
-from lab.files import atomic_write_text
+from lab.files import atomic_write_text, remove_and_release
 
 MAGIC = "# lab.journal 1 "
 
 
 def lock_path(journal_path: str | Path) -> Path:
-    """The lock file of a journal: ``JOURNAL.lock`` beside it (left behind, harmless)."""
+    """The lock file of a journal: ``JOURNAL.lock`` beside it, while the journal is open."""
     return Path(f"{journal_path}.lock")
 
 
@@ -87,13 +81,13 @@ class Journal:
         try:
             fh = open(path, "r+", newline="")
         except BaseException:
-            lock.release()
+            remove_and_release(lock)
             raise
         try:
             rows, notes = cls._read(path, fh, header, columns)
         except BaseException:
             fh.close()
-            lock.release()
+            remove_and_release(lock)
             raise
         fh.seek(0, os.SEEK_END)
         journal = cls(path, fh, list(columns), rows, notes)
@@ -170,7 +164,7 @@ class Journal:
             self._fh.close()
         lock = getattr(self, "_lock", None)
         if lock is not None and lock.is_locked:
-            lock.release()
+            remove_and_release(lock)
 
     def __enter__(self):
         return self

@@ -1,22 +1,13 @@
 """OptiTrack motion capture through the real ``natnet`` client: the tip marker in frame W.
 
-``OptiTrackStream`` connects to Motive's NatNet server (unicast or multicast), receives
-frames of data on the client's background threads into a bounded queue, and hands
-them out one at a time as ``MocapFrame(t_s, p_tip_W)``:
-
-* the tip and the base markers are found by ``MarkerRef``: a marker name in a marker
-  set, a labeled-marker ID, or a rigid body (name or ID); names are resolved through
-  the server's model definitions. A marker Motive does not see this frame (absent,
-  flagged occluded, reported at exactly (0, 0, 0) in a marker set, an invalid rigid
-  body) gives an all-NaN tip;
-* the ground frame W comes from the base markers, whose positions in W the
-  configuration gives: after connecting, the mean of ``calibration_frames`` frames of
-  base markers is fitted by a rigid transform (Kabsch) ``p_W = R_WM p_M + t_WM``, and
-  a fit RMS above ``max_base_fit_rms_m`` is refused (wrong names, positions or unit);
-* ``t_s`` is the host clock (``clock()``, s) when the frame arrived;
-* ``MocapError`` when no frame arrives for ``frame_timeout_s`` (server gone, streaming
-  off, wrong unicast/multicast setting), or the tip stays occluded longer than
-  ``max_occlusion_s``. When the queue is full the oldest frame is dropped and counted.
+``OptiTrackStream`` connects to Motive's NatNet server (unicast or multicast), queues the
+frames the client's threads receive and hands them out as ``MocapFrame(t_s, p_tip_W)``.
+Markers are found by ``MarkerRef`` (a marker-set name, a labeled-marker ID or a rigid
+body); one Motive does not see gives an all-NaN tip. Frame W comes from the base markers,
+fitted by a rigid transform (Kabsch) after connecting (a fit RMS above
+``max_base_fit_rms_m`` is refused); ``t_s`` is the host clock when the frame arrived.
+``MocapError`` when no frame arrives for ``frame_timeout_s`` (wall clock) or the tip stays
+occluded longer than ``max_occlusion_s`` (on ``clock``). Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -111,14 +102,16 @@ def _pick(frame, ref: MarkerRef, index: int | None) -> np.ndarray:
 class OptiTrackStream:
     """Connected, calibrated NatNet stream of tip positions in W; ``clock`` (s) stamps frames.
 
+    ``frame_wanted``: optional, called whenever a reader is about to wait for a frame with
+    none queued (an emulated server on a ``VirtualClock`` sends one frame per call).
     Raises ``MocapError`` (client shut down) when connecting, resolving names or
     calibrating fails.
     """
 
-    def __init__(self, config: NatNetConfig, clock=time.monotonic):
+    def __init__(self, config: NatNetConfig, clock=time.monotonic, frame_wanted=None):
         import natnet  # the real client package (pure Python, NatNet 2-4)
 
-        self.config, self._clock = config, clock
+        self.config, self._clock, self._frame_wanted = config, clock, frame_wanted
         self._where = (
             f"NatNet server {config.server_address}:{config.command_port} "
             f"({'multicast' if config.multicast else 'unicast'})"
@@ -248,6 +241,8 @@ class OptiTrackStream:
     def _pop(self):
         timeout = self.config.frame_timeout_s
         with self._cond:
+            if not self._queue and self._frame_wanted is not None and not self._closed:
+                self._frame_wanted()
             if not self._cond.wait_for(lambda: self._queue or self._handler_error or self._closed, timeout):
                 raise MocapError(
                     f"no motion-capture frame from {self._where} for {timeout} s (server gone or streaming stopped)"

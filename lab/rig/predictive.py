@@ -1,35 +1,23 @@
 """The predictive capture protocol: predict the settled tip from the start of its transient.
 
-The paper's protocol (:mod:`lab.rig.protocol`) waits out the foam's creep after every
-command; that wait is what limits a capture to ~300 samples per hour. The predictive
-protocol keeps the same reset (contract every cable to ``reset_u_rad``, release, go to
-``u``) but stops early:
-
-1. **learn** (the first ``n_learn`` samples of a run): measured exactly like the waiting
-   protocol, while the whole stream -- every reading during the reset, the motions and the
-   settling -- is recorded (:class:`~lab.rig.recorder.StreamRecorder`). A relaxation
-   filter of ``n_modes`` modes is fitted to it (:func:`lab.learn.relaxation_fit.fit_stream`:
-   time constants and weights shared by all samples, one equilibrium per pose), and the
-   result is written to the journal (note ``relaxation``) so a resumed run reuses it;
-2. **predict** (every later sample): a Kalman filter (:class:`~lab.rig.tip_filter.TipFilter`)
-   follows the modes through the reset and the motion and estimates the target's settled
-   tip, with its uncertainty, from each reading. The sample is recorded as soon as the
-   motors have arrived and the predicted tip's 3-D standard deviation is below
-   ``predict_tol_m``; ``settled`` is then 1 and ``pred_std_m`` the 3-D std. Not confident
-   within ``settle_timeout_s``: recorded anyway and flagged (``settled = 0``).
-
-Occlusions, motor and rig faults behave as in the waiting protocol: NaN frames never enter
-a reading, a marker unseen for ``max_occlusion_s`` raises MocapError, the rig is closed by
-the caller. A fitted relaxation can also be given (``python -m lab fit-dynamics``): then
-there is no learning phase.
+The waiting protocol (:mod:`lab.rig.protocol`) waits out the foam's creep after every
+command. The predictive one keeps its reset but stops early: the first ``n_learn``
+samples are measured by waiting while the whole stream is recorded
+(:class:`~lab.rig.recorder.StreamRecorder`) and a relaxation filter is fitted to it
+(:func:`lab.dynamics.relaxation_fit.fit_stream`, written to the journal so a resumed run
+reuses it); every later sample is recorded as soon as the motors arrived and a Kalman
+filter (:class:`~lab.rig.tip_filter.TipFilter`) predicts its settled tip with a 3-D std
+below ``predict_tol_m`` (``settled = 0`` when not confident within ``settle_timeout_s``).
+A relaxation fitted by ``python -m lab fit-dynamics`` skips the learning. Occlusions and
+faults behave as in the waiting protocol. Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from lab.learn.relaxation import Relaxation
-from lab.learn.relaxation_fit import fit_stream
+from lab.dynamics.relaxation import Relaxation
+from lab.dynamics.relaxation_fit import fit_stream
 from lab.rig.base import Rig, RigError
 from lab.rig.protocol import Protocol, Sample, SettleDetector
 from lab.rig.recorder import StreamRecorder

@@ -1,26 +1,15 @@
 """Measuring one sample with the protocol of Section III: reset, command, wait until settled, record.
 
-For each motor command ``u`` (rad) the protocol
-
-1. **erases hysteresis** (``reset``): contracts every cable together to
-   ``reset_u_rad``, releases them all to 0, then goes to ``u``;
-2. **waits until settled** (``wait``): the tip is watched as *readings*, each the mean
-   of the valid motion-capture frames over ``reading_period_s`` (0.1 s: 12 frames at
-   120 Hz). The arm is settled, once the motors have arrived, when the current reading
-   is within ``settle_tol_m`` (0.1 mm) of the mean of the previous ``n_previous`` (20)
-   readings -- the paper's criterion, over a 2 s window (twenty single 120 Hz frames span
-   only 0.17 s, too short to see a creep of seconds). Frames where the marker was
-   occluded (NaN) are left out of the readings; a reading with no valid frame is
-   skipped. A marker unseen for ``max_occlusion_s`` raises :class:`MocapError`.
-   Not settled within ``settle_timeout_s`` of the command: the sample is recorded
-   anyway and *flagged* (``settled = 0``), so a slow sample never stops a long capture;
-   the dataset's metadata lists flagged samples;
-3. **records** the current reading as ``y`` (m, frame W), with timings on the rig clock.
-
-Without waiting (``wait=False``) it records the first valid reading ``dwell_s`` after
-the motors arrive, as a script with a fixed pause would.
-
-:func:`lab.rig.capture.capture` runs the protocol over a list of commands with a journal.
+For each motor command ``u`` (rad) the protocol **erases hysteresis** (``reset``: every
+cable contracted to ``reset_u_rad``, released to 0, then ``u``), **waits until settled**
+(``wait``: once the motors arrived, the current reading -- the mean of the valid frames
+over ``reading_period_s`` -- is within ``settle_tol_m`` of the mean of the previous
+``n_previous`` readings; not settled within ``settle_timeout_s``: recorded anyway and
+flagged ``settled = 0``) and **records** the reading as ``y`` (m, frame W). Occluded
+(NaN) frames are left out; a marker unseen for ``max_occlusion_s`` raises
+:class:`MocapError`. Without waiting (``wait=False``) it records the first valid reading
+``dwell_s`` after the motors arrive. :func:`lab.rig.capture.capture` runs it over a list
+of commands with a journal. Defaults and their reasons: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Recording what a rig does in time: commands as equilibrium ramps, and the tip as readings.
 
-:class:`StreamRecorder` drives a rig and keeps a :class:`~lab.learn.relaxation_fit.Stream`:
-each command is a :class:`~lab.learn.relaxation_fit.Segment` (sent at ``t_command_s``,
+:class:`StreamRecorder` drives a rig and keeps a :class:`~lab.dynamics.relaxation_fit.Stream`:
+each command is a :class:`~lab.dynamics.relaxation_fit.Segment` (sent at ``t_command_s``,
 motors arrived at ``t_arrived_s``), each reading the mean of the valid motion-capture
 frames over ``reading_period_s`` at their mean time. Motors are assumed to turn at constant
 speed (Dynamixel "Profile Acceleration = 0"), so the fraction of the move done is known
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lab.learn.relaxation_fit import Segment, Stream
+from lab.dynamics.relaxation_fit import Segment, Stream
 from lab.rig.base import MocapError, Rig, RigError
 
 

@@ -1,7 +1,7 @@
 """A Kalman filter of the foam's relaxation: where the tip is going, before it gets there.
 
 The state, the same for each of the three axes, is the ``K`` relaxation modes of
-:class:`~lab.learn.relaxation.Relaxation` plus the equilibria of named poses (the capture's
+:class:`~lab.dynamics.relaxation.Relaxation` plus the equilibria of named poses (the capture's
 ``reset`` and ``rest`` poses, and the current ``target``). Between readings the modes follow
 the equilibrium, which ramps linearly from one pose to the next while the motors turn
 (:meth:`TipFilter.advance`); each reading (the mean of ``n`` frames, noise variance
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lab.learn.relaxation import Relaxation
+from lab.dynamics.relaxation import Relaxation
 
 
 class TipFilter:

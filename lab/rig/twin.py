@@ -1,28 +1,15 @@
 """The emulated as-built robot: ``AsBuiltBody`` (the arm in time) and ``TwinRig``.
 
-``AsBuiltBody`` is a :class:`~lab.rig.base.Body`; the twin rig and the hardware
-emulators drive it. From a command to the tip:
-
-1. **Motors**: goals are rounded to encoder ticks (``ticks_per_rev``); each motor turns
-   toward its goal at the profile velocity (constant speed, infinite acceleration:
-   Dynamixel "Profile Acceleration = 0"). Present angles are reported in ticks.
-2. **Cable play** (hysteresis): the contraction a cable really applies, ``y``, follows
-   the spool's ``x = r u`` through a Prandtl play operator of half-width ``h``:
-   ``y <- clip(y, x - h, x + h)``. Pulling in, a cable lags ``h`` behind; letting out,
-   it stays ``h`` ahead, so a released cable leaves the arm slightly bent toward it.
-   Contracting all cables by more than ``2h`` and releasing them leaves every cable at
-   ``y = h`` whatever came before: the paper's reset erases the memory.
-3. **Statics**: the as-built FEM is solved once per command, at the contraction the
-   cables reach at the end of the motion (:class:`~lab.rig.asbuilt.EquilibriumCache`);
-   during the motion the equilibrium moves linearly in time from where it was to there.
-4. **Foam lag**: the tip follows that equilibrium through two first-order modes,
-   ``p = (1 - w) z_fast + w z_slow``, ``dz_k/dt = (p_eq - z_k) / tau_k``, integrated
-   exactly (the input is piecewise linear in time), so a step in the equilibrium gives
-   ``1 - (1 - w) exp(-t/tau_fast) - w exp(-t/tau_slow)`` of its size after ``t``.
-
-``TwinRig`` puts the body on a virtual clock advanced one motion-capture frame per
-``next_frame()`` (``frame_rate_hz``), and observes the tip through ``MocapModel``:
-Gaussian noise and occlusion bursts (NaN frames). Deterministic for a given seed.
+``AsBuiltBody`` is a :class:`~lab.rig.base.Body` that the twin rig and the hardware
+emulators drive. From a command to the tip: motor goals rounded to encoder ticks and
+reached at the profile velocity; a Prandtl play of half-width ``h`` on each cable's
+contraction (hysteresis, erased by the capture protocol's reset); the as-built FEM solved
+once per command (:class:`~lab.rig.asbuilt.EquilibriumCache`), its equilibrium moving
+linearly while the motors turn; and the foam's lag, two first-order modes integrated
+exactly. ``TwinRig`` puts the body on a virtual clock advanced one motion-capture frame
+per ``next_frame()`` and observes the tip through ``MocapModel`` (Gaussian noise and
+occlusion bursts, NaN frames). Deterministic for a given seed. The model step by step:
+``docs/design/rig.md``.
 """
 
 from __future__ import annotations

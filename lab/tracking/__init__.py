@@ -1,13 +1,18 @@
-"""Stage 9b: following a trajectory on a rig, and the paper's Table I.
+"""Stage 9b: following a trajectory on a rig, open loop, streamed or closed loop.
 
 :func:`run_trajectory` (:mod:`.track`) solves the IK for every target, sends the commands
-to any :class:`lab.rig.Rig` and records where the tip settled; :mod:`.table1` merges the
-mean errors into ``table1.csv``. :mod:`.transfer_study` measures the sim-to-real curve
-(error against the number of real samples, per transfer method) on emulated as-built robots.
+to any :class:`lab.rig.Rig` and records where the tip settled; :mod:`.stream` commands a
+trajectory continuously at a period, and :mod:`.closed_loop` corrects the commands from
+measured tips (ILC or per-point feedback). :func:`run_track` (:mod:`.job`) is one
+``python -m lab track`` run from its :class:`TrackSpec`, with its measured points kept in
+:mod:`.points`. The studies built on these (Table I, the sim-to-real and data-efficiency
+curves) are in :mod:`lab.studies`; the design notes in ``docs/design/tracking.md``.
 """
 
+from lab.tracking.capture_design import capture_design
 from lab.tracking.closed_loop import (
     DEFAULT_GAIN,
+    MAX_PASSES,
     Correction,
     TipMeasurement,
     correct_command,
@@ -16,53 +21,27 @@ from lab.tracking.closed_loop import (
     run_closed_loop,
     tip_from_frames,
 )
-from lab.tracking.data_curve import (
-    STRATEGIES,
-    NominalBody,
-    data_curve_row,
-    heldout_set,
-    hours_saved,
-    make_body,
-    plan_rows,
-)
-from lab.tracking.period_curve import PERIOD_CURVE_COLUMNS, period_curve_rows, read_period_curve, write_period_curve
+from lab.tracking.job import TrackSpec, run_track
+from lab.tracking.points import PointLog
 from lab.tracking.stream import StreamPlan, StreamResult, plan_stream, stream_trajectory, target_at
-from lab.tracking.table1 import (
-    COLUMNS,
-    CONDITIONS,
-    PAPER_CM,
-    SHAPES,
-    Table1Error,
-    read_table1,
-    render_markdown,
-    update_table1,
-)
+from lab.tracking.stream_spec import StreamSpec
 from lab.tracking.track import (
     REQUIRED_KEYS,
     TRACK_PROTOCOL,
     TrackResult,
     TrackResultError,
-    make_solver,
     read_result,
     run_trajectory,
     write_result,
 )
-from lab.tracking.transfer_study import (
-    METHOD_MIN_N,
-    curve_rows,
-    defect_variants,
-    evaluate_model,
-    family_table1,
-    findings,
-    make_methods,
-    quasi_static_tips,
-    random_safe_commands,
-    read_curve,
-    smallest_n,
-)
 
 __all__ = [
+    "capture_design",
+    "TrackSpec",
+    "run_track",
+    "PointLog",
     "DEFAULT_GAIN",
+    "MAX_PASSES",
     "Correction",
     "TipMeasurement",
     "correct_command",
@@ -70,13 +49,6 @@ __all__ = [
     "measure_tip",
     "run_closed_loop",
     "tip_from_frames",
-    "STRATEGIES",
-    "NominalBody",
-    "data_curve_row",
-    "heldout_set",
-    "hours_saved",
-    "make_body",
-    "plan_rows",
     "TRACK_PROTOCOL",
     "REQUIRED_KEYS",
     "TrackResultError",
@@ -84,33 +56,10 @@ __all__ = [
     "run_trajectory",
     "write_result",
     "read_result",
-    "make_solver",
-    "SHAPES",
-    "PAPER_CM",
-    "CONDITIONS",
-    "COLUMNS",
-    "Table1Error",
-    "read_table1",
-    "update_table1",
-    "render_markdown",
-    "METHOD_MIN_N",
-    "curve_rows",
-    "defect_variants",
-    "evaluate_model",
-    "family_table1",
-    "findings",
-    "make_methods",
-    "quasi_static_tips",
-    "random_safe_commands",
-    "read_curve",
-    "smallest_n",
+    "StreamSpec",
     "StreamPlan",
     "StreamResult",
     "plan_stream",
     "stream_trajectory",
     "target_at",
-    "PERIOD_CURVE_COLUMNS",
-    "period_curve_rows",
-    "read_period_curve",
-    "write_period_curve",
 ]

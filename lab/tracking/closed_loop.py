@@ -1,57 +1,21 @@
-"""Closed-loop trajectory tracking: motion-capture feedback through the model's Jacobian (issue 16).
+"""Closed-loop trajectory tracking: motion-capture feedback through the model's Jacobian.
 
-Open-loop tracking (:mod:`.track`) sends the IK's commands once; what the model gets wrong
-(a sim-trained model on the real robot, noise in the data, play, lag) stays in the error.
-With the tip measured, each command is corrected by a Gauss-Newton step through the
-learned model's tip Jacobian ``J = dy/du`` (3, m) m/rad at the command::
-
-    u_new = argmin_{x in C}  |J (x - u) - alpha e|^2 + lambda^2 |x - u|^2,   e = target - measured
-
--- the damped pseudo-inverse step ``alpha J+ e`` (``J+ = (J^T J + lambda^2 I)^-1 J^T``) whenever
-that lands in the allowed commands ``C`` (box ``[0, u_max]`` and the safety rule,
-:class:`lab.control.command_set.CommandSet`), else the best step inside ``C`` in the tip's
-metric (the same exact QP the IK's bounded LM step solves), so a target out of reach
-converges to the nearest reachable point rather than to an arbitrary clipped command. The
-step is then shortened to at most ``max_step_rad`` per motor (a glitch in the capture can
-never throw the arm); ``C`` is convex and both ends lie in it, so every command sent stays
-allowed. ``lambda = damping * sigma_max(J)`` keeps the step bounded near a singular ``J``.
-With an exact Jacobian the error shrinks by ``1 - alpha`` per correction; with a Jacobian off
-by a relative ``d`` roughly by ``|1 - alpha| + alpha d``: the default ``alpha = 0.9``
-(:data:`DEFAULT_GAIN`) leaves margin for a model whose Jacobian is some tens of percent off
-and for noise, which a gain below one also averages.
-
-Measurement (:func:`measure_tip`): the capture protocol's settle rule (:data:`TRACK_PROTOCOL`,
-no reset), then the mean of the *valid* frames of a further ``window_s`` (0.5 s: 60 frames,
-noise down by ~8 from a single frame). NaN (occluded) frames are left out
-(:func:`tip_from_frames`); while fewer than ``min_valid_fraction`` of the window's frames are
-valid, the window grows (up to ``max_window_s``), so that a dropout delays a measurement
-rather than losing it; still too few, the measurement is NaN, the correction of that target
-is skipped (its command unchanged) and counted. A correction never sees a NaN:
-:func:`correct_command` leaves the command alone.
-
-Two schedules (:func:`run_closed_loop`):
-
-* ``"ilc"`` -- iterative learning control: pass 0 sends the open-loop IK commands along the
-  whole trajectory (no reset, as :func:`.track.run_trajectory`); after each pass every
-  target's command is corrected from that pass's measurement, and the next pass runs the
-  corrected commands. Errors that repeat from pass to pass (model error, the lag and play
-  left by the path) are learnt away.
-* ``"feedback"`` -- per target: settle, measure, correct, ``passes - 1`` times, then on to
-  the next target. Pass ``k`` in the result is iteration ``k`` over all targets. Its later
-  corrections are small, within the cables' play and beside the foam's creep: on the
-  emulated robot it stops near 0.017 cm where ILC goes on to 0.007 cm (``data/README.md``).
-
-``passes`` counts the runs including the open-loop pass 0; the result is a
-:class:`.track.TrackResult` of the final pass (same file keys) with ``passes``: per pass
-``mean_error_m``, ``max_error_m``, ``commands`` (N, m) rad, ``achieved`` (N, 3) m,
-``n_skipped`` (corrections skipped after that pass) and ``n_not_settled``.
+Open loop (:mod:`.track`) sends the IK's commands once; with the tip measured, each command
+is corrected by a damped Gauss-Newton step through the learned model's tip Jacobian
+``J = dy/du`` (3, m) m/rad, kept inside the allowed commands and shortened to at most
+``max_step_rad`` per motor (:func:`correct_command`). A measurement (:func:`measure_tip`)
+averages the valid motion-capture frames of a window after the tip settled; too few valid
+frames skip that correction. Two schedules (:func:`run_closed_loop`): ``"ilc"``, iterative
+learning control over whole passes of the trajectory, and ``"feedback"``, settle-measure-
+correct at each target. The settings are a :class:`Correction`. The derivation, the gain's
+margin and the measured behaviour: ``docs/design/tracking.md``.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -60,45 +24,72 @@ from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.rig.base import Rig
 from lab.rig.protocol import Protocol, Sample, measure
+from lab.specs import Spec, at_most, finite, option, positive, positive_int
 from lab.tracking.track import TRACK_PROTOCOL, TrackResult, run_info
 
+__all__ = [
+    "MODES",
+    "DEFAULT_GAIN",
+    "MAX_PASSES",
+    "Correction",
+    "TipMeasurement",
+    "check_passes",
+    "tip_from_frames",
+    "measure_tip",
+    "damped_pinv",
+    "correct_command",
+    "run_closed_loop",
+]
+
 MODES = ("ilc", "feedback")
-#: Correction gain alpha (dimensionless): see the module docstring.
+#: Correction gain alpha (dimensionless): docs/design/tracking.md.
 DEFAULT_GAIN = 0.9
+#: The most passes of a closed-loop run: ILC settles in a few, and each pass measures every target again.
+MAX_PASSES = 100
+#: ``passes`` is a whole number in [1, MAX_PASSES].
+check_passes = at_most(MAX_PASSES, positive_int)
+
+
+def _open_interval(lo: float, hi: float, what: str = ""):
+    def check(v):
+        return None if finite(v) is None and lo < v < hi else f"must lie in ({lo:g}, {hi:g}){what}"
+
+    return check
+
+
+def _fraction(v) -> str | None:
+    return None if positive(v) is None and v <= 1 else "must lie in (0, 1]"
 
 
 @dataclass(frozen=True)
-class Correction:
-    """Settings of the correction (SI units; module docstring). ``gain`` alpha in (0, 2);
-    ``damping``: lambda / sigma_max(J); ``max_step_rad``: largest change of any motor per
-    correction, rad; ``window_s``: averaging window after settling, s; ``min_valid_fraction``:
-    share of that window's frames that must be valid for a correction; ``max_window_s``: how
-    long the window may grow to collect them, s."""
+class Correction(Spec):
+    """Settings of the correction (SI units; docs/design/tracking.md). ``gain`` alpha in
+    (0, 2) (the flag ``--gain``); ``damping``: lambda / sigma_max(J); ``max_step_rad``: largest
+    change of any motor per correction, rad; ``window_s``: averaging window after settling, s;
+    ``min_valid_fraction``: share of that window's frames that must be valid for a correction;
+    ``max_window_s``: how long the window may grow to collect them, s."""
 
-    gain: float = DEFAULT_GAIN
-    damping: float = 1e-2
-    max_step_rad: float = 0.3
-    window_s: float = 0.5
-    min_valid_fraction: float = 0.5
-    max_window_s: float = 2.0
+    gain: float = option(
+        DEFAULT_GAIN,
+        type=float,
+        check=_open_interval(0, 2),
+        help="with --closed-loop: correction gain alpha in (0, 2)",
+    )
+    damping: float = option(
+        1e-2,
+        cli=False,
+        check=_open_interval(0, 1, " (a fraction of J's largest singular value)"),
+        help="lambda / sigma_max(J)",
+    )
+    max_step_rad: float = option(0.3, cli=False, check=positive, help="largest change of a motor per correction, rad")
+    window_s: float = option(0.5, cli=False, check=positive, help="averaging window after settling, s")
+    min_valid_fraction: float = option(0.5, cli=False, check=_fraction, help="share of valid frames a correction needs")
+    max_window_s: float = option(2.0, cli=False, check=positive, help="longest the window may grow, s")
 
     def __post_init__(self):
-        if not (0 < self.gain < 2):
-            raise InputError(f"the correction gain must lie in (0, 2), got {self.gain!r}")
-        if not (0 < self.damping < 1):
-            raise InputError(
-                f"damping must lie in (0, 1) (a fraction of J's largest singular value), got {self.damping!r}"
-            )
+        super().__post_init__()
         if not self.max_window_s >= self.window_s:
             raise InputError(f"max_window_s must be >= window_s, got {self.max_window_s!r} < {self.window_s!r}")
-        for name in ("max_step_rad", "window_s"):
-            if not (getattr(self, name) > 0 and math.isfinite(getattr(self, name))):
-                raise InputError(f"{name} must be a positive number, got {getattr(self, name)!r}")
-        if not (0 < self.min_valid_fraction <= 1):
-            raise InputError(f"min_valid_fraction must lie in (0, 1], got {self.min_valid_fraction!r}")
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 @dataclass
@@ -163,7 +154,7 @@ def correct_command(
 ) -> np.ndarray:
     """One correction of command ``u_motor`` (m,) rad (in ``commands``) towards ``target_W``
     (3,) m from the measured tip ``measured_W`` (3,) m, through ``forward.predict_and_jacobian``'s
-    Jacobian at ``u_motor`` (module docstring). A non-finite measurement returns ``u_motor``
+    Jacobian at ``u_motor`` (docs/design/tracking.md). A non-finite measurement returns ``u_motor``
     unchanged: NaN never enters a correction. The answer is always in ``commands``."""
     u = np.asarray(u_motor, dtype=float)
     measured = np.asarray(measured_W, dtype=float)
@@ -198,14 +189,14 @@ def run_closed_loop(
 ) -> TrackResult:
     """Track ``targets_W`` (N, 3) m on ``rig`` with ``passes`` (>= 1) runs: pass 0 the open-loop
     IK commands of ``solver``, each later one corrected (``mode`` "ilc" or "feedback", module
-    docstring) through ``solver.forward``'s Jacobian. ``progress(done, total)`` after each
+    docs/design/tracking.md) through ``solver.forward``'s Jacobian. ``progress(done, total)`` after each
     measurement; ``on_point(i, target_W, u_motor, sample)`` with each (e.g.
     :meth:`.track.PointLog.append`). Returns the final pass as a :class:`TrackResult` with
     ``passes`` and ``info["closed_loop"]``; the rig is left open."""
     if mode not in MODES:
         raise InputError(f"closed-loop mode must be one of {MODES}, got {mode!r}")
-    if isinstance(passes, bool) or int(passes) != passes or passes < 1:
-        raise InputError(f"passes must be an integer >= 1, got {passes!r}")
+    if problem := check_passes(passes):
+        raise InputError(f"passes {problem}, got {passes!r}")
     if not getattr(solver.forward, "has_jacobian", True) or not callable(
         getattr(solver.forward, "predict_and_jacobian", None)
     ):

@@ -1,59 +1,35 @@
 """Trajectories at speed: a periodic trajectory streamed continuously, open loop or pre-compensated.
 
 :func:`run_trajectory` (:mod:`lab.tracking.track`) settles at every point; here the
-trajectory is commanded as a motion of period ``T`` (2-20 s), and the foam's lag
-(:class:`~lab.learn.relaxation.Relaxation`) makes a quasi-static open loop trail behind the
-target and shrink the shape. :func:`stream_trajectory`:
-
-1. **Timing.** Commands go out at a fixed rate (``command_rate_hz``, default 20 Hz: every
-   6th frame of a 120 Hz motion capture). At 2 rad/s the motors turn at most 0.1 rad in
-   1/20 s, so each command is reached before the next is sent, and the equilibrium, which
-   moves linearly while the motors turn, is a continuous, nearly piecewise-linear path --
-   what :class:`Relaxation` integrates exactly. Sending every frame would cost the
-   emulated twin one FEM solve per frame for no visible gain. Knot ``k`` is the command
-   for time ``t_k = k / rate``; it is *sent* at ``t_{k-1}``, one period of the rate ahead,
-   because the motors need that long to get there (the same for both modes).
-2. **Targets in time.** ``targets_W`` (N, 3) are N points along one period, the path closed
-   (linear between them, back to the first); the knots ``p_des(t_k)`` cover ``n_periods``
-   periods.
-3. **Equilibrium path.** Quasi-static open loop: ``p_in = p_des``. Feed-forward:
-   ``p_in = relax.invert(t, p_des)`` over the whole run, starting settled: the
-   equilibrium path whose filtered tip follows the target.
-4. **Commands** ``u_k = IK(p_in(t_k))`` through the learned quasi-static model, warm-started
-   along the path; an equilibrium out of reach gets the nearest allowed command (flagged
-   in ``knots.reachable``).
-5. **Run.** A settled lead-in at ``u_0`` (``lead_in_s``), then the stream; every
-   motion-capture frame is kept.
-6. **Error.** Over the last period (steady state), each valid frame (NaN frames skipped)
-   against the target at its time: ``errors_m`` (one per frame), their mean and maximum.
-
-The result (:class:`StreamResult`) writes the keys of a track result
-(:func:`lab.tracking.track.write_result`): one row per valid frame of the last period
-(``targets``, ``achieved``, ``commands`` in force, ``errors_m``; ``settled`` false and
-``settle_wait_s`` 0 -- nothing waits), plus ``mode`` ("open-loop" or "feed-forward"),
-``period_s``, ``n_periods``, ``command_rate_hz``, ``lead_in_s``, ``t_s`` (each row's time
-since the start of the last period), ``dynamic_model`` (its time constants and weights,
-null in open loop) and ``knots`` (the whole run: ``t_s``, ``p_des``, ``p_in``,
-``commands``, ``predicted``, ``reachable``).
+trajectory is commanded as a motion of period ``T``, and the foam's lag
+(:class:`~lab.dynamics.relaxation.Relaxation`) makes a quasi-static open loop trail behind
+the target and shrink the shape. :func:`stream_trajectory` sends knots at a fixed command
+rate after a settled lead-in -- the IK of the target path (open loop) or of the path the
+inverted filter says the equilibrium must take (feed-forward) -- records every
+motion-capture frame, and scores the last period. Its settings are a :class:`StreamSpec`,
+bounded so that a run always ends. The result (:class:`StreamResult`) is a track result
+with the streamed keys; the timing rules, the steps and the key list are in
+``docs/design/tracking.md``.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from lab.control.ik import IKSolver, check_targets
+from lab.dynamics.relaxation import Relaxation
 from lab.errors import InputError, LabRuntimeError
 from lab.files import code_version
-from lab.learn.relaxation import Relaxation
 from lab.rig.base import Rig
+from lab.tracking.stream_spec import DEFAULT_COMMAND_RATE_HZ, DEFAULT_LEAD_IN_S, StreamSpec, default_n_periods
 from lab.tracking.track import TrackResult
 
 __all__ = [
+    "StreamSpec",
     "StreamResult",
     "StreamPlan",
     "plan_stream",
@@ -63,19 +39,6 @@ __all__ = [
     "DEFAULT_COMMAND_RATE_HZ",
     "DEFAULT_LEAD_IN_S",
 ]
-
-DEFAULT_COMMAND_RATE_HZ = 20.0
-#: Settled lead-in at the first command, s (four slow time constants of the shipped twin).
-DEFAULT_LEAD_IN_S = 10.0
-#: Motion before the measured period, s: an open loop's start-up transient dies out.
-MIN_TRANSIENT_S = 8.0
-PERIOD_RANGE_S = (0.5, 600.0)
-
-
-def default_n_periods(period_s: float) -> int:
-    """Periods streamed by default: enough that at least :data:`MIN_TRANSIENT_S` of motion
-    precede the last (measured) one, and never fewer than 2."""
-    return max(2, 1 + math.ceil(MIN_TRANSIENT_S / float(period_s) - 1e-9))
 
 
 def target_at(targets_W, period_s: float, t_s) -> np.ndarray:
@@ -123,22 +86,14 @@ def plan_stream(
     command_rate_hz: float = DEFAULT_COMMAND_RATE_HZ,
     smoothing: float = 1e-3,
 ) -> StreamPlan:
-    """The knots of the module docstring (steps 2-4): open loop without ``relax``,
-    feed-forward through ``relax.invert(..., smoothing)`` with it."""
+    """The knots of a streamed run (docs/design/tracking.md, steps 2-4): open loop without
+    ``relax``, feed-forward through ``relax.invert(..., smoothing)`` with it. The settings
+    are checked as a :class:`StreamSpec` (InputError)."""
     targets = np.atleast_2d(check_targets(targets_W))
-    period_s, rate = float(period_s), float(command_rate_hz)
-    if not (PERIOD_RANGE_S[0] <= period_s <= PERIOD_RANGE_S[1]):
-        raise InputError(f"period must lie in [{PERIOD_RANGE_S[0]}, {PERIOD_RANGE_S[1]}] s, got {period_s}")
-    if not (np.isfinite(rate) and 1.0 <= rate <= 200.0):
-        raise InputError(f"command rate must lie in [1, 200] Hz, got {command_rate_hz}")
-    n_periods = default_n_periods(period_s) if n_periods is None else int(n_periods)
-    if n_periods < 1:
-        raise InputError(f"need at least one period, got {n_periods}")
+    spec = StreamSpec(period_s, n_periods, command_rate_hz=command_rate_hz, smoothing=smoothing)
+    period_s, rate, n_knots = float(period_s), float(command_rate_hz), spec.n_knots
     if len(targets) < 3:
         raise InputError(f"a streamed trajectory needs at least 3 points along its period, got {len(targets)}")
-    n_knots = int(round(n_periods * period_s * rate)) + 1
-    if n_knots > 20_000:
-        raise InputError(f"{n_knots} commands is too long a run (periods x period x rate)")
     t = np.arange(n_knots) / rate
     p_des = target_at(targets, period_s, t)
     t0 = time.perf_counter()
@@ -159,7 +114,7 @@ def plan_stream(
 
 @dataclass
 class StreamResult(TrackResult):
-    """A streamed run (module docstring): the rows of :class:`TrackResult` are the valid
+    """A streamed run (docs/design/tracking.md): the rows of :class:`TrackResult` are the valid
     frames of the last period; ``t_s`` (N,) s their times since its start."""
 
     mode: str = "open-loop"
@@ -211,18 +166,16 @@ def stream_trajectory(
     name: str = "custom",
     progress=None,
 ) -> StreamResult:
-    """Stream ``targets_W`` (N, 3) m, one period of ``period_s`` s, on ``rig`` (module
-    docstring): open loop, or feed-forward through ``relax``. ``progress(k, K)`` after each
-    command. The rig is left open (the caller owns it)."""
+    """Stream ``targets_W`` (N, 3) m, one period of ``period_s`` s, on ``rig``
+    (docs/design/tracking.md): open loop, or feed-forward through ``relax``. The settings are checked as a
+    :class:`StreamSpec` (InputError). ``progress(k, K)`` after each command. The rig is left
+    open (the caller owns it)."""
     if solver.commands.n != rig.robot.n_cables:
         raise InputError(
             f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
         )
-    if not (np.isfinite(lead_in_s) and lead_in_s >= 0):
-        raise InputError(f"lead-in must be a non-negative number of seconds, got {lead_in_s}")
+    n_periods = StreamSpec(period_s, n_periods, lead_in_s, command_rate_hz, smoothing).periods
     t_start = time.perf_counter()
-    if n_periods is None and np.isfinite(period_s) and period_s > 0:
-        n_periods = default_n_periods(period_s)
     plan = plan_stream(
         solver, targets_W, period_s, relax=relax, n_periods=n_periods, command_rate_hz=command_rate_hz,
         smoothing=smoothing,
@@ -249,7 +202,7 @@ def stream_trajectory(
         "rig": rig.describe(),
         "robot": rig.robot.name,
         "robot_sha256": rig.robot.sha256,
-        "solver": {"method": solver.method, "tol_m": solver.tol_m, "reach_tol_m": solver.reach_tol_m},
+        "solver": {k: getattr(solver.config, k) for k in ("method", "tol_m", "reach_tol_m")},
         "smoothing": smoothing,
         "n_frames": int(len(t_frames)),
         "n_frames_last_period": int(np.sum(in_last)),

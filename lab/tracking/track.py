@@ -1,48 +1,22 @@
 """Open-loop trajectory following on a rig (Section II-D, V-A) and its result file.
 
-:func:`run_trajectory` does what the paper does for Table I and Figures 3-4:
+:func:`run_trajectory` does what the paper does for Table I and Figures 3-4: the IK for
+every target, warm-started along the trajectory (:meth:`lab.control.ik.IKSolver.follow`),
+through the learned model or, for Soft IK, the FEM; then each command is sent to the rig in
+turn and the settled tip recorded by the capture protocol's settle rule without its reset
+(:data:`TRACK_PROTOCOL`: the trajectory is followed continuously); the errors are the 3-D
+distances ``|achieved - target|`` (m), their mean (Table I) and maximum.
 
-1. IK for every target, warm-started along the trajectory (:meth:`lab.control.ik.IKSolver.follow`),
-   through the learned model or, for Soft IK, the FEM;
-2. send each command to the rig in turn, wait until the tip has settled and record where
-   it is -- the capture protocol's :func:`lab.rig.protocol.measure` (the paper's settle rule
-   of Section III) without its hysteresis reset, since the trajectory is followed
-   continuously;
-3. errors ``|achieved - target|`` (m) in 3-D, their mean (Table I) and maximum.
-
-The result file (:func:`write_result`, JSON, atomic) is a public contract. Keys:
-
-* ``targets``, ``achieved``: (N, 3) tip positions, m, frame W;
-* ``commands``: (N, m) motor angles, rad;
-* ``errors_m`` (N,), ``mean_error_m``, ``max_error_m``: Euclidean distance target-achieved, m;
-* ``timings``: seconds -- ``ik_total_s``, ``ik_per_target_mean_s``, ``..._median_s``,
-  ``..._max_s`` (wall clock), ``rig_wall_s`` (wall clock spent sending and waiting),
-  ``settle_mean_s`` (rig clock from command to record, per point), ``total_s``;
-* extras: ``predicted`` (N, 3) m (the forward map at the commands), ``ik_residual_m`` (N,),
-  ``reachable`` (N,), ``ik_iterations`` (N,), ``settled`` (N,), ``settle_wait_s`` (N,),
-  ``n_unreachable``, ``n_not_settled``, ``trajectory``, ``info`` (rig, robot, solver,
-  model, command line, code version, date), ``format_version``, ``kind``;
-* ``uncertain`` (N,) bool: the model's predicted spread at the command exceeds
-  ``info.solver.max_spread_m`` (all false for a model without a spread), ``predicted_spread_m``
-  (N,) m (null without a spread); ``info.n_uncertain`` counts them. ``info.solver`` holds the
-  regularisation the IK applied: ``reg_weight``/``posture_weight`` the weights of every
-  point's solve, ``restart_weight`` that of a restart after a miss, ``..._setting`` what was
-  asked ("auto" or the number), ``regularisation`` in words, and ``ik`` the restart counts
-  (:mod:`lab.control.follow`).
-
-Closed-loop runs (:mod:`lab.tracking.closed_loop`) write the same keys for their final pass,
-plus ``passes``: one dict per pass (``pass``, ``mean_error_m``, ``max_error_m``, ``commands``
-(N, m) rad, ``achieved`` (N, 3) m, ``n_skipped``, ...) and ``info.closed_loop``; files
-without ``passes`` (open loop) read as before.
-
-Not-a-number values are written as JSON ``null``.
+The result file (:func:`write_result`, JSON, atomic; :func:`read_result`) is a public
+contract, also written by closed-loop and streamed runs: its keys are listed in
+``docs/design/tracking.md`` ("The result file"). Not-a-number values are written as JSON
+``null``.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,7 +62,7 @@ class TrackResult:
     info: dict = field(default_factory=dict)
     uncertain: np.ndarray | None = None
     predicted_spread_m: np.ndarray | None = None
-    passes: list[dict] | None = None  # closed loop: one dict per pass (module docstring)
+    passes: list[dict] | None = None  # closed loop: one dict per pass (docs/design/tracking.md)
 
     def __post_init__(self):
         n = len(self.targets_W)
@@ -112,7 +86,7 @@ class TrackResult:
         return float(np.max(self.errors_m))
 
     def to_json(self) -> dict:
-        """The JSON document described in the module docstring."""
+        """The JSON document of the result file (docs/design/tracking.md)."""
         return {
             "format_version": FORMAT_VERSION,
             "kind": KIND,
@@ -139,37 +113,6 @@ class TrackResult:
         } | ({} if self.passes is None else {"passes": self.passes})
 
 
-class PointLog:
-    """Append-only CSV of the points measured so far (one fsynced line each), so that a run
-    that is interrupted or fails keeps what it measured. Columns: ``i, target_x, target_y,
-    target_z`` (m), ``u0..u{m-1}`` (rad), ``x, y, z`` (m, achieved), ``settled``, ``wait_s``."""
-
-    def __init__(self, path: str | Path, n_motors: int):
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fh = open(self.path, "w", newline="")
-        cols = ["i", "target_x", "target_y", "target_z", *(f"u{j}" for j in range(n_motors)), "x", "y", "z"]
-        self._write(",".join([*cols, "settled", "wait_s"]))
-
-    def _write(self, line: str) -> None:
-        self._fh.write(line + "\n")
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
-
-    def append(self, i: int, target_W, u_motor, sample) -> None:
-        values = [*np.asarray(target_W, float), *np.asarray(u_motor, float), *np.asarray(sample.p_tip_W, float)]
-        wait = sample.t_done_s - sample.t_command_s
-        self._write(",".join([str(i), *(repr(float(v)) for v in values), str(int(sample.settled)), repr(wait)]))
-
-    @property
-    def n_points(self) -> int:
-        """Points on disk (complete lines), whatever interrupted the writing."""
-        return max(0, sum(1 for line in self.path.read_text().splitlines(keepends=True) if line.endswith("\n")) - 1)
-
-    def close(self) -> None:
-        self._fh.close()
-
-
 def run_trajectory(
     rig: Rig,
     solver: IKSolver,
@@ -185,7 +128,7 @@ def run_trajectory(
     settled tip with ``protocol`` (:class:`lab.rig.protocol.Protocol`, default
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
     ``progress(i, n)`` is called after each point, ``on_point(i, target_W, u_motor, sample)``
-    with what was measured there (e.g. :meth:`PointLog.append`, so an interrupted run keeps
+    with what was measured there (e.g. :meth:`lab.tracking.points.PointLog.append`, so an interrupted run keeps
     its measurements). The rig is left open (the caller owns it)."""
     targets = np.atleast_2d(check_targets(targets_W))
     if solver.commands.n != rig.robot.n_cables:
@@ -235,26 +178,27 @@ def run_trajectory(
 def run_info(rig: Rig, solver: IKSolver, plan, protocol: Protocol) -> dict:
     """The ``info`` of a result file: rig, robot, the IK's settings and what it did along
     ``plan`` (a :class:`lab.control.ik_result.TrajectoryIK`), the protocol, code version, date."""
+    cfg = solver.config
     return {
         "rig": rig.describe(),
         "robot": rig.robot.name,
         "robot_sha256": rig.robot.sha256,
         "solver": {
-            "method": solver.method,
-            "tol_m": solver.tol_m,
-            "reach_tol_m": solver.reach_tol_m,
+            "method": cfg.method,
+            "tol_m": cfg.tol_m,
+            "reach_tol_m": cfg.reach_tol_m,
             "reg_weight": plan.info["reg_weight"],
             "posture_weight": plan.info["posture_weight"],
             "u_posture": solver.u_posture.tolist(),
-            "polish": solver.polish,
-            "max_iter": solver.max_iter,
-            "reg_weight_setting": _setting(solver.reg_weight_setting),
-            "posture_weight_setting": _setting(solver.posture_weight_setting),
+            "polish": cfg.polish,
+            "max_iter": cfg.max_iter,
+            "reg_weight_setting": _setting(cfg.reg_weight),
+            "posture_weight_setting": _setting(cfg.posture_weight),
             "restart_weight": plan.info["restart_weight"],
             "regularisation": plan.info["regularisation"],
             "redundant": plan.info["redundant"],
-            "spread_weight": solver.spread_weight,
-            "max_spread_m": solver.max_spread_m,
+            "spread_weight": cfg.spread_weight,
+            "max_spread_m": cfg.max_spread_m,
             "notes": list(solver.notes),
             "ik": {k: plan.info[k] for k in ("slack_plateaus", "restarts", "recovered")},
         },
@@ -315,74 +259,3 @@ def read_result(path: str | Path) -> dict:
             dtype=float,
         )
     return doc
-
-
-def make_solver(
-    robot,
-    model=None,
-    *,
-    fem=None,
-    method: str | None = None,
-    reg_weight: float | None = None,
-    posture_weight: float | None = None,
-    seed_levels: int | None = None,
-    spread_weight: float = 0.0,
-    max_spread_m: float | None = None,
-) -> IKSolver:
-    """IK solver for ``robot`` through ``model`` (anything with ``predict_and_jacobian`` and a
-    batched ``predict``; cold starts seeded from a ``seed_levels`` grid of its predictions)
-    or, when ``model`` is None, Soft IK through the FEM ``fem`` (cold starts at the centre).
-
-    ``method``: "lm", "gd" or "dfo"; None picks "lm", or the derivative-free "dfo"
-    for a model with ``has_jacobian = False`` (the solver's ``notes`` say so; asking for
-    "lm"/"gd" with such a model is an InputError). ``seed_levels`` defaults to 7 for up to
-    three motors and 4 beyond (4^6 = 4096 seeds); ``reg_weight`` and ``posture_weight``
-    (m^2/rad^2) as in :class:`lab.control.ik.IKSolver`, None (default) = automatic: no
-    regulariser while the targets are reached, and on a redundant arm a missed point
-    restarts regularised towards the posture, then polished (:mod:`lab.control.follow`);
-    explicit weights regularise every point; 0 is off. ``spread_weight`` and
-    ``max_spread_m`` (m): the spread penalty and flag (:mod:`lab.control.spread`)."""
-    from lab.control.command_set import CommandSet
-    from lab.control.ik import grid_seeds
-    from lab.control.soft_ik import FEMForwardMap
-
-    commands = CommandSet.from_robot(robot)
-    kw = dict(reg_weight=reg_weight, posture_weight=posture_weight, spread_weight=spread_weight)
-    if model is None:
-        if fem is None:
-            raise InputError("need a model or an FEM (Soft IK) to solve the IK")
-        return IKSolver(FEMForwardMap(fem), commands, method or "lm", **kw)
-    if callable(getattr(model, "command", None)):
-        raise InputError(
-            "this is a direct inverse model u = g(y): it has no forward map to solve the IK through; "
-            "give a forward model (mlp, ensemble, gpr, knn, sklearn-mlp)"
-        )
-    if getattr(model, "n_u", robot.n_cables) != robot.n_cables or getattr(model, "n_y", 3) != 3:
-        raise InputError(
-            f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
-            f"{robot.name} has {robot.n_cables} cables and a 3-D tip"
-        )
-    notes = []
-    if not getattr(model, "has_jacobian", True):
-        if method in ("lm", "gd"):
-            raise InputError(
-                f"method {method!r} needs the model's Jacobian, and this model has none: "
-                "use the derivative-free 'dfo' (or leave the method out)"
-            )
-        if method is None:
-            notes.append(
-                "the model has no Jacobian: derivative-free IK (secant Levenberg-Marquardt with a compass poll)"
-            )
-        method = "dfo"
-    if seed_levels is None:
-        seed_levels = 7 if robot.n_cables <= 3 else 4
-    solver = IKSolver(
-        model,
-        commands,
-        method or "lm",
-        seeds=grid_seeds(model, commands, seed_levels),
-        max_spread_m=max_spread_m,
-        **kw,
-    )
-    solver.notes.extend(notes)
-    return solver

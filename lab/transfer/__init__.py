@@ -8,12 +8,16 @@ prior towards the nominal description; :func:`calibrated_robot` /
 description TOML that every command accepts as ``--robot``. :func:`calibrated_model`
 (:mod:`.calibrated`) is the ``calibrated`` transfer method (calibrate, re-simulate, train);
 :mod:`.recovery` compares recovered with true parameters on emulated as-built robots.
+The ``transfer`` and ``calibrate`` commands' runs, with their typed settings, are
+:mod:`.transfer_run` and :mod:`.calibration_run`.
 """
 
 from lab.transfer.calibrate import DEFAULT_PRIOR_STD, CalibrationResult, calibrate, prior_std
 from lab.transfer.calibrated import calibrated_model
+from lab.transfer.calibration_run import CalibrationSpec, calibration_run, calibration_summary
 from lab.transfer.recovery import family_recovery, recovery_rows, recovery_summary, true_theta
 from lab.transfer.robot_toml import calibrated_robot, calibrated_toml, robot_toml, write_calibrated_robot
+from lab.transfer.transfer_run import TRANSFER_METHODS, TransferSpec, fit_mean_distance_mm, transfer_run
 
 __all__ = [
     "DEFAULT_PRIOR_STD",
@@ -25,6 +29,13 @@ __all__ = [
     "robot_toml",
     "write_calibrated_robot",
     "calibrated_model",
+    "CalibrationSpec",
+    "calibration_run",
+    "calibration_summary",
+    "TRANSFER_METHODS",
+    "TransferSpec",
+    "transfer_run",
+    "fit_mean_distance_mm",
     "true_theta",
     "recovery_rows",
     "family_recovery",

@@ -1,29 +1,18 @@
 """Calibrated physics: identify the as-built parameters theta of the FEM from N real samples.
 
 theta is :mod:`lab.fem.parameters`' vector (log softness, stiffness gradient (y, z), eyelet
-shifts, slack per cable). :func:`calibrate` minimises the whitened tip misfit plus a prior
-towards the nominal description, theta0:
+shifts (m), slack per cable (m)). :func:`calibrate` minimises the whitened tip misfit plus a
+prior towards the nominal description, theta0:
 
     C(theta) = sum_i |x_tip(u_i; theta) - y_i|^2 / noise^2 + sum_j ((theta_j - theta0_j) / s_j)^2
 
-by Levenberg-Marquardt (Gauss-Newton with a Marquardt damping of diag(J^T J)), with
-``J = dx_tip/dtheta`` from the exact-Hessian sensitivities. The prior (standard deviations
-``s``, :data:`DEFAULT_PRIOR_STD`, about the spread of as-built arms in ``lab.rig.family``)
-keeps the problem well posed with as few as 5 samples, where 3N data cannot pin down all
-p = 3 + 3m parameters (e.g. a common eyelet shift of all cables against the gradient).
-``noise`` (default 0.5 mm per coordinate: motion-capture noise plus what a static FEM
-cannot model, friction play and creep) weighs the data against the prior.
+by Levenberg-Marquardt with ``J = dx_tip/dtheta`` from the exact-Hessian sensitivities. The
+prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well posed with as few as 5 samples;
+``noise`` (default 0.5 mm per coordinate) weighs the data against it. Warm starts make most
+solves one or two Newton steps. The uncertainty is the Gauss-Newton (Laplace) covariance at
+the optimum, with the noise estimated from the residuals.
 
-Warm starts keep it fast: the first pass solves the samples along a nearest-neighbour walk
-from rest, each from its predecessor's equilibrium moved by dq/du; later passes start each
-sample from its last equilibrium moved by dq/dtheta times the step, so most solves take
-one or two Newton steps. Each accepted step then costs one factorisation per sample,
-shared by dq/du and dq/dtheta.
-
-Uncertainty: the Gauss-Newton (Laplace) covariance at the optimum,
-``cov = (J^T J / sigma^2 + diag(s)^-2)^-1``, with sigma estimated from the residuals,
-``sigma^2 = RSS / (3N - p_eff)`` (p_eff the parameters the data determine, the trace of the
-hat matrix); where the data dominate it is the familiar (J^T J)^-1 sigma^2, ~ 1/N.
+The prior, the warm starts and the covariance in full: docs/design/transfer.md.
 """
 
 from __future__ import annotations

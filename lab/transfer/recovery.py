@@ -99,10 +99,12 @@ def family_recovery(
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
     :func:`lab.rig.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
     each), rows in the order of ``labels``."""
-    from joblib import Parallel, delayed, parallel_config
+    from joblib import Parallel, delayed
+
+    from lab.workers import worker_config
 
     u = np.asarray(u_real, float)
-    with parallel_config(backend="loky", inner_max_num_threads=1):
+    with worker_config():
         parts = Parallel(n_jobs=max(1, min(n_jobs, len(labels))))(
             delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial) for label in labels
         )

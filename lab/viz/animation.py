@@ -1,25 +1,17 @@
 """A meshcat animation of the arm following a trajectory, as self-contained HTML.
 
-meshcat animates the transforms and properties of scene objects, not vertex
-positions, so the animated arm is built from rigid pieces whose transforms carry
-the deformation (frame W, metres):
+meshcat animates the transforms and properties of scene objects, not vertex positions, so
+the arm is built from rigid pieces whose transforms carry the deformation (frame W,
+metres): the foam body as a chain of scaled unit cylinders along the deformed centreline;
+each cable as one thin cylinder per segment, coloured by its motor command through
+``n_color_levels`` copies whose visibility is animated; the tip marker (red sphere), the
+moving target (black sphere), the target path (black line) and the achieved tip path (pink
+line), as in Figure 5 of the paper.
 
-* the foam body: a chain of unit cylinders along the deformed centreline, each
-  scaled to its segment's length and the body radius;
-* each cable: one thin cylinder per segment of its polyline (WebGL lines are 1 px).
-  A cable's colour follows its motor command through ``n_color_levels`` copies of
-  the cylinder in colours of the "cool" map whose visibility is animated: a colour
-  track on a material cannot be used, because the static page loads objects
-  asynchronously and an animation bound to a material before its mesh exists
-  animates nothing;
-* the tip marker (red sphere), the moving target (black sphere), the target path
-  (black line) and the achieved tip path (pink line), as in Figure 5 of the paper.
-
-:func:`animation_html` returns the page (meshcat's JavaScript embedded, no network
-needed); show it in a notebook with ``IPython.display.HTML(notebook_iframe(html))``.
-The page costs about 180 bytes per piece and frame (8 kB per frame for the six-cable
-arm with 20 body segments) on top of about 1.2 MB (mostly meshcat's JavaScript):
-pass fewer frames for long trajectories.
+:func:`animation_html` returns the page (meshcat's JavaScript embedded, no network needed);
+show it in a notebook with ``IPython.display.HTML(notebook_iframe(html))``. It costs about
+180 bytes per piece and frame on top of about 1.2 MB: pass fewer frames for long trajectories.
+Why visibility and not a colour track, and the page size measured: docs/design/viz.md.
 """
 
 from __future__ import annotations

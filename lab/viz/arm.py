@@ -1,20 +1,18 @@
 """Drawing the arm: its deformed foam surface, the cables and the tip marker.
 
-:func:`arm_geometry` is the one place that turns a state ``q`` into drawable
-geometry (frame W, metres). Two back ends draw it:
+:func:`arm_geometry` is the one place that turns a state ``q`` into drawable geometry
+(frame W, metres). Two back ends draw it:
 
-* meshcat (interactive WebGL): :func:`meshcat_scene`, :func:`update_scene`,
-  :func:`static_html` / :func:`notebook_html` (self-contained HTML, works offline:
-  meshcat's JavaScript is embedded, nothing is fetched from a CDN). Use
-  :func:`meshcat_visualizer` to create a ``meshcat.Visualizer``: it starts a zmq
-  server subprocess on loopback, and meshcat 0.3.2's ``close()`` is broken, so the
-  context manager stops that process itself. Never call ``vis.get_image()`` (hangs
-  without a connected browser) or ``vis.jupyter_cell()`` (iframe to localhost).
-* matplotlib: :func:`plot_arm` on a 3-D axes, :func:`plot_arm_views` for a 3-D
-  view plus x-z (side) and y-z (front) projections, in centimetres.
+* meshcat (interactive WebGL): :func:`meshcat_scene`, :func:`update_scene`, :func:`static_html` /
+  :func:`notebook_html` (self-contained HTML, works offline: nothing fetched from a CDN).
+  :func:`meshcat_visualizer` creates a ``meshcat.Visualizer`` and, as meshcat 0.3.2's
+  ``close()`` is broken, stops its zmq server process itself. Never call ``vis.get_image()``
+  (hangs without a connected browser) or ``vis.jupyter_cell()`` (iframe to localhost).
+* matplotlib: :func:`plot_arm` on a 3-D axes, :func:`plot_arm_views` for a 3-D view plus x-z
+  (side) and y-z (front) projections, in centimetres.
 
-Cables are coloured by their motor command u in [0, u_max] rad (like Fig. 2 of the
-paper) when ``u_motor`` is given, else drawn in a neutral grey.
+Cables are coloured by their motor command u in [0, u_max] rad (like Fig. 2 of the paper)
+when ``u_motor`` is given, else drawn in a neutral grey.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Samples per hour against accuracy, per capture protocol (rows of :mod:`lab.tracking.capture_rate`)."""
+"""Samples per hour against accuracy, per capture protocol (rows of :mod:`lab.studies.capture_rate`)."""
 
 from __future__ import annotations
 

@@ -2,9 +2,9 @@
 
 :func:`plot_closed_loop` draws the mean error (cm, log axis) against the pass, one panel
 per correction mode, one line per (model, trajectory): colour by model, marker by
-trajectory; the goals of issue 16 (0.03 cm with the real-data model, 0.05 cm with the
+trajectory; the chapter's goals (0.03 cm with the real-data model, 0.05 cm with the
 sim-data model) as dotted lines in the models' colours. Rows from
-:func:`lab.tracking.closed_loop_table.pass_rows`.
+:func:`lab.studies.closed_loop_table.pass_rows`.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def plot_closed_loop(rows, *, metric: str = "mean_error_m", figsize=(11, 4.2)):
     Returns ``(fig, axes)`` (axes a flat array)."""
     import matplotlib.pyplot as plt
 
-    from lab.tracking.closed_loop_table import GOALS_M
+    from lab.studies.closed_loop_table import GOALS_M
 
     present = list(dict.fromkeys(r["mode"] for r in rows))
     modes = [m for m in MODE_TITLES if m in present] + [m for m in present if m not in MODE_TITLES]

@@ -2,7 +2,7 @@
 
 :func:`plot_period_curve` draws the streamed tracking error (mean over the last period, mm)
 against the period (s) on log-log axes, one colour per robot, open loop dashed and
-feed-forward solid (rows of :mod:`lab.tracking.period_curve`). :func:`plot_streamed_trajectory`
+feed-forward solid (rows of :mod:`lab.studies.period_curve`). :func:`plot_streamed_trajectory`
 draws a target shape with what the tip did over the last period of two streamed runs (track
 results of :mod:`lab.tracking.stream`, e.g. open loop and feed-forward at T = 5 s), in the
 plane of the shape (y-z, cm).

@@ -1,7 +1,7 @@
 """Figures of the data-efficiency chapter (08): error against N, and an ensemble's calibration.
 
 :func:`plot_error_vs_n` draws, per sampling strategy, a metric of
-:mod:`lab.tracking.data_curve` against the number of samples N on log-log axes (the mean
+:mod:`lab.studies.data_curve` against the number of samples N on log-log axes (the mean
 over the rows of each N: several seeds or robots; the band spans their range), one
 panel per (data set, metric). :func:`plot_calibration` draws the reliability curve of a
 predicted spread: the fraction of held-out errors within ``k`` predicted standard

@@ -1,7 +1,7 @@
 """Pick a tip target and watch inverse kinematics move the arm there (chapter 04).
 
 :class:`IKPicker` answers a target ``p_target_W`` (3,) m with the IK command found through
-the **learned model** (bounded Levenberg-Marquardt, :func:`lab.tracking.make_solver`), in a
+the **learned model** (bounded Levenberg-Marquardt, :meth:`lab.control.ik.IKSolver.for_model`), in a
 millisecond or two: it solves from the nearest grid seed and from the previous command
 and keeps the better answer. To draw the arm it then solves the FEM's equilibrium at that
 command (:class:`lab.viz.sliders.ArmExplorer`, warm-started from the last one: tens of
@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from lab.control.ik import check_targets
+from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.viz.arm import TIP_RGB
 from lab.viz.sliders import figure_png, widgets_available
@@ -68,10 +68,8 @@ class IKPicker:
     trajectory points offered in the drop-down and drawn in pink."""
 
     def __init__(self, model, robot, fem=None, *, targets_W=None, figsize=(12, 4.2)):
-        from lab.tracking import make_solver
-
         self.model, self.robot, self.figsize = model, robot, figsize
-        self.solver = make_solver(robot, model)
+        self.solver = IKSolver.for_model(model, robot)
         self.explorer = None
         if fem is not None:
             from lab.viz.sliders import ArmExplorer

@@ -1,18 +1,15 @@
 """Figure 1 of the paper, drawn from the robot description: the set-up.
 
-The paper's Figure 1 is a photograph of the rig: the foam arm clamped horizontally to a
-base plate, its cables running through eyelets to spools on Dynamixel motors behind the
-plate, a motion-capture marker on the tip and markers on the base that define frame W.
-:func:`plot_setup` draws the same from what ``lab`` knows, so it is right for any robot
-description (any number of cables, any routes) and any hardware configuration:
-
-* the body (rest shape, frame W: x along the body, z up, gravity along -z);
-* each cable's route: from its anchor on the base face through its via points
-  (eyelets) to where it is tied off, coloured per cable;
-* the spools behind the base plate (radius from ``[actuation].spool_radius_m``), one
-  per motor, on the line from the cable's anchor straight back;
-* the tip marker, and the base markers of a hardware configuration
-  (``[[mocap.base_markers]]``) when one is given.
+The paper's Figure 1 is a photograph of the rig: the foam arm clamped horizontally to a base
+plate, its cables running through eyelets to spools on Dynamixel motors behind the plate, a
+motion-capture marker on the tip and markers on the base that define frame W. :func:`plot_setup`
+draws the same from what ``lab`` knows, so it is right for any robot description and any
+hardware configuration: the body (rest shape, frame W: x along the body, z up, gravity along
+-z); each cable's route from its anchor on the base face through its via points (eyelets) to
+where it is tied off, coloured per cable; the spools behind the base plate (radius from
+``[actuation].spool_radius_m``), one per motor, on the line from the cable's anchor straight
+back; the tip marker, and the base markers of a hardware configuration
+(``[[mocap.base_markers]]``) when one is given.
 
 Side view (x-z), top view (x-y) and the base face seen from the tip (y-z), in cm.
 """

@@ -1,7 +1,7 @@
 """Figures of the sim-to-real chapter (05): error against the number of real samples.
 
 :func:`plot_transfer_curve` draws, per transfer method, the family mean (line) and the
-spread over the robots (band: min to max) of a metric of :mod:`lab.tracking.transfer_study`
+spread over the robots (band: min to max) of a metric of :mod:`lab.studies.transfer_study`
 against N on a log axis; N = 0 (the simulation network alone) is a dashed line. Tracking
 panels carry the paper's three Table I rows (mean over circle, square and rose) as
 horizontal references.
@@ -24,7 +24,7 @@ METHOD_COLORS = {
 
 
 def _paper_means() -> dict:
-    from lab.tracking.table1 import PAPER_CM
+    from lab.studies.table1 import PAPER_CM
 
     return {cond: float(np.mean(list(v.values()))) for cond, v in PAPER_CM.items()}
 

@@ -4,14 +4,17 @@
   a pseudo-terminal, for the real ``dynamixel_sdk``; fault injection.
 * ``NatNetServerEmulator`` (``natnet_server.py``): an OptiTrack NatNet server on
   loopback UDP, for the real ``natnet`` client; occlusion and a vanishing server.
-* ``LiveBody``/``KinematicBody`` (``bodies.py``): a ``Body`` shared by both on wall-clock
-  time, and a simple one.
+* ``LiveBody``/``KinematicBody`` (``bodies.py``): a ``Body`` shared by both on one clock,
+  and a simple one.
+* ``VirtualClock`` (``clock.py``): time that moves one frame period per frame the rig
+  wants, so that tests do not depend on how threads are scheduled.
 * ``EmulatedBench`` (``bench.py``): all of it together plus a matching rig config;
   ``python -m lab.rig.emulators --config-out RIG.toml`` serves it until interrupted.
 """
 
 from lab.rig.emulators.bench import EmulatedBench, default_specs, kinematic_body_for
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
+from lab.rig.emulators.clock import VirtualClock
 from lab.rig.emulators.natnet_server import (
     MocapScene,
     NatNetServerEmulator,
@@ -28,6 +31,7 @@ __all__ = [
     "MocapScene",
     "NatNetServerEmulator",
     "ServoSpec",
+    "VirtualClock",
     "default_specs",
     "kinematic_body_for",
     "multicast_loopback_works",

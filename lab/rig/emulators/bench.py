@@ -6,7 +6,9 @@ hardware rig configuration (``write_config``) that points at them, so that
 ``HardwareRig.from_config`` -- the real SDK and the real NatNet client -- runs against
 the emulated robot. The servos' physical truth (``specs``) is deliberately untidy:
 arbitrary zero ticks, one mirrored motor, one zero a turn away from where the servo
-reports it at power-up; the configuration carries the matching calibration.
+reports it at power-up; the configuration carries the matching calibration. With
+``virtual_time=True`` everything runs on one ``VirtualClock``, which moves a frame period
+per frame the rig reads (``rig_options()`` gives the rig that clock).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +25,7 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.rig.base import Body
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
+from lab.rig.emulators.clock import VirtualClock
 from lab.rig.emulators.natnet_server import MocapScene, NatNetServerEmulator
 from lab.rig.emulators.xm430 import EmulatedXM430Bus, ServoSpec
 
@@ -52,7 +56,12 @@ def _toml(value) -> str:
 
 
 class EmulatedBench:
-    """Emulated servos and motion capture around ``body`` (a ``Body``); context manager."""
+    """Emulated servos and motion capture around ``body`` (a ``Body``); context manager.
+
+    ``virtual_time``: False runs on the wall clock; True on ``self.clock``, a
+    ``VirtualClock`` that the NatNet server advances by one frame period per frame the rig
+    wants, once the body has taken every command of the current time.
+    """
 
     def __init__(
         self,
@@ -66,15 +75,18 @@ class EmulatedBench:
         noise_m: float = 0.0,
         frame_rate_hz: float = 120.0,
         seed: int = 0,
+        virtual_time: bool = False,
     ):
         self.robot = robot
+        self.clock = VirtualClock() if virtual_time else None
+        clock = time.monotonic if self.clock is None else self.clock
         self.body = body if body is not None else kinematic_body_for(robot)
-        self.live = LiveBody(self.body)
+        self.live = LiveBody(self.body, clock=clock)
         self.specs = list(specs) if specs is not None else default_specs(robot.n_cables)
         if len(self.specs) != robot.n_cables:
             raise InputError(f"{len(self.specs)} servo specs for {robot.n_cables} cables")
         self.scene = scene
-        self.bus = EmulatedXM430Bus(self.specs, body=self.live)
+        self.bus = EmulatedXM430Bus(self.specs, body=self.live, clock=clock)
         try:
             self.mocap = NatNetServerEmulator(
                 self.live.p_tip_W,
@@ -84,6 +96,8 @@ class EmulatedBench:
                 noise_m=noise_m,
                 frame_rate_hz=frame_rate_hz,
                 seed=seed,
+                clock=self.clock,
+                before_frame=self.bus.wait_body,
             )
         except BaseException:
             self.bus.stop()
@@ -107,9 +121,17 @@ class EmulatedBench:
         self.stop()
         return False
 
+    def rig_options(self) -> dict:
+        """Keyword arguments that put a ``HardwareRig`` on this bench's clock: on virtual
+        time its clock and the wish for each frame it waits for; nothing on the wall clock."""
+        if self.clock is None:
+            return {}
+        return {"clock": self.clock, "frame_wanted": self.clock.want_frame}
+
     def config_text(self, servos: dict | None = None, mocap: dict | None = None) -> str:
         """TOML of a hardware configuration for this bench; ``servos``/``mocap`` override
-        fields of those tables (for tests of bad settings)."""
+        fields of those tables (for tests of bad settings). On virtual time the mocap frame
+        timeout, which only detects a dead server there, is 10 s of wall clock."""
         s = {
             "port": self.bus.port,
             "baud_rate": self.specs[0].baud_rate,
@@ -127,7 +149,7 @@ class EmulatedBench:
             "length_unit": "mm" if self.scene.length_unit_m == 1e-3 else "m",
             "frame_rate_hz": self.mocap.frame_rate_hz,
             "connect_timeout_s": 3.0,
-            "frame_timeout_s": 0.5,
+            "frame_timeout_s": 0.5 if self.clock is None else 10.0,
             "max_occlusion_s": 0.5,
             "calibration_frames": 12,
             "marker_set": self.scene.marker_set,

@@ -1,8 +1,9 @@
 """Bodies for the hardware emulators.
 
-``LiveBody`` puts a ``Body`` (``lab.rig.base``) on wall-clock time so that the emulated
-servo bus (which commands it) and the NatNet server (which streams its tip) can share
-it from their own threads: calls are serialised by a lock and time never runs backward
+``LiveBody`` puts a ``Body`` (``lab.rig.base``) on a clock (the wall clock, or a
+``VirtualClock``) so that the emulated servo bus (which commands it) and the NatNet server
+(which streams its tip) can share it from their own threads: calls are serialised by a
+lock and time never runs backward
 (a command stamped before the body's latest time is applied at that time). A body with
 a ``profile_velocity_rad_s`` attribute gets the servos' profile velocity with each
 command, so its motors move at the speed the driver configured.
@@ -24,7 +25,8 @@ from lab.rig.base import Body
 
 
 class LiveBody:
-    """A ``Body`` driven on wall-clock time, ``t_s`` = seconds since construction."""
+    """A ``Body`` driven on ``clock`` (s; default the wall clock), ``t_s`` = seconds since
+    construction."""
 
     def __init__(self, body: Body, clock=time.monotonic):
         self.body = body

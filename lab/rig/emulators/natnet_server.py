@@ -1,23 +1,14 @@
 """A NatNet server (OptiTrack Motive stand-in) on loopback UDP, for the real ``natnet`` client.
 
-The command socket answers NAT_CONNECT with the server info, NAT_REQUEST_MODELDEF with
-the data descriptions (the robot's marker set and, optionally, a rigid body on the tip),
-NAT_REQUEST_FRAMEOFDATA with the current frame, NAT_REQUEST with an empty response, and
-registers unicast clients (NAT_CONNECT/NAT_KEEPALIVE; NAT_DISCONNECT or 10 s of silence
-removes them). A streaming thread sends a frame of data every ``1/frame_rate_hz`` s:
-unicast to every registered client, or to the multicast group (loopback interface,
-TTL 0, so nothing leaves the machine).
-
-Each frame holds the tip marker, given by ``tip_W_m(t_s) -> (3,)`` m in the robot frame
-W (``LiveBody.p_tip_W`` to stream an emulated body), and the base markers, all mapped
-into the mocap frame M by the scene's rigid transform ``p_M = R_MW p_W + t_MW`` and
-written in the scene's length unit, with optional Gaussian noise. Untracked markers
-follow Motive's conventions: absent from the labeled markers, (0, 0, 0) in the marker
-set, ``tracking_valid`` False for a rigid body.
-
-Faults: ``occlude_tip(True)`` hides the tip; ``freeze()`` makes the server disappear
-(no frames, no answers; the sockets stay bound as when a network cable is pulled);
-``stop()`` closes everything.
+The command socket answers connect, model-definition and frame requests and registers
+unicast clients; a streaming thread sends a frame every ``1/frame_rate_hz`` s, unicast to
+each client or to the multicast group (loopback, TTL 0: nothing leaves the machine). Each
+frame holds the tip marker (``tip_W_m(t_s)``, m in frame W, e.g. ``LiveBody.p_tip_W``) and
+the base markers, mapped into the mocap frame by the scene's rigid transform, in the
+scene's length unit, with optional noise; untracked markers follow Motive's conventions.
+On a ``VirtualClock`` it sends one frame per frame a reader wants, advancing the clock by a
+period each time. Faults: ``occlude_tip(True)``, ``freeze()`` (the server disappears),
+``stop()``. Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -33,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lab.rig.emulators import natnet_packets as nn
+from lab.rig.emulators.clock import VirtualClock
 
 
 def _rotation_z_up_to_y_up(yaw_deg: float) -> np.ndarray:
@@ -70,7 +62,11 @@ class MocapScene:
 class NatNetServerEmulator:
     """Loopback NatNet server; ``command_port``/``data_port`` are the bound ports.
 
-    Use as a context manager (or ``start()``/``stop()``); its threads always stop.
+    Use as a context manager (or ``start()``/``stop()``); its threads always stop. ``clock``:
+    None streams on the wall clock at ``frame_rate_hz``; a ``VirtualClock`` sends a frame
+    for each wish (``VirtualClock.want_frame``), calling ``before_frame()`` first (e.g. to
+    let the body take the commands of the current time) and then advancing the clock by
+    one frame period.
     """
 
     CLIENT_TIMEOUT_S = 10.0
@@ -89,8 +85,12 @@ class NatNetServerEmulator:
         noise_m: float = 0.0,
         seed: int = 0,
         host: str = "127.0.0.1",
+        clock: VirtualClock | None = None,
+        before_frame: Callable[[], None] | None = None,
     ):
         self.tip_W_m, self.scene = tip_W_m, scene
+        self.clock, self.before_frame = clock, before_frame
+        self._clock = time.monotonic if clock is None else clock.now
         self.version = nn._check(version)
         self.frame_rate_hz = float(frame_rate_hz)
         self.multicast, self.multicast_address, self.host = multicast, multicast_address, host
@@ -118,12 +118,15 @@ class NatNetServerEmulator:
         self._frozen = threading.Event()
         self._occluded = False
         self._threads: list[threading.Thread] = []
-        self._t0 = time.monotonic()
+        self._t0 = self._clock()
         self.frames_sent = 0
+        self.max_frame_gap_s = 0.0  # longest wall-clock time between two frames sent, s
+        self._t_wall_last = 0.0
 
     # --- lifecycle and faults -------------------------------------------------------
     def start(self) -> NatNetServerEmulator:
-        for target, name in ((self._serve_commands, "natnet-cmd"), (self._stream, "natnet-data")):
+        stream = self._stream if self.clock is None else self._stream_on_wish
+        for target, name in ((self._serve_commands, "natnet-cmd"), (stream, "natnet-data")):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
             self._threads.append(t)
@@ -151,7 +154,8 @@ class NatNetServerEmulator:
         self._occluded = bool(occluded)
 
     def now(self) -> float:
-        return time.monotonic() - self._t0
+        """The server's time, s: wall clock or virtual, since construction."""
+        return self._clock() - self._t0
 
     @property
     def clients(self) -> list[tuple]:
@@ -252,21 +256,38 @@ class NatNetServerEmulator:
                 next_t = time.monotonic() + period
             if self._frozen.is_set():
                 continue
-            packet = self.frame(self.frames_sent, self.now())
-            self.frames_sent += 1
-            if self.multicast:
-                targets = [(self.multicast_address, self.data_port)]
-            else:
+            self._send_frame()
+
+    def _stream_on_wish(self) -> None:
+        period = 1.0 / self.frame_rate_hz
+        while not self._stop.is_set():
+            if not self.clock.take_wish(0.05) or self._frozen.is_set():
+                continue
+            if self.before_frame is not None:
+                self.before_frame()
+            self.clock.advance(period)
+            self._send_frame()
+
+    def _send_frame(self) -> None:
+        t_wall = time.monotonic()
+        if self.frames_sent:
+            self.max_frame_gap_s = max(self.max_frame_gap_s, t_wall - self._t_wall_last)
+        self._t_wall_last = t_wall
+        packet = self.frame(self.frames_sent, self.now())
+        self.frames_sent += 1
+        if self.multicast:
+            targets = [(self.multicast_address, self.data_port)]
+        else:
+            with self._lock:
+                cutoff = time.monotonic() - self.CLIENT_TIMEOUT_S
+                self._clients = {a: t for a, t in self._clients.items() if t > cutoff}
+                targets = list(self._clients)
+        for addr in targets:
+            try:
+                self._data.sendto(packet, addr)
+            except OSError:
                 with self._lock:
-                    cutoff = time.monotonic() - self.CLIENT_TIMEOUT_S
-                    self._clients = {a: t for a, t in self._clients.items() if t > cutoff}
-                    targets = list(self._clients)
-            for addr in targets:
-                try:
-                    self._data.sendto(packet, addr)
-                except OSError:
-                    with self._lock:
-                        self._clients.pop(addr, None)
+                    self._clients.pop(addr, None)
 
 
 def multicast_loopback_works(group: str = "239.255.42.99", host: str = "127.0.0.1") -> bool:

@@ -1,19 +1,15 @@
 """Dynamixel Protocol 2.0 framing, written independently of ``dynamixel_sdk``.
 
-The emulated bus (``xm430.py``) uses this module to read the instruction packets the
-real SDK sends and to write the status packets it expects, so a test of the SDK
-against the emulator compares two implementations of the protocol, not one with itself.
-
-Packet layout (all multi-byte fields little-endian)::
+The emulated bus (``xm430.py``) reads the instruction packets the real SDK sends and writes
+the status packets it expects with this module, so a test of the SDK against the emulator
+compares two implementations of the protocol. Packet layout (little-endian)::
 
     FF FF FD 00 | ID | LEN_L LEN_H | INST | PARAMS... | CRC_L CRC_H
 
-``LEN`` counts INST + PARAMS + 2 CRC bytes *after* byte stuffing. Stuffing: wherever
-the sequence FF FF FD occurs in INST/PARAMS, an extra FD is inserted after it, so the
-header can never appear inside a packet. The CRC is CRC-16/BUYPASS (polynomial 0x8005,
-initial value 0, no reflection) over every byte before the CRC, stuffing included.
-A status packet is an instruction packet with INST = 0x55 whose first parameter is the
-error byte.
+``LEN`` counts INST + PARAMS + 2 CRC bytes after byte stuffing (an FD inserted after every
+FF FF FD in INST/PARAMS). The CRC is CRC-16/BUYPASS over every byte before it. A status
+packet has INST = 0x55 and the error byte as its first parameter. More:
+``docs/design/rig.md``.
 """
 
 from __future__ import annotations

@@ -1,29 +1,15 @@
 """An emulated bus of Dynamixel XM430 servos on a pseudo-terminal (Protocol 2.0).
 
-``EmulatedXM430Bus`` opens a pty; its slave device path (``bus.port``) is what the
-real ``dynamixel_sdk.PortHandler`` opens, exactly as it would open ``/dev/ttyUSB0``.
-A background thread reads instruction packets from the master side and answers with
-status packets: PING, READ, WRITE, SYNC_READ, SYNC_WRITE and REBOOT; CRC-16, byte
-stuffing, error numbers and the hardware-error alert bit (``protocol2.py``).
-
-Each servo (``xm430_servo.EmulatedServo``) has the XM430 control table the driver
-uses, and its spool moves on wall-clock time; a servo only hears packets sent at its own
-baud rate, read from the pty's termios.
-
-The physical truth of each motor is its ``ServoSpec``: the tick at which its cable is
-just taut (``zero_tick``) and which way winds the cable in (``direction``). With a
-``LiveBody`` attached, every change of goal or torque commands the body with the
-motor angles ``u = direction * (goal - zero_tick) * 2 pi / 4096`` rad (0 for a released
-motor) and the slowest servo's profile velocity, so the hardware rig can drive the
-emulated robot. The body is commanded from a worker thread, in order and stamped with
-the time the servos acted, so that a slow body (an FEM solve per command) never delays
-a status packet past the SDK's reply timeout.
-
-Faults (``inject_fault``): ``"silent"`` (obeys, never answers), ``"disconnected"``
-(neither hears nor answers), ``"bad_crc"`` (answers with a corrupted CRC),
-``"crc_error"`` (instructions arrive corrupted: answers with error 3 and ignores them),
-``"overload"`` (hardware error status bit 5: torque off, alert bit on every answer, until
-REBOOT). ``count`` limits a fault to that many occurrences. ``unplug()`` closes the pty.
+``EmulatedXM430Bus`` opens a pty whose slave path (``bus.port``) the real
+``dynamixel_sdk.PortHandler`` opens as it would ``/dev/ttyUSB0``; a background thread
+answers PING, READ, WRITE, SYNC_READ, SYNC_WRITE and REBOOT (``protocol2.py``). Each servo
+(``xm430_servo.EmulatedServo``) hears only its own baud rate. The physical truth of a motor
+is its ``ServoSpec`` (``zero_tick``, ``direction``); with a ``LiveBody`` attached, goal and
+torque changes command the emulated body from a worker thread, so a slow FEM solve never
+delays a status packet. Time is ``clock`` (wall clock, or a shared ``VirtualClock``).
+Faults (``inject_fault``): ``"silent"``, ``"disconnected"``, ``"bad_crc"``, ``"crc_error"``,
+``"overload"`` (until REBOOT), ``count`` times; ``unplug()`` closes the pty. Details:
+``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -58,6 +44,9 @@ class EmulatedXM430Bus:
 
     Use as a context manager (or ``start()``/``stop()``); the serving thread always stops.
     ``body``: optional ``Body`` (or ``LiveBody``) the servos drive, motors in ``specs`` order.
+    ``clock``: seconds, e.g. ``time.monotonic`` or a ``VirtualClock``.
+    ``max_packet_gap_s`` is the longest time between two instruction packets (a test may
+    reset it to 0): how long the host left the servos' Bus Watchdog unfed.
     """
 
     def __init__(self, specs, *, body=None, clock=time.monotonic):
@@ -81,6 +70,8 @@ class EmulatedXM430Bus:
         self._last_body_command: tuple | None = None
         self.body_error: BaseException | None = None
         self.packets = 0
+        self.max_packet_gap_s = 0.0
+        self._t_last_packet: float | None = None
 
     # --- lifecycle ------------------------------------------------------------------
     def start(self) -> EmulatedXM430Bus:
@@ -234,6 +225,9 @@ class EmulatedXM430Bus:
     def _handle(self, pkt: p2.Packet) -> list[bytes]:
         self.packets += 1
         t = self.now()
+        if self._t_last_packet is not None:
+            self.max_packet_gap_s = max(self.max_packet_gap_s, t - self._t_last_packet)
+        self._t_last_packet = t
         baud = self._port_baud()
         hearing = [s for s in self.servos if s.fault != "disconnected" and (baud is None or baud == s.baud_rate)]
         broadcast = pkt.dxl_id == p2.BROADCAST_ID

@@ -1,24 +1,13 @@
 """One emulated Dynamixel XM430: its control table, its spool and its hardware errors.
 
-The register map is the XM430 control table of the ROBOTIS e-Manual (only what a
-position-controlled servo needs; reserved gaps refuse writes). Rules a real servo
-enforces and the driver must respect: EEPROM fields (address < 64) are written only
-with torque off; read-only fields refuse writes (error 7); the goal position must lie
-in the operating mode's range (+-1,048,575 ticks in extended position mode, the
-position limits otherwise: error 6); the profile velocity may not exceed the velocity
-limit (error 6); torque cannot be enabled while a hardware error is latched. When
-torque is enabled the goal is set to the present position, so the spool does not jump.
-
-Bus Watchdog (address 98, units of 20 ms, 0 = off): with torque on, when no instruction
-packet has reached the servo for the watchdog time, it stops where it is (the goal
-becomes the present position), the register reads -1 (255) and goal writes are refused
-with a data range error (error 4) until the register is written 0 again.
-
-The spool angle ``theta`` (ticks, multi-turn) turns toward the goal at the profile
-velocity (units of 0.229 rev/min; 0 = the no-load speed) on the bus clock; released
-(torque off), the foam pulls the cable back and the spool turns back to its rest angle.
-The present position register is ``theta`` plus an offset chosen at power-up/REBOOT so
-that it reads within one turn (0..4095), as an X-series servo does.
+The register map is the XM430 control table of the ROBOTIS e-Manual (what a
+position-controlled servo needs), with the rules a real servo enforces: EEPROM fields
+written only with torque off, read-only fields and out-of-range goals or profile
+velocities refused with the real error numbers, no torque while a hardware error is
+latched, and the Bus Watchdog (address 98). The spool turns toward the goal at the
+profile velocity on the bus clock and, released, back to its rest angle; the present
+position reads within one turn after power-up, as on an X-series servo. The rules one by
+one: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Fitting the relaxation filter (:mod:`lab.learn.relaxation`) to what the motion capture saw.
+"""Fitting the relaxation filter (:mod:`lab.dynamics.relaxation`) to what the motion capture saw.
 
 Two fits, both by *variable projection*: the filter is linear in every equilibrium and
 amplitude, so for given time constants those come from one linear least-squares solve,
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.dynamics.relaxation import Relaxation
 from lab.errors import InputError
-from lab.learn.relaxation import Relaxation
 
 
 @dataclass

@@ -1,22 +1,16 @@
-"""How much data, which samples (issue 15): error against N per sampling strategy.
+"""Error against the number of samples N, per sampling strategy (the data-efficiency study).
 
-For one robot -- the nominal FEM (:class:`NominalBody`, the paper's "Sim Robot") or an
-emulated as-built robot (:class:`lab.rig.twin.AsBuiltBody`) -- :func:`data_curve_row`
-draws N commands by one sampling **strategy** (:data:`STRATEGIES`), measures the settled
-tips through the fast path (:func:`lab.rig.twin.quasi_static_tips`: what ``capture``
-measures once the lag has died out, plus the robot's own motion-capture noise on an
-emulated robot), fits a forward model and records
-
-* ``model_error_m``: mean distance (m) between prediction and settled tip on a **common
-  held-out set** of random allowed commands (never lattice points; noise-free tips);
-* the Table I tracking error per shape and their mean (m), by
-  :func:`lab.tracking.transfer_study.evaluate_model` (optional: ``tracking=False``);
-* ``fit_s`` (s) and ``capture_h``: N over the measured capture rate (samples per hour).
-
-Each row depends only on (strategy, N, seed) and the settings -- its own design, its own
-seeded noise, its own seeded training -- so a study can be resumed row by row and the
-rows need not share samples. :func:`smallest_n` reads off how sparse each strategy can
-go, :func:`hours_saved` what that saves against the paper's 7^3 grid (308 samples).
+For one robot -- the nominal FEM (:class:`NominalBody`) or an emulated as-built robot
+(:class:`lab.rig.twin.AsBuiltBody`) -- :func:`data_curve_row` draws N commands by one
+sampling strategy (:data:`STRATEGIES`), measures the settled tips through the fast path
+(:func:`lab.rig.twin.quasi_static_tips`, plus the robot's motion-capture noise), fits a
+forward model and records ``model_error_m`` (mean distance in m on a common held-out set of
+random allowed commands, noise-free), the Table I tracking error per shape and their mean
+(m; :func:`lab.studies.transfer_study.evaluate_model`, optional), ``fit_s`` (s) and
+``capture_h`` (N over the measured samples per hour). Each row depends only on (strategy,
+N, seed) and the settings, so a study resumes row by row. :func:`smallest_n` reads off how
+sparse each strategy can go, :func:`hours_saved` what that saves against the paper's 7^3
+grid (308 samples). The design and its measurements: ``docs/design/studies.md``.
 """
 
 from __future__ import annotations
@@ -29,7 +23,7 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.rig.twin import quasi_static_tips
-from lab.tracking.transfer_study import SHAPES, evaluate_model, random_safe_commands
+from lab.studies.transfer_study import SHAPES, evaluate_model, random_safe_commands
 
 __all__ = [
     "STRATEGIES",
@@ -84,21 +78,15 @@ def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | Non
     "FEM", no noise), ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` (an as-built
     body, label "emulated as-built robot", its defects' motion-capture noise in m per axis).
     The fast path needs a body: ``hardware:`` rigs are refused (InputError)."""
-    from lab.rig.twin import AsBuiltBody
+    from lab.fem.mesh_spec import MeshSpec
+    from lab.rig import RigSpec, as_built_body
 
-    kind, _, arg = str(rig).partition(":")
-    mesh = {"n_rings": n_rings, "n_axial": n_axial}
-    if kind == "sim" and not arg:
-        return NominalBody(robot, **mesh), "FEM", 0.0
-    if kind == "twin":
-        if arg == "random" or arg.startswith("random:"):
-            from lab.rig.family import parse_robot_seed, random_defects
-
-            defects = random_defects(robot, parse_robot_seed(arg.partition(":")[2], rig), **mesh)
-        else:
-            defects = arg or None
-        body = AsBuiltBody(robot, defects, **mesh)
-        return body, "emulated as-built robot", float(body.defects.noise_sigma_m)
+    spec = RigSpec.parse(rig)
+    if spec.kind == "sim":
+        return NominalBody(robot, n_rings=n_rings, n_axial=n_axial), spec.label, 0.0
+    if spec.kind == "twin":
+        body = as_built_body(spec, robot, mesh=MeshSpec(n_rings, n_axial))
+        return body, spec.label, float(body.defects.noise_sigma_m)
     raise InputError(
         f"rig {rig!r}: the data curve measures through a body's quasi-static map; "
         "expected sim, twin, twin:DEFECTS.toml or twin:random:SEED"

@@ -19,16 +19,14 @@ from __future__ import annotations
 import contextlib
 import csv
 import datetime as _dt
-import hashlib
 import io
 import math
-import tempfile
 from pathlib import Path
 
 from filelock import FileLock
 
 from lab.errors import InputError
-from lab.files import atomic_write_text
+from lab.files import atomic_write_text, remove_and_release
 
 SHAPES = ("circle", "square", "rose")
 #: Table I of the paper, cm.
@@ -143,9 +141,13 @@ def render_markdown(rows: list[dict]) -> str:
 
 @contextlib.contextmanager
 def _locked(csv_path: Path):
-    """Exclusive lock for updating ``csv_path`` (a lock file in the temporary directory,
-    named after the table's absolute path, so nothing is left beside the figures)."""
-    key = hashlib.sha256(str(csv_path.resolve()).encode()).hexdigest()[:16]
+    """Exclusive lock for updating ``csv_path``: the hidden file ``.NAME.lock`` beside it, so
+    writers on different machines sharing the file system are serialised too; it is removed
+    when the update ends (:func:`lab.files.remove_and_release`)."""
     # filelock: portable (fcntl does not exist on Windows)
-    with FileLock(Path(tempfile.gettempdir()) / f"lab-table1-{key}.lock"):
+    lock = FileLock(csv_path.parent / f".{csv_path.name}.lock")
+    lock.acquire()
+    try:
         yield
+    finally:
+        remove_and_release(lock)

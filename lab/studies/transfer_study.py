@@ -1,23 +1,15 @@
-"""The sim-to-real curve (issue 14): how many real samples close the gap, by which method.
+"""The sim-to-real curve: how many real samples close the gap, by which transfer method.
 
-For one emulated as-built robot (a :class:`lab.rig.twin.AsBuiltBody`), :func:`curve_rows`
-measures, for each transfer method and each number N of real samples,
-
-* the **model error**: mean distance (m) between the model's prediction and the robot's
-  settled tip on held-out commands drawn uniformly from the safe set (not lattice points);
-* the **tracking error** of Table I: the circle, square and rose are followed open loop
-  through the model (IK by bounded LM, as ``track``), and the mean distance (m) between
-  each target and the tip the robot settles at is recorded per shape.
-
-The robot's answers are its *quasi-static* map -- the settled tip after the capture
-protocol's reset, :meth:`AsBuiltBody.quasi_static_tip` -- plus motion-capture noise of the
-robot's own ``noise_sigma_m`` on the real samples. That is what ``capture`` measures once
-the lag has died out, without simulating the seconds of waiting per sample, so that a
-family of robots x methods x N fits in minutes; the chapter checks on one robot that the
-full protocol gives the same samples to within the noise.
-
-The real samples are the first N of one space-filling order of the safe commands, so
-each N's set contains the smaller ones (as a lab that captures more later would have).
+For one emulated as-built robot (:class:`lab.rig.twin.AsBuiltBody`), :func:`curve_rows`
+measures for each transfer method and number N of real samples the **model error** (mean
+distance in m between prediction and settled tip on held-out commands drawn uniformly from
+the safe set) and the Table I **tracking error** per shape (m; followed open loop through
+the model, IK by bounded LM as ``track``). The robot answers with its quasi-static map
+(:meth:`AsBuiltBody.quasi_static_tip`: the tip settled after the capture protocol's reset),
+plus its own motion-capture noise on the real samples, so a family of robots x methods x N
+fits in minutes. The real samples are the first N of one space-filling order of the safe
+commands, so each N's set contains the smaller ones. The design and its measurements:
+``docs/design/studies.md``.
 """
 
 from __future__ import annotations
@@ -27,6 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from lab.control.ik import IKSolver
 from lab.control.trajectories import builtin
 from lab.errors import InputError
 from lab.rig.twin import quasi_static_tips  # noqa: F401 (part of this module's API)
@@ -67,10 +60,8 @@ def evaluate_model(model, body, u_test, tips_test, n_points: int | None = 24, sh
     built-in trajectories of :func:`lab.control.trajectories.builtin` (default Table I's; the
     six-cable arm's :data:`lab.control.trajectories.SIX_CABLE`), ``n_points`` targets each
     (None: each path's default)."""
-    from lab.tracking.track import make_solver
-
     row = {"model_error_m": float(np.mean(np.linalg.norm(model.predict(u_test) - tips_test, axis=1)))}
-    solver = make_solver(body.robot, model)
+    solver = IKSolver.for_model(model, body.robot)
     for shape in shapes:
         targets = builtin(shape, n_points)
         plan = solver.follow(targets)
@@ -189,7 +180,7 @@ def family_table1(rows: list[dict], real_n: int = 308) -> list[dict]:
     paper's two findings hold (sim-data error at least twice the real-data error;
     sim-data trajectories smaller -- size ratio below 1 -- and shifted by more than the
     real-data ones)."""
-    from lab.tracking.table1 import PAPER_CM
+    from lab.studies.table1 import PAPER_CM
 
     pick = {"Real Data + Real Robot": ("real-only", real_n), "Sim Data + Real Robot": ("sim-only", 0)}
     out = []

@@ -4,12 +4,10 @@
 at each period, open loop and through each robot's fitted relaxation filter, on a fresh rig per
 run (the same noise seed, settled from rest), and returns one row per (rig, period, mode).
 :func:`write_period_curve` writes them as CSV (atomic) with a JSON sidecar ``OUT.json``
-(command, code version, settings); ``benchmarks/bench_period_curve.py`` is its command line
-and makes ``data/period_curve.csv``.
-
-Columns: ``rig`` (its ``--rig`` spec), ``period_s``, ``mode`` ("open-loop" or
-"feed-forward"), ``mean_error_m`` and ``max_error_m`` over the last period's frames (m),
-then ``model`` (the quasi-static model the IK solved through), ``n_periods``,
+(command, code version, settings); ``benchmarks/bench_period_curve.py`` makes
+``data/period_curve.csv``. Columns: ``rig`` (its ``--rig`` spec), ``period_s``, ``mode``
+("open-loop" or "feed-forward"), ``mean_error_m`` and ``max_error_m`` over the last period's
+frames (m), ``model`` (the quasi-static model the IK solved through), ``n_periods``,
 ``n_knots_unreachable`` (equilibria the IK could not reach), ``max_motor_speed_rad_s`` (the
 fastest a motor had to turn between commands) and ``tau_s``/``weight`` of the filter used
 (";"-joined, empty in open loop).
@@ -56,7 +54,7 @@ def period_curve_rows(make_rig, runs, targets_W, periods_s, *, log=None, **strea
     """Rows (dicts with :data:`PERIOD_CURVE_COLUMNS`) for every run in ``runs`` -- tuples
     ``(spec, model_label, solver, relax)``: a rig spec, the name of the quasi-static model the
     ``solver`` (:class:`~lab.control.ik.IKSolver`) solves through, and the fitted
-    :class:`~lab.learn.relaxation.Relaxation` -- every period in ``periods_s`` (s) and both
+    :class:`~lab.dynamics.relaxation.Relaxation` -- every period in ``periods_s`` (s) and both
     modes. ``make_rig(spec)`` returns a fresh rig; ``stream_kw`` go to ``stream_trajectory``;
     ``log(text)`` is told each result. Returns the rows and the results
     ``{(spec, model_label, period, mode): StreamResult}``."""

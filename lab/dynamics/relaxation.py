@@ -1,20 +1,15 @@
 """The foam in time: the tip as a learned linear relaxation filter of its quasi-static equilibrium.
 
-A viscoelastic arm does not jump to the equilibrium ``p_eq(u)`` the quasi-static network
-predicts; it creeps there. :class:`Relaxation` models the creep with ``K`` first-order
-modes (K = 2 by default: a fast and a slow one), the same for every axis::
+A viscoelastic arm creeps toward the equilibrium ``p_eq(u)``. :class:`Relaxation` models the
+creep with ``K`` first-order modes (two by default), the same for every axis::
 
     tau_k dz_k/dt = p_eq(t) - z_k(t),      p_tip(t) = sum_k w_k z_k(t),   sum_k w_k = 1,
 
-so a step of the equilibrium is covered to ``1 - sum_k w_k exp(-t / tau_k)`` after ``t``
-seconds (:meth:`Relaxation.step`). The equilibrium input is piecewise linear in time (motors
-turn at constant speed between commands), and every interval is integrated exactly
-(:meth:`Relaxation.interval`). The filter is linear in the equilibria, which is what makes
-it cheap to fit (:mod:`lab.learn.relaxation_fit`), to run as a Kalman filter during capture
-(:mod:`lab.rig.predictive`) and to invert into a feed-forward command (:meth:`Relaxation.invert`).
-
-Saved as ``.npz`` (arrays ``tau_s``, ``weight`` and a JSON ``metadata`` string with
-``format_version``, ``kind = "lab.dynamics"``, ``noise_sigma_m`` and how it was fitted); no pickle.
+integrated exactly for equilibria that move linearly in time (:meth:`Relaxation.interval`).
+Being linear in the equilibria makes it cheap to fit (:mod:`lab.dynamics.relaxation_fit`),
+to run as a Kalman filter during capture (:mod:`lab.rig.predictive`) and to invert into a
+feed-forward command (:meth:`Relaxation.invert`). Saved as ``.npz`` (arrays ``tau_s``,
+``weight``, JSON ``metadata`` with ``kind = "lab.dynamics"``); no pickle.
 """
 
 from __future__ import annotations
@@ -175,14 +170,23 @@ def load_relaxation(path: str | Path) -> Relaxation:
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["metadata"]))
             tau, w = np.array(z["tau_s"]), np.array(z["weight"])
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as err:
-        raise DynamicsFileError(f"{path}: not a readable dynamic-model file ({err})") from err
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as err:
+        raise DynamicsFileError(f"{path}: not a readable dynamic-model file ({err or type(err).__name__})") from None
+    if not isinstance(meta, dict):
+        raise DynamicsFileError(f"{path}: metadata must be a JSON object, got {type(meta).__name__}")
     if meta.get("kind") != KIND:
         raise DynamicsFileError(f"{path}: kind is {meta.get('kind')!r}, expected {KIND!r}")
-    if int(meta.get("format_version", 0)) > FORMAT_VERSION:
-        raise DynamicsFileError(f"{path}: format_version {meta['format_version']} is newer than {FORMAT_VERSION}")
-    noise = meta.get("noise_sigma_m")
+    version = meta.get("format_version", 0)
+    if isinstance(version, bool) or not isinstance(version, int):
+        raise DynamicsFileError(f"{path}: format_version must be an integer, got {version!r}")
+    if version > FORMAT_VERSION:
+        raise DynamicsFileError(f"{path}: format_version {version} is newer than {FORMAT_VERSION}")
+    noise, info = meta.get("noise_sigma_m"), meta.get("info", {})
+    if noise is not None and (isinstance(noise, bool) or not isinstance(noise, (int, float))):
+        raise DynamicsFileError(f"{path}: noise_sigma_m must be a number, got {noise!r}")
+    if not isinstance(info, dict):
+        raise DynamicsFileError(f"{path}: info must be a JSON object, got {type(info).__name__}")
     try:
-        return Relaxation(tau, w, float("nan") if noise is None else float(noise), meta.get("info", {}))
+        return Relaxation(tau, w, float("nan") if noise is None else float(noise), info)
     except InputError as err:
         raise DynamicsFileError(f"{path}: {err}") from err

@@ -1,0 +1,201 @@
+"""Which commands to measure: the sampling design that ``simulate`` and ``capture`` share.
+
+:class:`DesignSpec` is the one setting behind ``--grid L | --sobol N | --lhs N | --design D
+--n N | --active N --batch B`` (and ``--active``'s ensemble). A fixed design (the grid, 7
+levels by default, or a space-filling design of :mod:`lab.data.designs`) gives its safe
+commands with :meth:`DesignSpec.commands`; an active one is run by
+:mod:`lab.learn.active_design`. The spec refuses a bad combination or count when it is
+built and :meth:`DesignSpec.check` what does not fit the robot -- both before any work.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.data.designs import DESIGNS, MAX_DESIGN_N, MAX_MAXIMIN_N, design_commands, grid_commands, min_distance
+from lab.description import RobotDescription
+from lab.errors import InputError
+from lab.specs import Spec, option
+
+__all__ = ["DesignSpec", "ACTIVE_POOL", "MAX_ACTIVE_N", "MAX_GRID_CANDIDATES", "DEFAULT_GRID_LEVELS"]
+
+#: Grid levels per motor when no sampling flag is given (the paper's 7x7x7 grid).
+DEFAULT_GRID_LEVELS = 7
+#: Largest grid, in candidate commands (levels^m): the whole grid is built in memory.
+MAX_GRID_CANDIDATES = 4_194_304
+#: Largest ``--active`` budget (as a design's: its first half is a Sobol design).
+MAX_ACTIVE_N = MAX_DESIGN_N
+#: Candidates scored per batch of ``--active``: the most one batch can pick.
+ACTIVE_POOL = 4096
+
+
+def _at_least(low: int):
+    def check(v) -> str | None:
+        ok = isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= low
+        return None if ok else f"must be at least {low}"
+
+    return check
+
+
+def _grid_levels(v) -> str | None:
+    return None if _at_least(2)(v) is None else "needs at least 2 levels per motor"
+
+
+@dataclass(frozen=True)
+class DesignSpec(Spec):
+    """One sampling design; unset, it is the 7-level grid. ``seed`` seeds a design or
+    ``--active``'s picks and ensembles (the command's own ``--seed``)."""
+
+    grid: int | None = option(help="grid levels per motor (default 7)", type=int, metavar="LEVELS", check=_grid_levels)
+    sobol: int | None = option(
+        help="N scrambled-Sobol safe commands instead of a grid", type=int, metavar="N", check=_at_least(1)
+    )
+    lhs: int | None = option(
+        help="N commands of a Latin hypercube restricted to the safe set", type=int, metavar="N", check=_at_least(1)
+    )
+    design: str | None = option(
+        help="instead of the grid, --n commands of a space-filling design over the safe set", choices=DESIGNS
+    )
+    active: int | None = option(
+        help="N commands measured in batches of --batch, each where an ensemble trained on the samples "
+        "so far disagrees most (the first N/2: a Sobol design)",
+        type=int,
+        metavar="N",
+        check=_at_least(1),
+    )
+    n: int | None = option(help="number of commands of --design", type=int, metavar="N", check=_at_least(1))
+    batch: int | None = option(help="samples per batch of --active", type=int, metavar="B", check=_at_least(1))
+    ensemble_members: int = option(5, help="networks of --active's ensemble", type=int, metavar="K")
+    ensemble_hidden: tuple[int, ...] = option(
+        (20, 20), help="hidden layer widths of --active's networks", type=int, nargs="+", metavar="WIDTH"
+    )
+    ensemble_epochs: int | None = option(
+        help="most training epochs per network (default: train's)", type=int, metavar="E"
+    )
+    seed: int = option(0, help="seed of the design or of --active's picks and ensembles", cli=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        object.__setattr__(self, "ensemble_hidden", tuple(self.ensemble_hidden))
+        chosen = [f"--{f}" for f in ("grid", "sobol", "lhs", "design", "active") if getattr(self, f) is not None]
+        if len(chosen) > 1:
+            raise InputError(f"{' and '.join(chosen)} are different designs: give one")
+        for flag in ("sobol", "lhs"):
+            if getattr(self, flag) is not None and self.n is not None:
+                raise InputError(f"--n N goes with --design; --{flag} N gives the number itself")
+        if self.active is None and self.batch is not None:
+            raise InputError("--batch B goes with --active N")
+        if self.n is not None and self.design is None and self.sobol is None and self.lhs is None:
+            raise InputError(f"--n N goes with --design {{{','.join(DESIGNS)}}}; the grid's size is --grid LEVELS")
+        if self.design is not None and self.n is None:
+            raise InputError(f"--design {self.design} needs the number of commands: --n N")
+        if self.active is not None:
+            self._check_active()
+        if self.kind == "design":
+            limit = MAX_MAXIMIN_N if self.method == "maximin" else MAX_DESIGN_N
+            if self.n_commands > limit:
+                raise InputError(
+                    f"--design {self.method} --n {self.n_commands}: a {self.method} design takes at most "
+                    f"{limit} commands, got n = {self.n_commands}"
+                )
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InputError(f"--seed must be an integer >= 0, got {self.seed}")
+
+    def _check_active(self) -> None:
+        if self.batch is None:
+            raise InputError("--active N needs the batch size: --batch B")
+        if self.active > MAX_ACTIVE_N:
+            raise InputError(f"--active must be at most {MAX_ACTIVE_N}, got {self.active}")
+        if self.batch > ACTIVE_POOL:
+            raise InputError(
+                f"--batch must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}"
+            )
+        if _at_least(2)(self.ensemble_members):
+            raise InputError(f"--ensemble-members must be at least 2, got {self.ensemble_members}")
+        if not self.ensemble_hidden or any(_at_least(1)(h) for h in self.ensemble_hidden):
+            raise InputError(f"--ensemble-hidden widths must be positive, got {list(self.ensemble_hidden)}")
+        if self.ensemble_epochs is not None and _at_least(1)(self.ensemble_epochs):
+            raise InputError(f"--ensemble-epochs must be at least 1, got {self.ensemble_epochs}")
+
+    # --- what the flags mean ----------------------------------------------------------------
+
+    @property
+    def kind(self) -> str:
+        """``"grid"``, ``"design"`` (a space-filling design) or ``"active"``."""
+        if self.active is not None:
+            return "active"
+        return "grid" if self.method == "grid" else "design"
+
+    @property
+    def method(self) -> str:
+        """``"grid"``, ``"active"`` or the space-filling design (``--sobol N`` is ``sobol``)."""
+        if self.active is not None:
+            return "active"
+        if self.sobol is not None:
+            return "sobol"
+        if self.lhs is not None:
+            return "lhs"
+        return self.design or "grid"
+
+    @property
+    def levels(self) -> int | None:
+        """Grid levels per motor (None unless a grid)."""
+        if self.kind != "grid":
+            return None
+        return DEFAULT_GRID_LEVELS if self.grid is None else self.grid
+
+    @property
+    def n_commands(self) -> int | None:
+        """Commands of a space-filling design, or ``--active``'s budget (None for a grid)."""
+        if self.kind == "active":
+            return self.active
+        return next((v for v in (self.sobol, self.lhs, self.n) if v is not None), None)
+
+    def words(self) -> list[str]:
+        """The flags that reproduce this design (``--sobol N`` as ``--design sobol --n N``)."""
+        if self.kind == "active":
+            words = ["--active", str(self.active), "--batch", str(self.batch)]
+            words += ["--ensemble-members", str(self.ensemble_members)]
+            words += ["--ensemble-hidden", *map(str, self.ensemble_hidden)]
+            return words + (["--ensemble-epochs", str(self.ensemble_epochs)] if self.ensemble_epochs else [])
+        if self.kind == "design":
+            return ["--design", self.method, "--n", str(self.n_commands)]
+        return ["--grid", str(self.levels)]
+
+    # --- for a robot --------------------------------------------------------------------------
+
+    def check(self, robot: RobotDescription) -> None:
+        """Refuse (InputError) what does not fit ``robot``: a grid over
+        :data:`MAX_GRID_CANDIDATES` candidate commands."""
+        if self.kind == "grid":
+            n = self.levels**robot.n_cables
+            if n > MAX_GRID_CANDIDATES:
+                raise InputError(
+                    f"--grid {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} candidate commands; "
+                    f"at most {MAX_GRID_CANDIDATES:,} are allowed (a grid is built whole in memory)"
+                )
+
+    def commands(self, robot: RobotDescription) -> tuple[np.ndarray, dict]:
+        """The safe commands (N, m) rad of a grid or space-filling design, in design order,
+        and the sampler's metadata (JSON-able). Not for ``--active``."""
+        if self.kind == "active":
+            raise InputError("an --active design is picked as it is measured: it has no fixed commands")
+        self.check(robot)
+        if self.kind == "grid":
+            u = grid_commands(robot, self.levels)
+            n_candidates = self.levels**robot.n_cables
+            return u, {"name": "grid", "levels": self.levels, "n_candidates": n_candidates, "n_safe": len(u)}
+        method, n = self.method, self.n_commands
+        try:
+            u = design_commands(robot, n, method, seed=self.seed)
+        except InputError as err:
+            raise InputError(f"--design {method} --n {n}: {err}") from None
+        return u, {
+            "name": method,
+            "n": n,
+            "seed": self.seed,
+            "space": "safe set of [0, u_max]^m, distances in u / u_max",
+            "min_distance": min_distance(robot, u),
+        }

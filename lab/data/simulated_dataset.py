@@ -1,0 +1,153 @@
+"""A fixed sampling design simulated with the FEM and written as a dataset file.
+
+:func:`simulate_fixed` solves the commands of a grid or a space-filling design
+(:class:`lab.data.DesignSpec`) chunk by chunk, each finished chunk kept in a checkpoint
+directory so that a killed run resumes (:mod:`lab.data.chunkstore`);
+:func:`write_simulated` writes the samples with their metadata (robot, mesh, sampler,
+solver) as the CSV + JSON pair of :mod:`lab.data.dataset`, then removes the checkpoint.
+:func:`solve_batch` solves one batch without a checkpoint (an active design's batches are
+kept by their caller).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from lab.data import simulation
+from lab.data.chunkstore import remove_checkpoint
+from lab.data.dataset import write_dataset
+from lab.data.design_spec import DesignSpec
+from lab.data.designs import grid_chunks, nearest_neighbour_chunks
+from lab.description import RobotDescription
+from lab.fem.mesh import cylinder_mesh
+
+__all__ = ["simulate_fixed", "solve_batch", "write_simulated", "announce"]
+
+
+def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
+    """The line that opens a simulation run (on ``file``, default stderr)."""
+    print(
+        f"{robot.name}: {n} safe commands{how}, mesh n_rings={n_rings} n_axial={n_axial}, {jobs} worker(s)",
+        file=sys.stderr if file is None else file,
+    )
+
+
+def simulate_fixed(
+    robot: RobotDescription,
+    design: DesignSpec,
+    n_rings: int,
+    n_axial: int,
+    *,
+    checkpoint,
+    jobs: int = 1,
+    chunk_size: int = 64,
+    progress: bool = False,
+    scheduler: str | None = None,
+    file=None,
+) -> tuple[np.ndarray, dict, dict]:
+    """The commands ``u`` (N, m) rad of a grid or space-filling ``design``, the solver's
+    result (:func:`lab.data.simulation.simulate`: ``p_tip_W`` (N, 3) m, per-sample stats,
+    ``wall_s``, ``resumed_samples``) and the sampler's metadata. Chunks of
+    ``chunk_size`` commands are kept in ``checkpoint`` as they finish."""
+    u, sampler = design.commands(robot)
+    sampler["n_safe"] = len(u)
+    if design.method == "sobol":
+        sampler["scramble"] = True
+    if design.kind == "grid":
+        chunks = grid_chunks(robot, u, target_size=chunk_size)
+    else:
+        chunks = nearest_neighbour_chunks(u, size=chunk_size)
+    announce(robot, len(u), n_rings, n_axial, jobs, file=file)
+    res = simulation.simulate(
+        robot,
+        u,
+        chunks,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=jobs,
+        progress=progress,
+        checkpoint=checkpoint,
+        scheduler=scheduler,
+    )
+    return u, res, sampler
+
+
+def solve_batch(
+    robot: RobotDescription,
+    u_batch: np.ndarray,
+    n_rings: int,
+    n_axial: int,
+    *,
+    jobs: int = 1,
+    chunk_size: int = 64,
+    progress: bool = False,
+    scheduler: str | None = None,
+) -> dict:
+    """One batch of commands (B, m) rad solved in nearest-neighbour walks of
+    ``chunk_size``, without a checkpoint: :func:`lab.data.simulation.simulate`'s result."""
+    return simulation.simulate(
+        robot,
+        u_batch,
+        nearest_neighbour_chunks(u_batch, size=chunk_size),
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=jobs,
+        progress=progress,
+        scheduler=scheduler,
+    )
+
+
+def write_simulated(
+    out,
+    robot: RobotDescription,
+    n_rings: int,
+    n_axial: int,
+    u: np.ndarray,
+    res: dict,
+    sampler: dict,
+    *,
+    checkpoint,
+    jobs: int,
+    scheduler: str | None,
+    command: str,
+    file=None,
+) -> dict:
+    """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) rad and the
+    solver's result ``res``, then remove the ``checkpoint`` it now holds; returns the
+    metadata written. Prints where resumed samples came from and what was written."""
+    from lab.fem.linsolve import default_backend
+
+    file = sys.stderr if file is None else file
+    if res["resumed_samples"]:
+        print(f"resumed: {res['resumed_samples']} samples came from {checkpoint}", file=file)
+    mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)  # counts only
+    meta = {
+        "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
+        "mesh": {
+            "mesher": "cylinder",
+            "n_rings": n_rings,
+            "n_axial": n_axial,
+            "n_nodes": mesh.n_nodes,
+            "n_tets": len(mesh.tets),
+        },
+        "sampler": sampler,
+        "solver": {
+            "linear_solver": default_backend(),
+            "mean_newton_iterations": float(res["iterations"].mean()),
+            "wall_s": res["wall_s"],
+            "n_jobs": jobs,
+            "scheduler": scheduler,
+            "resumed_samples": res["resumed_samples"],
+        },
+        "command": command,
+    }
+    write_dataset(out, u, res["p_tip_W"], meta)
+    remove_checkpoint(checkpoint)  # the dataset now holds every chunk
+    print(
+        f"wrote {len(u)} samples to {out} in {res['wall_s']:.1f} s "
+        f"(mean {res['iterations'].mean():.2f} Newton iterations)",
+        file=file,
+    )
+    return meta

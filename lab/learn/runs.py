@@ -1,0 +1,225 @@
+"""The ``train`` and ``splits`` runs: from dataset files and a :class:`TrainSpec` to a model or a table.
+
+:func:`train_run` reads a dataset (and any ``extra_data`` of the same robot, appended
+before the split), fits the spec's model -- the network by :func:`lab.learn.train.train`;
+any other model on the training part of the same ``dividerand`` split (same seed, same
+indices), with its errors on all three parts and, for an ensemble, its spread scale fitted
+on the validation part -- and records where the data came from in the model's metadata.
+:func:`splits_run` is the ten-split study of :func:`lab.learn.models.evaluate_model_splits`
+on a dataset file. Both check the spec against the data (sizes, memory) before any fit.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lab.data.dataset import read_dataset
+from lab.errors import InputError
+from lab.learn.metrics import workspace_size_m
+from lab.learn.models import evaluate_model_splits, fit_model, held_out_errors, load_model, outer_split
+from lab.learn.split import check_enough_data
+from lab.learn.train import data_sha256, train
+from lab.learn.train_spec import SplitsSpec, TrainSpec
+
+__all__ = ["TrainRun", "train_run", "splits_run", "network_words"]
+
+
+@dataclass
+class TrainRun:
+    """A fitted model with its errors per set (``errors[set]`` = {mse_m2, mean_distance_m, n, ...}),
+    test calibration (ensemble, gpr; else None), stop record, fit time (s) and the
+    workspace size (m, NaN if unknown)."""
+
+    spec: TrainSpec
+    model: object
+    errors: dict
+    calibration: dict | None
+    stop: dict
+    wall_s: float
+    workspace_size_m: float
+    data: str
+    file_sha256: str
+
+    def report(self, model_path) -> dict:
+        """The JSON report of ``train --report`` (kind ``lab.train_report``)."""
+        from lab.files import code_version
+
+        size, training = self.workspace_size_m, self.model.metadata["training"]
+        net = getattr(self.model, "net", self.model)
+        report = {
+            "kind": "lab.train_report",
+            "format_version": 1,
+            **self.errors,
+            "workspace_size_m": size if np.isfinite(size) else None,
+            "model": str(model_path),
+            "model_type": self.spec.model,
+            "data": str(self.data),
+            "data_file_sha256": self.file_sha256,
+            "data_sha256": training["data_sha256"],
+            "layer_sizes": list(net.layer_sizes) if hasattr(net, "layer_sizes") else None,
+            "activation": self.spec.activation,
+            "algorithm": self.spec.algorithm,
+            "seed": self.spec.seed,
+            "split": list(self.spec.ratios),
+            **self.stop,
+            "wall_s": self.wall_s,
+            "code_version": code_version(),
+        }
+        if self.spec.algorithm == "br" and "bayesian_regularisation" in training:
+            report["bayesian_regularisation"] = training["bayesian_regularisation"]
+        if self.calibration is not None:
+            report["calibration_test"] = self.calibration
+        return report
+
+
+def network_words(spec: TrainSpec, n_u: int, n_y: int) -> str:
+    """How the log names the spec's network, e.g. "3-20-20-3", "5 x 3-20-20-3"; "" for a peer."""
+    net = "-".join(map(str, [n_u, *spec.hidden, n_y]))
+    return {"mlp": net, "ensemble": f"{spec.members} x {net}", "inverse-mlp": f"inverse {net}"}.get(spec.model, "")
+
+
+def _forward_model(spec: TrainSpec, forward):
+    if forward is None:
+        return None
+    if spec.model != "inverse-mlp":
+        raise InputError("--forward only applies to --model inverse-mlp")
+    return load_model(forward)
+
+
+def _read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list]:
+    u, y, meta = read_dataset(data)
+    extra = []
+    for path in extra_data:
+        u_x, y_x, meta_x = read_dataset(path)
+        robot_x, robot = ((m.get("robot") or {}).get("name") for m in (meta_x, meta))
+        if u_x.shape[1] != u.shape[1] or robot_x != robot:
+            raise InputError(
+                f"--extra-data {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
+                f"{robot!r} with {u.shape[1]}"
+            )
+        u, y = np.vstack([u, u_x]), np.vstack([y, y_x])
+        extra.append({"path": str(path), "file_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()})
+    return u, y, meta, extra
+
+
+def _finite_or_none(d: dict) -> dict:
+    return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
+
+
+def _fit_other(spec: TrainSpec, u, y, forward):
+    """A model other than the plain network on the training part of train's own split;
+    returns (model, errors per set, calibration or None, wall_s)."""
+    from lab.learn.ensemble import calibration
+
+    check_enough_data(u, spec.ratios)
+    split = outer_split(len(u), spec.ratios, spec.seed)
+    t0 = time.perf_counter()
+    model = fit_model(spec.model, u[split.train], y[split.train], seed=spec.seed, n_jobs=spec.jobs, **spec.fit_kwargs())
+    wall_s = time.perf_counter() - t0
+    sets = {"train": split.train, "validation": split.validation, "test": split.test}
+    cal = None
+    if spec.model in ("ensemble", "gpr") and len(split.test):
+        u_t, y_t = u[split.test], y[split.test]
+        if spec.model == "ensemble":
+            cal = {"raw": calibration(y_t, *model.predict_with_std(u_t, scaled=False))}
+            if len(split.validation):
+                model.fit_spread_scale(u[split.validation], y[split.validation])
+                cal["scaled"] = calibration(y_t, *model.predict_with_std(u_t))
+                cal["spread_scale"] = model.spread_scale
+        else:
+            cal = {"raw": calibration(y_t, *model.predict_with_std(u_t))}
+    errors = {name: _finite_or_none(held_out_errors(model, u[idx], y[idx], forward)) for name, idx in sets.items()}
+    model.metadata.setdefault("training", {}).update(
+        {
+            "model": spec.model,
+            "seed": spec.seed,
+            "split": {
+                "method": "dividerand",
+                "ratios": list(map(float, spec.ratios)),
+                **split.sizes(),
+                "indices": {k: v.tolist() for k, v in sets.items()},
+            },
+            "errors": errors,
+            "wall_s": wall_s,
+        }
+    )
+    if cal is not None:
+        model.metadata["training"]["calibration_test"] = cal
+    return model, errors, cal, wall_s
+
+
+def train_run(
+    spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, command: str = "", log=None
+) -> TrainRun:
+    """Fit ``spec``'s model on the dataset file ``data`` (plus ``extra_data`` files of the same
+    robot). ``init``: a network file to continue (``--model mlp`` only; the spec's hidden
+    widths become its own); ``forward``: a forward model file judging a direct inverse's
+    commands; ``command``: recorded in the metadata; ``log(line)``: progress. InputError
+    for bad files, data or settings, before any fit."""
+    from lab.learn.mlp import MLP
+
+    u, y, meta, extra = _read_all(data, extra_data)
+    forward_model = _forward_model(spec, forward)
+    init_model = None
+    if init is not None:
+        init_model = load_model(init)
+        if spec.model != "mlp" or not isinstance(init_model, MLP):
+            raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with --model mlp only")
+        spec = spec.replace(hidden=tuple(init_model.hidden))
+    spec.check_fits(u.shape[1], y.shape[1], len(u))
+    what = network_words(spec, u.shape[1], y.shape[1])
+    if log is not None:
+        log(
+            f"{' + '.join(map(str, [data, *extra_data]))}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} "
+            f"outputs; training {spec.model}{f' {what} ({spec.activation}) with {spec.algorithm}' if what else ''}, "
+            f"split {list(spec.ratios)}, seed {spec.seed}"
+        )
+    cal = None
+    if spec.model == "mlp":
+        options = spec.fit_kwargs()["options"]
+        res = train(u, y, spec.hidden, activation=spec.activation, algorithm=spec.algorithm, ratios=spec.ratios,
+                    seed=spec.seed, epochs=spec.epochs, options=options, init=init_model)  # fmt: skip
+        model, errors, wall_s = res.model, res.errors, res.log.wall_s
+        stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
+    else:
+        model, errors, cal, wall_s = _fit_other(spec, u, y, forward_model)
+        stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
+    file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
+    training = model.metadata["training"]
+    training.setdefault("data_sha256", data_sha256(u, y))
+    training["data"] = {"path": str(data), "file_sha256": file_sha, "robot": (meta.get("robot") or {}).get("name")}
+    if extra:
+        training["data"]["extra"] = extra
+    training["command"] = command
+    size = workspace_size_m(y) or float("nan")
+    return TrainRun(spec, model, errors, cal, stop, wall_s, size, str(data), file_sha)
+
+
+def splits_run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None):
+    """The ten-split study (:func:`lab.learn.models.evaluate_model_splits`) of ``spec``'s
+    model on the dataset file ``data``, ``splits.n_splits`` splits on ``spec.jobs`` workers;
+    returns (rows, each with ``command``; the workspace size in m)."""
+    u, y, _ = read_dataset(data)
+    forward_model = _forward_model(spec, forward)
+    # spec.jobs workers run one split each; an ensemble's members train one after another there
+    spec.replace(jobs=1).check_fits(u.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
+    if log is not None:
+        net = "-".join(map(str, [u.shape[1], *spec.hidden, y.shape[1]]))
+        what = {
+            "mlp": f"{net} network ({spec.algorithm})",
+            "ensemble": f"{spec.members} x {net} ensemble ({spec.algorithm})",
+        }
+        log(
+            f"{data}: {len(u)} samples; {splits.n_splits} random splits {list(spec.ratios)} of a "
+            f"{what.get(spec.model, spec.model)}, seed {spec.seed}, {spec.jobs} worker(s)"
+        )
+    rows = evaluate_model_splits(u, y, spec.model, n_splits=splits.n_splits, ratios=tuple(spec.ratios), seed=spec.seed,
+                                 n_jobs=spec.jobs, forward=forward_model, **spec.fit_kwargs())  # fmt: skip
+    for r in rows:
+        r["command"] = command
+    return rows, workspace_size_m(y)

@@ -1,0 +1,136 @@
+"""A sampling design simulated with the FEM into a dataset file, resumable after a kill.
+
+:func:`simulate_design` is what ``python -m lab simulate`` does: a grid or space-filling
+design is solved chunk by chunk (:func:`lab.data.simulated_dataset.simulate_fixed`); an
+``--active`` one batch by batch as :func:`lab.learn.active_design.run_active` picks them,
+each batch saved in the checkpoint the moment it is solved
+(:class:`lab.data.batchstore.BatchStore`), so that the same call after a kill continues
+after the last saved batch. Everything that can be refused is refused before any work.
+"""
+
+from __future__ import annotations
+
+import errno
+import time
+
+import numpy as np
+
+from lab.data.batchstore import BatchStore
+from lab.data.chunkstore import FORMAT_VERSION, clear_checkpoint
+from lab.data.design_spec import DesignSpec
+from lab.data.simulated_dataset import announce, simulate_fixed, solve_batch, write_simulated
+from lab.description import RobotDescription
+from lab.errors import InputError, LabRuntimeError
+from lab.fem.mesh_spec import MeshSpec
+from lab.learn.active_design import active_settings, check_active, run_active
+
+__all__ = ["simulate_design"]
+
+#: OS errors that mean the disk, the quota or the file-size limit is full.
+_NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
+#: Solver fields kept per sample.
+_STATS = ("iterations", "factorizations", "time_s")
+
+
+def simulate_design(
+    robot: RobotDescription,
+    design: DesignSpec,
+    mesh: MeshSpec,
+    out,
+    *,
+    checkpoint,
+    command: str,
+    jobs: int = 1,
+    chunk_size: int = 64,
+    progress: bool = False,
+    scheduler: str | None = None,
+    restart: bool = False,
+    file=None,
+) -> dict:
+    """Simulate ``design`` for ``robot`` on the ``mesh`` and write the dataset ``out``
+    (+ ``out.json``); returns its metadata.
+
+    ``checkpoint``: the directory keeping finished chunks (or batches) until the dataset
+    is written (``restart``: its files are discarded first); ``command``: the command
+    line recorded; ``jobs`` worker processes (or a Dask ``scheduler``) solve chunks of
+    ``chunk_size`` commands. Progress lines go to ``file`` (default stderr). A full disk
+    raises LabRuntimeError saying that the finished chunks are kept.
+    """
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
+        raise InputError(f"--chunk-size must be a positive integer, got {chunk_size!r}")
+    design.check(robot)
+    if design.kind == "active":
+        check_active(design, robot)
+    n_rings, n_axial = mesh.resolve(robot)  # before any work: refuse what cannot fit in memory
+    run = dict(jobs=jobs, chunk_size=chunk_size, progress=progress, scheduler=scheduler)
+    try:
+        if restart:
+            clear_checkpoint(checkpoint)  # only the checkpoint's own files, never anything else
+        if design.kind == "active":
+            u, res, sampler = _simulate_active(robot, design, n_rings, n_axial, checkpoint, file, run)
+        else:
+            u, res, sampler = simulate_fixed(robot, design, n_rings, n_axial, checkpoint=checkpoint, file=file, **run)
+        return write_simulated(
+            out,
+            robot,
+            n_rings,
+            n_axial,
+            u,
+            res,
+            sampler,
+            checkpoint=checkpoint,
+            jobs=jobs,
+            scheduler=scheduler,
+            command=command,
+            file=file,
+        )
+    except OSError as err:
+        if err.errno not in _NO_SPACE:
+            raise
+        raise LabRuntimeError(
+            f"no space left to write {out} or its checkpoint {checkpoint} ({err.strerror}): "
+            "free some space (or raise the file-size limit) and run the same command again; "
+            "an existing dataset at --out is unchanged and finished chunks are kept"
+        ) from err
+
+
+def _simulate_active(robot, design, n_rings, n_axial, checkpoint, file, run: dict):
+    """``--active N --batch B``: each batch simulated as soon as it is picked and saved in
+    the checkpoint; a re-run continues after the last saved batch."""
+    settings = active_settings(design, robot)
+    fp = {
+        "format_version": FORMAT_VERSION,
+        "kind": "lab.active-checkpoint",
+        "robot_sha256": robot.sha256,
+        "n_rings": int(n_rings),
+        "n_axial": int(n_axial),
+        "sampler": settings,
+    }
+    store = BatchStore(checkpoint, fp)
+    batches = store.load_batches()
+    stats = {f: [b[f] for b in batches] for f in _STATS}
+    log = [b["entry"] for b in batches]
+    u_done = np.vstack([np.empty((0, robot.n_cables))] + [b["u_motor"] for b in batches])
+    y_done = np.vstack([np.empty((0, 3))] + [b["p_tip_W"] for b in batches])
+    how = f" picked actively in batches of {design.batch}"
+    announce(robot, design.active, n_rings, n_axial, run["jobs"], how, file=file)
+    solved = {}
+
+    def measure(u_b):
+        solved.clear()
+        solved.update(solve_batch(robot, u_b, n_rings, n_axial, **run))
+        return solved["p_tip_W"]
+
+    def on_batch(u_b, y_b, entry):
+        store.save_batch(len(log), {"order": np.arange(len(u_b)), "u_motor": u_b, **solved}, entry)
+        log.append(entry)
+        for f in _STATS:
+            stats[f].append(solved[f])
+
+    t0 = time.perf_counter()
+    u, y, _ = run_active(
+        design, robot, measure, u_done=u_done, y_done=y_done, n_jobs=run["jobs"], on_batch=on_batch, file=file
+    )
+    res = {f: np.concatenate(stats[f]) for f in _STATS}
+    res.update(p_tip_W=y, wall_s=time.perf_counter() - t0, resumed_samples=len(u_done))
+    return u, res, {**settings, "n_batches": len(log), "log": log}

@@ -1,0 +1,118 @@
+"""The settings of a training run: :class:`TrainSpec`, the typed form of the model flags.
+
+Which model (``--model``), its network (``--hidden``, ``--activation``), how it is trained
+(``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``), the split (``--split``),
+the seed and the worker processes (``--jobs``) are the fields of one frozen spec, each
+declared with :func:`lab.specs.option`, so that the flags' help and checks live here:
+``train`` and ``splits`` build their flags from it, ``transfer`` its ``--hidden`` and
+``--seed``. :meth:`TrainSpec.check_fits` refuses, once the data's sizes are known, a
+network that cannot fit in memory (:mod:`lab.learn.network_size`). :class:`SplitsSpec`
+is the ``splits`` study's own setting, the number of random splits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from numbers import Integral
+
+from lab.errors import InputError
+from lab.learn.mlp import ACTIVATIONS
+from lab.learn.models import MODEL_CHOICES, net_options
+from lab.learn.network_size import check_network_size
+from lab.learn.train import ALGORITHMS
+from lab.specs import Spec, non_negative, non_negative_int, option, positive_int
+
+__all__ = ["TrainSpec", "SplitsSpec"]
+
+
+def _widths(v) -> str | None:
+    ok = len(v) > 0 and all(isinstance(h, Integral) and not isinstance(h, bool) and h >= 1 for h in v)
+    return None if ok else "widths must be positive integers"
+
+
+def _ratios(v) -> str | None:
+    ok = (
+        len(v) == 3
+        and all(isinstance(r, (int, float)) and not isinstance(r, bool) and math.isfinite(r) and r >= 0 for r in v)
+        and v[0] > 0
+    )
+    return None if ok else "must be 3 non-negative numbers (train, validation, test) with train > 0"
+
+
+@dataclass(frozen=True)
+class TrainSpec(Spec):
+    """A model and how it is trained; see the flags' help for each field."""
+
+    model: str = option(
+        "mlp",
+        choices=MODEL_CHOICES,
+        help="lab's network, a deep ensemble of them, or a scikit-learn peer "
+        "(Gaussian process, k-nearest neighbours, MLPRegressor), or the direct inverse u = g(y)",
+    )
+    hidden: tuple[int, ...] = option(
+        (20, 20), type=int, nargs="+", metavar="WIDTH", check=_widths, help="hidden layer widths"
+    )
+    algorithm: str = option(
+        "lm",
+        choices=ALGORITHMS,
+        help="network training: Levenberg-Marquardt (MATLAB trainlm), Adam, L-BFGS, or "
+        "Bayesian regularisation (MATLAB trainbr)",
+    )
+    activation: str = option("tanh", choices=ACTIVATIONS, help="hidden activation")
+    epochs: int | None = option(None, type=int, check=positive_int, help="maximum epochs (default 1000)")
+    min_grad: float | None = option(
+        None, type=float, check=non_negative, help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br; 0 disables)"
+    )
+    members: int = option(5, type=int, check=positive_int, help="ensemble: number of networks K >= 2")
+    ratios: tuple[float, float, float] = option(
+        (0.8, 0.1, 0.1),
+        flag="--split",
+        type=float,
+        nargs=3,
+        metavar=("TRAIN", "VAL", "TEST"),
+        check=_ratios,
+        help="random split ratios like MATLAB dividerand",
+    )
+    seed: int = option(0, type=int, check=non_negative_int, help="seed of the split and the initial weights")
+    jobs: int = option(1, type=int, check=positive_int, help="ensemble: worker processes training the members")
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.model == "ensemble" and self.members < 2:
+            raise InputError(f"--members must be at least 2, got {self.members}")
+
+    def fit_kwargs(self) -> dict:
+        """The keyword arguments of :func:`lab.learn.models.fit_model` (and of
+        :func:`lab.learn.models.evaluate_model_splits`) this spec gives."""
+        return {
+            "hidden": tuple(self.hidden),
+            "algorithm": self.algorithm,
+            "epochs": self.epochs,
+            "options": net_options(self.algorithm, self.min_grad),
+            "activation": self.activation,
+            "members": self.members,
+        }
+
+    def n_train(self, n_samples: int) -> int:
+        """Samples in the training part of ``n_samples`` split by ``ratios`` (dividerand)."""
+        total = sum(self.ratios)
+        return n_samples - sum(int(round(r / total * n_samples)) for r in self.ratios[1:])
+
+    def check_fits(self, n_u: int, n_y: int, n_samples: int, copies: int = 1) -> None:
+        """Refuse (InputError naming ``--hidden``) a network this spec would train on
+        ``n_samples`` samples of ``n_u`` inputs and ``n_y`` outputs, ``copies`` runs at once,
+        that would not fit in the memory available now. Nothing to check for gpr and knn."""
+        if self.model in ("gpr", "knn"):
+            return
+        sizes = (n_y, *self.hidden, n_u) if self.model == "inverse-mlp" else (n_u, *self.hidden, n_y)
+        algorithm = "adam" if self.model == "sklearn-mlp" else self.algorithm
+        parallel = min(self.jobs, self.members) if self.model == "ensemble" else 1
+        check_network_size(sizes, self.n_train(n_samples), algorithm, copies=copies * parallel)
+
+
+@dataclass(frozen=True)
+class SplitsSpec(Spec):
+    """The ``splits`` study: how many random splits."""
+
+    n_splits: int = option(10, type=int, check=positive_int, help="number of random splits")

@@ -1,0 +1,137 @@
+"""From a capture run to its dataset: the commands in capture order, the journal's identity,
+and the rows, metadata and summary line written at the end.
+
+A fixed design is captured in a seeded shuffled order (``--order shuffled``) and written
+back in its own order; :func:`planned_commands` gives both. :func:`capture_header` is what
+a resumed journal must match besides the protocol and the commands. :func:`captured_dataset`
+turns the :class:`~lab.rig.capture.Capture` into what :func:`lab.data.dataset.write_dataset`
+writes (rows, ``OUT.json`` metadata) and the line printed after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lab.description import RobotDescription
+from lab.rig.capture import Capture
+from lab.rig.capture_spec import CaptureSpec
+from lab.rig.protocol import Protocol
+
+__all__ = ["CapturedDataset", "captured_dataset", "capture_header", "planned_commands", "rig_identity"]
+
+
+def rig_identity(description: dict) -> dict:
+    """What must not change when a capture is resumed: rig kind, robot, mesh, and the
+    hash of every configuration the rig reports (``{name: {"sha256": ...}}``)."""
+    out = {k: description[k] for k in ("kind", "robot", "mesh") if k in description}
+    out.update({f"{k}.sha256": v["sha256"] for k, v in description.items() if isinstance(v, dict) and "sha256" in v})
+    return out
+
+
+def capture_header(robot: RobotDescription, description: dict) -> dict:
+    """The journal header's robot and rig (``description``: the open rig's ``describe()``)."""
+    return {"robot": {"name": robot.name, "sha256": robot.sha256}, "rig": rig_identity(description)}
+
+
+def planned_commands(spec: CaptureSpec, robot: RobotDescription) -> tuple[np.ndarray, np.ndarray, dict, str]:
+    """A fixed design's commands ``u`` (N, m) rad in dataset order, the capture order (N,)
+    (``u[order]`` is captured), the sampler's metadata and what the run captures, in words."""
+    design = spec.design
+    u, sampler = design.commands(robot)
+    sampler = {**sampler, "order": spec.order, "seed": spec.seed}
+    order = np.random.default_rng(spec.seed).permutation(len(u)) if spec.order == "shuffled" else np.arange(len(u))
+    what = f"{design.method} design" if design.kind == "design" else f"{design.levels}^{robot.n_cables} grid"
+    return u, order, sampler, f"{len(u)} safe commands of the {what}"
+
+
+@dataclass(frozen=True)
+class CapturedDataset:
+    """Rows ``u_motor`` (N, m) rad and ``p_tip_W`` (N, 3) m in dataset order, the dataset's
+    metadata and the line that reports the run."""
+
+    u_motor: np.ndarray
+    p_tip_W: np.ndarray
+    meta: dict
+    summary: str
+
+
+def _stats(a: np.ndarray) -> dict:
+    return {
+        "mean": float(np.mean(a)),
+        "median": float(np.median(a)),
+        "p95": float(np.percentile(a, 95)),
+        "max": float(np.max(a)),
+    }
+
+
+def captured_dataset(
+    spec: CaptureSpec,
+    robot: RobotDescription,
+    description: dict,
+    protocol: Protocol,
+    res: Capture,
+    u: np.ndarray,
+    order: np.ndarray,
+    sampler: dict,
+    wall_s: float,
+) -> CapturedDataset:
+    """The dataset of a finished capture ``res`` of the commands ``u`` (N, m) rad (dataset
+    order) captured as ``u[order]`` on the rig of ``description``; ``wall_s``: this run's
+    wall-clock seconds."""
+    n = len(u)
+    y = np.empty_like(res.p_tip_W)
+    y[order] = res.p_tip_W  # back to grid (design) order
+    settled = np.empty(n, bool)
+    settled[order] = res.settled
+    per_sample = {name: np.empty(n) for name in ("sample_s", "settle_s")}
+    for name, arr in per_sample.items():
+        arr[order] = getattr(res, name)
+    pred_std = np.empty(n)
+    pred_std[order] = res.pred_std_m
+    unsettled = np.flatnonzero(~settled)
+    learned = [info for tag, info in res.notes if tag == "relaxation"]
+    predictive = protocol.kind == "predictive"
+    meta = {
+        "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
+        "rig": description,
+        "protocol": protocol.as_dict(),
+        "sampler": sampler,
+        "capture": {
+            "journal": str(spec.journal_path),
+            "n_sessions": int(res.session.max()),
+            "n_unsettled": int(len(unsettled)) if protocol.wait else None,
+            "unsettled_rows": unsettled.tolist() if protocol.wait else None,
+            "robot_time_s": res.robot_time_s,
+            "rate_samples_per_hour": res.rate_per_hour,
+            "sample_s": _stats(res.sample_s),
+            "settle_s": _stats(res.settle_s),
+            "invalid_frame_fraction": float(res.n_invalid_frames.sum() / max(1, res.n_frames.sum())),
+            "wall_s_this_session": wall_s,
+            "wall_s_all_sessions": res.wall_s,
+            "protocol": protocol.kind,
+            **(
+                {
+                    "relaxation": learned[-1] if learned else {"from": str(spec.protocol.dynamic_model)},
+                    "n_predicted": int(res.predicted.sum()),
+                    "pred_std_m": _stats(res.pred_std_m[res.predicted]) if res.predicted.any() else None,
+                }
+                if predictive
+                else {}
+            ),
+        },
+        "per_sample": {
+            "settled": settled.astype(int).tolist(),
+            **{k: v.tolist() for k, v in per_sample.items()},
+            **({"pred_std_m": [None if np.isnan(v) else float(v) for v in pred_std]} if predictive else {}),
+        },
+        "command": spec.command,
+    }
+    summary = (
+        f"wrote {n} samples to {spec.out} ({res.new_samples} new): {res.rate_per_hour:.0f} samples per "
+        f"hour of robot time ({res.robot_time_s / 3600:.2f} h), {wall_s:.1f} s wall"
+        + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else "")
+        + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else "")
+    )
+    return CapturedDataset(u, y, meta, summary)

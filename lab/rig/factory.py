@@ -1,0 +1,83 @@
+"""The one way to build a rig: :func:`make_rig` from a :class:`~lab.rig.spec.RigSpec` (or its string).
+
+A command never builds a :class:`~lab.rig.sim.SimRig` or a twin by hand: it hands
+:func:`make_rig` the spec, and the FEM (a ``sim`` rig on the FEM the command already built)
+or the mesh (a coarse emulated twin for quick runs) when it has one.
+:func:`as_built_body` is the emulated as-built arm of a twin spec without the rig around it,
+for studies that read its quasi-static map directly.
+"""
+
+from __future__ import annotations
+
+from lab.description import RobotDescription
+from lab.errors import InputError
+from lab.fem.energy import ArmFEM
+from lab.fem.mesh_spec import MeshSpec
+from lab.rig.base import Rig
+from lab.rig.spec import RigSpec
+
+__all__ = ["make_rig", "as_built_body"]
+
+
+def _spec(spec: RigSpec | str, mesh: MeshSpec | None) -> RigSpec:
+    return RigSpec.parse(spec, mesh=mesh)
+
+
+def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpec | None = None):
+    """The :class:`~lab.rig.twin.AsBuiltBody` of a ``twin`` spec (its defects file, the shipped
+    defects, or member SEED of the family drawn for the mesh), on the spec's mesh or ``mesh``.
+
+    Raises InputError for a spec of another kind."""
+    spec = _spec(spec, mesh)
+    if spec.kind != "twin":
+        raise InputError(f"--rig {spec}: an as-built body is emulated for --rig twin only")
+    from lab.rig.twin import AsBuiltBody
+
+    overrides = spec.mesh.overrides()
+    if spec.family_seed is not None:
+        from lab.rig.family import random_defects
+
+        return AsBuiltBody(robot, random_defects(robot, spec.family_seed, **overrides), **overrides)
+    return AsBuiltBody(robot, spec.defects_path, **overrides)
+
+
+def make_rig(
+    spec: RigSpec | str,
+    robot: RobotDescription,
+    *,
+    seed: int = 0,
+    fem: ArmFEM | None = None,
+    mesh: MeshSpec | None = None,
+) -> Rig:
+    """The rig of ``spec`` (a :class:`RigSpec` or a ``--rig`` string) for ``robot``.
+
+    Parameters
+    ----------
+    seed: the emulated robot's motion-capture noise seed (``twin:random:SEED`` picks the
+        robot of the family; ``seed`` still only the noise).
+    fem: the nominal FEM a ``sim`` rig solves (default: built on the spec's mesh).
+    mesh: FEM mesh overrides of a ``sim`` or ``twin`` rig, replacing the spec's.
+
+    Raises InputError (a ValueError) naming the problem: a bad spec, an FEM for a rig that
+    is not ``sim``, an FEM and a mesh together, a mesh for a hardware rig.
+    """
+    spec = _spec(spec, mesh)
+    if fem is not None and spec.kind != "sim":
+        raise InputError(f"--rig {spec}: only --rig sim runs on a given nominal FEM")
+    if spec.kind == "sim":
+        from lab.rig.sim import SimRig
+
+        if fem is not None and not spec.mesh.is_default:
+            raise InputError("--rig sim: give the FEM or the mesh overrides, not both")
+        return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
+    if spec.kind == "twin":
+        if spec.family_seed is not None:
+            from lab.rig.family import FamilyTwinRig
+
+            return FamilyTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
+        from lab.rig.twin import TwinRig
+
+        return TwinRig(robot, seed=seed, body=as_built_body(spec, robot))
+    from lab.rig.hardware import HardwareRig
+
+    return HardwareRig.from_config(spec.config_path, robot)

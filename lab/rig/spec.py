@@ -1,0 +1,148 @@
+"""Which rig a command runs on: :class:`RigSpec`, the typed form of the ``--rig`` option.
+
+``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED`` or
+``hardware:CONFIG.toml`` -- and :meth:`RigSpec.parse` is the only place that reads it;
+``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
+(``--n-rings``/``--n-axial``) is the :class:`~lab.fem.MeshSpec` field ``mesh``, which the
+string does not carry. :func:`lab.rig.make_rig` builds the rig a spec names. Every
+problem is an :class:`~lab.errors.InputError` naming ``--rig``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from lab.errors import InputError
+from lab.fem.mesh_spec import MeshSpec
+from lab.specs import Spec
+
+__all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS", "parse_robot_seed"]
+
+#: The kinds of rig: the nominal quasi-static FEM, the emulated as-built robot, the real one.
+RIG_KINDS = ("sim", "twin", "hardware")
+#: The forms ``--rig`` accepts, as its help and errors name them.
+RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED or hardware:CONFIG.toml"
+_RANDOM = "random"
+
+
+def parse_robot_seed(text: str, spec: str | None = None) -> int:
+    """The robot seed of ``twin:random:SEED`` (a non-negative integer), or InputError."""
+    where = f"rig {spec!r}: " if spec else ""
+    if not re.fullmatch(r"[0-9]+", str(text)):
+        raise InputError(
+            f"{where}the robot seed must be a non-negative integer (--rig twin:random:SEED, e.g. twin:random:3), "
+            f"got {text!r}"
+        )
+    return int(text)
+
+
+@dataclass(frozen=True)
+class RigSpec(Spec):
+    """One rig, as ``--rig`` names it (see the module docstring).
+
+    ``kind``: one of :data:`RIG_KINDS`; ``defects_path``: a twin's defects file (None: the
+    robot's shipped defects); ``family_seed``: a twin that is member SEED of the family of
+    random as-built robots (:mod:`lab.rig.family`); ``config_path``: a hardware rig's
+    configuration file; ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
+    """
+
+    kind: str = "sim"
+    defects_path: str | None = None
+    family_seed: int | None = None
+    config_path: str | None = None
+    mesh: MeshSpec = MeshSpec()
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.kind not in RIG_KINDS:
+            raise InputError(f"unknown rig kind {self.kind!r} (--rig): expected {RIG_FORMS}")
+        if not isinstance(self.mesh, MeshSpec):
+            raise InputError(f"--rig: mesh must be a MeshSpec, got {self.mesh!r}")
+        seed = self.family_seed
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+            raise InputError(f"--rig twin:random:SEED: the robot seed must be a non-negative integer, got {seed!r}")
+        given = {
+            "defects file": self.defects_path is not None,
+            "robot seed": seed is not None,
+            "configuration file": self.config_path is not None,
+        }
+        allowed = {
+            "sim": (),
+            "twin": ("defects file", "robot seed"),
+            "hardware": ("configuration file",),
+        }[self.kind]
+        wrong = [what for what, set_ in given.items() if set_ and what not in allowed]
+        if wrong:
+            raise InputError(f"--rig {self.kind} takes no {' or '.join(wrong)}")
+        if self.defects_path is not None and seed is not None:
+            raise InputError("--rig twin takes a defects file or twin:random:SEED, not both")
+        if self.kind == "hardware" and not self.config_path:
+            raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
+        if self.kind == "hardware" and not self.mesh.is_default:
+            raise InputError("--n-rings/--n-axial set the FEM mesh of --rig sim or an emulated twin, not hardware")
+
+    @classmethod
+    def parse(cls, text: RigSpec | str, *, mesh: MeshSpec | None = None) -> RigSpec:
+        """The spec of a ``--rig`` string (a spec is returned as it is); ``mesh``: its FEM mesh.
+
+        Raises InputError naming the problem: an unknown kind, ``sim`` with an argument,
+        ``twin:random`` without a seed or with a bad one, ``hardware`` without a file."""
+        if isinstance(text, RigSpec):
+            return text if mesh is None else text.replace(mesh=mesh)
+        mesh = MeshSpec() if mesh is None else mesh
+        text = str(text)
+        kind, _, arg = text.partition(":")
+        if kind == "sim":
+            if arg:
+                raise InputError(f"rig 'sim' takes no argument (--rig sim), got {text!r}")
+            return cls("sim", mesh=mesh)
+        if kind == "twin":
+            if arg == _RANDOM or arg.startswith(_RANDOM + ":"):
+                robot_seed = arg.partition(":")[2]
+                if not robot_seed:
+                    raise InputError(
+                        f"rig {text!r} needs the robot's seed: --rig twin:random:SEED (e.g. twin:random:3)"
+                    )
+                return cls("twin", family_seed=parse_robot_seed(robot_seed, text), mesh=mesh)
+            return cls("twin", defects_path=arg or None, mesh=mesh)
+        if kind == "hardware":
+            if not arg:
+                raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
+            return cls("hardware", config_path=arg, mesh=mesh)
+        raise InputError(f"unknown rig {text!r} (--rig): expected {RIG_FORMS}")
+
+    def __str__(self) -> str:
+        """The ``--rig`` string of this spec (without the mesh, which has its own flags)."""
+        if self.kind == "twin":
+            if self.family_seed is not None:
+                return f"twin:{_RANDOM}:{self.family_seed}"
+            return "twin" if self.defects_path is None else f"twin:{self.defects_path}"
+        if self.kind == "hardware":
+            return f"hardware:{self.config_path}"
+        return "sim"
+
+    def as_dict(self) -> dict:
+        """The fields as JSON-ready values, and the ``--rig`` string as ``rig``."""
+        return {**super().as_dict(), "mesh": self.mesh.as_dict(), "rig": str(self)}
+
+    @property
+    def file(self) -> str | None:
+        """The file the spec reads (a defects or configuration path), else None."""
+        return self.defects_path if self.kind == "twin" else self.config_path
+
+    @property
+    def label(self) -> str:
+        """What results on this rig are: "FEM", "emulated as-built robot" or "hardware"."""
+        return {"sim": "FEM", "twin": "emulated as-built robot", "hardware": "hardware"}[self.kind]
+
+    @property
+    def has_dynamics(self) -> bool:
+        """Whether the rig moves in time (a twin or hardware; ``sim`` settles instantly)."""
+        return self.kind != "sim"
+
+    def require_dynamics(self) -> RigSpec:
+        """This spec, or InputError for ``sim``, whose quasi-static FEM has no dynamics."""
+        if not self.has_dynamics:
+            raise InputError("--rig sim is the quasi-static FEM: it has no dynamics to learn or stream")
+        return self

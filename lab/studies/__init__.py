@@ -1,0 +1,103 @@
+"""Stage 10: the studies -- the paper's Table I and the beyond chapters' measured curves.
+
+Each study runs the lower stages (models, IK, rigs, tracking) over a grid of settings and
+writes one results table: :mod:`.table1` merges tracking errors into ``table1.csv``;
+:mod:`.transfer_study` measures error against the number of real samples per transfer
+method on emulated as-built robots (:mod:`.transfer_curve`: the resumable run over a
+family); :mod:`.data_curve` measures error against the number of samples per sampling
+strategy (:mod:`.data_curve_run`: the resumable run of a :class:`DataCurveSpec`);
+:mod:`.capture_rate` samples per hour against accuracy per capture protocol;
+:mod:`.period_curve` tracking error against the trajectory's period;
+:mod:`.closed_loop_table` closed-loop result files as one row per pass.
+"""
+
+from lab.studies.capture_rate import (
+    capture_rate_study,
+    protocol_for,
+    read_capture_rate,
+    run_protocol,
+    write_capture_rate,
+)
+from lab.studies.closed_loop_table import GOALS_M, model_label, pass_rows
+from lab.studies.data_curve import (
+    STRATEGIES,
+    NominalBody,
+    data_curve_row,
+    heldout_set,
+    hours_saved,
+    make_body,
+    plan_rows,
+)
+from lab.studies.data_curve_run import read_data_curve, run_data_curve
+from lab.studies.data_curve_spec import DataCurveSpec
+from lab.studies.period_curve import PERIOD_CURVE_COLUMNS, period_curve_rows, read_period_curve, write_period_curve
+from lab.studies.table1 import (
+    COLUMNS,
+    CONDITIONS,
+    PAPER_CM,
+    SHAPES,
+    Table1Error,
+    read_table1,
+    render_markdown,
+    update_table1,
+)
+from lab.studies.transfer_curve import TransferCurveSpec, transfer_curve_run
+from lab.studies.transfer_study import (
+    METHOD_MIN_N,
+    curve_rows,
+    defect_variants,
+    evaluate_model,
+    family_table1,
+    findings,
+    make_methods,
+    quasi_static_tips,
+    random_safe_commands,
+    read_curve,
+    smallest_n,
+)
+
+__all__ = [
+    "SHAPES",
+    "PAPER_CM",
+    "CONDITIONS",
+    "COLUMNS",
+    "Table1Error",
+    "read_table1",
+    "update_table1",
+    "render_markdown",
+    "METHOD_MIN_N",
+    "TransferCurveSpec",
+    "transfer_curve_run",
+    "curve_rows",
+    "defect_variants",
+    "evaluate_model",
+    "family_table1",
+    "findings",
+    "make_methods",
+    "quasi_static_tips",
+    "random_safe_commands",
+    "read_curve",
+    "smallest_n",
+    "STRATEGIES",
+    "NominalBody",
+    "data_curve_row",
+    "heldout_set",
+    "hours_saved",
+    "make_body",
+    "plan_rows",
+    "DataCurveSpec",
+    "run_data_curve",
+    "read_data_curve",
+    "capture_rate_study",
+    "protocol_for",
+    "run_protocol",
+    "read_capture_rate",
+    "write_capture_rate",
+    "PERIOD_CURVE_COLUMNS",
+    "period_curve_rows",
+    "read_period_curve",
+    "write_period_curve",
+    "GOALS_M",
+    "model_label",
+    "pass_rows",
+]

@@ -1,0 +1,94 @@
+"""A capture run, end to end: a design's commands measured on a rig into a journal, as a dataset.
+
+:func:`capture_design` is ``python -m lab capture``: a fixed design (grid or space-filling)
+is captured in its shuffled order by :func:`lab.rig.capture.capture`; an active one
+(``--active N --batch B``) runs :func:`lab.learn.active_design.run_active` -- the loop
+``simulate`` runs too -- with the rig's side, each batch's plan journaled, then captured,
+and a batch a kill interrupted finished from its plan, in
+:class:`lab.rig.active_capture.JournaledBatches`. It lives above both the rig and the
+learned model, which a rig does not import. Killed or failed, the journal keeps every
+sample so far and the same spec continues from it; the rig is closed (torque off) either way.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from lab.rig.capture_dataset import CapturedDataset, capture_header, captured_dataset, planned_commands
+from lab.rig.capture_spec import CaptureSpec
+
+__all__ = ["capture_design"]
+
+
+def capture_design(spec: CaptureSpec, *, file=None) -> CapturedDataset:
+    """Capture ``spec``'s design on its rig; returns the dataset to write (rows in design
+    order, or capture order for an active design) with its metadata and summary line.
+
+    Progress lines go to ``file`` (default stderr). Raises InputError for bad input found
+    before the rig moves (robot, dynamic model, design) or a journal of other settings,
+    RigError when the rig fails; KeyboardInterrupt passes through after the rig is closed.
+    """
+    from lab.description import load_robot
+    from lab.rig import make_rig
+    from lab.rig.capture import capture
+
+    file = sys.stderr if file is None else file
+    robot = load_robot(spec.robot)
+    protocol, relaxation = spec.protocol.protocol(), spec.protocol.relaxation()
+    active = spec.design.kind == "active"
+    if active:
+        from lab.learn.active_design import check_active
+
+        check_active(spec.design, robot)  # before the rig moves
+        what = f"{spec.design.active} safe commands picked actively in batches of {spec.design.batch}"
+    else:
+        u, order, sampler, what = planned_commands(spec, robot)
+    print(f"{robot.name}: {what} on rig {str(spec.rig)!r}, journal {spec.journal_path}", file=file)
+    t0 = time.perf_counter()
+    with make_rig(spec.rig, robot, seed=spec.seed) as rig:
+        description = rig.describe()
+        header = capture_header(robot, description)
+        if active:
+            res, sampler = _capture_active(spec, robot, rig, protocol, header)
+            u, order = res.u_motor, np.arange(len(res.u_motor))
+        else:
+            res = capture(
+                rig,
+                u[order],
+                spec.journal_path,
+                protocol,
+                header={**header, "sampler": sampler},
+                session_info={"command": spec.command},
+                progress=spec.progress,
+                relaxation=relaxation,
+            )
+    wall_s = time.perf_counter() - t0
+    return captured_dataset(spec, robot, description, protocol, res, u, order, sampler, wall_s)
+
+
+def _capture_active(spec: CaptureSpec, robot, rig, protocol, header: dict):
+    """Capture the active design on the open ``rig``: the :class:`lab.rig.capture.Capture`
+    of every sample (capture order) and the sampler's metadata (settings, ``n_batches``,
+    the per-batch ``log``)."""
+    from lab.learn.active_design import active_settings, run_active
+    from lab.rig.active_capture import JournaledBatches
+
+    settings = active_settings(spec.design, robot)
+    batches = JournaledBatches(
+        rig, spec.journal_path, protocol, {**header, "sampler": settings}, spec.command, progress=spec.progress
+    )
+    u_done, y_done = batches.resume()
+    u, _, _ = run_active(
+        spec.design,
+        robot,
+        batches.measure,
+        u_done=u_done,
+        y_done=y_done,
+        on_pick=batches.on_pick,
+        on_batch=batches.on_batch,
+    )
+    res, log = batches.finish(u)
+    return res, {**settings, "n_batches": len(log), "log": log}

@@ -1,0 +1,191 @@
+"""One ``track`` run from its settings: :class:`TrackSpec` and :func:`run_track`.
+
+``python -m lab track`` is a thin shell over this module: it turns its flags into one
+:class:`TrackSpec` -- the trajectory and the mode (open loop, closed loop, or streamed at a
+period), with the rig (:class:`lab.rig.RigSpec`), the FEM mesh (:class:`lab.fem.MeshSpec`),
+the IK (:class:`lab.control.IKConfig`), the correction (:class:`.closed_loop.Correction`) and
+the streaming settings (:class:`.stream_spec.StreamSpec`) -- and :func:`run_track` does the rest:
+robot, trajectory, models, IK, rig, the run, the result file. A settled run keeps each
+measured point in ``OUT.points.csv`` (:mod:`.points`) until the result is written. Every
+count and duration is bounded, so a run always ends.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from lab.control.ik import IKConfig, IKSolver
+from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
+from lab.description import load_robot
+from lab.dynamics.relaxation import load_relaxation
+from lab.errors import InputError
+from lab.fem.energy import ArmFEM
+from lab.fem.mesh_spec import MeshSpec
+from lab.learn.models import load_model
+from lab.rig import RigSpec, make_rig
+from lab.specs import Spec, at_most, option, positive_int
+from lab.tracking.closed_loop import MODES, Correction, check_passes, run_closed_loop
+from lab.tracking.points import PointLog
+from lab.tracking.stream import stream_trajectory
+from lab.tracking.stream_spec import StreamSpec
+from lab.tracking.track import TrackResult, run_trajectory, write_result
+
+__all__ = ["TrackSpec", "run_track", "MAX_POINTS", "MAX_MEASUREMENTS"]
+
+#: The most targets of a trajectory (a built-in's ``n_points`` or a CSV's rows).
+MAX_POINTS = 10_000
+#: The most settled measurements of one run (targets x passes): about a day on hardware.
+MAX_MEASUREMENTS = 100_000
+_NESTED = {"rig": RigSpec, "mesh": MeshSpec, "ik": IKConfig, "correction": Correction}
+
+
+@dataclass(frozen=True)
+class TrackSpec(Spec):
+    """Everything one ``track`` run needs (module docstring). ``model``: a learned forward
+    model (.npz), None for Soft IK through the FEM; ``closed_loop``: None (open loop), "ilc"
+    or "feedback", with ``passes`` and ``correction``; ``stream``: a :class:`StreamSpec` to
+    stream at a period (then ``dynamic_model``, a ``fit-dynamics`` file, pre-compensates);
+    ``mesh``: the FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed)."""
+
+    trajectory: str | None = option(
+        None,
+        required=True,
+        help="circle, square, rose, helix (three-cable), six-circle, six-ring, six-saddle, six-spiral "
+        "(six-cable), or a CSV file with header x,y,z (metres, frame W)",
+    )
+    n_points: int | None = option(
+        None,
+        type=int,
+        check=at_most(MAX_POINTS, positive_int),
+        help="points of a built-in trajectory (default: its own)",
+    )
+    closed_loop: str | None = option(
+        None,
+        choices=MODES,
+        help="correct the commands from the measured tip through the model's Jacobian: ilc = iterative "
+        "learning control over repeated passes of the whole trajectory; feedback = settle, measure, "
+        "correct at each target (default: open loop)",
+    )
+    passes: int = option(
+        3,
+        type=int,
+        check=check_passes,
+        help="with --closed-loop: runs including the open-loop pass 0 (ilc), or measurements per target (feedback)",
+    )
+    dynamic_model: str | None = option(
+        None,
+        help="with --period-s: the dynamic model DYN.npz of `fit-dynamics`, inverted into a feed-forward "
+        "pre-compensation of the commands (default: quasi-static open loop)",
+    )
+    model: str | None = option(None, cli=False, help="learned forward model (.npz); None: Soft IK through the FEM")
+    robot: str = option("three-cable", cli=False, help="shipped robot name or path to a TOML description")
+    seed: int = option(0, cli=False, help="noise seed of an emulated rig")
+    rig: RigSpec = option(RigSpec(), cli=False, help="the rig")
+    mesh: MeshSpec = option(MeshSpec(), cli=False, help="the FEM mesh")
+    ik: IKConfig = option(IKConfig.automatic(), cli=False, help="the IK's settings")
+    correction: Correction = option(Correction(), cli=False, help="the closed loop's correction")
+    stream: StreamSpec | None = option(None, cli=False, help="streamed at a period: its settings")
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name, cls in _NESTED.items():
+            if not isinstance(getattr(self, name), cls):
+                raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}")
+        if self.stream is not None and not isinstance(self.stream, StreamSpec):
+            raise InputError(f"stream must be a StreamSpec or None, got {self.stream!r}")
+        if self.stream is not None and self.closed_loop is not None:
+            raise InputError("--period-s streams open loop or feed-forward; it does not combine with --closed-loop")
+        if self.dynamic_model is not None and self.stream is None:
+            raise InputError("--dynamic-model needs --period-s T")
+        fem_rigs = ("sim", "twin") if self.stream is not None else ("sim",)
+        if not self.mesh.is_default and self.rig.kind not in fem_rigs and not self.soft_ik:
+            where = "--rig sim, an emulated twin" if self.stream is not None else "--rig sim"
+            raise InputError(f"--n-rings/--n-axial set the FEM mesh of {where} and --soft-ik only")
+
+    @property
+    def soft_ik(self) -> bool:
+        """Whether the IK solves through the FEM (no learned model)."""
+        return self.model is None
+
+    @property
+    def mode(self) -> str:
+        """The mode: "open-loop", "ilc", "feedback" or "streamed"."""
+        return "streamed" if self.stream is not None else self.closed_loop or "open-loop"
+
+
+def run_track(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Callable | None = None):
+    """Run ``spec`` and write its result file (JSON, docs/design/tracking.md) to ``out``.
+
+    Parameters
+    ----------
+    spec: the run's settings.
+    out: the result file; a settled run keeps its points in ``OUT.points.csv`` meanwhile.
+    command: the command line, recorded as ``info.command``.
+    say: called with each line the user should read (IK notes, the points kept when the run
+        stops); default silent.
+
+    Returns the :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed).
+    Raises InputError for bad settings or inputs, before the rig is made; a rig's failure
+    (exit 1) or an interrupt after the rig was closed, with the measured points kept.
+    """
+    say = say or (lambda line: None)
+    robot = load_robot(spec.robot)
+    log = None if spec.stream is not None else PointLog(f"{out}.points.csv", robot.n_cables)
+    targets = load_trajectory(spec.trajectory, spec.n_points)
+    _check_size(spec, len(targets))
+    relax = None if spec.dynamic_model is None else load_relaxation(spec.dynamic_model)
+    fem = ArmFEM(robot, **spec.mesh.overrides()) if (spec.rig.kind == "sim" or spec.soft_ik) else None
+    model = None if spec.soft_ik else load_model(spec.model)
+    solver = IKSolver.for_model(model, robot, spec.ik, fem=fem if spec.soft_ik else None)
+    for note in solver.notes:
+        say(f"IK: {note}")
+    name = spec.trajectory if spec.trajectory in BUILTIN + SIX_CABLE else Path(spec.trajectory).name
+    sim, twin = spec.rig.kind == "sim", spec.rig.kind == "twin"
+    try:
+        with make_rig(
+            spec.rig, robot, seed=spec.seed, fem=fem if sim else None, mesh=spec.mesh if twin else None
+        ) as rig:
+            result = _follow(spec, rig, solver, targets, name, relax, log)
+    except BaseException:
+        if log is not None:
+            log.close()
+            if note := log.note():
+                say(note)
+        raise
+    if log is not None:
+        log.close()
+    streamed = {} if spec.stream is None else {"dynamic_model_path": spec.dynamic_model}
+    write_result(out, result, {"model": spec.model, "soft_ik": spec.soft_ik, **streamed, "command": command})
+    if log is not None:
+        log.remove()  # the result file holds a complete run now
+    return result
+
+
+def _check_size(spec: TrackSpec, n_targets: int) -> None:
+    """Refuse a trajectory, or a closed loop over it, longer than a run may be."""
+    if n_targets > MAX_POINTS:
+        raise InputError(f"--trajectory {spec.trajectory}: {n_targets} points, at most {MAX_POINTS}")
+    passes = spec.passes if spec.closed_loop is not None else 1
+    if n_targets * passes > MAX_MEASUREMENTS:
+        raise InputError(
+            f"--passes {passes} over {n_targets} points is {n_targets * passes} measurements: "
+            f"at most {MAX_MEASUREMENTS} in one run"
+        )
+
+
+def _follow(spec: TrackSpec, rig, solver, targets, name: str, relax, log: PointLog | None) -> TrackResult:
+    """The run itself on the open ``rig``: streamed, open loop or closed loop."""
+    if spec.stream is not None:
+        s = spec.stream
+        return stream_trajectory(
+            rig, solver, targets, s.period_s, relax=relax, n_periods=s.n_periods, command_rate_hz=s.command_rate_hz,
+            lead_in_s=s.lead_in_s, smoothing=s.smoothing, name=name,
+        )  # fmt: skip
+    if spec.closed_loop is None:
+        return run_trajectory(rig, solver, targets, name=name, on_point=log.append)
+    return run_closed_loop(
+        rig, solver, targets, mode=spec.closed_loop, passes=spec.passes, correction=spec.correction, name=name,
+        on_point=log.append,
+    )  # fmt: skip

@@ -1,0 +1,128 @@
+"""The ``transfer`` run: a forward model for the real arm from simulation and N real samples.
+
+:class:`TransferSpec` says which method (``--method``: the data-only methods of
+:mod:`lab.learn.transfer`, or ``calibrated``, :mod:`lab.transfer.calibrated`), which
+files (``--real``, ``--sim`` or ``--sim-model``, ``--robot``), the network
+(:class:`lab.learn.TrainSpec`'s ``--hidden`` and ``--seed``), the mesh of the calibrated
+method (:class:`lab.fem.MeshSpec`) and its workers, and refuses combinations that do not
+go together. :func:`transfer_run` reads the datasets, checks them against the robot and
+builds the model; the real samples may come from any rig, hardware included.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.fem.mesh_spec import MeshSpec
+from lab.learn.train_spec import TrainSpec
+from lab.learn.transfer import DATA_METHODS
+from lab.specs import Spec, option, positive_int
+
+__all__ = ["TRANSFER_METHODS", "TransferSpec", "transfer_run", "fit_mean_distance_mm"]
+
+TRANSFER_METHODS = (*DATA_METHODS, "calibrated")
+
+
+@dataclass(frozen=True)
+class TransferSpec(Spec):
+    """One transfer: method, input files, network (``train``) and calibration mesh (``mesh``)."""
+
+    method: str = option(None, required=True, choices=TRANSFER_METHODS, help="transfer method")
+    sim: str | None = option(
+        None, help="simulated dataset CSV (e.g. data/sim_three_cable.csv): a network is trained on it"
+    )
+    sim_model: str | None = option(None, help="instead of --sim: a network already trained on simulation (.npz)")
+    real: str = option(None, required=True, help="real dataset CSV (from `capture`)")
+    robot: str | None = option(None, help="robot name or description TOML; checked against the datasets' robots")
+    jobs: int = option(1, type=int, check=positive_int, help="calibrated: worker processes of the re-simulation")
+    train: TrainSpec = field(default_factory=TrainSpec)
+    mesh: MeshSpec = field(default_factory=MeshSpec)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.method == "calibrated" and (self.sim is None or self.sim_model is not None or self.robot is None):
+            raise InputError(
+                "--method calibrated needs --robot R and --sim SIM.csv (its commands are re-simulated), not --sim-model"
+            )
+        if self.method != "calibrated" and not self.mesh.is_default:
+            raise InputError("--n-rings/--n-axial are options of --method calibrated only")
+        if self.method not in ("real-only", "calibrated") and (self.sim is None) == (self.sim_model is None):
+            raise InputError(f"--method {self.method} needs exactly one of --sim SIM.csv and --sim-model SIM.npz")
+
+
+def _check_robot(robot, meta: dict, what: str) -> None:
+    name = (meta.get("robot") or {}).get("name")
+    if robot is not None and name is not None and name != robot.name:
+        raise InputError(f"{what} was made on robot {name!r}, but --robot is {robot.name!r}")
+
+
+def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
+    """The model ``spec`` asks for, its ``metadata["transfer"]`` recording the files and
+    ``command``; returns (model, the real data (u (N, n_u) rad, y (N, 3) m)). ``log(line)``:
+    progress. InputError for files or data that do not fit the method or the robot."""
+    from lab.data.dataset import read_dataset
+    from lab.description import load_robot
+
+    log = log or (lambda line: None)
+    robot = load_robot(spec.robot) if spec.robot else None
+    u_real, y_real, meta_real = read_dataset(spec.real)
+    _check_robot(robot, meta_real, f"--real {spec.real}")
+    if spec.method == "calibrated":
+        model = _calibrated(spec, robot, u_real, y_real, log)
+        model.metadata["transfer"].update({"real": str(spec.real), "sim": spec.sim, "command": command})
+        return model, (u_real, y_real)
+    from lab.learn.mlp import load_model
+    from lab.learn.train import train
+    from lab.learn.transfer import transfer_model
+
+    hidden, seed, sim_model = spec.train.hidden, spec.train.seed, None
+    if spec.method != "real-only":
+        if spec.sim_model:
+            sim_model = load_model(spec.sim_model)
+        else:
+            u_sim, y_sim, meta_sim = read_dataset(spec.sim)
+            _check_robot(robot, meta_sim, f"--sim {spec.sim}")
+            log(f"training {list(hidden)} on {len(u_sim)} simulated samples ({spec.sim})")
+            sim_model = train(u_sim, y_sim, hidden, seed=seed).model
+        if (sim_model.n_u, sim_model.n_y) != (u_real.shape[1], y_real.shape[1]):
+            raise InputError(
+                f"the simulation network maps {sim_model.n_u} -> {sim_model.n_y}, the real data "
+                f"{u_real.shape[1]} -> {y_real.shape[1]}"
+            )
+    log(f"{spec.method}: {len(u_real)} real samples from {spec.real}")
+    model = transfer_model(spec.method, u_real, y_real, sim_model, hidden=tuple(hidden), seed=seed)
+    model.metadata["transfer"].update(
+        {"real": str(spec.real), "sim": spec.sim, "sim_model": spec.sim_model, "command": command}
+    )
+    return model, (u_real, y_real)
+
+
+def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
+    from lab.data.dataset import read_dataset
+    from lab.transfer.calibrated import calibrated_model
+
+    n_rings, n_axial = spec.mesh.resolve(robot)
+    if u_real.shape[1] != robot.n_cables:
+        raise InputError(f"{spec.real}: {u_real.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
+    u_sim, _, meta_sim = read_dataset(spec.sim)
+    _check_robot(robot, meta_sim, f"--sim {spec.sim}")
+    spec.train.check_fits(robot.n_cables, 3, len(u_sim))  # before the calibration and re-simulation
+    log(
+        f"calibrated: {len(u_real)} real samples from {spec.real}; mesh n_rings={n_rings} n_axial={n_axial}; "
+        f"then {len(u_sim)} commands of {spec.sim} re-simulated"
+    )
+    try:
+        return calibrated_model(
+            robot, u_real, y_real, u_sim, hidden=tuple(spec.train.hidden), seed=spec.train.seed,
+            n_rings=n_rings, n_axial=n_axial, n_jobs=spec.jobs, log=log,
+        )  # fmt: skip
+    except InputError as err:
+        raise InputError(f"{spec.real}: {err}") from None
+
+
+def fit_mean_distance_mm(model, u, y) -> float:
+    """Mean distance (mm) between ``model``'s predictions at ``u`` (N, n_u) and ``y`` (N, 3) m."""
+    return 1e3 * float(np.mean(np.linalg.norm(model.predict(u) - y, axis=1)))
