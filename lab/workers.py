@@ -51,14 +51,43 @@ def _watch_run(parent_pid: int) -> None:
     watch_parent(parent_pid=parent_pid)
 
 
+def _spawn_with_sigint_blocked(fork_exec):
+    """loky's ``fork_exec`` run with SIGINT blocked in the spawning thread: the new worker
+    inherits the blocked mask across fork and exec (as loky's resource tracker does it), so
+    a Ctrl-C while it imports its modules stays pending instead of printing a traceback."""
+
+    def spawn(*args, **kwargs):
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            return fork_exec(*args, **kwargs)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)  # a Ctrl-C meanwhile is delivered here
+
+    spawn.lab_blocks_sigint = True
+    return spawn
+
+
+def _workers_start_with_sigint_blocked() -> None:
+    """Make every loky worker start with SIGINT blocked (once per process; POSIX only)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return
+    from joblib.externals.loky.backend import fork_exec as module  # looked up at each spawn (joblib 1.6)
+
+    if not getattr(module.fork_exec, "lab_blocks_sigint", False):
+        module.fork_exec = _spawn_with_sigint_blocked(module.fork_exec)
+
+
 def worker_config():
     """``joblib.parallel_config`` for lab's worker processes: loky, one thread each, and every
     worker watching this process from the moment it starts (not only from its first task), so
     a run killed (``kill -9``) while its workers are still starting leaves no worker -- and so
-    no resource tracker, which lives until the last worker holding its pipe is gone -- behind."""
+    no resource tracker, which lives until the last worker holding its pipe is gone -- behind.
+    Workers start with SIGINT blocked: Ctrl-C reaches the whole process group, the run stops
+    its workers itself, and a worker still importing would only print a traceback."""
     from joblib import parallel_config
     from joblib.parallel import LokyBackend
 
+    _workers_start_with_sigint_blocked()
     backend = LokyBackend(initializer=_watch_run, initargs=(os.getpid(),))
     return parallel_config(backend=backend, inner_max_num_threads=1)
 

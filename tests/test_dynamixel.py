@@ -108,9 +108,11 @@ def test_stuffed_values_cross_the_sdk_both_ways(emu):
 
 
 def _sdk_port(emu):
-    from dynamixel_sdk import PortHandler
+    """The SDK's port, with the driver's reply timeout (the SDK's own 34 ms is too short for
+    the emulator's thread on a loaded machine)."""
+    from lab.rig.dynamixel import _PortHandler
 
-    port = PortHandler(emu.port)
+    port = _PortHandler(emu.port, LATENCY_MS)
     assert port.setBaudRate(57600)
     return port
 

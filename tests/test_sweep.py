@@ -5,7 +5,9 @@ must be unchanged). Every case also checks that no traceback is shown and no tem
 file is left. Mechanism tests that do not fit a row follow the table.
 """
 
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -95,6 +97,58 @@ def dynamic_model(metadata: str | None):
             (d / "dyn.npz").write_bytes(b"")
         else:
             np.savez(d / "dyn.npz", metadata=np.array(metadata), tau_s=np.array([0.5]), weight=np.array([[1.0]]))
+
+    return setup
+
+
+def scaled_tips(name, scale=1.0, shift_m=(0.0, 0.0, 0.0), n=12):
+    """A setup writing ``name``: the first ``n`` samples of data.csv, tips times ``scale`` plus ``shift_m``."""
+
+    def setup(d: Path):
+        from lab.data import read_dataset, write_dataset
+
+        u, y, meta = read_dataset(d / "data.csv")
+        write_dataset(d / name, u[:n], scale * y[:n] + np.asarray(shift_m), {"robot": meta.get("robot")})
+
+    return setup
+
+
+def cut_short(name, keep_fields=True):
+    """A setup writing ``name`` (no sidecar): data.csv cut within its last number (or, with
+    ``keep_fields=False``, after its second-last comma), without the final newline."""
+
+    def setup(d: Path):
+        text = (d / "data.csv").read_text().rstrip("\n")
+        (d / name).write_text(text[:-3] if keep_fields else text[: text.rfind(",")])
+
+    return setup
+
+
+def four_motor_dataset(d: Path):
+    from lab.data import write_dataset
+
+    write_dataset(d / "four.csv", np.full((8, 4), 0.1), np.zeros((8, 3)), {"robot": {"name": "three-cable"}})
+
+
+def four_input_model(d: Path):
+    from lab.learn.mlp import MLP
+
+    MLP([np.zeros((2, 4)), np.zeros((3, 2))], [np.zeros(2), np.zeros(3)], np.zeros(4), np.ones(4), np.zeros(3),
+        np.ones(3)).save(d / "four.npz")  # fmt: skip
+
+
+def curve_file(**settings):
+    """A setup writing ``tc.csv``: one transfer-curve row, its sidecar made with ``settings``
+    (TransferCurveSpec fields; ``--sim-model`` {dir}/model.npz unless given)."""
+
+    def setup(d: Path):
+        from lab.studies.transfer_curve import COLUMNS, TransferCurveSpec
+
+        spec = TransferCurveSpec(**{"sim_model": str(d / "model.npz"), **settings})
+        row = {c: "0.01" for c in COLUMNS} | {"robot": "random:0", "method": "real-only", "n_real": "5"}
+        (d / "tc.csv").write_text(",".join(COLUMNS) + "\n" + ",".join(row[c] for c in COLUMNS) + "\n")
+        meta = {"kind": "lab.transfer_curve", "robot": spec.robot, "sim_model": spec.sim_model, **spec.settings()}
+        (d / "tc.csv.json").write_text(json.dumps(meta))
 
     return setup
 
@@ -724,6 +778,145 @@ CASES = [
         ("hold the rig up to", "at most 4 h"),
         absent=("{dir}/d.npz",),
     ),
+    # --- train, splits, transfer, transfer-curve, calibrate, defects: what each run reads is what it claims -----
+    Case(
+        "splits-init-is-out",
+        [*SPLITS, "--init", "{dir}/model.npz", "--out", "{dir}/model.npz"],
+        2,
+        ("is the input --init",),
+        INPUTS,
+    ),
+    Case(
+        "splits-init-refused",
+        [*SPLITS, "--init", "{dir}/model.npz", "--out", "{dir}/s.csv"],
+        2,
+        ("--init is not used by splits",),
+        INPUTS,
+        absent=("{dir}/s.csv",),
+    ),
+    Case(
+        "train-extra-data-is-data",
+        [*TRAIN, "--extra-data", "{dir}/./data.csv", "--out", "{dir}/m.npz"],
+        2,
+        ("--extra-data {dir}/./data.csv is the same file as DATA",),
+        INPUTS,
+        absent=("{dir}/m.npz",),
+    ),
+    Case(
+        "train-extra-data-repeats-rows",
+        [*TRAIN, "--extra-data", "{dir}/more.csv", "--out", "{dir}/m.npz"],
+        2,
+        ("--extra-data {dir}/more.csv: line 2 is the same sample as line 2 of DATA", "59 more rows"),
+        absent=("{dir}/m.npz",),
+        setup=scaled_tips("more.csv", n=60),
+    ),
+    Case(
+        "transfer-real-four-motors",
+        "transfer --method real-only --real {dir}/four.csv --robot three-cable --hidden 3 --out {dir}/m.npz".split(),
+        2,
+        ("--real {dir}/four.csv has 4 motor columns", "--robot three-cable has 3 motors"),
+        absent=("{dir}/m.npz",),
+        setup=four_motor_dataset,
+    ),
+    *(
+        Case(
+            f"transfer-real-cut-short-{how}",
+            "transfer --method finetune-last --real {dir}/c.csv --sim-model {dir}/model.npz --out {dir}/o.npz".split(),
+            2,
+            ("{dir}/c.csv: line 61", words),
+            ("{dir}/c.csv",),
+            absent=("{dir}/o.npz",),
+            setup=cut_short("c.csv", keep_fields=keep),
+        )
+        for how, keep, words in (("in-a-number", True, "does not end with a newline"), ("fields", False, "fields"))
+    ),
+    *(
+        Case(
+            f"transfer-{method}-sim-empty",
+            f"transfer --method {method} --real {{dir}}/data.csv --sim {{dir}}/empty.csv --robot three-cable "
+            "--out {dir}/m.npz".split(),
+            2,
+            ("--sim {dir}/empty.csv holds no samples",),
+            absent=("{dir}/m.npz",),
+            setup=scaled_tips("empty.csv", n=0),
+        )
+        for method in ("finetune", "calibrated")
+    ),
+    Case(
+        "calibrate-noise-inf",
+        ["calibrate", "{dir}/data.csv", "--noise-m", "inf", "--out", "{dir}/c.toml"],
+        2,
+        ("--noise-m must be finite and > 0, got inf",),
+        absent=("{dir}/c.toml",),
+    ),
+    Case(
+        "calibrate-tips-in-cm",
+        ["calibrate", "{dir}/cm.csv", *COARSE, "--out", "{dir}/c.toml"],
+        2,
+        ("the calibrated FEM misfits the tips of {dir}/cm.csv by 18.64 m RMS", "check units"),
+        ("{dir}/cm.csv",),
+        absent=("{dir}/c.toml",),
+        setup=scaled_tips("cm.csv", scale=100.0),
+    ),
+    Case(
+        "calibrate-tips-off-by-10-cm",
+        ["calibrate", "{dir}/off.csv", *COARSE, "--out", "{dir}/c.toml"],
+        1,
+        ("misfits the tips of {dir}/off.csv by 0.1012 m RMS", "more than the 0.02 m"),
+        absent=("{dir}/c.toml",),
+        setup=scaled_tips("off.csv", shift_m=(0.0, 0.1, 0.0)),
+    ),
+    Case(
+        "defects-huge-mesh",
+        ["defects", "--random", "1", "--n-axial", "100000000", "--out", "{dir}/d.toml"],
+        2,
+        ("n_axial=100000000", "TB of memory"),
+        absent=("{dir}/d.toml",),
+    ),
+    Case(
+        "transfer-curve-jobs-zero",
+        ["transfer-curve", "--sim-model", "{dir}/model.npz", "--jobs", "0", "--out", "{dir}/tc.csv"],
+        2,
+        ("--jobs must be a positive integer, got 0",),
+        absent=("{dir}/tc.csv",),
+    ),
+    *(
+        Case(
+            f"transfer-curve-sim-model-{name}",
+            ["transfer-curve", "--sim-model", f"{{dir}}/{name}.npz", "--family", "1", "--out", "{dir}/tc.csv"],
+            2,
+            (f"--sim-model {{dir}}/{name}.npz maps {n_u} motor angles", "--robot three-cable has 3 motors"),
+            absent=("{dir}/tc.csv",),
+            setup=setup,
+        )
+        for name, n_u, setup in (
+            ("six", 6, lambda d: shutil.copy(ROOT / "data" / "model_sim_six_cable.npz", d / "six.npz")),
+            ("four", 4, four_input_model),
+        )
+    ),
+    Case(
+        "transfer-curve-row-not-a-number",
+        ["transfer-curve", "--sim-model", "{dir}/model.npz", "--family", "1", "--out", "{dir}/tc.csv"],
+        2,
+        ("{dir}/tc.csv: line 2: n_real 'five' is not a number",),
+        ("{dir}/tc.csv", "{dir}/tc.csv.json"),
+        setup=both(curve_file(), edit("tc.csv", "real-only,5,", "real-only,five,")),
+    ),
+    *(
+        Case(
+            f"transfer-curve-resumed-with-other-{name}",
+            ["transfer-curve", "--sim-model", "{dir}/model.npz", "--family", "1", *flag, "--out", "{dir}/tc.csv"],
+            2,
+            ("{dir}/tc.csv was made with", words, "choose another --out"),
+            ("{dir}/tc.csv", "{dir}/tc.csv.json"),
+            setup=setup,
+        )
+        for name, flag, words, setup in (
+            ("seed", ["--seed", "1"], "--seed 0 (this run: 1)", curve_file()),
+            ("n-test", ["--n-test", "50"], "--n-test 100 (this run: 50)", curve_file()),
+            ("sim-model", [], "--sim-model old.npz (this run: {dir}/model.npz)", curve_file(sim_model="old.npz")),
+        )
+    ),
 ]
 
 
@@ -738,8 +931,9 @@ def test_sweep(case, tmp_path, capsys, monkeypatch):
 
 
 def test_sweep_covers_every_command():
-    commands = {c.argv[0] for c in CASES}
-    assert commands == {"simulate", "train", "splits", "track", "capture", "data-curve", "fit-dynamics"}
+    from lab.cli import COMMANDS
+
+    assert {c.argv[0] for c in CASES} == set(COMMANDS)  # every command has rows
 
 
 # --- mechanisms -------------------------------------------------------------------------------

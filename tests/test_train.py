@@ -330,3 +330,69 @@ def test_network_size_follows_the_lm_system_and_refuses_what_cannot_fit():
     u, y = smooth_problem()
     with pytest.raises(InputError, match="--hidden 100000 100000"):
         train(u, y, (100000, 100000))
+
+
+# ---- Ctrl-C while the workers start ------------------------------------------------------------
+
+
+def _loky_workers(parent):
+    import psutil
+
+    try:
+        children = parent.children(recursive=True)
+        return [p for p in children if "popen_loky" in " ".join(p.cmdline())]
+    except psutil.Error:  # a child gone meanwhile: look again
+        return []
+
+
+def _has_loaded(process, name: str) -> bool:
+    import psutil
+
+    try:
+        return any(name in m.path for m in process.memory_maps())
+    except psutil.Error:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the workers' memory maps (/proc)")
+def test_ctrl_c_while_ensemble_workers_import_exits_130_without_tracebacks(tmp_path):
+    # Ctrl-C reaches the whole process group, the workers too; one still importing its modules
+    # would print a traceback unless it starts with SIGINT blocked (lab.workers.worker_config).
+    # The signal is sent once both workers exist and one is mid-import (psutil's extension is
+    # mapped, numpy's and lab's imports are still to come): the window that printed them.
+    import os
+    import signal
+
+    import psutil
+    from helpers import subprocess_env, wait_until
+
+    u, y, meta = read_dataset(DATA)
+    data, out = tmp_path / "d.csv", tmp_path / "ens.npz"
+    write_dataset(data, u[::5], y[::5], {"robot": meta.get("robot")})
+    for _ in range(3):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "lab", "train", str(data), "--model", "ensemble", "--jobs", "2", "--out", str(out)],
+            cwd=tmp_path,
+            env=subprocess_env(),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,  # its own process group, as a terminal's foreground job
+        )
+        try:
+            parent = psutil.Process(proc.pid)
+
+            def importing(parent=parent):
+                workers = _loky_workers(parent)
+                return len(workers) == 2 and any(_has_loaded(w, "_psutil") for w in workers)
+
+            wait_until(importing, 120, "two loky workers importing their modules")
+            os.killpg(proc.pid, signal.SIGINT)
+            _, err = proc.communicate(timeout=120)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        assert proc.returncode == 130, err
+        assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+        assert "interrupted (Ctrl-C)" in err and not out.exists()

@@ -1,19 +1,17 @@
 """The command line: ``python -m lab <command>`` (or ``lab <command>``), one module per command.
 
-Commands: ``simulate`` (:mod:`.simulate`), ``train`` (:mod:`.train`), ``splits``
-(:mod:`.splits`), ``track`` (:mod:`.track`), ``capture`` (:mod:`.capture`), ``defects``
-(:mod:`.defects`), ``transfer`` (:mod:`.transfer`), ``calibrate`` (:mod:`.calibrate`) and
-``fit-dynamics`` (:mod:`.fit_dynamics`); each module has ``add_parser(subparsers, parents)``
-and ``run(args) -> exit code``.
+Each command module (:data:`COMMANDS`) has ``add_parser(subparsers, parents)`` and a short
+``run(args) -> exit code`` that turns flags into the stages' typed specs (:mod:`.flags`) and
+calls one library function. Command modules never import each other; :mod:`.paths`,
+:mod:`.signals`, :mod:`.flags` and :mod:`.sampling` are shared helpers.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
 ``error: <message>`` and exits with its code -- 2 for bad input (a file, a field, an
-argument), 1 for a runtime or hardware failure. An operating-system error on a file the
-user named (missing, not permitted, a directory) is bad input too (2); other OS errors
-(disk full, I/O) exit 1. Ctrl-C, SIGTERM and SIGHUP stop the command cleanly (rigs
-closed with torque off, journals flushed) and exit with 128 + the signal number (130,
-143, 129; :mod:`.signals`). No traceback is printed for any of these
-unless ``--debug`` is given; an unexpected exception still shows its traceback.
+argument), 1 for a runtime or hardware failure. An OS error on a file the user named
+(missing, not permitted, a directory) is bad input too (2); other OS errors exit 1.
+Ctrl-C, SIGTERM and SIGHUP stop the command cleanly (rigs closed with torque off, journals
+flushed) and exit with 128 + the signal number (:mod:`.signals`). No traceback is printed
+for any of these unless ``--debug`` is given; an unexpected exception still shows one.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ import argparse
 import shlex
 import sys
 
-from lab.cli.flags import add_spec_flags, spec_from_args
+from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable
 from lab.learn.train_spec import SplitsSpec, TrainSpec
 from lab.workers import default_jobs
@@ -41,7 +41,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "--forward",
         help="inverse-mlp: a forward model file (.npz) that judges the commands: tip error |forward(g(y)) - y|",
     )
-    e.add_argument("--init", help=argparse.SUPPRESS)  # once shared with train's flags; never used here
+    e.add_argument("--init", help=argparse.SUPPRESS)  # once shared with train's flags: refused, never used
     e.add_argument("--out", required=True, help="CSV, one row per split (lab.learn.evaluate_model_splits keys)")
     e.set_defaults(func=run)
     return e
@@ -57,9 +57,11 @@ def run(args) -> int:
             "DATA": args.data,
             "DATA sidecar": f"{args.data}.json",
             **({"--forward": args.forward} if args.forward else {}),
+            **({"--init": args.init} if args.init else {}),
         },
         {"--out": args.out},
     )
+    refuse_unused(args, ["init"], "by splits: every split trains new weights (continue a network with train --init)")
     check_writable(args.out)
     rows, size = splits_run(
         spec,

@@ -66,7 +66,9 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
     """Load a dataset: ``u_motor`` (N, m) rad, ``p_tip_W`` (N, 3) m, metadata dict.
 
     Raises :class:`DatasetError` naming the problem for a missing file, a bad header,
-    a non-numeric or non-finite value, or a sidecar from a newer format."""
+    a non-numeric or non-finite value, a sidecar from a newer format, or a file cut short
+    (one that does not match its sidecar's hash, or without one, whose last line lacks
+    the newline every written row ends with)."""
     path = Path(path)
     if not path.exists():
         raise DatasetError(f"dataset not found: {path}")
@@ -107,6 +109,13 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
             data[i - 2] = [float(v) for v in row]
         except ValueError:
             raise DatasetError(f"{path}: line {i} has a non-numeric value: {row}") from None
+    if "csv_sha256" not in meta and not text.endswith("\n"):  # with the hash, the check below says more
+        last = text.count("\n") + 1
+        raise DatasetError(
+            f"{path}: line {last} does not end with a newline: the file looks cut short (its last "
+            "row may end in a partial number), and no sidecar hash can tell; if that row is complete, end the file "
+            "with a newline"
+        )
     if not np.all(np.isfinite(data)):
         bad = int(np.argwhere(~np.isfinite(data))[0, 0]) + 2
         raise DatasetError(f"{path}: line {bad} has a NaN or infinite value")

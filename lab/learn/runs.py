@@ -91,10 +91,31 @@ def _forward_model(spec: TrainSpec, forward):
     return load_model(forward)
 
 
+def _check_not_twice(sources: list[tuple[str, np.ndarray]], what: str, rows: np.ndarray) -> None:
+    """Refuse an ``--extra-data`` file ``what`` whose (u, y) ``rows`` repeat a sample of an
+    earlier file (``sources``: (name, rows) each): copies of one sample on both sides of the
+    split would put test samples into training."""
+    for name, old in sources:
+        index = {r.tobytes(): i for i, r in enumerate(old)}
+        dup = [(i, index[r.tobytes()]) for i, r in enumerate(rows) if r.tobytes() in index]
+        if dup:
+            (i, j), more = dup[0], len(dup) - 1
+            raise InputError(
+                f"{what}: line {i + 2} is the same sample as line {j + 2} of {name}"
+                + (f" ({more} more rows are repeated)" if more else "")
+                + "; each sample may be given once (copies would end up on both sides of the split)"
+            )
+
+
 def _read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list]:
     u, y, meta = read_dataset(data)
-    extra = []
+    extra, seen = [], {Path(data).resolve(): "DATA"}
+    sources = [(f"DATA {data}", np.hstack([u, y]))]
     for path in extra_data:
+        same = seen.get(Path(path).resolve())
+        if same is not None:
+            raise InputError(f"--extra-data {path} is the same file as {same}: each dataset may be given once")
+        seen[Path(path).resolve()] = f"--extra-data {path}"
         u_x, y_x, meta_x = read_dataset(path)
         robot_x, robot = ((m.get("robot") or {}).get("name") for m in (meta_x, meta))
         if u_x.shape[1] != u.shape[1] or robot_x != robot:
@@ -102,6 +123,9 @@ def _read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list]:
                 f"--extra-data {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
                 f"{robot!r} with {u.shape[1]}"
             )
+        rows = np.hstack([u_x, y_x])
+        _check_not_twice(sources, f"--extra-data {path}", rows)
+        sources.append((f"--extra-data {path}", rows))
         u, y = np.vstack([u, u_x]), np.vstack([y, y_x])
         extra.append({"path": str(path), "file_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()})
     return u, y, meta, extra

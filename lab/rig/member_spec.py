@@ -33,7 +33,9 @@ class FamilyMemberSpec(Spec):
 
     def write(self, path, robot, command: str | None = None):
         """Write the member's commented defects file for ``robot`` to ``path`` (atomically);
-        returns its :class:`lab.rig.asbuilt.Defects`."""
+        returns its :class:`lab.rig.asbuilt.Defects`. A mesh that would not fit in memory
+        is refused here (InputError), not first by the command that runs the emulator."""
         from lab.rig.family import write_random_defects
 
+        self.mesh.resolve(robot)
         return write_random_defects(path, robot, self.seed, **self.mesh.overrides(), command=command)

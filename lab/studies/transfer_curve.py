@@ -149,14 +149,86 @@ def _calibrated_builder(robot, spec: TransferCurveSpec):
     return make
 
 
-def _read_rows(path: Path) -> list[dict]:
+#: What a file is resumed with only if it was made with the same (sidecar key -> flag); the
+#: robots (``--family``, ``--shipped``), ``--methods`` and ``--ns`` may grow from run to run.
+RESUME_FLAGS = {
+    "robot": "--robot", "sim_model": "--sim-model", "seed": "--seed", "design": "--design", "n_test": "--n-test",
+    "n_points": "--n-points", "n_rings": "--n-rings", "n_axial": "--n-axial",
+}  # fmt: skip
+#: ... and, once the file holds calibrated rows, the settings those were measured with.
+CALIBRATED_FLAGS = {"calibration_mesh": "--calibration-mesh", "sim_levels": "--sim-levels"}
+
+
+def _read(path: Path) -> tuple[list[dict], dict]:
+    """The rows of ``path`` (strings, each checked to parse) and its sidecar ({} if none)."""
     if not path.exists():
-        return []
+        return [], {}
     with path.open(newline="") as fh:
         reader = csv.DictReader(fh)
         if reader.fieldnames is None or tuple(reader.fieldnames) != COLUMNS:
             raise InputError(f"{path}: not a transfer-curve file (columns {reader.fieldnames}); choose another --out")
-        return list(reader)
+        rows = list(reader)
+    for line, r in enumerate(rows, start=2):
+        if None in r or None in r.values():
+            raise InputError(f"{path}: line {line} does not have the {len(COLUMNS)} columns; choose another --out")
+        for c in COLUMNS[2:]:
+            try:
+                int(r[c]) if c == "n_real" else float(r[c])
+            except ValueError:
+                raise InputError(
+                    f"{path}: line {line}: {c} {r[c]!r} is not a number; repair the file or choose another --out"
+                ) from None
+    side = Path(f"{path}.json")
+    if not side.exists():
+        return rows, {}
+    try:
+        meta = json.loads(side.read_text())
+    except ValueError as err:
+        raise InputError(f"{side}: the sidecar of {path} is not valid JSON ({err}); choose another --out") from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("commands", []), list):
+        raise InputError(f"{side}: the sidecar of {path} must be a JSON object (commands a list); choose another --out")
+    return rows, meta
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return a == b or (a is not None and b is not None and Path(a).samefile(b))
+    except OSError:
+        return False
+
+
+def _check_resume(spec: TransferCurveSpec, out: Path, rows: list[dict], old: dict) -> None:
+    """Refuse to add rows to ``out`` measured with other settings than its own (its sidecar's)."""
+    new = {"robot": spec.robot, "sim_model": spec.sim_model, **spec.settings()}
+    flags = {**RESUME_FLAGS, **(CALIBRATED_FLAGS if any(r["method"] == "calibrated" for r in rows) else {})}
+    diff = []
+    for key, flag in flags.items():
+        if key not in old:  # a file from before the setting was recorded
+            continue
+        same = _same_file(old[key], new[key]) if key == "sim_model" else json.dumps(old[key]) == json.dumps(new[key])
+        if not same:
+            diff.append(f"{flag} {old[key]} (this run: {new[key]})")
+    if rows and diff:
+        raise InputError(
+            f"{out} was made with {', '.join(diff)}; its rows would mix two studies: resume it with its own "
+            "settings or choose another --out"
+        )
+
+
+def _check_model(spec: TransferCurveSpec) -> None:
+    """Refuse a simulation network that does not map the robot's motors to a tip, and a mesh
+    that would not fit in memory, before any worker starts."""
+    from lab.description import load_robot
+    from lab.learn.mlp import load_model
+
+    robot = load_robot(spec.robot)
+    spec.mesh.resolve(robot)
+    model = load_model(spec.sim_model)
+    if (model.n_u, model.n_y) != (robot.n_cables, 3):
+        raise InputError(
+            f"--sim-model {spec.sim_model} maps {model.n_u} motor angles to {model.n_y} outputs, but --robot "
+            f"{robot.name} has {robot.n_cables} motors and a 3-D tip"
+        )
 
 
 def _write_rows(path: Path, rows: list[dict], meta: dict) -> None:
@@ -168,17 +240,10 @@ def _write_rows(path: Path, rows: list[dict], meta: dict) -> None:
     atomic_write_group({Path(f"{path}.json"): json.dumps(meta, indent=2) + "\n", path: "\n".join(text) + "\n"})
 
 
-def _commands(out: Path, command: str) -> list[str]:
-    """Every command that added rows to ``out``, oldest first (one file can hold several
-    runs, e.g. the slow calibrated method added to a finished curve)."""
-    side = Path(f"{out}.json")
-    old = []
-    if out.exists() and side.exists():
-        try:
-            meta = json.loads(side.read_text())
-        except (OSError, ValueError):
-            meta = {}
-        old = meta.get("commands") or ([meta["command"]] if "command" in meta else [])
+def _commands(meta: dict, command: str) -> list[str]:
+    """Every command that added rows to the file of sidecar ``meta``, oldest first (one file
+    can hold several runs, e.g. the slow calibrated method added to a finished curve)."""
+    old = meta.get("commands") or ([meta["command"]] if "command" in meta else [])
     return old + ([command] if command not in old else [])
 
 
@@ -193,7 +258,9 @@ def transfer_curve_run(spec: TransferCurveSpec, out, *, command: str = "", log=N
 
     log = log or (lambda line: None)
     out = Path(out)
-    rows = _read_rows(out)
+    _check_model(spec)
+    rows, old = _read(out)
+    _check_resume(spec, out, rows, old)
     labels = spec.labels()
     want = expected_pairs(spec.methods, spec.ns)
     have = {lab: {(r["method"], int(r["n_real"])) for r in rows if r["robot"] == lab} for lab in labels}
@@ -207,7 +274,7 @@ def transfer_curve_run(spec: TransferCurveSpec, out, *, command: str = "", log=N
         "sim_model": spec.sim_model,
         **spec.settings(),
         "command": command,
-        "commands": _commands(out, command),
+        "commands": _commands(old, command),
         "code_version": code_version(),
         "units": {"*_m": "m", "fit_s": "s"},
     }

@@ -21,7 +21,10 @@ from lab.errors import InputError, LabRuntimeError
 from lab.transfer.calibrate import calibrate
 from lab.transfer.robot_toml import calibrated_robot, calibrated_toml
 
-__all__ = ["calibrated_model"]
+__all__ = ["MIN_RESIMULATED", "calibrated_model"]
+
+#: The fewest commands the calibrated FEM re-simulates for the network trained on them.
+MIN_RESIMULATED = 10
 
 
 def calibrated_model(
@@ -54,8 +57,10 @@ def calibrated_model(
     from lab.learn.train import train
 
     u_sim = np.asarray(u_sim, float)
-    if u_sim.ndim != 2 or u_sim.shape[1] != robot.n_cables or len(u_sim) < 10:
-        raise InputError(f"expected at least 10 commands to re-simulate, (S, {robot.n_cables}) rad; got {u_sim.shape}")
+    if u_sim.ndim != 2 or u_sim.shape[1] != robot.n_cables or len(u_sim) < MIN_RESIMULATED:
+        raise InputError(
+            f"expected at least {MIN_RESIMULATED} commands to re-simulate, (S, {robot.n_cables}) rad; got {u_sim.shape}"
+        )
     result = calibrate(robot, u_real, y_real, n_rings=n_rings, n_axial=n_axial, max_iter=max_iter, log=log)
     cal = calibrated_robot(robot, result)
     sim = simulate(

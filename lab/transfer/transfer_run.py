@@ -53,23 +53,38 @@ class TransferSpec(Spec):
             raise InputError(f"--method {self.method} needs exactly one of --sim SIM.csv and --sim-model SIM.npz")
 
 
-def _check_robot(robot, meta: dict, what: str) -> None:
+def _check_robot(robot, meta: dict, what: str, n_u: int) -> None:
+    """Refuse a dataset (``what``: its flag and path) made on another robot than ``--robot``
+    or whose ``n_u`` motor columns are not the robot's motors."""
     name = (meta.get("robot") or {}).get("name")
     if robot is not None and name is not None and name != robot.name:
         raise InputError(f"{what} was made on robot {name!r}, but --robot is {robot.name!r}")
+    if robot is not None and n_u != robot.n_cables:
+        raise InputError(
+            f"{what} has {n_u} motor columns (u0..u{n_u - 1}), but --robot {robot.name} has {robot.n_cables} motors"
+        )
+
+
+def _read(path, what: str, robot):
+    """The dataset ``path`` of flag ``what``: (u (N, n_u) rad, y (N, 3) m, metadata), not empty."""
+    from lab.data.dataset import read_dataset
+
+    u, y, meta = read_dataset(path)
+    if len(u) == 0:
+        raise InputError(f"{what} {path} holds no samples")
+    _check_robot(robot, meta, f"{what} {path}", u.shape[1])
+    return u, y, meta
 
 
 def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
     """The model ``spec`` asks for, its ``metadata["transfer"]`` recording the files and
     ``command``; returns (model, the real data (u (N, n_u) rad, y (N, 3) m)). ``log(line)``:
     progress. InputError for files or data that do not fit the method or the robot."""
-    from lab.data.dataset import read_dataset
     from lab.description import load_robot
 
     log = log or (lambda line: None)
     robot = load_robot(spec.robot) if spec.robot else None
-    u_real, y_real, meta_real = read_dataset(spec.real)
-    _check_robot(robot, meta_real, f"--real {spec.real}")
+    u_real, y_real, _ = _read(spec.real, "--real", robot)
     if spec.method == "calibrated":
         model = _calibrated(spec, robot, u_real, y_real, log)
         model.metadata["transfer"].update({"real": str(spec.real), "sim": spec.sim, "command": command})
@@ -82,15 +97,24 @@ def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
     if spec.method != "real-only":
         if spec.sim_model:
             sim_model = load_model(spec.sim_model)
+            if robot is not None and sim_model.n_u != robot.n_cables:
+                raise InputError(
+                    f"--sim-model {spec.sim_model} takes {sim_model.n_u} motor angles, but --robot {robot.name} "
+                    f"has {robot.n_cables} motors"
+                )
         else:
-            u_sim, y_sim, meta_sim = read_dataset(spec.sim)
-            _check_robot(robot, meta_sim, f"--sim {spec.sim}")
+            u_sim, y_sim, _ = _read(spec.sim, "--sim", robot)
+            if u_sim.shape[1] != u_real.shape[1]:
+                raise InputError(
+                    f"--sim {spec.sim} has {u_sim.shape[1]} motor columns, but --real {spec.real} has "
+                    f"{u_real.shape[1]}: they are not of one robot"
+                )
             log(f"training {list(hidden)} on {len(u_sim)} simulated samples ({spec.sim})")
             sim_model = train(u_sim, y_sim, hidden, seed=seed).model
         if (sim_model.n_u, sim_model.n_y) != (u_real.shape[1], y_real.shape[1]):
             raise InputError(
-                f"the simulation network maps {sim_model.n_u} -> {sim_model.n_y}, the real data "
-                f"{u_real.shape[1]} -> {y_real.shape[1]}"
+                f"the simulation network ({spec.sim_model or spec.sim}) maps {sim_model.n_u} -> {sim_model.n_y}, "
+                f"the real data (--real {spec.real}) {u_real.shape[1]} -> {y_real.shape[1]}"
             )
     log(f"{spec.method}: {len(u_real)} real samples from {spec.real}")
     model = transfer_model(spec.method, u_real, y_real, sim_model, hidden=tuple(hidden), seed=seed)
@@ -101,14 +125,14 @@ def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
 
 
 def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
-    from lab.data.dataset import read_dataset
-    from lab.transfer.calibrated import calibrated_model
+    from lab.transfer.calibrated import MIN_RESIMULATED, calibrated_model
 
     n_rings, n_axial = spec.mesh.resolve(robot)
-    if u_real.shape[1] != robot.n_cables:
-        raise InputError(f"{spec.real}: {u_real.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
-    u_sim, _, meta_sim = read_dataset(spec.sim)
-    _check_robot(robot, meta_sim, f"--sim {spec.sim}")
+    u_sim, _, _ = _read(spec.sim, "--sim", robot)
+    if len(u_sim) < MIN_RESIMULATED:
+        raise InputError(
+            f"--sim {spec.sim} holds {len(u_sim)} commands; the calibrated FEM re-simulates at least {MIN_RESIMULATED}"
+        )
     spec.train.check_fits(robot.n_cables, 3, len(u_sim))  # before the calibration and re-simulation
     log(
         f"calibrated: {len(u_real)} real samples from {spec.real}; mesh n_rings={n_rings} n_axial={n_axial}; "
@@ -119,8 +143,8 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
             robot, u_real, y_real, u_sim, hidden=tuple(spec.train.hidden), seed=spec.train.seed,
             n_rings=n_rings, n_axial=n_axial, n_jobs=spec.jobs, log=log,
         )  # fmt: skip
-    except InputError as err:
-        raise InputError(f"{spec.real}: {err}") from None
+    except InputError as err:  # the real samples: the commands of --sim were checked above
+        raise InputError(f"--real {spec.real}: {err}") from None
 
 
 def fit_mean_distance_mm(model, u, y) -> float:

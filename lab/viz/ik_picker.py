@@ -1,20 +1,16 @@
 """Pick a tip target and watch inverse kinematics move the arm there (chapter 04).
 
 :class:`IKPicker` answers a target ``p_target_W`` (3,) m with the IK command found through
-the **learned model** (bounded Levenberg-Marquardt, :meth:`lab.control.ik.IKSolver.for_model`), in a
-millisecond or two: it solves from the nearest grid seed and from the previous command
-and keeps the better answer. To draw the arm it then solves the FEM's equilibrium at that
-command (:class:`lab.viz.sliders.ArmExplorer`, warm-started from the last one: tens of
-milliseconds on the default mesh), so the picture is the simulated robot obeying the
-model's command -- the gap between its tip and the target is the model error. Without an
-FEM the arm is drawn schematically, as the circular arc that leaves the base along +x
-and ends at the predicted tip. The dashed tip path is the model's tip while the motors
-move linearly from the previous command to the new one.
+the **learned model** (:meth:`lab.control.IKSolver.for_model`) in a millisecond or two,
+solving from the nearest grid seed and from the previous command and keeping the better.
+It draws the FEM's equilibrium at that command (:class:`lab.viz.sliders.ArmExplorer`,
+warm-started), so the gap between its tip and the target is the model error; without an
+FEM the arm is a schematic arc ending at the predicted tip. The dashed path is the model's
+tip while the motors move linearly from the previous command to the new one.
 
-:meth:`IKPicker.update` is plain Python (tests call it headless). :meth:`IKPicker.widget`
-wraps it in x/y/z sliders (cm) and a drop-down of trajectory points when a front end can
-show widgets; without ipywidgets, or when the notebook is executed by papermill/nbclient
-(which cannot show widgets), it prints why and shows the static figure of the last update.
+:meth:`IKPicker.update` is plain Python (tests call it headless); :meth:`IKPicker.widget`
+wraps it in x/y/z sliders (cm) and a drop-down of trajectory points, or prints why it
+cannot (no ipywidgets, or run by papermill) and shows the last static figure.
 """
 
 from __future__ import annotations
