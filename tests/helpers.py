@@ -1,7 +1,13 @@
 """Small helpers shared by several test modules (imported as ``from helpers import ...``;
 pytest puts tests/ on sys.path)."""
 
+import base64
+import io
+import json
 import os
+import select
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -87,3 +93,129 @@ def execute_notebook(notebook, out, **kwargs):
     kwargs.setdefault("execution_timeout", CELL_TIMEOUT_S)
     kwargs.setdefault("progress_bar", False)
     return papermill.execute_notebook(str(notebook), str(out), **kwargs)
+
+
+class DevToolsPage:
+    """One page of a headless Chromium, driven over the DevTools protocol on a pipe
+    (``--remote-debugging-pipe``: no port, so it works inside ``unshare -n`` too), for
+    browser tests that wait for a rendered state instead of sleeping: ``wait_for`` polls
+    the page's own state, ``screenshot`` lets the page draw two frames first.
+
+    ``command``: how to start Chromium (its flags included); ``profile_dir``: a fresh
+    directory for its profile and log; the viewport is ``width`` x ``height`` px.
+    """
+
+    def __init__(self, command, profile_dir, width=800, height=600, timeout_s=120.0):
+        import fcntl
+
+        self.timeout_s, self._buf, self._id, self._events = timeout_s, b"", 0, []
+        os.makedirs(profile_dir, exist_ok=True)
+        self.log = os.path.join(profile_dir, "chromium.log")
+        # Chromium reads commands on fd 3 and answers on fd 4; a small trampoline puts the
+        # pipe ends there (fds >= 10 here, so that no dup2 overwrites the other end).
+        to_r, to_w = os.pipe()
+        from_r, from_w = os.pipe()
+        ends = [fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 10) for fd in (to_r, from_w)]
+        for fd in (to_r, from_w):
+            os.close(fd)
+        trampoline = (
+            f"import os, sys; os.dup2({ends[0]}, 3); os.dup2({ends[1]}, 4); "
+            f"os.close({ends[0]}); os.close({ends[1]}); os.execvp(sys.argv[1], sys.argv[1:])"
+        )
+        argv = [sys.executable, "-c", trampoline, *command, "--remote-debugging-pipe"]
+        with open(self.log, "wb") as log:
+            self.proc = subprocess.Popen(
+                [*argv, f"--user-data-dir={profile_dir}", "about:blank"],
+                pass_fds=ends,
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=log,
+            )
+        for fd in ends:
+            os.close(fd)
+        self._w, self._r = to_w, from_r
+        try:
+            (target,) = [t for t in self._call("Target.getTargets")["targetInfos"] if t["type"] == "page"]
+            self._session = self._call("Target.attachToTarget", targetId=target["targetId"], flatten=True)["sessionId"]
+            self.call("Page.enable")
+            self.call(
+                "Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1, mobile=False
+            )
+        except BaseException:
+            self.close()
+            raise
+
+    def _read(self) -> dict:
+        deadline = time.monotonic() + self.timeout_s
+        while b"\0" not in self._buf:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([self._r], [], [], left)[0]:
+                raise AssertionError(f"chromium sent nothing for {self.timeout_s} s; its log:\n{self._log_tail()}")
+            chunk = os.read(self._r, 1 << 20)
+            if not chunk:
+                raise AssertionError(f"chromium closed the DevTools pipe; its log:\n{self._log_tail()}")
+            self._buf += chunk
+        message, self._buf = self._buf.split(b"\0", 1)
+        return json.loads(message)
+
+    def _log_tail(self) -> str:
+        with open(self.log, errors="replace") as f:
+            return f.read()[-3000:]
+
+    def _call(self, method, session=None, **params) -> dict:
+        self._id += 1
+        message = {"id": self._id, "method": method, "params": params} | ({"sessionId": session} if session else {})
+        os.write(self._w, json.dumps(message).encode() + b"\0")
+        while (reply := self._read()).get("id") != self._id:
+            self._events.append(reply)
+        if "error" in reply:
+            raise AssertionError(f"DevTools {method} failed: {reply['error']}")
+        return reply["result"]
+
+    def call(self, method, **params) -> dict:
+        """A DevTools command on the page, e.g. ``call("Page.navigate", url=...)``."""
+        return self._call(method, self._session, **params)
+
+    def evaluate(self, expression: str, await_promise: bool = False):
+        """The value of a JavaScript expression in the page (awaited if a promise)."""
+        r = self.call("Runtime.evaluate", expression=expression, returnByValue=True, awaitPromise=await_promise)
+        if "exceptionDetails" in r:
+            raise AssertionError(f"{expression!r} raised in the page: {r['exceptionDetails']}")
+        return r["result"].get("value")
+
+    def wait_for(self, expression: str, timeout_s: float, what: str) -> None:
+        """Poll ``expression`` until it is truthy; AssertionError naming ``what`` after ``timeout_s``."""
+        wait_until(lambda: self.evaluate(expression), timeout_s, what)
+
+    def navigate(self, url: str) -> None:
+        self.call("Page.navigate", url=url)
+
+    def screenshot(self) -> np.ndarray:
+        """The viewport (height, width, 3) RGB ints, after the page has drawn two more frames."""
+        from PIL import Image
+
+        self.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(() => r(true))))", True)
+        png = base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"])
+        return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+    def close(self) -> None:
+        try:
+            if self.proc.poll() is None:
+                self._call("Browser.close")
+            self.proc.wait(timeout=30)
+        except (AssertionError, OSError, subprocess.TimeoutExpired):
+            self.proc.kill()
+            self.proc.wait()
+        finally:
+            for fd in (self._w, self._r):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

@@ -1,10 +1,12 @@
 """Tests of lab.viz.animation: the rigid pieces that carry the arm's deformation, the
-meshcat animation built from them, and the page played in headless Chromium."""
+meshcat animation built from them, and the page played in headless Chromium (driven over
+the DevTools protocol, so that screenshots wait for the page's state, not for time)."""
 
 import numpy as np
 import pytest
 import test_viz
-from test_viz import _pixel_counts, _screenshot, require_chromium
+from helpers import DevToolsPage
+from test_viz import _no_network_prefix, _pixel_counts, require_chromium
 
 from lab.description import load_robot
 from lab.fem.energy import ArmFEM
@@ -188,29 +190,58 @@ def _red_centroid(img):
     return (rows.mean(), cols.mean(), len(rows)) if len(rows) else (np.nan, np.nan, 0)
 
 
+_VIEWER = 'var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));'
+_COUNT_COMMANDS = (
+    "window.handled_commands = 0; { const handle = viewer.handle_command_bytearray.bind(viewer); "
+    "viewer.handle_command_bytearray = b => { handle(b); window.handled_commands += 1; }; }"
+)
+
+
+def _load(page, html, path):
+    """Open ``html`` in ``page`` and wait until its viewer has handled every scene command
+    (the static page fetches them all at once, and they arrive in any order)."""
+    assert html.count(_VIEWER) == 1
+    path.write_text(html.replace(_VIEWER, _VIEWER + _COUNT_COMMANDS))
+    page.navigate(path.as_uri())
+    n = html.count('fetch("data:')
+    page.wait_for(f"window.handled_commands === {n}", 120, f"the page to handle its {n} scene commands")
+
+
 @pytest.mark.slow
 @pytest.mark.browser
 def test_animation_plays_in_chromium(coarse_fem, bent_q, tmp_path):
+    """The page plays the animation by itself, and without play keeps frame 0. Every
+    screenshot waits for a state of the page, never for time: all scene commands handled,
+    then the animation at its end (played by itself), at 1 s (paused and sought: rest), or
+    not started; and two frames drawn since."""
     require_chromium()
     fem = coarse_fem
     # Rest for frames 0-1, then up: at 0.5 frames/s the arm holds still for 2 s of
-    # page time and is up from 4 s on, so the 1 s screenshot shows rest whenever the
-    # animation started, and the 10 s one the end, unless it did not play.
+    # animation time and is up from 4 s on.
     q = np.array([fem.rest_q(), fem.rest_q(), bent_q])
     u = np.array([np.zeros(3), np.zeros(3), U_UP])
     tips = np.array([fem.tip(fem.to_nodes(qi)) for qi in q])
     pages = {
         play: A.animation_html(fem, q, u, targets_W=tips + [0, 0, 0.01], fps=0.5, play=play) for play in (True, False)
     }
+    flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
 
-    def shot(play, budget_ms):
-        flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(test_viz, "CHROMIUM_FLAGS", [*flags, f"--virtual-time-budget={budget_ms}"])
-            img = _screenshot(pages[play], tmp_path, f"{'play' if play else 'still'}-{budget_ms}")
+    def shot(page):
+        img = page.screenshot()[20:]  # below meshcat's GUI bar
         return _pixel_counts(img), _red_centroid(img)
 
-    (early, tip_early), (late, tip_late), (still, tip_still) = shot(True, 1000), shot(True, 10000), shot(False, 10000)
+    command = [*_no_network_prefix(), str(test_viz.CHROMIUM), *flags]
+    with DevToolsPage(command, tmp_path / "profile") as page:
+        _load(page, pages[True], tmp_path / "play.html")
+        assert page.evaluate("viewer.animator.duration") == 4
+        assert page.evaluate("viewer.animator.playing || viewer.animator.time > 0")  # started by itself
+        page.wait_for("viewer.animator.time >= viewer.animator.duration", 120, "the animation's end")
+        late, tip_late = shot(page)
+        page.evaluate("viewer.animator.pause(); viewer.animator.seek(1.0); true")
+        early, tip_early = shot(page)
+        _load(page, pages[False], tmp_path / "still.html")
+        still, tip_still = shot(page)
+        assert page.evaluate("!viewer.animator.playing && viewer.animator.time === 0")
     print(f"early {early} tip {tip_early}\nlate {late} tip {tip_late}\nstill {still} tip {tip_still}")
     for counts, tip in ((early, tip_early), (late, tip_late), (still, tip_still)):
         assert counts["foam"] > 5000 and counts["foam"] > 0.5 * counts["drawn"], counts  # the body

@@ -25,10 +25,6 @@ import serial
 from dynamixel_sdk import (
     BROADCAST_ID,
     COMM_SUCCESS,
-    DXL_HIBYTE,
-    DXL_HIWORD,
-    DXL_LOBYTE,
-    DXL_LOWORD,
     GroupSyncRead,
     GroupSyncWrite,
     PacketHandler,
@@ -77,15 +73,13 @@ __all__ = [
 # what pyserial raises when the adapter goes away (termios.error is no OSError)
 IO_ERRORS = (serial.SerialException, OSError, termios.error)
 
-#: A quiet spell longer than this fraction of the Bus Watchdog time counts as one the watchdog
-#: may have fired in: the servo times from a packet's arrival, the host from the end of an
-#: exchange, and the two differ by the host's and the adapter's delays.
+#: A quiet bus for longer than this fraction of the Bus Watchdog time may have fired it: the servo
+#: times from a packet's arrival, the host from the end of an exchange (they differ by delays).
 WATCHDOG_MARGIN = 0.5
 
 
 def _bytes4(value: int) -> list[int]:
-    v = int(value) & 0xFFFFFFFF
-    return [DXL_LOBYTE(DXL_LOWORD(v)), DXL_HIBYTE(DXL_LOWORD(v)), DXL_LOBYTE(DXL_HIWORD(v)), DXL_HIBYTE(DXL_HIWORD(v))]
+    return list((int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
 
 
 class _PortHandler(PortHandler):
@@ -139,14 +133,10 @@ class XM430Bus:
         self.profile_velocity_rad_s = float(profile_velocity_rad_s)
         self.profile_velocity_units = velocity_units(profile_velocity_rad_s)
         # Bus Watchdog: a servo that hears nothing for this long stops by itself (the host died).
-        self.watchdog_units = (
-            0 if not bus_watchdog_ms else min(127, max(1, round(bus_watchdog_ms / BUS_WATCHDOG_UNIT_MS)))
-        )
+        self.watchdog_units = min(127, max(1, round(bus_watchdog_ms / BUS_WATCHDOG_UNIT_MS))) if bus_watchdog_ms else 0
         self.watchdog_s = self.watchdog_units * BUS_WATCHDOG_UNIT_MS / 1000
-        self._clock = clock
-        self._t_io = clock()
-        self._watchdog_armed = False  # armed since torque on, and not switched off since
-        self._watchdog_lapsed = False  # a quiet spell since arming in which it may have fired
+        self._clock, self._t_io = clock, clock()
+        self._watchdog_armed = self._watchdog_lapsed = False  # lapsed: it may have fired since armed
         self._goal_ticks: np.ndarray | None = None  # the last goal written
         self.model_numbers: dict[int, int] = {}
         self._closed = False
@@ -192,9 +182,7 @@ class XM430Bus:
             self.model_numbers[s.dxl_id] = model
         for s in self.servos:
             self.write_register(s.dxl_id, *TORQUE_ENABLE, 0)
-            # A Bus Watchdog that fired in an earlier session (its host killed) reads -1 and
-            # refuses goal and profile writes until cleared: clear it before writing them.
-            self.write_register(s.dxl_id, *BUS_WATCHDOG, 0)
+            self.write_register(s.dxl_id, *BUS_WATCHDOG, 0)  # fired (host killed): locks goals and profile
             if self.read_register(s.dxl_id, *OPERATING_MODE) != EXTENDED_POSITION_MODE:
                 self.write_register(s.dxl_id, *OPERATING_MODE, EXTENDED_POSITION_MODE)  # EEPROM: only if needed
             limit = self.read_register(s.dxl_id, *VELOCITY_LIMIT)
@@ -248,10 +236,11 @@ class XM430Bus:
                 self.write_register(dxl_id, *BUS_WATCHDOG, self.watchdog_units)
             self._watchdog_armed, self._watchdog_lapsed = True, False
 
-    def _note_quiet_spell(self) -> None:
-        """Remember a quiet spell since the last exchange long enough for the watchdog to fire."""
+    def _watchdog_may_have_fired(self) -> bool:
+        """Whether, since it was armed, the bus was quiet for long enough (checked before every exchange)."""
         if self._watchdog_armed and self._clock() - self._t_io > WATCHDOG_MARGIN * self.watchdog_s:
             self._watchdog_lapsed = True
+        return self._watchdog_lapsed
 
     def write_goal_u(self, u_rad) -> np.ndarray:
         """Sync-write goal angles ``u_rad`` (n,) rad; returns the goal ticks sent."""
@@ -268,14 +257,8 @@ class XM430Bus:
         for dxl_id, t in zip(self.ids, ticks):
             if abs(int(t)) > GOAL_LIMIT_TICKS:
                 raise InputError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
-        self._note_quiet_spell()
-        if self._watchdog_lapsed:
-            # The watchdog may have fired, which locks the goals (a sync write gets no
-            # answer to say so): re-arm it before moving.
-            self.arm_watchdog()
-        self._write_goal(ticks)
-
-    def _write_goal(self, ticks: np.ndarray) -> None:
+        if self._watchdog_may_have_fired():
+            self.arm_watchdog()  # a fired one locks the goals, and a sync write gets no answer to say so
         self._sync_write.clearParam()
         for dxl_id, t in zip(self.ids, ticks):
             self._sync_write.addParam(dxl_id, _bytes4(t))
@@ -284,13 +267,10 @@ class XM430Bus:
         self._goal_ticks = ticks.copy()
 
     def read_present_ticks(self) -> np.ndarray:
-        """Sync-read present positions (n,) ticks (signed), checking each status packet.
-        After a quiet spell the watchdog may have fired in, it is re-armed and the last goal
-        written again first: the servos stopped where they were, and go on."""
-        self._note_quiet_spell()
-        if self._watchdog_lapsed and self._goal_ticks is not None:
-            self.arm_watchdog()
-            self._write_goal(self._goal_ticks)
+        """Sync-read present positions (n,) ticks (signed), checking each status packet; first,
+        if the watchdog may have fired, re-arm it and write the last goal again (stopped servos go on)."""
+        if self._watchdog_may_have_fired() and self._goal_ticks is not None:
+            self.write_goal_ticks(self._goal_ticks)  # which re-arms it first
         result = self._sdk(self._sync_read.txPacket)
         self._check(self.ids[0], "sync read of present positions", result, 0, who="bus")
         out = np.zeros(len(self.ids), dtype=np.int64)
@@ -333,7 +313,7 @@ class XM430Bus:
 
     # --- errors and shutdown --------------------------------------------------------
     def _sdk(self, fn, *args):
-        self._note_quiet_spell()
+        self._watchdog_may_have_fired()
         try:
             out = fn(*args)
             self._t_io = self._clock()
