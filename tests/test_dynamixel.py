@@ -21,6 +21,7 @@ from lab.rig.dynamixel import (
     u_from_ticks,
     velocity_units,
 )
+from lab.rig.dynamixel_units import READ_TRIES
 from lab.rig.emulators import EmulatedXM430Bus, KinematicBody, LiveBody, ServoSpec
 from lab.rig.emulators import protocol2 as p2
 
@@ -237,9 +238,9 @@ READ = lambda bus: bus.read_register(2, *PRESENT_POSITION)  # noqa: E731
     [
         ("silent", None, SYNC_READ, "There is no status packet", [2], []),  # obeys the broadcast, cannot confirm
         ("disconnected", None, SYNC_READ, "There is no status packet", [2], [2]),
-        ("bad_crc", 1, SYNC_READ, "Incorrect status packet", [], []),
+        ("bad_crc", READ_TRIES, SYNC_READ, "Incorrect status packet", [], []),  # (fewer: asked for again)
         ("crc_error", 1, READ, "CRC doesn't match", [], []),
-        ("crc_error", 1, SYNC_READ, "There is no status packet", [], []),  # a garbled broadcast is not answered
+        ("crc_error", READ_TRIES, SYNC_READ, "There is no status packet", [], []),  # garbled: not answered
         ("overload", None, SYNC_READ, "hardware error status 0x20: overload", [], []),
     ],
 )

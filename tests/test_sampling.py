@@ -247,7 +247,8 @@ def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
         "--out",
         str(tmp_path / "sim.csv"),
     ]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    err_file = (tmp_path / "stderr.txt").open("w")
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err_file)
     deadline = time.monotonic() + 120
     workers = []
     while time.monotonic() < deadline and proc.poll() is None:
@@ -261,6 +262,9 @@ def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
     time.sleep(1.0)  # they are computing chunks now
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=30) == 128 + signal.SIGTERM
+    err_file.close()
+    err = (tmp_path / "stderr.txt").read_text()
+    assert "interrupted by SIGTERM; stopped cleanly" in err and "Traceback" not in err, err  # the shared handling
     gone, alive = psutil.wait_procs(workers, timeout=10)
     for p in alive:
         os.kill(p.pid, signal.SIGKILL)

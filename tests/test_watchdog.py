@@ -148,7 +148,9 @@ def test_killed_track_process_leaves_the_servos_stopped(how, three_cable, tmp_pa
     CPU-bound processes beside it on 2 cores (load 3-6; printed below): the bench's server,
     in this process, sent a frame at least every 0.04 s (0.01 s idle), so ``FRAME_TIMEOUT_S``
     is 2 s; `track` fed the bus at least every 0.11 s, under half the 500 ms watchdog (the
-    driver re-arms it after any longer spell, and resumes a move it stopped). The first point
+    driver re-arms it after any longer spell, and resumes a move it stopped). The emulated bus
+    is a thread of this loaded process: once it answered a sync read later than the driver's
+    0.2 s reply timeout, so the driver asks again (``READ_TRIES``). The first point
     comes after ~8 s idle (start-up and IK), ~15 s loaded: ``FIRST_POINT_TIMEOUT_S`` is 120 s,
     and a `track` that exits first fails the test at once with its stderr. After the kill the
     emulated servos stop where they were when the watchdog time had passed since the last

@@ -12,8 +12,6 @@ run's numbers.
 from __future__ import annotations
 
 import os
-import signal
-import threading
 import time
 
 import numpy as np
@@ -139,7 +137,7 @@ def simulate(
     bar = tqdm(total=len(u_motor), initial=resumed, unit="sample", disable=not progress, smoothing=0.05)
     todo = [i for i in range(len(chunks)) if i not in done]
     jobs = (delayed(_solve_indexed)(i, robot, n_rings, n_axial, u_motor[orders[i]]) for i in todo)
-    client, stop = None, _SigtermToExit()
+    client = None
     try:
         if scheduler is not None:
             from distributed import Client
@@ -161,7 +159,6 @@ def simulate(
             kill_local_workers()  # do not leave them computing chunks nobody will collect
         raise
     finally:
-        stop.restore()
         bar.close()
         if client is not None:
             client.close()
@@ -173,25 +170,3 @@ def simulate(
         "wall_s": time.perf_counter() - t0,
         "resumed_samples": resumed,
     }
-
-
-class _SigtermToExit:
-    """While alive (until :meth:`restore`), SIGTERM raises SystemExit(143) in the main
-    thread instead of ending the process at once, so that a killed run (``kill``, a
-    batch scheduler, ``timeout``) unwinds: it stops its worker processes, which would
-    otherwise go on computing their chunks for minutes. Elsewhere than in the main
-    thread (where signal handlers cannot be installed) it does nothing."""
-
-    def __init__(self):
-        self._previous = None
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGTERM, self._handle)
-
-    @staticmethod
-    def _handle(signum, frame):
-        raise SystemExit(128 + signum)
-
-    def restore(self) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGTERM, self._previous)
-            self._previous = None

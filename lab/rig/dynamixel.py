@@ -28,7 +28,6 @@ from dynamixel_sdk import (
     GroupSyncRead,
     GroupSyncWrite,
     PacketHandler,
-    PortHandler,
 )
 
 from lab.errors import InputError
@@ -45,6 +44,7 @@ from lab.rig.dynamixel_units import (
     PRESENT_POSITION,
     PROFILE_VELOCITY,
     RAD_PER_TICK,
+    READ_TRIES,
     RPM_PER_VELOCITY_UNIT,
     SDK_BAUD_RATES,
     TICKS_PER_REV,
@@ -55,6 +55,9 @@ from lab.rig.dynamixel_units import (
     ticks_from_u,
     u_from_ticks,
     velocity_units,
+)
+from lab.rig.dynamixel_units import (
+    LatencyPortHandler as _PortHandler,
 )
 
 __all__ = [
@@ -80,19 +83,6 @@ WATCHDOG_MARGIN = 0.5
 
 def _bytes4(value: int) -> list[int]:
     return list((int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
-
-
-class _PortHandler(PortHandler):
-    """The SDK's port with the reply timeout computed from the adapter's actual latency
-    timer (the SDK hard-codes 16 ms: it waits 2 x latency + 2 ms for a status packet)."""
-
-    def __init__(self, port_name: str, latency_timer_ms: float):
-        super().__init__(port_name)
-        self.latency_timer_ms = float(latency_timer_ms)
-
-    def setPacketTimeout(self, packet_length):
-        self.packet_start_time = self.getCurrentTime()
-        self.packet_timeout = self.tx_time_per_byte * packet_length + 2.0 * self.latency_timer_ms + 2.0
 
 
 class XM430Bus:
@@ -271,11 +261,15 @@ class XM430Bus:
         if the watchdog may have fired, re-arm it and write the last goal again (stopped servos go on)."""
         if self._watchdog_may_have_fired() and self._goal_ticks is not None:
             self.write_goal_ticks(self._goal_ticks)  # which re-arms it first
-        result = self._sdk(self._sync_read.txPacket)
-        self._check(self.ids[0], "sync read of present positions", result, 0, who="bus")
+        for attempt in range(READ_TRIES):  # a status packet lost to the reply timeout is asked for again
+            result = self._sdk(self._sync_read.txPacket)
+            self._check(self.ids[0], "sync read of present positions", result, 0, who="bus")
+            replies = [self._sdk(self._ph.readRx, self._port, i, PRESENT_POSITION[1]) for i in self.ids]
+            if attempt == READ_TRIES - 1 or all(r[1] == COMM_SUCCESS for r in replies):
+                break
+            self._port.clearPort()  # a late answer must not be read as the next one
         out = np.zeros(len(self.ids), dtype=np.int64)
-        for k, dxl_id in enumerate(self.ids):
-            data, result, error = self._sdk(self._ph.readRx, self._port, dxl_id, PRESENT_POSITION[1])
+        for k, (dxl_id, (data, result, error)) in enumerate(zip(self.ids, replies)):
             self._check(dxl_id, "sync read of present position", result, error)
             out[k] = int.from_bytes(bytes(data[:4]), "little", signed=True)
         return out

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from dynamixel_sdk import PortHandler
 
 TICKS_PER_REV = 4096
 RAD_PER_TICK = 2 * math.pi / TICKS_PER_REV
@@ -100,3 +101,20 @@ def u_from_ticks(ticks, zero_ticks, direction) -> np.ndarray:
 def velocity_units(omega_rad_s: float) -> int:
     """Profile velocity register value (units of 0.229 rev/min, at least 1) for rad/s."""
     return max(1, round(omega_rad_s * 60 / (2 * math.pi) / RPM_PER_VELOCITY_UNIT))
+
+
+#: How often a sync read whose status packets timed out is sent again before it counts as failed.
+READ_TRIES = 3
+
+
+class LatencyPortHandler(PortHandler):
+    """The SDK's port with the reply timeout computed from the adapter's actual latency
+    timer (the SDK hard-codes 16 ms: it waits 2 x latency + 2 ms for a status packet)."""
+
+    def __init__(self, port_name: str, latency_timer_ms: float):
+        super().__init__(port_name)
+        self.latency_timer_ms = float(latency_timer_ms)
+
+    def setPacketTimeout(self, packet_length):
+        self.packet_start_time = self.getCurrentTime()
+        self.packet_timeout = self.tx_time_per_byte * packet_length + 2.0 * self.latency_timer_ms + 2.0

@@ -217,7 +217,7 @@ class EmulatedXM430Bus:
         level = s.get("status_return_level")
         if (kind == "read" and level < 1) or (kind == "write" and level < 2):
             return None
-        if s.fault == "silent":
+        if self._take_fault(s, "silent"):  # (``count`` replies, or all of them)
             return None
         bad = self._take_fault(s, "bad_crc")
         return p2.status(s.dxl_id, error, data, corrupt_crc=bad)
