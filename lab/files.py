@@ -22,6 +22,7 @@ __all__ = [
     "json_default",
     "code_version",
     "remove_and_release",
+    "format_bytes",
 ]
 
 
@@ -139,3 +140,12 @@ def remove_and_release(lock) -> None:
         with contextlib.suppress(OSError):  # left behind, it is harmless
             os.unlink(lock.lock_file)
     lock.release()
+
+
+def format_bytes(n: float) -> str:
+    """``n`` bytes in words, in decimal units (e.g. "3.6 TB"), for memory refusals."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000:
+            return f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n:.1f} PB"

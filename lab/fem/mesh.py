@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.errors import InputError
+from lab.files import format_bytes
 
 
 @dataclass(frozen=True)
@@ -107,17 +108,9 @@ def check_mesh_size(n_rings, n_axial, available_bytes: int | None = None) -> int
     if need > have:
         raise InputError(
             f"mesh n_rings={n_rings}, n_axial={n_axial} ({n_nodes:,} nodes, {n_tets:,} tets) would need about "
-            f"{_size(need)} of memory; this machine has {_size(have)} available. Use a coarser mesh."
+            f"{format_bytes(need)} of memory; this machine has {format_bytes(have)} available. Use a coarser mesh."
         )
     return need
-
-
-def _size(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if n < 1000 or unit == "PB":
-            return f"{n:.1f} {unit}"
-        n /= 1000
-    return f"{n:.1f} PB"
 
 
 def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) -> TetMesh:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from lab.errors import InputError
 from lab.fem.mesh import available_memory_bytes
+from lab.files import format_bytes
 
 __all__ = ["n_parameters", "training_bytes", "check_network_size"]
 
@@ -45,14 +46,6 @@ def training_bytes(layer_sizes, n_train: int, algorithm: str = "lm", max_jacobia
     return vectors + activations + 2 * jacobian + systems
 
 
-def _size(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if n < 1000 or unit == "PB":
-            return f"{n:.1f} {unit}"
-        n /= 1000
-    return f"{n:.1f} PB"
-
-
 def check_network_size(
     layer_sizes, n_train: int, algorithm: str = "lm", copies: int = 1, available_bytes: int | None = None
 ) -> int:
@@ -67,7 +60,7 @@ def check_network_size(
         raise InputError(
             f"--hidden {' '.join(map(str, sizes[1:-1]))}: a {'-'.join(map(str, sizes))} network "
             f"({n_parameters(sizes):,} parameters) trained by {algorithm} on {n_train} samples{times} would need "
-            f"about {_size(need)} of memory; this machine has {_size(have)} available. Use fewer or narrower "
-            "hidden layers."
+            f"about {format_bytes(need)} of memory; this machine has {format_bytes(have)} available. "
+            "Use fewer or narrower hidden layers."
         )
     return need
