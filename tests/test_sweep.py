@@ -19,6 +19,10 @@ import pytest
 from filelock import FileLock
 from helpers import subprocess_env, wait_until
 from sweep import COARSE, ROOT, Case, run_case
+from sweep_history import HISTORY_CASES
+from sweep_import import IMPORT_CASES
+from sweep_inspect import INSPECT_CASES
+from sweep_rig_none import RIG_NONE_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
 TRAIN = ["train", "{dir}/data.csv", "--hidden", "3", "--epochs", "3"]
@@ -917,6 +921,11 @@ CASES = [
             ("sim-model", [], "--sim-model old.npz (this run: {dir}/model.npz)", curve_file(sim_model="old.npz")),
         )
     ),
+    # --- rows of the commands and flags of real robots' data, one module each ---------------
+    *IMPORT_CASES,
+    *INSPECT_CASES,
+    *HISTORY_CASES,
+    *RIG_NONE_CASES,
 ]
 
 

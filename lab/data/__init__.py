@@ -33,6 +33,7 @@ from lab.data.designs import (
     random_commands,
     sobol_commands,
 )
+from lab.data.sequences import contiguous_blocks, sequence_ids, sequence_starts_of
 from lab.data.simulated_dataset import simulate_fixed, solve_batch, write_simulated
 from lab.data.simulation import default_jobs, simulate, solve_chunk
 
@@ -66,4 +67,7 @@ __all__ = [
     "write_dataset",
     "sidecar_path",
     "read_dataset",
+    "sequence_ids",
+    "sequence_starts_of",
+    "contiguous_blocks",
 ]
