@@ -135,6 +135,8 @@ def test_every_command_has_its_module():
             "data-curve",
             "calibrate",
             "fit-dynamics",
+            "import-data",
+            "inspect",
         }
     )
     for name, module in cli.COMMANDS.items():

@@ -1,0 +1,69 @@
+"""``python -m lab import-data``: external measurements (CSV files) -> a lab dataset.
+
+    python -m lab import-data runs.csv --u m1,m2,m3 --y tip_x,tip_y,tip_z --y-unit mm --group run --out mine.csv
+    python -m lab import-data in1.csv in2.csv --observations obs1.csv obs2.csv --id ID \\
+        --u u1,u2,u3,u4,u5,u6 --y x3,y3,z3 --u-unit effort --out trunk.csv
+
+Each FILE holds the ``--u`` and ``--y`` columns; with ``--observations`` FILE i holds the
+inputs and OBS i the positions, paired row by row or on ``--id COL``. Every file or pair
+starts a measurement sequence (``--group COL``: also where COL changes). The flags are
+:class:`lab.data.import_spec.ImportSpec`; :func:`lab.data.importing.import_dataset` reads,
+joins, converts to metres and writes the dataset and its sidecar (provenance, licence,
+dropped rows, sequence starts). The rules: docs/import-data.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+
+from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
+from lab.cli.paths import check_paths, check_writable, dataset_outputs, output_lock
+from lab.data.import_spec import ImportSpec
+
+
+def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
+    """Add the ``import-data`` command to an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "import-data",
+        parents=parents,
+        help="import external measurements (CSV files of inputs and positions) as a lab dataset",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("files", nargs="+", metavar="FILE", help="CSV files with the --u (and, alone, the --y) columns")
+    p.add_argument(
+        "--observations",
+        nargs="+",
+        metavar="OBS",
+        help="CSV files with the --y columns: OBS i pairs with FILE i, row by row or on --id",
+    )
+    add_spec_flags(p, ImportSpec)
+    p.add_argument("--out", required=True, help="output dataset CSV (u0..,x,y,z; metres) and its .json sidecar")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    from lab.data.importing import import_dataset
+
+    if not args.observations:
+        refuse_unused(args, ["id"], "without --observations: it pairs the rows of a FILE and an OBS file")
+    spec = spec_from_args(ImportSpec, args)
+    observations = args.observations or []
+    inputs = {f"FILE {p}": p for p in args.files} | {f"--observations {p}": p for p in observations}
+    check_paths(inputs, dataset_outputs("--out", args.out))
+    check_writable(args.out)
+    with output_lock(args.out):
+        result = import_dataset(
+            spec, args.files, args.out, observations=observations, command="python -m lab " + shlex.join(args.argv)
+        )
+    dropped = ", ".join(f"{n} {why}" for why, n in result.dropped.items() if n) or "none"
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
+    print(
+        f"imported {result.n_rows} rows in {result.n_sequences} sequence(s) from {result.n_groups} "
+        f"{'pair' if observations else 'file'}(s) (rows dropped: {dropped}) -> {args.out}"
+    )
+    return 0

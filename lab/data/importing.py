@@ -1,0 +1,249 @@
+"""External measurements -> (u, y) rows in metres -> a lab dataset (``python -m lab import-data``).
+
+A real robot's data rarely arrive in this project's format: inputs and observations sit in
+separate files (paired row by row, or on an ID column), positions in millimetres, columns
+named after the lab that measured them. :func:`read_measurements` reads them as an
+:class:`lab.data.import_spec.ImportSpec` says -- one CSV per group of rows holding both
+inputs and outputs, or ``FILE i`` (the ``--u`` columns) paired with ``OBS i`` (the ``--y``
+columns) -- and returns the inputs (N, m), the positions in metres (N, d) for any d >= 1 (a
+study may fit all nine ASL disk coordinates), where measurement sequences start (each file
+or pair starts one; ``--group COL`` starts one where COL's value changes), and per file or
+pair a provenance record: the sources with their SHA-256 and the columns taken, the rows
+dropped and why. Rows keep the inputs' measurement order. :func:`import_dataset` writes the
+tip (d = 3) as a lab dataset with the sidecar keys of docs/import-data.md. Bad input is an
+InputError naming the file, line and column; a NaN or non-numeric value is one unless
+``--drop-bad-rows`` drops the row and counts it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lab.data.csv_table import NON_NUMERIC, CsvTable, read_table
+from lab.data.dataset import write_dataset
+from lab.data.import_spec import ImportSpec
+from lab.errors import InputError
+
+__all__ = ["Measurements", "ImportResult", "read_measurements", "import_dataset"]
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """Imported rows: ``u`` (N, m) in the ``--u-unit``, ``y_m`` (N, d) metres,
+    ``sequence_starts`` (first row of each sequence, from 0), ``row_groups`` (one dict per
+    file or pair: start, stop, sources, dropped, join) and ``notes`` (rules applied)."""
+
+    u: np.ndarray
+    y_m: np.ndarray
+    sequence_starts: list[int]
+    row_groups: list[dict]
+    notes: list[str]
+
+    def dropped(self) -> dict:
+        """Rows dropped over all groups, per reason."""
+        return _total_dropped(self.row_groups)
+
+
+def _total_dropped(row_groups) -> dict:
+    total = {"nan": 0, "non_numeric": 0, "unmatched_id": 0}
+    for g in row_groups:
+        for k, v in g["dropped"].items():
+            total[k] += v
+    return total
+
+
+@dataclass(frozen=True)
+class ImportResult:
+    """What :func:`import_dataset` wrote: the rows, sequences and groups, drops and notes."""
+
+    out: str
+    n_rows: int
+    n_sequences: int
+    n_groups: int
+    dropped: dict
+    notes: list[str]
+
+
+def _id_key(text: str) -> str:
+    """An ID compared by value: "7", "7.0" and " 7" are the same row; other text as is."""
+    try:
+        v = float(text)
+    except ValueError:
+        return text
+    return str(int(v)) if v.is_integer() else repr(v)
+
+
+def _ids(table: CsvTable, column: str) -> list[str]:
+    keys, first = [], {}
+    for text, line in zip(table.strings(column, "--id"), table.lines):
+        if not text:
+            raise InputError(f"{table.path}: line {line}, column {column!r} (--id): empty ID")
+        key = _id_key(text)
+        if key in first:
+            raise InputError(
+                f"{table.path}: the ID {text!r} on line {line} repeats the ID {first[key][1]!r} of line "
+                f"{first[key][0]} (column {column!r}, --id): IDs must be unique to pair rows"
+            )
+        first[key] = (line, text)
+        keys.append(key)
+    return keys
+
+
+def _pair(spec: ImportSpec, inputs: CsvTable, obs: CsvTable, notes: list) -> tuple[np.ndarray, np.ndarray, int, str]:
+    """Row indices into ``inputs`` and ``obs`` that pair, in the inputs' order; the number of
+    rows dropped for an unmatched ID; the join used ("id" or "row")."""
+    phantom = [t for t in (inputs, obs) if spec.id is not None and t.phantom == spec.id]
+    if spec.id is None or phantom:
+        if phantom:
+            notes.append(
+                f"{phantom[0].path}: the header names {spec.id!r} but no row has a value for it (phantom-ID rule): "
+                f"paired with {(obs if phantom[0] is inputs else inputs).path} by row order"
+            )
+        if len(inputs.rows) != len(obs.rows):
+            raise InputError(
+                f"{inputs.path} has {len(inputs.rows)} rows, its --observations {obs.path} has {len(obs.rows)}: "
+                "pairing row by row needs equal counts (pair on an ID column both have with --id COL)"
+            )
+        rows = np.arange(len(inputs.rows))
+        return rows, rows, 0, "row"
+    ids_in, ids_obs = _ids(inputs, spec.id), _ids(obs, spec.id)
+    where = {key: j for j, key in enumerate(ids_obs)}
+    rows_in = np.array([i for i, key in enumerate(ids_in) if key in where], dtype=int)
+    rows_obs = np.array([where[ids_in[i]] for i in rows_in], dtype=int)
+    unmatched = len(ids_in) - len(rows_in) + len(ids_obs) - len(rows_obs)
+    return rows_in, rows_obs, unmatched, "id"
+
+
+def _bad_cell(spec, tables, kinds, rows, r) -> str:
+    """The message for the first bad cell of paired row ``r``."""
+    for table, names, flag, kind, index in zip(tables, (spec.u, spec.y), ("--u", "--y"), kinds, rows):
+        for c, name in enumerate(names):
+            k = kind[index[r], c]
+            if k:
+                text = table.rows[index[r]][table.index(name, flag)]
+                what = "not a number" if k == NON_NUMERIC else ("empty" if not text.strip() else "NaN or infinite")
+                return (
+                    f"{table.path}: line {table.lines[index[r]]}, column {name!r} ({flag}): {text!r} is {what}; "
+                    "pass --drop-bad-rows to drop such rows (they are counted in the sidecar)"
+                )
+    raise AssertionError("no bad cell in a bad row")
+
+
+def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, np.ndarray, list[int], dict]:
+    """One file (``obs_path`` None) or pair: inputs, positions (metres), sequence starts
+    within it, and its row-group record (without start/stop)."""
+    inputs = read_table(path, id_column=spec.id if obs_path else None, what="FILE")
+    obs = inputs if obs_path is None else read_table(obs_path, id_column=spec.id, what="--observations")
+    for t in {id(inputs): inputs, id(obs): obs}.values():
+        if t.phantom and not (spec.id is not None and obs is not inputs):
+            notes.append(
+                f"{t.path}: the header names {t.phantom!r} but no row has a value for it: read as lacking that "
+                "column (phantom-ID rule)"
+            )
+    u_all, ku = inputs.numbers(spec.u, "--u")
+    y_all, ky = obs.numbers(spec.y, "--y")
+    if obs is inputs:
+        rows_in = rows_obs = np.arange(len(inputs.rows))
+        unmatched, join = 0, "one file"
+    else:
+        rows_in, rows_obs, unmatched, join = _pair(spec, inputs, obs, notes)
+    kind = np.concatenate([ku[rows_in], ky[rows_obs]], axis=1)
+    bad = kind.any(axis=1)
+    if bad.any() and not spec.drop_bad_rows:
+        raise InputError(_bad_cell(spec, (inputs, obs), (ku, ky), (rows_in, rows_obs), int(np.argmax(bad))))
+    non_numeric = (kind == NON_NUMERIC).any(axis=1)
+    dropped = {"nan": int((bad & ~non_numeric).sum()), "non_numeric": int(non_numeric.sum()), "unmatched_id": unmatched}
+    keep = ~bad
+    u, y_m = u_all[rows_in[keep]], y_all[rows_obs[keep]] * spec.y_scale
+    starts = [0] if len(u) else []
+    if spec.group is not None:
+        table, rows = (inputs, rows_in) if inputs.has(spec.group) or not obs.has(spec.group) else (obs, rows_obs)
+        values = np.array(table.strings(spec.group, "--group"), dtype=object)[rows[keep]]
+        starts += [int(k) for k in np.flatnonzero(values[1:] != values[:-1]) + 1]
+    sources = [{"path": str(path), "sha256": inputs.sha256, "columns": list(spec.u if obs_path else spec.u + spec.y)}]
+    if obs_path is not None:
+        sources.append({"path": str(obs_path), "sha256": obs.sha256, "columns": list(spec.y)})
+    for s, t in zip(sources, (inputs, obs)):
+        s["rows"] = len(t.rows)
+        if join == "id":
+            s["columns"].append(spec.id)
+        if spec.group is not None and t.has(spec.group) and spec.group not in s["columns"]:
+            s["columns"].append(spec.group)
+    return u, y_m, starts, {"sources": sources, "join": join, "dropped": dropped}
+
+
+def read_measurements(spec: ImportSpec, files, observations=()) -> Measurements:
+    """Read ``files`` (each with the ``--u`` and ``--y`` columns), or ``files[i]`` (the
+    ``--u`` columns) paired with ``observations[i]`` (the ``--y`` columns), as ``spec`` says.
+
+    Returns :class:`Measurements`: inputs (N, m), positions (N, d) in metres for any number
+    d of ``--y`` columns, sequence starts and per-group provenance. InputError for bad input
+    (naming the file, line and column), unequal numbers of files and observation files,
+    ``--id`` without observation files, or no rows left."""
+    files, observations = list(files), list(observations)
+    if not files:
+        raise InputError("no input FILE given")
+    if observations and len(observations) != len(files):
+        raise InputError(
+            f"{len(files)} FILEs but {len(observations)} --observations files: FILE i pairs with OBS i, "
+            "give as many of each"
+        )
+    if spec.id is not None and not observations:
+        raise InputError("--id is not used without --observations: it pairs the rows of an input and an OBS file")
+    us, ys, starts, groups, notes = [], [], [], [], []
+    n = 0
+    for i, path in enumerate(files):
+        u, y_m, s, group = _group(spec, path, observations[i] if observations else None, notes)
+        us.append(u)
+        ys.append(y_m)
+        starts += [n + k for k in s]
+        groups.append({"start": n, "stop": n + len(u), **group})
+        n += len(u)
+    if n == 0:
+        dropped = _total_dropped(groups)
+        raise InputError(
+            f"no rows left to import from {len(files)} file(s): dropped {dropped['nan']} with NaN or empty values, "
+            f"{dropped['non_numeric']} non-numeric, {dropped['unmatched_id']} with unmatched IDs"
+        )
+    return Measurements(np.concatenate(us), np.concatenate(ys), starts, groups, notes)
+
+
+def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: str | None = None) -> ImportResult:
+    """Import ``files`` (and ``observations``) as :func:`read_measurements` does and write
+    the lab dataset ``out`` (u (N, m) in ``--u-unit``, tip (N, 3) metres) with its sidecar:
+    ``sequence_starts``, ``robot`` (kind "measured", input limits from the data), ``units``,
+    ``licence``, ``source``, ``row_groups``, ``notes``, ``import`` and ``command``. A lab
+    dataset holds the tip position, so ``--y`` must name exactly 3 columns."""
+    if len(spec.y) != 3:
+        raise InputError(
+            f"--y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip position, give "
+            "exactly 3 (its x,y,z, e.g. x3,y3,z3); to read more, use lab.data.importing.read_measurements"
+        )
+    m = read_measurements(spec, files, observations)
+    robot = {
+        "name": spec.name or Path(out).stem,
+        "kind": "measured",
+        "n_motors": len(spec.u),
+        "u_min": m.u.min(axis=0).tolist(),
+        "u_max": m.u.max(axis=0).tolist(),
+        "u_unit": spec.u_unit,
+        "y_unit": "m",
+    }
+    settings = {"u_columns": list(spec.u), "y_columns": list(spec.y), "y_unit_read": spec.y_unit}
+    settings |= {"id": spec.id, "group": spec.group, "drop_bad_rows": spec.drop_bad_rows}
+    meta = {
+        "sequence_starts": m.sequence_starts,
+        "robot": robot,
+        "units": {"u": spec.u_unit, "xyz": "m"},
+        "licence": spec.licence,
+        "source": spec.source,
+        "row_groups": m.row_groups,
+        "notes": m.notes,
+        "import": settings,
+        "command": command,
+    }
+    write_dataset(out, m.u, m.y_m, meta)
+    return ImportResult(str(out), len(m.u), len(m.sequence_starts), len(m.row_groups), m.dropped(), m.notes)
