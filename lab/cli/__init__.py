@@ -26,6 +26,8 @@ from lab.cli import (
     data_curve,
     defects,
     fit_dynamics,
+    import_data,
+    inspect,
     simulate,
     splits,
     track,
@@ -41,6 +43,8 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 #: The commands, in the order ``--help`` lists them.
 COMMANDS = {
     "simulate": simulate,
+    "import-data": import_data,
+    "inspect": inspect,
     "train": train,
     "splits": splits,
     "track": track,

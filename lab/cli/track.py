@@ -1,7 +1,8 @@
 """``python -m lab track``: follow a trajectory on a rig with IK through a model, or Soft IK.
 
 Open loop, closed loop (``--closed-loop ilc|feedback --passes K [--gain A]``) or streamed at
-a period (``--period-s T [--dynamic-model DYN.npz]``). The flags become one
+a period (``--period-s T [--dynamic-model DYN.npz]``); or ``--rig none``: no rig, the IK's
+commands written to ``OUT.commands.csv`` for a lab's own robot. The flags become one
 :class:`lab.tracking.TrackSpec`, each declared on the spec that takes it; a flag the chosen
 mode does not use is refused. The run is :func:`lab.tracking.run_track`, with ``--out``
 locked against a second run; the result file's keys are listed in docs/design/tracking.md.
@@ -35,6 +36,22 @@ SETTLED_ONLY = ("reg_weight", "posture_weight", "spread_weight", "max_spread_mm"
 STREAMED_ONLY = ("dynamic_model", "n_periods", "lead_in_s", "command_rate_hz")
 CLOSED_LOOP_ONLY = ("passes", "gain")
 SPREAD_ONLY = ("spread_weight", "max_spread_mm")
+#: Flags ``--rig none`` refuses, and why.
+NO_RIG_REFUSES = (
+    (("soft_ik",), "Soft IK solves through the FEM of a shipped robot; --rig none solves through --model"),
+    (("closed_loop", "passes", "gain"), "a closed loop corrects from measured tips, and nothing is measured"),
+    (
+        ("period_s", *STREAMED_ONLY),
+        "streaming times the commands on a rig; --rig none writes them to OUT.commands.csv",
+    ),
+    (("seed",), "it seeds an emulated rig's noise"),
+    (("n_rings", "n_axial"), "they set an FEM mesh, and no FEM is used"),
+    (
+        ("robot",),
+        "the commands are kept in the box of the model's training data, and a model trained on a "
+        "shipped robot's data brings that robot's limits",
+    ),
+)
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -49,9 +66,12 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "--rig",
         default="sim",
         help="sim | twin[:DEFECTS.toml] | twin:random:SEED (an emulated as-built robot of the family) "
-        "| hardware:CONFIG.toml (default sim)",
+        "| hardware:CONFIG.toml | none (no rig: solve the IK through --model within its training data's "
+        "commands and write them to OUT.commands.csv, for your own robot) (default sim)",
     )
-    k.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
+    k.add_argument(
+        "--robot", help="shipped robot name or path to a TOML description (default three-cable; not with --rig none)"
+    )
     add_spec_flags(k, TrackSpec, only=("trajectory", "n_points"))
     # the IK's settings: --solver, --reg-weight, --posture-weight, --spread-weight (lab.control.ik_config)
     add_spec_flags(k, IKConfig, only=TRACK_IK_FIELDS, base=IKConfig.automatic())
@@ -68,7 +88,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     add_spec_flags(k, StreamSpec, only=("period_s",))
     add_spec_flags(k, TrackSpec, only=("dynamic_model",))
     add_spec_flags(k, StreamSpec, only=("n_periods", "lead_in_s", "command_rate_hz"))
-    k.add_argument("--seed", type=int, default=0, help="noise seed of an emulated rig")
+    k.add_argument("--seed", type=int, help="noise seed of an emulated rig (default 0)")
     add_spec_flags(
         k,
         MeshSpec,
@@ -78,7 +98,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         },
         default_words={"n_rings": "robot's", "n_axial": "robot's"},
     )
-    k.add_argument("--out", required=True, help="result JSON")
+    k.add_argument("--out", required=True, help="result JSON (with --rig none also OUT.commands.csv)")
     k.set_defaults(func=run)
     return k
 
@@ -86,7 +106,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 def run(args) -> int:
     """``python -m lab track``: see :func:`lab.cli.build_parser`. Returns the exit code."""
     spec = track_spec(args)
-    points = None if spec.stream is not None else f"{args.out}.points.csv"
+    points = None if spec.stream is not None or not spec.rig.has_rig else f"{args.out}.points.csv"
+    commands = None if spec.rig.has_rig else f"{args.out}.commands.csv"
     check_paths(
         {
             "--model": args.model,
@@ -95,7 +116,7 @@ def run(args) -> int:
             "--robot": existing(args.robot),
             "--rig": existing(spec.rig.file),
         },
-        {"--out": args.out, "--out points": points, "--out lock": f"{args.out}.lock"},
+        {"--out": args.out, "--out points": points, "--out commands": commands, "--out lock": f"{args.out}.lock"},
     )
     check_writable(args.out)
     command = "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:]))
@@ -109,6 +130,10 @@ def run(args) -> int:
 def track_spec(args) -> TrackSpec:
     """The run's settings from the flags; InputError for a flag the chosen mode does not use
     or a bad value (naming the flag)."""
+    rig = RigSpec.parse(args.rig, allow_none=True)
+    if not rig.has_rig:
+        for dests, why in NO_RIG_REFUSES:
+            refuse_unused(args, dests, f"with --rig none ({why})")
     if args.period_s is not None:
         refuse_unused(args, SETTLED_ONLY, "in a streamed run (--period-s streams open loop or feed-forward)")
     else:
@@ -127,7 +152,7 @@ def track_spec(args) -> TrackSpec:
         model=args.model,
         robot=args.robot,
         seed=args.seed,
-        rig=RigSpec.parse(args.rig),
+        rig=rig,
         mesh=spec_from_args(MeshSpec, args),
         ik=ik,
         correction=spec_from_args(Correction, args),
@@ -137,6 +162,8 @@ def track_spec(args) -> TrackSpec:
 
 def summary(spec: TrackSpec, result, out) -> list[str]:
     """What the run did, in a few lines for the terminal."""
+    if not spec.rig.has_rig:
+        return result.summary(out)
     if spec.stream is not None:
         k = result.knots
         return [

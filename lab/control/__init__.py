@@ -22,7 +22,9 @@ from lab.control.ik import (
     IKResult,
     IKSolver,
     TrajectoryIK,
+    check_forward,
     check_targets,
+    command_set,
     grid_seeds,
 )
 from lab.control.ik_step import projected_gradient_step
@@ -57,6 +59,8 @@ __all__ = [
     "IKResult",
     "TrajectoryIK",
     "check_targets",
+    "check_forward",
+    "command_set",
     "grid_seeds",
     "IKSolver",
     "projected_gradient_step",

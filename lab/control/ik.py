@@ -36,6 +36,8 @@ __all__ = [
     "ARMIJO",
     "check_targets",
     "grid_seeds",
+    "check_forward",
+    "command_set",
 ]
 
 _METHOD_RUN = {"lm": lm_solve, "gd": gd_solve, "dfo": dfo_solve}
@@ -48,6 +50,42 @@ def grid_seeds(forward, commands: CommandSet, levels: int = 7) -> tuple[np.ndarr
     u = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, commands.n)
     u = u[np.all(u @ commands.A.T <= commands.b + commands.tol, axis=1)]
     return u, np.asarray(forward.predict(u), dtype=float)
+
+
+def check_forward(model) -> None:
+    """InputError unless ``model`` is a forward map: a direct inverse model ``u = g(y)`` (a
+    ``command`` method) has none to solve the IK through."""
+    if callable(getattr(model, "command", None)):
+        raise InputError(
+            "this is a direct inverse model u = g(y): it has no forward map to solve the IK through; "
+            "give a forward model (mlp, ensemble, gpr, knn, sklearn-mlp)"
+        )
+
+
+def command_set(robot=None, bounds=None) -> CommandSet:
+    """The allowed commands of ``robot`` (a :class:`~lab.description.RobotDescription`),
+    of the box ``bounds`` = (lo (m,), hi (m,)) rad, or of both (the robot's set cut to the
+    box). InputError for bounds that are not two finite vectors with lo < hi."""
+    if bounds is None:
+        return CommandSet.from_robot(robot)
+    try:
+        lo, hi = (np.asarray(b, dtype=float) for b in bounds)
+    except (TypeError, ValueError):
+        raise InputError(f"command bounds must be (lo (m,), hi (m,)) in rad, got {bounds!r}") from None
+    if lo.ndim != 1 or lo.shape != hi.shape or not len(lo) or not np.all(np.isfinite(lo) & np.isfinite(hi)):
+        raise InputError(f"command bounds must be two finite vectors of one length, got {lo!r}, {hi!r}")
+    if np.any(lo >= hi):
+        j = int(np.argmax(lo >= hi))
+        raise InputError(
+            f"motor {j} has no range to solve over: the bounds give [{lo[j]:g}, {hi[j]:g}] "
+            "(a motor the training data never moved)"
+        )
+    if robot is None:
+        return CommandSet(lo, hi)
+    full = CommandSet.from_robot(robot)
+    if len(lo) != full.n:
+        raise InputError(f"the command bounds are for {len(lo)} motors, but robot {robot.name} has {full.n}")
+    return CommandSet(np.maximum(full.lo, lo), np.minimum(full.hi, hi), full.A, full.b)
 
 
 class IKSolver:
@@ -94,29 +132,45 @@ class IKSolver:
         self.u_posture = np.asarray(self.config.u_posture, dtype=float)
 
     @classmethod
-    def for_model(cls, model, robot, config: IKConfig | None = None, *, fem=None) -> IKSolver:
-        """The IK solver of ``robot`` through ``model`` (``predict_and_jacobian`` and a batched
-        ``predict``; cold starts from a grid of ``config.seed_levels`` levels per motor, default
-        7 up to three motors and 4 beyond) or, when ``model`` is None, Soft IK through the FEM
-        ``fem`` (cold starts at the centre; no spread flag). ``config`` defaults to
+    def for_model(cls, model, robot=None, config: IKConfig | None = None, *, fem=None, bounds=None) -> IKSolver:
+        """The IK solver through ``model`` (``predict_and_jacobian`` and a batched ``predict``;
+        cold starts from a grid of ``config.seed_levels`` levels per motor, default 7 up to
+        three motors and 4 beyond) or, when ``model`` is None, Soft IK through the FEM ``fem``
+        of ``robot`` (cold starts at the centre; no spread flag).
+
+        The allowed commands are ``robot``'s (``[0, u_max]`` and its safety limits); without a
+        robot description, the box ``bounds`` = (lo (m,), hi (m,)) rad, the range of the
+        model's training data (``lab.learn.data_bounds(model)``: this stage does not read
+        model files); with both, their intersection. ``config`` defaults to
         :meth:`IKConfig.automatic`. A ``method`` of None picks "lm", or the derivative-free
-        "dfo" for a model with ``has_jacobian = False`` (``notes`` say so); "lm"/"gd" for such a
-        model, a direct inverse model, or a model of another shape is an InputError."""
+        "dfo" for a model with ``has_jacobian = False`` (``notes`` say so). InputError for
+        "lm"/"gd" on such a model, a direct inverse model, a model of another shape than the
+        commands and a 3-D tip (naming both), or bad bounds."""
         config = IKConfig.automatic() if config is None else config
-        commands = CommandSet.from_robot(robot)
+        if robot is None and (model is None or bounds is None):
+            raise InputError(
+                "without a robot description the IK needs a model and the bounds of its training data "
+                "(lab.learn.data_bounds(model))"
+            )
         if model is None:
             if fem is None:
                 raise InputError("need a model or an FEM (Soft IK) to solve the IK")
+            commands = CommandSet.from_robot(robot)
             return cls(FEMForwardMap(fem), commands, config.replace(method=config.method or "lm", max_spread_m=None))
-        if callable(getattr(model, "command", None)):
+        check_forward(model)
+        commands = command_set(robot, bounds)
+        n_u, n_y = getattr(model, "n_u", commands.n), getattr(model, "n_y", 3)
+        if n_y != 3:
             raise InputError(
-                "this is a direct inverse model u = g(y): it has no forward map to solve the IK through; "
-                "give a forward model (mlp, ensemble, gpr, knn, sklearn-mlp)"
+                f"the model predicts {n_y} outputs, but the targets have 3 columns (x, y, z): the IK needs a "
+                "model of the tip position"
             )
-        if getattr(model, "n_u", robot.n_cables) != robot.n_cables or getattr(model, "n_y", 3) != 3:
+        if n_u != commands.n:
             raise InputError(
-                f"the model maps {model.n_u} inputs to {model.n_y} outputs, but robot "
-                f"{robot.name} has {robot.n_cables} cables and a 3-D tip"
+                f"the model maps {n_u} inputs to {n_y} outputs, but "
+                + (f"robot {robot.name} has {robot.n_cables} cables" if robot is not None else "")
+                + (" and " if robot is not None and bounds is not None else "")
+                + (f"the command bounds are for {len(bounds[0])} motors" if bounds is not None else "")
             )
         notes, method = [], config.method or "lm"
         if not getattr(model, "has_jacobian", True):
@@ -130,7 +184,7 @@ class IKSolver:
                     "the model has no Jacobian: derivative-free IK (secant Levenberg-Marquardt with a compass poll)"
                 )
             method = "dfo"
-        levels = config.seed_levels or (7 if robot.n_cables <= 3 else 4)
+        levels = config.seed_levels or (7 if commands.n <= 3 else 4)
         seeds = grid_seeds(model, commands, levels)
         return cls(model, commands, config.replace(method=method), seeds=seeds, notes=notes)
 

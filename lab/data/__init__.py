@@ -6,6 +6,9 @@ cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and writes 
 JSON-sidecar format that simulated and captured data share. The sampling flags are one
 :class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a simulated
 fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
+:mod:`.repeatability` and :mod:`.diagnostics` measure what a static model can reach on a
+dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspect``).
+:mod:`.importing` reads external measurements (:class:`ImportSpec`) into a dataset.
 """
 
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
@@ -32,6 +35,16 @@ from lab.data.designs import (
     nearest_neighbour_chunks,
     random_commands,
     sobol_commands,
+)
+from lab.data.diagnostics import InspectSpec, drift, inspect_dataset, inspect_file, outliers
+from lab.data.import_spec import ImportSpec
+from lab.data.importing import ImportResult, Measurements, import_dataset, read_measurements
+from lab.data.repeatability import (
+    hysteresis,
+    local_residuals,
+    neighbour_pairs,
+    repeatability_floor,
+    scaled_commands,
 )
 from lab.data.sequences import contiguous_blocks, sequence_ids, sequence_starts_of
 from lab.data.simulated_dataset import simulate_fixed, solve_batch, write_simulated
@@ -70,4 +83,19 @@ __all__ = [
     "sequence_ids",
     "sequence_starts_of",
     "contiguous_blocks",
+    "InspectSpec",
+    "inspect_dataset",
+    "inspect_file",
+    "local_residuals",
+    "drift",
+    "outliers",
+    "scaled_commands",
+    "neighbour_pairs",
+    "repeatability_floor",
+    "hysteresis",
+    "ImportSpec",
+    "Measurements",
+    "ImportResult",
+    "read_measurements",
+    "import_dataset",
 ]

@@ -58,10 +58,14 @@ def make_rig(
     fem: the nominal FEM a ``sim`` rig solves (default: built on the spec's mesh).
     mesh: FEM mesh overrides of a ``sim`` or ``twin`` rig, replacing the spec's.
 
-    Raises InputError (a ValueError) naming the problem: a bad spec, an FEM for a rig that
-    is not ``sim``, an FEM and a mesh together, a mesh for a hardware rig.
+    Raises InputError (a ValueError) naming the problem: a bad spec, ``none`` (no rig), an
+    FEM for a rig that is not ``sim``, an FEM and a mesh together, a mesh for a hardware rig.
     """
     spec = _spec(spec, mesh)
+    if not spec.has_rig:
+        raise InputError(
+            "--rig none is no rig: only `track --rig none` takes it, to solve the IK and write the commands"
+        )
     if fem is not None and spec.kind != "sim":
         raise InputError(f"--rig {spec}: only --rig sim runs on a given nominal FEM")
     if spec.kind == "sim":

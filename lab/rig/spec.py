@@ -1,8 +1,9 @@
 """Which rig a command runs on: :class:`RigSpec`, the typed form of the ``--rig`` option.
 
-``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED`` or
-``hardware:CONFIG.toml`` -- and :meth:`RigSpec.parse` is the only place that reads it;
-``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
+``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED``,
+``hardware:CONFIG.toml``, or for ``track`` alone ``none``: no rig at all, the IK's commands
+written for a lab to send to its own robot -- and :meth:`RigSpec.parse` is the only place
+that reads it; ``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
 (``--n-rings``/``--n-axial``) is the :class:`~lab.fem.MeshSpec` field ``mesh``, which the
 string does not carry. :func:`lab.rig.make_rig` builds the rig a spec names. Every
 problem is an :class:`~lab.errors.InputError` naming ``--rig``.
@@ -19,8 +20,9 @@ from lab.specs import Spec
 
 __all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS", "parse_robot_seed"]
 
-#: The kinds of rig: the nominal quasi-static FEM, the emulated as-built robot, the real one.
-RIG_KINDS = ("sim", "twin", "hardware")
+#: The kinds of rig: the nominal quasi-static FEM, the emulated as-built robot, the real one,
+#: and none (``track --rig none``: solve the IK only; :func:`lab.rig.make_rig` refuses it).
+RIG_KINDS = ("sim", "twin", "hardware", "none")
 #: The forms ``--rig`` accepts, as its help and errors name them.
 RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED or hardware:CONFIG.toml"
 _RANDOM = "random"
@@ -41,7 +43,8 @@ def parse_robot_seed(text: str, spec: str | None = None) -> int:
 class RigSpec(Spec):
     """One rig, as ``--rig`` names it (see the module docstring).
 
-    ``kind``: one of :data:`RIG_KINDS`; ``defects_path``: a twin's defects file (None: the
+    ``kind``: one of :data:`RIG_KINDS` (``none`` only where :meth:`parse` was told it is
+    allowed); ``defects_path``: a twin's defects file (None: the
     robot's shipped defects); ``family_seed``: a twin that is member SEED of the family of
     random as-built robots (:mod:`lab.rig.family`); ``config_path``: a hardware rig's
     configuration file; ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
@@ -71,6 +74,7 @@ class RigSpec(Spec):
             "sim": (),
             "twin": ("defects file", "robot seed"),
             "hardware": ("configuration file",),
+            "none": (),
         }[self.kind]
         wrong = [what for what, set_ in given.items() if set_ and what not in allowed]
         if wrong:
@@ -79,20 +83,27 @@ class RigSpec(Spec):
             raise InputError("--rig twin takes a defects file or twin:random:SEED, not both")
         if self.kind == "hardware" and not self.config_path:
             raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
-        if self.kind == "hardware" and not self.mesh.is_default:
-            raise InputError("--n-rings/--n-axial set the FEM mesh of --rig sim or an emulated twin, not hardware")
+        if self.kind in ("hardware", "none") and not self.mesh.is_default:
+            raise InputError(f"--n-rings/--n-axial set the FEM mesh of --rig sim or an emulated twin, not {self.kind}")
 
     @classmethod
-    def parse(cls, text: RigSpec | str, *, mesh: MeshSpec | None = None) -> RigSpec:
-        """The spec of a ``--rig`` string (a spec is returned as it is); ``mesh``: its FEM mesh.
+    def parse(cls, text: RigSpec | str, *, mesh: MeshSpec | None = None, allow_none: bool = False) -> RigSpec:
+        """The spec of a ``--rig`` string (a spec is returned as it is); ``mesh``: its FEM mesh;
+        ``allow_none``: whether ``none`` (no rig) is a form this command takes.
 
-        Raises InputError naming the problem: an unknown kind, ``sim`` with an argument,
-        ``twin:random`` without a seed or with a bad one, ``hardware`` without a file."""
+        Raises InputError naming the problem: an unknown kind, ``sim`` or ``none`` with an
+        argument, ``twin:random`` without a seed or with a bad one, ``hardware`` without a file."""
         if isinstance(text, RigSpec):
             return text if mesh is None else text.replace(mesh=mesh)
         mesh = MeshSpec() if mesh is None else mesh
         text = str(text)
         kind, _, arg = text.partition(":")
+        if kind == "none":
+            if not allow_none:
+                raise InputError(f"--rig none (no rig) is taken by `track` only; this command needs {RIG_FORMS}")
+            if arg:
+                raise InputError(f"rig 'none' takes no argument (--rig none), got {text!r}")
+            return cls("none", mesh=mesh)
         if kind == "sim":
             if arg:
                 raise InputError(f"rig 'sim' takes no argument (--rig sim), got {text!r}")
@@ -120,7 +131,7 @@ class RigSpec(Spec):
             return "twin" if self.defects_path is None else f"twin:{self.defects_path}"
         if self.kind == "hardware":
             return f"hardware:{self.config_path}"
-        return "sim"
+        return self.kind
 
     def as_dict(self) -> dict:
         """The fields as JSON-ready values, and the ``--rig`` string as ``rig``."""
@@ -133,16 +144,26 @@ class RigSpec(Spec):
 
     @property
     def label(self) -> str:
-        """What results on this rig are: "FEM", "emulated as-built robot" or "hardware"."""
-        return {"sim": "FEM", "twin": "emulated as-built robot", "hardware": "hardware"}[self.kind]
+        """What results on this rig are: "FEM", "emulated as-built robot", "hardware" or
+        "model prediction" (no rig)."""
+        return {"sim": "FEM", "twin": "emulated as-built robot", "hardware": "hardware", "none": "model prediction"}[
+            self.kind
+        ]
+
+    @property
+    def has_rig(self) -> bool:
+        """Whether there is a rig to run on (every kind but ``none``)."""
+        return self.kind != "none"
 
     @property
     def has_dynamics(self) -> bool:
         """Whether the rig moves in time (a twin or hardware; ``sim`` settles instantly)."""
-        return self.kind != "sim"
+        return self.kind in ("twin", "hardware")
 
     def require_dynamics(self) -> RigSpec:
         """This spec, or InputError for ``sim``, whose quasi-static FEM has no dynamics."""
+        if not self.has_rig:
+            raise InputError("--rig none is no rig: it has no dynamics to learn or stream")
         if not self.has_dynamics:
             raise InputError("--rig sim is the quasi-static FEM: it has no dynamics to learn or stream")
         return self

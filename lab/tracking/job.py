@@ -6,8 +6,9 @@ period), with the rig (:class:`lab.rig.RigSpec`), the FEM mesh (:class:`lab.fem.
 the IK (:class:`lab.control.IKConfig`), the correction (:class:`.closed_loop.Correction`) and
 the streaming settings (:class:`.stream_spec.StreamSpec`) -- and :func:`run_track` does the rest:
 robot, trajectory, models, IK, rig, the run, the result file. A settled run keeps each
-measured point in ``OUT.points.csv`` (:mod:`.points`) until the result is written. Every
-count and duration is bounded, so a run always ends.
+measured point in ``OUT.points.csv`` (:mod:`.points`) until the result is written. With
+``--rig none`` there is no rig: :func:`lab.tracking.offline.run_offline` writes the IK's
+commands for a lab's own robot. Every count and duration is bounded, so a run always ends.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from lab.learn.models import load_model
 from lab.rig import RigSpec, make_rig
 from lab.specs import Spec, at_most, option, positive_int
 from lab.tracking.closed_loop import MODES, Correction, check_passes, run_closed_loop
+from lab.tracking.offline import run_offline
 from lab.tracking.points import PointLog
 from lab.tracking.stream import stream_trajectory
 from lab.tracking.stream_spec import StreamSpec
@@ -39,6 +41,8 @@ MAX_POINTS = 10_000
 #: The most settled measurements of one run (targets x passes): about a day on hardware.
 MAX_MEASUREMENTS = 100_000
 _NESTED = {"rig": RigSpec, "mesh": MeshSpec, "ik": IKConfig, "correction": Correction}
+#: The robot and noise seed of a run that names none.
+DEFAULT_ROBOT, DEFAULT_SEED = "three-cable", 0
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,9 @@ class TrackSpec(Spec):
     model (.npz), None for Soft IK through the FEM; ``closed_loop``: None (open loop), "ilc"
     or "feedback", with ``passes`` and ``correction``; ``stream``: a :class:`StreamSpec` to
     stream at a period (then ``dynamic_model``, a ``fit-dynamics`` file, pre-compensates);
-    ``mesh``: the FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed)."""
+    ``mesh``: the FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed);
+    ``robot``, ``seed``: None for :data:`DEFAULT_ROBOT`, :data:`DEFAULT_SEED`. A ``none``
+    rig takes a model and nothing about a rig (no robot, seed, mesh, closed loop or stream)."""
 
     trajectory: str | None = option(
         None,
@@ -80,8 +86,10 @@ class TrackSpec(Spec):
         "pre-compensation of the commands (default: quasi-static open loop)",
     )
     model: str | None = option(None, cli=False, help="learned forward model (.npz); None: Soft IK through the FEM")
-    robot: str = option("three-cable", cli=False, help="shipped robot name or path to a TOML description")
-    seed: int = option(0, cli=False, help="noise seed of an emulated rig")
+    robot: str | None = option(
+        None, cli=False, help="shipped robot name or path to a TOML description (default three-cable)"
+    )
+    seed: int | None = option(None, cli=False, help="noise seed of an emulated rig (default 0)")
     rig: RigSpec = option(RigSpec(), cli=False, help="the rig")
     mesh: MeshSpec = option(MeshSpec(), cli=False, help="the FEM mesh")
     ik: IKConfig = option(IKConfig.automatic(), cli=False, help="the IK's settings")
@@ -99,10 +107,28 @@ class TrackSpec(Spec):
             raise InputError("--period-s streams open loop or feed-forward; it does not combine with --closed-loop")
         if self.dynamic_model is not None and self.stream is None:
             raise InputError("--dynamic-model needs --period-s T")
+        if not self.rig.has_rig:
+            self._check_no_rig()
         fem_rigs = ("sim", "twin") if self.stream is not None else ("sim",)
         if not self.mesh.is_default and self.rig.kind not in fem_rigs and not self.soft_ik:
             where = "--rig sim, an emulated twin" if self.stream is not None else "--rig sim"
             raise InputError(f"--n-rings/--n-axial set the FEM mesh of {where} and --soft-ik only")
+
+    def _check_no_rig(self) -> None:
+        """InputError for a setting a run without a rig has no use for."""
+        unused = {
+            "Soft IK (no model)": self.soft_ik,
+            "robot": self.robot is not None,
+            "seed": self.seed is not None,
+            "mesh": not self.mesh.is_default,
+            "closed loop": self.closed_loop is not None,
+            "stream": self.stream is not None,
+        }
+        if wrong := [what for what, given in unused.items() if given]:
+            raise InputError(
+                f"--rig none solves the IK through a learned model only (the commands are bounded by its "
+                f"training data); it takes no {', '.join(wrong)}"
+            )
 
     @property
     def soft_ik(self) -> bool:
@@ -126,12 +152,16 @@ def run_track(spec: TrackSpec, out: str | Path, *, command: str | None = None, s
     say: called with each line the user should read (IK notes, the points kept when the run
         stops); default silent.
 
-    Returns the :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed).
+    Returns the :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed,
+    a :class:`~lab.tracking.offline.SolvedTargets` with ``--rig none``: the result file and
+    ``OUT.commands.csv``, nothing measured).
     Raises InputError for bad settings or inputs, before the rig is made; a rig's failure
     (exit 1) or an interrupt after the rig was closed, with the measured points kept.
     """
     say = say or (lambda line: None)
-    robot = load_robot(spec.robot)
+    if not spec.rig.has_rig:
+        return run_offline(spec, out, command=command, say=say, max_points=MAX_POINTS)
+    robot = load_robot(spec.robot or DEFAULT_ROBOT)
     log = None if spec.stream is not None else PointLog(f"{out}.points.csv", robot.n_cables)
     targets = load_trajectory(spec.trajectory, spec.n_points)
     _check_size(spec, len(targets))
@@ -145,7 +175,7 @@ def run_track(spec: TrackSpec, out: str | Path, *, command: str | None = None, s
     sim, twin = spec.rig.kind == "sim", spec.rig.kind == "twin"
     try:
         with make_rig(
-            spec.rig, robot, seed=spec.seed, fem=fem if sim else None, mesh=spec.mesh if twin else None
+            spec.rig, robot, seed=spec.seed or DEFAULT_SEED, fem=fem if sim else None, mesh=spec.mesh if twin else None
         ) as rig:
             result = _follow(spec, rig, solver, targets, name, relax, log)
     except BaseException:

@@ -1,6 +1,7 @@
 """Drawing: the arm in matplotlib and meshcat (:mod:`.arm`), meshcat animations
 (:mod:`.animation`), trajectory-tracking figures (:mod:`.tracking`), Figure 1's set-up
-(:mod:`.setup`) and the interactive arm of chapter 01 (:mod:`.sliders`).
+(:mod:`.setup`), the interactive arm of chapter 01 (:mod:`.sliders`) and a dataset's
+diagnostics (:mod:`.real_data`).
 """
 
 from lab.viz.animation import (
@@ -42,6 +43,7 @@ from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_lo
 from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
+from lab.viz.real_data import AXIS_COLORS, plot_diagnostics
 from lab.viz.setup import plot_setup, setup_geometry
 from lab.viz.sliders import ArmExplorer, widgets_available
 from lab.viz.square_frames import plot_square_frames
@@ -117,4 +119,6 @@ __all__ = [
     "MODE_STYLES",
     "plot_period_curve",
     "plot_streamed_trajectory",
+    "AXIS_COLORS",
+    "plot_diagnostics",
 ]
