@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["scaled_commands", "neighbour_pairs", "local_residuals", "pair_fit", "repeatability_floor", "hysteresis"]
+__all__ = ["scaled_commands", "neighbour_pairs", "revisit_floor", "local_residuals", "pair_fit", "repeatability_floor", "hysteresis"]
 
 #: Fewer pairs than this and an estimate is not made (``None`` with a reason).
 MIN_PAIRS = 10
@@ -61,6 +61,17 @@ def neighbour_pairs(u_motor: np.ndarray, neighbours: int) -> tuple[np.ndarray, n
     distance = np.linalg.norm(z[pairs[:, 0]] - z[pairs[:, 1]], axis=1)
     exact = group[pairs[:, 0]] == group[pairs[:, 1]]
     return pairs, distance, exact
+
+
+def revisit_floor(u_motor: np.ndarray, p_tip_W: np.ndarray) -> float | None:
+    """The floor from exact revisits alone (m): ``sqrt(mean |y_i - y_j|^2 / 2)`` over every
+    pair of rows whose commands are equal (:func:`neighbour_pairs`' ``exact``); each pair's
+    half squared distance estimates the per-row tip variance without bias. None without revisits."""
+    pairs, _, exact = neighbour_pairs(u_motor, 0)
+    if not exact.any():
+        return None
+    diff = np.asarray(p_tip_W, float)[pairs[exact, 0]] - np.asarray(p_tip_W, float)[pairs[exact, 1]]
+    return float(np.sqrt(np.mean(np.sum(diff**2, axis=1)) / 2))
 
 
 def local_residuals(u_motor: np.ndarray, values: np.ndarray, neighbours: int, groups=None) -> np.ndarray:
