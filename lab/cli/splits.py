@@ -1,9 +1,11 @@
 """``python -m lab splits``: the ten-split accuracy study (Section V-A.3) of a model on a dataset.
 
 Any model of ``--model`` (the flags of :class:`lab.learn.TrainSpec`, here with the paper's
-90/0/10 split and all cores by default); the splits are those of ``--model mlp`` for the
-same ``--seed`` (the same test indices), so the rows of two models pair up split by split
-(:func:`lab.learn.runs.splits_run`, :func:`lab.learn.models.evaluate_model_splits`).
+90/0/10 random split and all cores by default; ``--split group`` holds out whole
+measurement sequences, ``--history K`` fits on the past commands too); the splits are
+those of ``--model mlp`` for the same ``--seed`` (the same test indices), so the rows of
+two models pair up split by split (:func:`lab.learn.runs.splits_run`,
+:func:`lab.learn.models.evaluate_model_splits`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from lab.learn.train_spec import SplitsSpec, TrainSpec
 from lab.workers import default_jobs
 
 HELP = {
-    "ratios": "split ratios (as the paper's Section V-A study)",
+    "ratios": "split ratios (as the paper's Section V-A study), after an optional word: random rows (the "
+    "default) or group: whole measurement sequences (fewer than 3 are cut into 10 contiguous blocks); a word "
+    "alone keeps the ratios",
     "seed": "seed the split seeds are derived from",
     "jobs": "worker processes",
 }
@@ -27,6 +31,12 @@ HELP = {
 def _base() -> TrainSpec:
     """This command's defaults: the paper's 90/0/10 split, all cores."""
     return TrainSpec(ratios=(0.9, 0.0, 0.1), jobs=default_jobs())
+
+
+def _split_words(args) -> None:
+    """A bare ``--split WORD`` keeps this command's ratios (90/0/10), not train's."""
+    if args.ratios is not None and len(args.ratios) == 1:
+        args.ratios = [*args.ratios, *map(str, _base().ratios)]
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -51,6 +61,7 @@ def run(args) -> int:
     from lab.learn.runs import splits_run
     from lab.learn.studies import write_csv
 
+    _split_words(args)
     spec, splits = spec_from_args(TrainSpec, args, base=_base()), spec_from_args(SplitsSpec, args)
     check_paths(
         {

@@ -1,7 +1,8 @@
 """``python -m lab train``: train a forward model u -> y (an MLP by default) on a dataset.
 
 The model flags are those of :class:`lab.learn.TrainSpec` (``--model``, ``--hidden``,
-``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``, ``--split``, ``--seed``,
+``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``, ``--split`` (ratios, random
+rows or whole ``group`` sequences), ``--history`` (past commands as inputs), ``--seed``,
 ``--activation``, ``--jobs``); :func:`lab.learn.runs.train_run` reads the data and fits
 the model, this command writes it, prints its errors per set and writes the JSON report.
 """

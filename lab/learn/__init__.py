@@ -6,7 +6,8 @@ Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one 
 point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
 A run's settings are one :class:`TrainSpec` (:mod:`.train_spec`; memory check in
-:mod:`.network_size`); :mod:`.runs` runs ``train`` and ``splits`` from dataset files.
+:mod:`.network_size`); :mod:`.runs` runs ``train`` and ``splits`` from dataset files
+(:mod:`.run_inputs`). History models of measured sequences and their past-fixed views: :mod:`.history`.
 Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), the GP
 residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
 Active sampling (:mod:`.active`), run from a design's settings by :mod:`.active_design`;
@@ -20,6 +21,7 @@ from lab.learn.bayes import br_options, effective_parameters, train_br
 from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import train_adam, train_lbfgs
+from lab.learn.history import MAX_HISTORY, at_rest, data_bounds, history_features, history_of, with_past
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
@@ -60,6 +62,12 @@ __all__ = [
     "check_active",
     "simulate_design",
     "pick_apart",
+    "MAX_HISTORY",
+    "at_rest",
+    "data_bounds",
+    "history_features",
+    "history_of",
+    "with_past",
     "InverseModel",
     "fit_inverse",
     "inverse_tip_errors",

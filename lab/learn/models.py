@@ -140,12 +140,13 @@ def load_model(path):
     return MODEL_KINDS[kind](path)
 
 
-def outer_split(n: int, ratios, seed: int):
+def outer_split(n: int, ratios, seed: int, groups=None):
     """The split :func:`lab.learn.train.train` draws first from ``default_rng(seed)``: the
-    same train/validation/test indices for any model fitted with that seed."""
-    from lab.learn.split import divide_random
+    same train/validation/test indices for any model fitted with that seed (random, or of
+    whole ``groups`` (n,) when given: :func:`lab.learn.split.divide_groups`)."""
+    from lab.learn.split import divide
 
-    return divide_random(n, ratios, np.random.default_rng(seed))
+    return divide(n, ratios, np.random.default_rng(seed), groups)
 
 
 def held_out_errors(model, u, y, forward=None) -> dict:
@@ -165,11 +166,11 @@ def held_out_errors(model, u, y, forward=None) -> dict:
     return {"mse_m2": float(np.mean(d * d) / y.shape[1]), "mean_distance_m": float(np.mean(d)), **out}
 
 
-def _one_split(u, y, name, ratios, seed, fit_kwargs, forward) -> dict:
+def _one_split(u, y, name, ratios, seed, fit_kwargs, forward, groups=None) -> dict:
     from lab.workers import watch_parent
 
     watch_parent()
-    split = outer_split(len(u), ratios, seed)
+    split = outer_split(len(u), ratios, seed, groups)
     t0 = time.perf_counter()
     model = fit_model(name, u[split.train], y[split.train], seed=seed, **fit_kwargs)
     wall_s = time.perf_counter() - t0
@@ -206,6 +207,7 @@ def evaluate_model_splits(
     seed: int = 0,
     n_jobs: int = 1,
     forward=None,
+    groups=None,
     **fit_kwargs,
 ) -> list[dict]:
     """The ten-split study for model ``name``: on each of ``n_splits`` random splits
@@ -218,7 +220,8 @@ def evaluate_model_splits(
     ``test_radius_within_68``, :func:`lab.learn.ensemble.calibration`; an ensemble's spread
     scale is fitted on the validation set when there is one, ``spread_scale``, and
     ``test_raw_*`` are the same before it); the inverse adds
-    ``{set}_mean_command_error_rad`` and judges tips by ``forward``."""
+    ``{set}_mean_command_error_rad`` and judges tips by ``forward``. ``groups`` (N,): split
+    whole groups (measurement sequences) instead of rows (:func:`lab.learn.split.divide_groups`)."""
     from lab.learn.split import check_enough_data
     from lab.learn.studies import evaluate_splits, run_seeds
 
@@ -228,10 +231,12 @@ def evaluate_model_splits(
         kwargs = {
             k: v for k, v in fit_kwargs.items() if k in ("hidden", "algorithm", "epochs", "options", "activation")
         }
+        if groups is not None:
+            kwargs["groups"] = groups
         rows = evaluate_splits(u, y, n_splits=n_splits, ratios=ratios, seed=seed, n_jobs=n_jobs, **kwargs)
         return [{"model": name, **r} for r in rows]
     check_enough_data(u, ratios)
-    jobs = [(u, y, name, tuple(ratios), s, fit_kwargs, forward) for s in run_seeds(seed, n_splits)]
+    jobs = [(u, y, name, tuple(ratios), s, fit_kwargs, forward, groups) for s in run_seeds(seed, n_splits)]
     if n_jobs == 1:
         rows = [_one_split(*job) for job in jobs]
     else:

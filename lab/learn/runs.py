@@ -2,11 +2,16 @@
 
 :func:`train_run` reads a dataset (and any ``extra_data`` of the same robot, appended
 before the split), fits the spec's model -- the network by :func:`lab.learn.train.train`;
-any other model on the training part of the same ``dividerand`` split (same seed, same
-indices), with its errors on all three parts and, for an ensemble, its spread scale fitted
-on the validation part -- and records where the data came from in the model's metadata.
-:func:`splits_run` is the ten-split study of :func:`lab.learn.models.evaluate_model_splits`
-on a dataset file. Both check the spec against the data (sizes, memory) before any fit.
+any other model on the training part of the same split (same seed, same indices), with
+its errors on all three parts and, for an ensemble, its spread scale fitted on the
+validation part -- and records where the data came from in the model's metadata, with the
+per-motor box of the training commands (:func:`lab.learn.history.record_data_bounds`),
+the model's history K and, for a robot without an FEM (``robot.kind == "measured"``), the
+sidecar's robot. :func:`splits_run` is the ten-split study of
+:func:`lab.learn.models.evaluate_model_splits` on a dataset file. With ``history`` K > 0
+both fit on :func:`lab.learn.history.history_features` of the dataset's sequences; a
+``group`` split deals out whole sequences (:func:`lab.learn.split.split_groups`). Both
+check the spec against the data (sizes, memory, K below the longest sequence) before any fit.
 """
 
 from __future__ import annotations
@@ -18,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lab.data.dataset import read_dataset
 from lab.errors import InputError
 from lab.learn.metrics import workspace_size_m
 from lab.learn.models import evaluate_model_splits, fit_model, held_out_errors, load_model, outer_split
+from lab.learn.run_inputs import inputs_and_groups, read_all, record_trained
 from lab.learn.split import check_enough_data
 from lab.learn.train import data_sha256, train
 from lab.learn.train_spec import SplitsSpec, TrainSpec
@@ -44,6 +49,7 @@ class TrainRun:
     workspace_size_m: float
     data: str
     file_sha256: str
+    split_info: dict
 
     def report(self, model_path) -> dict:
         """The JSON report of ``train --report`` (kind ``lab.train_report``)."""
@@ -66,6 +72,7 @@ class TrainRun:
             "algorithm": self.spec.algorithm,
             "seed": self.spec.seed,
             "split": list(self.spec.ratios),
+            **self.split_info,
             **self.stop,
             "wall_s": self.wall_s,
             "code_version": code_version(),
@@ -91,57 +98,18 @@ def _forward_model(spec: TrainSpec, forward):
     return load_model(forward)
 
 
-def _check_not_twice(sources: list[tuple[str, np.ndarray]], what: str, rows: np.ndarray) -> None:
-    """Refuse an ``--extra-data`` file ``what`` whose (u, y) ``rows`` repeat a sample of an
-    earlier file (``sources``: (name, rows) each): copies of one sample on both sides of the
-    split would put test samples into training."""
-    for name, old in sources:
-        index = {r.tobytes(): i for i, r in enumerate(old)}
-        dup = [(i, index[r.tobytes()]) for i, r in enumerate(rows) if r.tobytes() in index]
-        if dup:
-            (i, j), more = dup[0], len(dup) - 1
-            raise InputError(
-                f"{what}: line {i + 2} is the same sample as line {j + 2} of {name}"
-                + (f" ({more} more rows are repeated)" if more else "")
-                + "; each sample may be given once (copies would end up on both sides of the split)"
-            )
-
-
-def _read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list]:
-    u, y, meta = read_dataset(data)
-    extra, seen = [], {Path(data).resolve(): "DATA"}
-    sources = [(f"DATA {data}", np.hstack([u, y]))]
-    for path in extra_data:
-        same = seen.get(Path(path).resolve())
-        if same is not None:
-            raise InputError(f"--extra-data {path} is the same file as {same}: each dataset may be given once")
-        seen[Path(path).resolve()] = f"--extra-data {path}"
-        u_x, y_x, meta_x = read_dataset(path)
-        robot_x, robot = ((m.get("robot") or {}).get("name") for m in (meta_x, meta))
-        if u_x.shape[1] != u.shape[1] or robot_x != robot:
-            raise InputError(
-                f"--extra-data {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
-                f"{robot!r} with {u.shape[1]}"
-            )
-        rows = np.hstack([u_x, y_x])
-        _check_not_twice(sources, f"--extra-data {path}", rows)
-        sources.append((f"--extra-data {path}", rows))
-        u, y = np.vstack([u, u_x]), np.vstack([y, y_x])
-        extra.append({"path": str(path), "file_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()})
-    return u, y, meta, extra
-
-
 def _finite_or_none(d: dict) -> dict:
     return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
 
 
-def _fit_other(spec: TrainSpec, u, y, forward):
-    """A model other than the plain network on the training part of train's own split;
-    returns (model, errors per set, calibration or None, wall_s)."""
+def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
+    """A model other than the plain network on the training part of train's own split
+    (of ``groups`` when given); returns (model, errors per set, calibration or None,
+    wall_s, training indices)."""
     from lab.learn.ensemble import calibration
 
     check_enough_data(u, spec.ratios)
-    split = outer_split(len(u), spec.ratios, spec.seed)
+    split = outer_split(len(u), spec.ratios, spec.seed, groups)
     t0 = time.perf_counter()
     model = fit_model(spec.model, u[split.train], y[split.train], seed=spec.seed, n_jobs=spec.jobs, **spec.fit_kwargs())
     wall_s = time.perf_counter() - t0
@@ -163,7 +131,7 @@ def _fit_other(spec: TrainSpec, u, y, forward):
             "model": spec.model,
             "seed": spec.seed,
             "split": {
-                "method": "dividerand",
+                "method": "dividerand" if groups is None else "group",
                 "ratios": list(map(float, spec.ratios)),
                 **split.sizes(),
                 "indices": {k: v.tolist() for k, v in sets.items()},
@@ -174,7 +142,7 @@ def _fit_other(spec: TrainSpec, u, y, forward):
     )
     if cal is not None:
         model.metadata["training"]["calibration_test"] = cal
-    return model, errors, cal, wall_s
+    return model, errors, cal, wall_s, split.train
 
 
 def train_run(
@@ -187,7 +155,8 @@ def train_run(
     for bad files, data or settings, before any fit."""
     from lab.learn.mlp import MLP
 
-    u, y, meta, extra = _read_all(data, extra_data)
+    u, y, meta, extra, ids = read_all(data, extra_data)
+    x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
     forward_model = _forward_model(spec, forward)
     init_model = None
     if init is not None:
@@ -195,24 +164,27 @@ def train_run(
         if spec.model != "mlp" or not isinstance(init_model, MLP):
             raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with --model mlp only")
         spec = spec.replace(hidden=tuple(init_model.hidden))
-    spec.check_fits(u.shape[1], y.shape[1], len(u))
-    what = network_words(spec, u.shape[1], y.shape[1])
+    spec.check_fits(x.shape[1], y.shape[1], len(u))
+    what = network_words(spec, x.shape[1], y.shape[1])
     if log is not None:
+        past = f" (history {spec.history}: {u.shape[1]} motors x {spec.history + 1} commands)" if spec.history else ""
         log(
-            f"{' + '.join(map(str, [data, *extra_data]))}: {len(u)} samples, {u.shape[1]} inputs -> {y.shape[1]} "
-            f"outputs; training {spec.model}{f' {what} ({spec.activation}) with {spec.algorithm}' if what else ''}, "
-            f"split {list(spec.ratios)}, seed {spec.seed}"
+            f"{' + '.join(map(str, [data, *extra_data]))}: {len(u)} samples, {x.shape[1]} inputs{past} -> "
+            f"{y.shape[1]} outputs; training {spec.model}"
+            f"{f' {what} ({spec.activation}) with {spec.algorithm}' if what else ''}, "
+            f"{spec.split} split {list(spec.ratios)}, seed {spec.seed}"
         )
     cal = None
     if spec.model == "mlp":
         options = spec.fit_kwargs()["options"]
-        res = train(u, y, spec.hidden, activation=spec.activation, algorithm=spec.algorithm, ratios=spec.ratios,
-                    seed=spec.seed, epochs=spec.epochs, options=options, init=init_model)  # fmt: skip
-        model, errors, wall_s = res.model, res.errors, res.log.wall_s
+        res = train(x, y, spec.hidden, activation=spec.activation, algorithm=spec.algorithm, ratios=spec.ratios,
+                    seed=spec.seed, epochs=spec.epochs, options=options, init=init_model, groups=groups)  # fmt: skip
+        model, errors, wall_s, train_idx = res.model, res.errors, res.log.wall_s, res.split.train
         stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
     else:
-        model, errors, cal, wall_s = _fit_other(spec, u, y, forward_model)
+        model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_model, groups)
         stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
+    record_trained(model, spec, u, train_idx, meta)
     file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
     training = model.metadata["training"]
     training.setdefault("data_sha256", data_sha256(u, y))
@@ -221,29 +193,32 @@ def train_run(
         training["data"]["extra"] = extra
     training["command"] = command
     size = workspace_size_m(y) or float("nan")
-    return TrainRun(spec, model, errors, cal, stop, wall_s, size, str(data), file_sha)
+    return TrainRun(spec, model, errors, cal, stop, wall_s, size, str(data), file_sha, split_info)
 
 
 def splits_run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None):
     """The ten-split study (:func:`lab.learn.models.evaluate_model_splits`) of ``spec``'s
     model on the dataset file ``data``, ``splits.n_splits`` splits on ``spec.jobs`` workers;
     returns (rows, each with ``command``; the workspace size in m)."""
-    u, y, _ = read_dataset(data)
+    u, y, _, _, ids = read_all(data, ())
+    x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
     forward_model = _forward_model(spec, forward)
     # spec.jobs workers run one split each; an ensemble's members train one after another there
-    spec.replace(jobs=1).check_fits(u.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
+    spec.replace(jobs=1).check_fits(x.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
     if log is not None:
-        net = "-".join(map(str, [u.shape[1], *spec.hidden, y.shape[1]]))
+        net = "-".join(map(str, [x.shape[1], *spec.hidden, y.shape[1]]))
         what = {
             "mlp": f"{net} network ({spec.algorithm})",
             "ensemble": f"{spec.members} x {net} ensemble ({spec.algorithm})",
         }
+        past = f", history {spec.history}" if spec.history else ""
         log(
-            f"{data}: {len(u)} samples; {splits.n_splits} random splits {list(spec.ratios)} of a "
-            f"{what.get(spec.model, spec.model)}, seed {spec.seed}, {spec.jobs} worker(s)"
+            f"{data}: {len(u)} samples; {splits.n_splits} {spec.split} splits {list(spec.ratios)} of a "
+            f"{what.get(spec.model, spec.model)}{past}, seed {spec.seed}, {spec.jobs} worker(s)"
         )
-    rows = evaluate_model_splits(u, y, spec.model, n_splits=splits.n_splits, ratios=tuple(spec.ratios), seed=spec.seed,
-                                 n_jobs=spec.jobs, forward=forward_model, **spec.fit_kwargs())  # fmt: skip
+    rows = evaluate_model_splits(x, y, spec.model, n_splits=splits.n_splits, ratios=tuple(spec.ratios), seed=spec.seed,
+                                 n_jobs=spec.jobs, forward=forward_model, groups=groups,
+                                 **spec.fit_kwargs())  # fmt: skip
     for r in rows:
-        r["command"] = command
+        r.update(split_info, command=command)
     return rows, workspace_size_m(y)

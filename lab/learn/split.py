@@ -1,10 +1,16 @@
 """Dividing a dataset into training, validation and test sets, and how much data that needs.
 
 Splits follow MATLAB ``dividerand``: a random permutation, ``round(ratio * N)`` samples
-for validation and test, the rest for training (:func:`divide_random`).
-:func:`check_enough_data` refuses data too small for a split -- one row, identical rows,
-fewer distinct commands than a fit needs -- with the minimum in the message, before any
-training starts (a degenerate model would otherwise be written with exit code 0).
+for validation and test, the rest for training (:func:`divide_random`). A *group* split
+(:func:`divide_groups`, ``--split group``) holds out whole measurement sequences instead,
+so that no row measured just before or after a test row is trained on (rows of one
+sequence are strongly correlated; a random split then flatters the model): sequences are
+dealt out in seeded random order so that the row counts approach the ratios, and data of
+fewer than :data:`MIN_GROUPS` sequences are cut into :data:`N_BLOCKS` contiguous blocks in
+measurement order (:func:`split_groups`). :func:`check_enough_data` refuses data too small
+for a split -- one row, identical rows, fewer distinct commands than a fit needs -- with the
+minimum in the message, before any training starts (a degenerate model would otherwise be
+written with exit code 0).
 """
 
 from __future__ import annotations
@@ -14,6 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.errors import InputError
+
+#: How ``--split`` divides the rows: one by one at random, or whole sequences.
+SPLIT_KINDS = ("random", "group")
+#: A group split of data with fewer sequences than this cuts them into N_BLOCKS blocks.
+MIN_GROUPS, N_BLOCKS = 3, 10
 
 
 @dataclass
@@ -44,6 +55,57 @@ def divide_random(n: int, ratios=(0.7, 0.15, 0.15), seed: int | np.random.Genera
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     perm = rng.permutation(n)
     return Split(np.sort(perm[:n_train]), np.sort(perm[n_train : n_train + n_val]), np.sort(perm[n_train + n_val :]))
+
+
+def split_groups(seq_ids) -> tuple[np.ndarray, str]:
+    """The groups a group split deals out, (N,) ints, and what they are: ``"sequences"``
+    (``seq_ids`` itself) or, for fewer than :data:`MIN_GROUPS` sequences,
+    ``"contiguous_blocks"``: :data:`N_BLOCKS` blocks in row order (fewer for fewer rows)."""
+    from lab.data.sequences import contiguous_blocks
+
+    ids = np.asarray(seq_ids)
+    n_groups = 1 + int(np.count_nonzero(ids[1:] != ids[:-1])) if len(ids) else 0
+    if n_groups >= MIN_GROUPS:
+        return ids, "sequences"
+    return contiguous_blocks(len(ids), min(N_BLOCKS, max(len(ids), 1))), "contiguous_blocks"
+
+
+def divide_groups(groups, ratios=(0.8, 0.1, 0.1), seed: int | np.random.Generator = 0) -> Split:
+    """A split that keeps each group (``groups`` (N,): a run of equal consecutive values is
+    one group, e.g. one measurement sequence) whole on one side.
+
+    Groups are taken in a seeded random order; the test set, then the validation set, takes
+    each group that brings its row count closer to ``round(ratio * N)`` (its first group
+    always, when its ratio is > 0), keeping back one group for each set still to fill;
+    training gets the rest. InputError for fewer groups than the sets asked for."""
+    divide_random(1, ratios)  # checks the ratios
+    g = np.asarray(groups)
+    n = len(g)
+    starts = np.flatnonzero(np.r_[True, g[1:] != g[:-1]]) if n else np.zeros(0, int)
+    bounds = list(zip(starts, [*starts[1:], n]))
+    r = np.asarray(ratios, dtype=float) / float(np.sum(ratios))
+    asked = [s for s in (2, 1) if r[s] > 0]
+    if len(bounds) < 1 + len(asked):
+        raise InputError(
+            f"a group split {tuple(ratios)} needs at least {1 + len(asked)} sequences (one per set), got {len(bounds)}"
+        )
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    left = [int(i) for i in rng.permutation(len(bounds))]
+    sets = {0: [], 1: [], 2: []}
+    for pos, s in enumerate(asked):
+        target, count = int(round(r[s] * n)), 0
+        for i in list(left):
+            size = bounds[i][1] - bounds[i][0]
+            keep_back = len(asked) - pos  # train and the sets after this one need a group each
+            if len(left) <= keep_back:
+                break
+            if not sets[s] or abs(count + size - target) < abs(count - target):
+                sets[s].append(i)
+                left.remove(i)
+                count += size
+    sets[0] = left
+    idx = [np.sort(np.concatenate([np.arange(*bounds[i]) for i in sets[s]] or [np.zeros(0, int)])) for s in range(3)]
+    return Split(*(a.astype(int) for a in idx))
 
 
 def _sizes(n: int, ratios) -> tuple[int, int, int]:
@@ -79,3 +141,16 @@ def check_enough_data(u: np.ndarray, ratios) -> None:
             f"need at least {need} samples with distinct commands ({u.shape[1] + 1} to train on, "
             "one for each validation or test set asked for)"
         )
+
+
+def divide(n: int, ratios, seed: int | np.random.Generator = 0, groups=None) -> Split:
+    """:func:`divide_random` of ``n`` rows, or with ``groups`` (n,) :func:`divide_groups`;
+    InputError if the training part then has fewer than 2 rows."""
+    if groups is None:
+        return divide_random(n, ratios, seed)
+    if len(groups) != n:
+        raise InputError(f"groups must give one group per row: {len(groups)} for {n} rows")
+    split = divide_groups(groups, ratios, seed)
+    if len(split.train) < 2:
+        raise InputError(f"the group split {tuple(ratios)} leaves {len(split.train)} training rows; need at least 2")
+    return split

@@ -19,7 +19,7 @@ from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP, init_mlp
 from lab.learn.network_size import check_network_size
-from lab.learn.split import Split, check_enough_data, divide_random
+from lab.learn.split import Split, check_enough_data, divide
 
 ALGORITHMS = ("lm", "adam", "lbfgs", "br")
 
@@ -56,6 +56,7 @@ def train(
     options=None,
     progress=None,
     init=None,
+    groups=None,
 ) -> TrainResult:
     """Split (``dividerand``), initialise (Nguyen-Widrow) and train a u -> y network.
 
@@ -69,7 +70,8 @@ def train(
     overrides the maximum number of epochs. The model's ``metadata["training"]`` records
     everything needed to reproduce the run. ``init``: an :class:`MLP` of the same input and
     output sizes to continue from instead of Nguyen-Widrow weights (a copy is trained; the
-    split is drawn as without it), e.g. to extend a long run by more epochs.
+    split is drawn as without it), e.g. to extend a long run by more epochs. ``groups`` (N,):
+    hold out whole groups (measurement sequences) instead, :func:`lab.learn.split.divide_groups`.
     """
     u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
     if u.ndim != 2 or y.ndim != 2 or len(u) != len(y):
@@ -80,7 +82,7 @@ def train(
         raise InputError(f"epochs must be positive, got {epochs}")
     check_enough_data(u, ratios)
     rng = np.random.default_rng(seed)
-    split = divide_random(len(u), ratios, rng)
+    split = divide(len(u), ratios, rng, groups)
     sizes = init.layer_sizes if init is not None else (u.shape[1], *hidden, y.shape[1])
     check_network_size(sizes, len(split.train), algorithm)  # before allocating any weight
     model = init_mlp(u, y, hidden, activation, rng)
@@ -123,7 +125,7 @@ def train(
         "seed": seed,
         **({"init": init.metadata.get("training", {}).get("command", "a given network")} if init is not None else {}),
         "split": {
-            "method": "dividerand",
+            "method": "dividerand" if groups is None else "group",
             "ratios": list(map(float, ratios)),
             **split.sizes(),
             "indices": {

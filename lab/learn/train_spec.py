@@ -1,8 +1,10 @@
 """The settings of a training run: :class:`TrainSpec`, the typed form of the model flags.
 
 Which model (``--model``), its network (``--hidden``, ``--activation``), how it is trained
-(``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``), the split (``--split``),
-the seed and the worker processes (``--jobs``) are the fields of one frozen spec, each
+(``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``), the past commands it takes
+(``--history``, :mod:`lab.learn.history`), the split (``--split``: ratios, and ``random``
+rows or whole ``group`` sequences), the seed and the worker processes (``--jobs``) are the
+fields of one frozen spec, each
 declared with :func:`lab.specs.option`, so that the flags' help and checks live here:
 ``train`` and ``splits`` build their flags from it, ``transfer`` its ``--hidden`` and
 ``--seed``. :meth:`TrainSpec.check_fits` refuses, once the data's sizes are known, a
@@ -17,11 +19,13 @@ from dataclasses import dataclass
 from numbers import Integral
 
 from lab.errors import InputError
+from lab.learn.history import MAX_HISTORY
 from lab.learn.mlp import ACTIVATIONS
 from lab.learn.models import MODEL_CHOICES, net_options
 from lab.learn.network_size import check_network_size
+from lab.learn.split import SPLIT_KINDS
 from lab.learn.train import ALGORITHMS
-from lab.specs import Spec, non_negative, non_negative_int, option, positive_int
+from lab.specs import Spec, at_most, non_negative, non_negative_int, option, positive_int
 
 __all__ = ["TrainSpec", "SplitsSpec"]
 
@@ -38,6 +42,41 @@ def _ratios(v) -> str | None:
         and v[0] > 0
     )
     return None if ok else "must be 3 non-negative numbers (train, validation, test) with train > 0"
+
+
+def _split_words(value, kind: str, default) -> tuple[str, object]:
+    """(kind, ratios) of a ``--split`` value: 3 ratios, a word of :data:`SPLIT_KINDS`, or
+    the word then 3 ratios (words and numbers as the command line gives them, strings)."""
+    if not isinstance(value, (tuple, list)):
+        return kind, value
+    words = list(value)
+    if words and isinstance(words[0], str) and words[0].strip().lower() in SPLIT_KINDS:
+        kind, words = words[0].strip().lower(), words[1:]
+        if not words:
+            return kind, default
+    elif words and isinstance(words[0], str) and not _is_number_word(words[0]):
+        raise InputError(f"--split must start with one of {', '.join(SPLIT_KINDS)} or be 3 ratios, got {words[0]!r}")
+    if len(words) != 3:
+        raise InputError(
+            f"--split takes 3 ratios (TRAIN VAL TEST), a word ({', '.join(SPLIT_KINDS)}) or the word and 3 ratios, "
+            f"got {' '.join(map(str, value))!r}"
+        )
+    out = []
+    for w in words:
+        if isinstance(w, str):
+            if not _is_number_word(w):
+                raise InputError(f"--split ratio {w!r} is not a number")
+            w = float(w)
+        out.append(w)
+    return kind, tuple(out)
+
+
+def _is_number_word(w: str) -> bool:
+    try:
+        float(w)
+    except ValueError:
+        return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -68,19 +107,38 @@ class TrainSpec(Spec):
     ratios: tuple[float, float, float] = option(
         (0.8, 0.1, 0.1),
         flag="--split",
-        type=float,
-        nargs=3,
-        metavar=("TRAIN", "VAL", "TEST"),
+        type=str,
+        nargs="+",
+        metavar="SPLIT",
         check=_ratios,
-        help="random split ratios like MATLAB dividerand",
+        help="split ratios (train, validation, test), after an optional word: random rows like MATLAB "
+        "dividerand (the default), or group: whole measurement sequences (the sidecar's sequence_starts; "
+        "fewer than 3 are cut into 10 contiguous blocks); a word alone keeps the default ratios",
+    )
+    split: str = option("random", choices=SPLIT_KINDS, cli=False, help="random rows or whole sequences (--split)")
+    history: int = option(
+        0,
+        type=int,
+        metavar="K",
+        check=at_most(MAX_HISTORY, non_negative_int),
+        help="past commands the model also takes: inputs u_t, u_{t-1}, ..., u_{t-K} within each measurement "
+        f"sequence (0: the command only; at most {MAX_HISTORY}, and below the longest sequence)",
     )
     seed: int = option(0, type=int, check=non_negative_int, help="seed of the split and the initial weights")
     jobs: int = option(1, type=int, check=positive_int, help="ensemble: worker processes training the members")
 
     def __post_init__(self):
+        default = type(self).__dataclass_fields__["ratios"].default
+        kind, ratios = _split_words(self.ratios, self.split, default)
+        object.__setattr__(self, "split", kind)  # frozen: the parsed words, once
+        object.__setattr__(self, "ratios", ratios)
         super().__post_init__()
         if self.model == "ensemble" and self.members < 2:
             raise InputError(f"--members must be at least 2, got {self.members}")
+        if self.model == "inverse-mlp" and self.history:
+            raise InputError(
+                "--history applies to forward models; --model inverse-mlp maps a tip to a command and takes no past"
+            )
 
     def fit_kwargs(self) -> dict:
         """The keyword arguments of :func:`lab.learn.models.fit_model` (and of
