@@ -1,16 +1,16 @@
 """Dynamixel XM430 servos on one bus, through the real ``dynamixel_sdk`` (Protocol 2.0).
 
-``XM430Bus`` opens the serial port, pings every servo, switches torque off, sets extended
-position mode and the profile velocity, then moves all motors at once (``write_goal_u``,
-a sync write) and reads them back (``read_present_u``, a sync read checking every error
-byte). Motor angle ``u`` (rad) >= 0 winds the cable in; per servo
-``u = direction * (ticks - zero_ticks) * 2 pi / 4096``, with each zero moved by whole
-turns on connecting to the turn nearest u = 0 (an X-series servo reports within one turn),
-and a start-up angle outside the allowed range refused. The Bus Watchdog is cleared on
-connecting (a killed session leaves it fired, locking goals and profile) and re-armed, the
-last goal written again, after any quiet spell it may have fired in. Every failed exchange
-raises ``ServoError`` naming the servo ID and its cable, after trying to switch torque off
-on every servo (the message says whether that was confirmed). Details: ``docs/design/rig.md``.
+``XM430Bus`` opens the serial port, pings every servo, switches torque off, sets extended position
+mode and the profile velocity, then moves all motors at once, each at a speed scaled to its travel
+so that all arrive together (``write_goal_u``, sync writes), and reads them back
+(``read_present_u``, a sync read checking every error byte). Motor angle ``u`` (rad) >= 0 winds the
+cable in; per servo ``u = direction * (ticks - zero_ticks) * 2 pi / 4096``, with each zero moved by
+whole turns on connecting to the turn nearest u = 0 (an X-series servo reports within one turn), and
+a start-up angle outside the allowed range refused. The Bus Watchdog is cleared on connecting (a
+killed session leaves it fired, locking goals and profile) and re-armed, the last goal written
+again, after any quiet spell it may have fired in. Every failed exchange raises ``ServoError``
+naming the servo ID and its cable, after trying to switch torque off on every servo (the message
+says whether that was confirmed). Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -52,6 +52,8 @@ from lab.rig.dynamixel_units import (
     VELOCITY_LIMIT,
     X_SERIES_MODELS,
     ServoConfig,
+    bytes4,
+    synced_velocity_units,
     ticks_from_u,
     u_from_ticks,
     velocity_units,
@@ -79,10 +81,6 @@ IO_ERRORS = (serial.SerialException, OSError, termios.error)
 #: A quiet bus for longer than this fraction of the Bus Watchdog time may have fired it: the servo
 #: times from a packet's arrival, the host from the end of an exchange (they differ by delays).
 WATCHDOG_MARGIN = 0.5
-
-
-def _bytes4(value: int) -> list[int]:
-    return list((int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
 
 
 class XM430Bus:
@@ -127,7 +125,7 @@ class XM430Bus:
         self.watchdog_s = self.watchdog_units * BUS_WATCHDOG_UNIT_MS / 1000
         self._clock, self._t_io = clock, clock()
         self._watchdog_armed = self._watchdog_lapsed = False  # lapsed: it may have fired since armed
-        self._goal_ticks: np.ndarray | None = None  # the last goal written
+        self._goal_ticks = self._present_ticks = None  # (n,) ticks: the last goal written, positions read
         self.model_numbers: dict[int, int] = {}
         self._closed = False
         self._unconfirmed_at_fail: list[int] | None = None  # torque-off result of the last failure
@@ -142,6 +140,7 @@ class XM430Bus:
             self._closed = True
             raise ServoError(f"serial port {self.port_name} refused {self.baud_rate} baud")
         self._sync_write = GroupSyncWrite(self._port, self._ph, *GOAL_POSITION)
+        self._profile_write = GroupSyncWrite(self._port, self._ph, *PROFILE_VELOCITY)
         self._sync_read = GroupSyncRead(self._port, self._ph, *PRESENT_POSITION)
         for dxl_id in self.ids:
             self._sync_read.addParam(dxl_id)
@@ -242,19 +241,25 @@ class XM430Bus:
         return ticks
 
     def write_goal_ticks(self, ticks) -> None:
-        """Sync-write raw goal positions (n,) ticks (no status packets come back)."""
+        """Sync-write raw goal positions (n,) ticks (no status packets come back), after profile
+        velocities that bring every servo there together from the positions last read."""
         ticks = np.asarray(ticks, dtype=np.int64)
         for dxl_id, t in zip(self.ids, ticks):
             if abs(int(t)) > GOAL_LIMIT_TICKS:
                 raise InputError(f"servo ID {dxl_id}: goal {int(t)} ticks outside +-{GOAL_LIMIT_TICKS}")
         if self._watchdog_may_have_fired():
             self.arm_watchdog()  # a fired one locks the goals, and a sync write gets no answer to say so
-        self._sync_write.clearParam()
-        for dxl_id, t in zip(self.ids, ticks):
-            self._sync_write.addParam(dxl_id, _bytes4(t))
-        result = self._sdk(self._sync_write.txPacket)
-        self._check(self.ids[0], "sync write of goal positions", result, 0, who="bus")
+        if self._present_ticks is not None:
+            speeds = synced_velocity_units(ticks - self._present_ticks, self.profile_velocity_units)
+            self._write_all(self._profile_write, speeds, "profile velocities")
+        self._write_all(self._sync_write, ticks, "goal positions")
         self._goal_ticks = ticks.copy()
+
+    def _write_all(self, group: GroupSyncWrite, values, what: str) -> None:
+        group.clearParam()
+        for dxl_id, v in zip(self.ids, values):
+            group.addParam(dxl_id, bytes4(v))
+        self._check(self.ids[0], f"sync write of {what}", self._sdk(group.txPacket), 0, who="bus")
 
     def read_present_ticks(self) -> np.ndarray:
         """Sync-read present positions (n,) ticks (signed), checking each status packet; first,
@@ -272,6 +277,7 @@ class XM430Bus:
         for k, (dxl_id, (data, result, error)) in enumerate(zip(self.ids, replies)):
             self._check(dxl_id, "sync read of present position", result, error)
             out[k] = int.from_bytes(bytes(data[:4]), "little", signed=True)
+        self._present_ticks = out.copy()
         return out
 
     def read_present_u(self) -> np.ndarray:

@@ -103,6 +103,27 @@ def velocity_units(omega_rad_s: float) -> int:
     return max(1, round(omega_rad_s * 60 / (2 * math.pi) / RPM_PER_VELOCITY_UNIT))
 
 
+def synced_velocity_units(travel_ticks, pace_units: int) -> np.ndarray:
+    """Profile velocities (n,) in register units that bring every servo to its goal at the
+    same time: the longest travel ``travel_ticks`` (n,) at ``pace_units``, each other in
+    proportion (to the nearest unit, at least 1: 0 would be the servo's top speed). A servo
+    that does not move keeps the pace. Each servo turns at constant speed (profile
+    acceleration 0), so the motor angles move on a straight line from start to goal -- the
+    move the capture's recorder and the relaxation filter assume -- but for the whole units
+    (0.229 rev/min): a servo at k units arrives up to 0.5 / k of its travel time early or late."""
+    travel = np.abs(np.asarray(travel_ticks, dtype=float))
+    longest = float(travel.max()) if travel.size else 0.0
+    if longest <= 0:
+        return np.full(travel.shape, int(pace_units), dtype=np.int64)
+    units = np.maximum(np.rint(int(pace_units) * travel / longest), 1).astype(np.int64)
+    return np.where(travel > 0, units, int(pace_units))
+
+
+def bytes4(value: int) -> list[int]:
+    """A 4-byte register value, little endian (two's complement), as a sync write's parameter."""
+    return list((int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
+
+
 #: How often a sync read whose status packets timed out is sent again before it counts as failed.
 READ_TRIES = 3
 

@@ -4,10 +4,11 @@
 each command is a :class:`~lab.dynamics.relaxation_fit.Segment` (sent at ``t_command_s``,
 motors arrived at ``t_arrived_s``), each reading the mean of the valid motion-capture
 frames over ``reading_period_s`` at their mean time. Motors are assumed to turn at constant
-speed (Dynamixel "Profile Acceleration = 0"), so the fraction of the move done is known
-from the present angles read after each reading, and the arrival time is interpolated
-between readings rather than rounded up to one. Both the relaxation fit
-(``python -m lab fit-dynamics``) and the predictive capture protocol use it.
+speed (Dynamixel "Profile Acceleration = 0") and to arrive together (the hardware driver
+scales each servo's speed to its travel), so the motor angles move on a straight line, the
+fraction of the move done is known from the present angles read after each reading, and
+the arrival time is interpolated between readings rather than rounded up to one. Both the
+relaxation fit (``python -m lab fit-dynamics``) and the predictive capture protocol use it.
 """
 
 from __future__ import annotations

@@ -44,6 +44,8 @@ class AsBuiltBody(Body):
         self.n_motors = robot.n_cables
         #: motor speed (rad/s) used for the next command; the XM430 emulator may set it
         self.profile_velocity_rad_s = self.defects.profile_velocity_rad_s
+        #: or each motor's (n_motors,) rad/s (the XM430 emulator's servos); None: all at the above
+        self.motor_speeds_rad_s: np.ndarray | None = None
         d = self.defects
         self._r = robot.spool_radius_m
         self._h = d.play_m
@@ -71,12 +73,14 @@ class AsBuiltBody(Body):
         goal = self._quantise(goal)
         y_end = np.clip(y_now, self._r * goal - self._h, self._r * goal + self._h)
         p_end = self.equilibria.tip(y_end)
-        v = float(self.profile_velocity_rad_s)
-        if not v > 0:
-            raise InputError(f"profile_velocity_rad_s must be positive, got {v}")
+        v = float(self.profile_velocity_rad_s) if self.motor_speeds_rad_s is None else self.motor_speeds_rad_s
+        if not np.all(np.asarray(v) > 0):
+            raise InputError(f"motor speeds must be positive, got {v}")
         self._t0, self._u0, self._goal, self._v = self._t, u_now, goal, v
         self._y0, self._p0, self._p1 = y_now, p_now, p_end
-        self._T = float(np.max(np.abs(goal - u_now))) / v
+        travel = np.abs(goal - u_now)
+        k = int(np.argmax(travel))  # the equilibrium ramps over the time of the farthest move
+        self._T = float(travel[k] / (v if np.ndim(v) == 0 else v[k]))
 
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(present motor angles (n_motors,) rad in whole ticks, true tip p_tip_W (3,) m)."""

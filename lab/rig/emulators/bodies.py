@@ -3,10 +3,11 @@
 ``LiveBody`` puts a ``Body`` (``lab.rig.base``) on a clock (the wall clock, or a
 ``VirtualClock``) so that the emulated servo bus (which commands it) and the NatNet server
 (which streams its tip) can share it from their own threads: calls are serialised by a
-lock and time never runs backward
-(a command stamped before the body's latest time is applied at that time). A body with
-a ``profile_velocity_rad_s`` attribute gets the servos' profile velocity with each
-command, so its motors move at the speed the driver configured.
+lock and time never runs backward (a command stamped before the body's latest time is
+applied at that time). A body with a ``profile_velocity_rad_s`` attribute gets the servos'
+speeds with each command: the fastest as ``profile_velocity_rad_s`` and, where it has a
+``motor_speeds_rad_s`` attribute, each motor's own, so its motors move as the servos the
+driver configured do (each at its own speed: the driver scales them to arrive together).
 
 ``KinematicBody`` is a small stand-in for the arm, for exercising the hardware path
 without the FEM: each motor turns toward its goal at a fixed speed, and the tip moves
@@ -42,13 +43,20 @@ class LiveBody:
         self._t_last = max(self._t_last, self.now() if t_s is None else float(t_s))
         return self._t_last
 
-    def command(self, u_goal_rad, t_s: float | None = None, profile_velocity_rad_s: float | None = None) -> None:
+    def command(self, u_goal_rad, t_s: float | None = None, profile_velocity_rad_s=None) -> None:
         """New goal motor angles (n_motors,) rad from ``t_s`` (default now; s on this
-        clock) on, with the motors' speed limit where the body has one."""
+        clock) on, with the motors' speeds where the body has a speed limit:
+        ``profile_velocity_rad_s`` rad/s, one for all or (n_motors,) one per motor (with
+        any of them 0, a servo that does not drive, the speeds stay as they were)."""
         with self._lock:
-            if profile_velocity_rad_s is not None and hasattr(self.body, "profile_velocity_rad_s"):
-                self.body.profile_velocity_rad_s = float(profile_velocity_rad_s)
-            self.body.command(np.asarray(u_goal_rad, dtype=float), self._tick(t_s))
+            t = self._tick(t_s)
+            v = None if profile_velocity_rad_s is None else np.asarray(profile_velocity_rad_s, dtype=float)
+            if v is not None and np.all(v > 0) and hasattr(self.body, "profile_velocity_rad_s"):
+                self.body.state(t)  # the motion so far, at the speeds it had
+                self.body.profile_velocity_rad_s = float(v.max())
+                if hasattr(self.body, "motor_speeds_rad_s"):
+                    self.body.motor_speeds_rad_s = v.copy() if v.ndim == 1 else None
+            self.body.command(np.asarray(u_goal_rad, dtype=float), t)
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(present motor angles (n_motors,) rad, tip position p_tip_W (3,) m) now."""
@@ -61,9 +69,10 @@ class LiveBody:
 
 
 class KinematicBody(Body):
-    """Motors slewing at ``profile_velocity_rad_s`` toward their goals; tip linear in the
-    angles. ``p_rest_W`` (3,) m: tip at u = 0; ``J_W`` (3, n_motors) m/rad: tip
-    displacement per motor angle. The last goal and the motor angles are kept for inspection.
+    """Motors slewing at ``profile_velocity_rad_s`` (or each at ``motor_speeds_rad_s``
+    (n_motors,) rad/s when set) toward their goals; tip linear in the angles. ``p_rest_W``
+    (3,) m: tip at u = 0; ``J_W`` (3, n_motors) m/rad: tip displacement per motor angle. The
+    last goal and the motor angles are kept for inspection.
     """
 
     def __init__(self, p_rest_W, J_W, profile_velocity_rad_s: float = 2.0):
@@ -75,6 +84,7 @@ class KinematicBody(Body):
             raise InputError(f"profile_velocity_rad_s must be positive, got {profile_velocity_rad_s}")
         self.n_motors = self.J_W.shape[1]
         self.profile_velocity_rad_s = float(profile_velocity_rad_s)
+        self.motor_speeds_rad_s: np.ndarray | None = None
         self.u_goal_rad = np.zeros(self.n_motors)
         self.u_rad = np.zeros(self.n_motors)
         self._t_s = 0.0
@@ -83,7 +93,8 @@ class KinematicBody(Body):
         dt = max(0.0, t_s - self._t_s)
         self._t_s = max(self._t_s, t_s)
         err = self.u_goal_rad - self.u_rad
-        step = self.profile_velocity_rad_s * dt
+        speed = self.profile_velocity_rad_s if self.motor_speeds_rad_s is None else self.motor_speeds_rad_s
+        step = speed * dt
         self.u_rad = self.u_rad + np.clip(err, -step, step)
 
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:

@@ -4,12 +4,12 @@
 ``dynamixel_sdk.PortHandler`` opens as it would ``/dev/ttyUSB0``; a background thread
 answers PING, READ, WRITE, SYNC_READ, SYNC_WRITE and REBOOT (``protocol2.py``). Each servo
 (``xm430_servo.EmulatedServo``) hears only its own baud rate. The physical truth of a motor
-is its ``ServoSpec`` (``zero_tick``, ``direction``); with a ``LiveBody`` attached, goal and
-torque changes command the emulated body from a worker thread, so a slow FEM solve never
-delays a status packet. Time is ``clock`` (wall clock, or a shared ``VirtualClock``).
-Faults (``inject_fault``): ``"silent"``, ``"disconnected"``, ``"bad_crc"``, ``"crc_error"``,
-``"overload"`` (until REBOOT), ``count`` times; ``unplug()`` closes the pty. Details:
-``docs/design/rig.md``.
+is its ``ServoSpec`` (``zero_tick``, ``direction``); with a ``LiveBody`` attached, goal,
+speed and torque changes command the emulated body (each motor at its servo's speed) from
+a worker thread, so a slow FEM solve never delays a status packet. Time is ``clock`` (wall
+clock, or a shared ``VirtualClock``). Faults (``inject_fault``): ``"silent"``,
+``"disconnected"``, ``"bad_crc"``, ``"crc_error"``, ``"overload"`` (until REBOOT), ``count``
+times; ``unplug()`` closes the pty. Details: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -182,17 +182,17 @@ class EmulatedXM430Bus:
             return
         with self._lock:
             u = tuple(s.u_goal_rad() for s in self.servos)
-            speed = min(s.speed_ticks_s() for s in self.servos) * 2 * np.pi / TICKS_PER_REV
+            speed = tuple(s.speed_ticks_s() * 2 * np.pi / TICKS_PER_REV for s in self.servos)
             if (u, speed) == self._last_body_command:
                 return
             self._last_body_command = (u, speed)
-            self._body_queue.put((np.array(u), self.body.now(), speed))
+            self._body_queue.put((np.array(u), self.body.now(), np.array(speed)))
 
     def _drive_body(self) -> None:
         while (item := self._body_queue.get()) is not None:
             u, t_s, speed = item
             try:
-                self.body.command(u, t_s=t_s, profile_velocity_rad_s=speed if speed > 0 else None)
+                self.body.command(u, t_s=t_s, profile_velocity_rad_s=speed)
             except Exception as err:  # noqa: BLE001 - kept for the test that drives the bus
                 self.body_error = err
             finally:
