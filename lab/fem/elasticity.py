@@ -2,7 +2,8 @@
 
 Energy density (Bonet & Wood):  psi(F) = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2.
 
-F is linear in the node positions (m): one sparse matrix B (9M, 3N) maps them to every
+F is linear in the node positions (m): one sparse matrix B (9M, 3N) (:class:`TetElements`,
+shared with the foam law of :mod:`lab.fem.hyperfoam`) maps them to every
 element's F, kept as (3, 3, M), and B^T scatters the stresses back to the nodes,
 dE/dx = B^T vec(V P), with the first Piola-Kirchhoff stress P = mu F - (mu - lam ln J) F^-T.
 The element Hessian is exact, in closed form; it is indefinite under strong compression,
@@ -31,29 +32,24 @@ def lame(youngs_modulus_pa, poisson_ratio):
 
 
 @dataclass(frozen=True)
-class NeoHookean:
-    """Per-element constants of a mesh: shape-function gradients ``G`` (M, 4, 3),
-    rest volumes ``V`` (M,), Lamé parameters ``mu``, ``lam`` (M,) in Pa."""
+class TetElements:
+    """What every material law shares on a mesh: ``tets`` (M, 4), shape-function gradients
+    ``G`` (M, 4, 3) (F = x^T G per element) and rest volumes ``V`` (M,) in m^3, with the
+    sparse maps between node positions and deformation gradients."""
 
     tets: np.ndarray
     G: np.ndarray
     V: np.ndarray
-    mu: np.ndarray
-    lam: np.ndarray
     _B: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # see _operators
 
-    @classmethod
-    def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> NeoHookean:
-        """``youngs_modulus_pa`` may be a scalar or one value per tet (M,)."""
+    @staticmethod
+    def geometry(mesh: TetMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(tets, G, V)`` of a mesh."""
         X = mesh.X_W[mesh.tets]
         Dm = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)
         Dm_inv = np.linalg.inv(Dm)  # F = Ds Dm^-1
         G = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
-        mu, lam = lame(youngs_modulus_pa, poisson_ratio)
-        M = len(mesh.tets)
-        return cls(
-            mesh.tets, G, np.linalg.det(Dm) / 6.0, np.broadcast_to(mu, (M,)).copy(), np.broadcast_to(lam, (M,)).copy()
-        )
+        return mesh.tets, G, np.linalg.det(Dm) / 6.0
 
     def _operators(self, n_nodes: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """B (9M, 3N) with vec(F) = B vec(x_W), rows ordered (i, j, element) so that each
@@ -85,6 +81,23 @@ class NeoHookean:
     def deformation_gradient(self, x_W: np.ndarray) -> np.ndarray:
         """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
         return np.ascontiguousarray(self._F(x_W).transpose(2, 0, 1))
+
+
+@dataclass(frozen=True)
+class NeoHookean(TetElements):
+    """Neo-Hookean law on a mesh's elements (:class:`TetElements`), with Lamé parameters
+    ``mu``, ``lam`` (M,) in Pa."""
+
+    mu: np.ndarray
+    lam: np.ndarray
+
+    @classmethod
+    def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> NeoHookean:
+        """``youngs_modulus_pa`` may be a scalar or one value per tet (M,)."""
+        tets, G, V = TetElements.geometry(mesh)
+        mu, lam = lame(youngs_modulus_pa, poisson_ratio)
+        M = len(mesh.tets)
+        return cls(tets, G, V, np.broadcast_to(mu, (M,)).copy(), np.broadcast_to(lam, (M,)).copy())
 
     def energy(self, x_W: np.ndarray) -> float:
         """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""

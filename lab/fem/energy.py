@@ -2,7 +2,8 @@
 
     E(x, u) = sum_tets V psi(F)  -  sum_nodes m_a g . x_a  +  sum_cables k/2 s(L_c(x) - L*_c(u_c))^2
 
-with the base face clamped (its nodes are removed from the unknowns). The solver works
+with the base face clamped (its nodes are removed from the unknowns) and psi the
+neo-Hookean law, or another given as ``material`` (:mod:`lab.fem.hyperfoam`). The solver works
 on ``q``, the stacked free coordinates; :meth:`ArmFEM.to_nodes` and
 :meth:`ArmFEM.to_free` convert to and from node positions ``x_W`` (N, 3).
 
@@ -30,6 +31,10 @@ class ArmFEM:
     ``youngs_modulus_pa``: optional per-tet modulus (M,) (e.g. an as-built stiffness
     gradient); ``cable_slack_m``: optional extra free length per cable (m,). Defaults:
     the description's (with its optional ``stiffness_gradient`` and cables' ``slack_m``).
+    ``material``: another material law instead of the description's neo-Hookean one, an
+    object whose ``on_mesh(mesh)`` gives the law on the mesh's elements, with the
+    interface of :class:`NeoHookean` (e.g. :class:`lab.fem.hyperfoam.HyperfoamMaterial`,
+    which holds its own per-tet modulus: then ``youngs_modulus_pa`` must be None).
     """
 
     def __init__(
@@ -42,16 +47,22 @@ class ArmFEM:
         youngs_modulus_pa=None,
         cable_slack_m=None,
         clamp_tol_m: float = 1e-9,
+        material=None,
     ):
         self.robot = robot
         self.mesh = robot_mesh(robot, n_rings, n_axial) if mesh is None else mesh
         mesh = self.mesh
-        E = (
-            robot.youngs_modulus_at(mesh.X_W[mesh.tets].mean(axis=1))
-            if youngs_modulus_pa is None
-            else youngs_modulus_pa
-        )
-        self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
+        if material is not None:
+            if youngs_modulus_pa is not None:
+                raise InputError("give the modulus either as youngs_modulus_pa or in the material, not both")
+            self.elastic = material.on_mesh(mesh)
+        else:
+            E = (
+                robot.youngs_modulus_at(mesh.X_W[mesh.tets].mean(axis=1))
+                if youngs_modulus_pa is None
+                else youngs_modulus_pa
+            )
+            self.elastic = NeoHookean.from_mesh(mesh, E, robot.poisson_ratio)
         if np.any(self.elastic.V <= 0):
             raise InputError("mesh has tetrahedra with non-positive volume")
 
