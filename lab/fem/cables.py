@@ -11,6 +11,12 @@ Motor angle ``u`` (rad) on a spool of radius ``r`` sets the free length
 (``slack_smoothing_m``) so the energy is C2 and Newton does not oscillate near taut (a
 plain one-sided spring jumps in stiffness at d = 0), with no tension while slack.
 L is convex in x and E convex increasing in L, so the cable Hessian is always PSD.
+
+A cable that stretches itself (stiffness ``k_c``, an as-built defect) is a second spring in
+series: its free length grows by T / k_c, so at a stretch d the tension is T = k_eff d with
+``k_eff = k k_c / (k + k_c)`` (:func:`series_stiffness`) and the energy of the pair,
+T^2 / 2k + T^2 / 2k_c, is k_eff d^2 / 2: the same one-sided spring with ``k_eff`` (exact
+beyond the smoothing width; the smoothing, a numerical device, is kept as it is).
 """
 
 from __future__ import annotations
@@ -88,6 +94,27 @@ def spring(d, k: float, eps: float):
     tension = k * dc**2 / (2 * eps) + k * dq
     stiffness = np.where(d >= eps, k, k * dc / eps)
     return energy, tension, stiffness
+
+
+def series_stiffness(k_spring: float, k_cable) -> np.ndarray:
+    """Stiffness (N/m) of the cable spring ``k_spring`` (N/m) in series with the cable's own
+    ``k_cable`` (N/m, scalar or (m,); ``inf``: inextensible, giving ``k_spring`` exactly):
+    ``1 / (1/k_spring + 1/k_cable)``."""
+    k_cable = np.asarray(k_cable, dtype=float)
+    with np.errstate(invalid="ignore"):
+        k_eff = k_spring * k_cable / (k_spring + k_cable)
+    return np.where(np.isinf(k_cable), float(k_spring), k_eff)
+
+
+def route_hessian(route: CableRoute, x_W: np.ndarray, L_star_m: float, k: float, eps: float) -> np.ndarray:
+    """d2E/dx2 (12K, 12K) of one cable's spring (stiffness ``k`` N/m, smoothing ``eps`` m) at
+    free length ``L_star_m`` over the dofs of ``route.nodes`` (K, 4), ravelled x, y, z per
+    node: ``W^T (E'' g g^T + E' d2L/dp2) W`` with g = dL/dp."""
+    L, dL_dp, d2L_dp2 = route.length_derivatives(x_W)
+    _, tension, stiffness = spring(L - L_star_m, k, eps)
+    W = route.embedding_matrix()
+    g = dL_dp.ravel()
+    return W.T @ (stiffness * np.outer(g, g) + tension * d2L_dp2) @ W
 
 
 class CableSet:

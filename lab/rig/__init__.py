@@ -16,7 +16,7 @@ runs are in :mod:`lab.rig.emulators`; the design and its measured history are in
 
 from __future__ import annotations
 
-from lab.rig.asbuilt import Defects, default_defects_path, load_defects, parse_defects
+from lab.rig.asbuilt import Defects, DefectsError, default_defects_path, load_defects, parse_defects
 from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
 from lab.rig.capture import Capture, capture, journal_columns
 from lab.rig.capture_dataset import CapturedDataset
@@ -65,6 +65,7 @@ __all__ = [
     "AsBuiltBody",
     "MocapModel",
     "Defects",
+    "DefectsError",
     "default_defects_path",
     "load_defects",
     "parse_defects",

@@ -1,204 +1,59 @@
 """The as-built arm: a defect file the nominal model does not know, and its statics.
 
 A *defects file* (TOML, user-editable) says how the robot that was actually built
-differs from its description (``[material]`` softness and casting gradient,
-``[[cables]]`` eyelet shifts, slack and play) and how the emulated rig (``twin``) behaves
-in time (``[lag]``, ``[motors]``, ``[mocap]``; ``[emulator]`` an optional FEM mesh).
-:func:`load_defects` validates every field and raises :class:`DefectsError` naming the
-bad one; the shipped default for a robot is ``lab/rig/defects/<robot>.toml``.
-:func:`as_built_fem` is the FEM of the as-built arm and :class:`EquilibriumCache` solves
-it for effective cable contractions, warm-started from the nearest cached equilibrium.
-Every field is described in ``docs/design/rig.md``.
+differs from its description (``[material]`` softness, casting gradient and optionally
+the hyperfoam law, ``[[cables]]`` eyelet shifts, slack, play and optionally stiffness,
+an optional ``[mount]`` tilt) and how the emulated rig (``twin``) behaves in time
+(``[lag]`` with an optional creep mode, ``[motors]``, ``[mocap]`` with an optional frame
+registration error; ``[emulator]`` an optional FEM mesh). :func:`load_defects` validates
+every field (:mod:`lab.rig.defects_parse`; meanings and ranges in
+:mod:`lab.rig.defects_fields`) and raises :class:`DefectsError` naming the file and the
+bad field; the shipped default for a robot is ``lab/rig/defects/<robot>.toml``.
+:func:`as_built_fem` is the FEM of the as-built arm, solved in the body frame (gravity
+turned by the tilt; where the motion capture sees the tip is :class:`AsBuiltBody`'s
+business), and :class:`EquilibriumCache` solves it for effective cable contractions,
+warm-started from the nearest cached equilibrium. Every field: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
-import math
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
-from lab.description import RobotDescription, check_fields, read_toml
+from lab.description import RobotDescription, read_toml
 from lab.errors import InputError, LabRuntimeError
+from lab.fem.cables import route_hessian, series_stiffness, spring
 from lab.fem.energy import ArmFEM
+from lab.fem.hyperfoam import HyperfoamMaterial
 from lab.fem.mesh import cylinder_mesh
 from lab.fem.statics import solve_static
+from lab.rig.defects_fields import CableDefects, Defects, DefectsError
+from lab.rig.defects_parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
 
-FORMAT_VERSION = 1
+__all__ = [
+    "FORMAT_VERSION",
+    "DEFECTS_DIR",
+    "DEFECTS_FIELDS",
+    "CableDefects",
+    "Defects",
+    "DefectsError",
+    "parse_defects",
+    "default_defects_path",
+    "load_defects",
+    "as_built_robot",
+    "youngs_modulus_per_tet",
+    "hyperfoam_mu_per_tet",
+    "as_built_fem",
+    "SeriesCableFEM",
+    "EquilibriumCache",
+]
+
 DEFECTS_DIR = Path(__file__).with_name("defects")
-
-
-class DefectsError(InputError):
-    """A defects file is missing a field, has an invalid value, or does not fit the robot."""
-
-
-@dataclass(frozen=True)
-class CableDefects:
-    """As-built cable ``name``: eyelet shift ``via_shift_m`` (3,) m in frame W, extra free
-    length ``slack_m`` (m), play half-width ``play_m`` (m of contraction)."""
-
-    name: str
-    via_shift_m: np.ndarray
-    slack_m: float
-    play_m: float
-
-
-@dataclass(frozen=True)
-class Defects:
-    """A validated defects file (see the module docstring for the meaning of each field)."""
-
-    robot: str
-    softness: float
-    gradient: float
-    gradient_direction_W: np.ndarray
-    cables: tuple[CableDefects, ...]
-    tau_fast_s: float
-    tau_slow_s: float
-    slow_fraction: float
-    ticks_per_rev: int
-    profile_velocity_rad_s: float
-    frame_rate_hz: float
-    noise_sigma_m: float
-    dropout_rate_hz: float
-    dropout_max_frames: int
-    n_rings: int | None
-    n_axial: int | None
-    path: str | None = field(default=None, compare=False)
-    source: dict = field(default_factory=dict, repr=False, compare=False)
-
-    @property
-    def sha256(self) -> str:
-        """Hash of the parsed file (independent of comments and formatting)."""
-        return hashlib.sha256(json.dumps(self.source, sort_keys=True).encode()).hexdigest()
-
-    @property
-    def slack_m(self) -> np.ndarray:
-        return np.array([c.slack_m for c in self.cables])
-
-    @property
-    def play_m(self) -> np.ndarray:
-        return np.array([c.play_m for c in self.cables])
-
-
-def _num(table: dict, key: str, where: str, *, lo=None, hi=None, lo_open=False, integer=False):
-    if key not in table:
-        raise DefectsError(f"missing field '{where}.{key}'")
-    v = table[key]
-    ok_type = isinstance(v, int) if integer else isinstance(v, (int, float))
-    if isinstance(v, bool) or not ok_type or not math.isfinite(v):
-        kind = "an integer" if integer else "a finite number"
-        raise DefectsError(f"field '{where}.{key}' must be {kind}, got {v!r}")
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise DefectsError(f"field '{where}.{key}' must be {'>' if lo_open else '>='} {lo}, got {v!r}")
-    if hi is not None and v >= hi:
-        raise DefectsError(f"field '{where}.{key}' must be < {hi}, got {v!r}")
-    return int(v) if integer else float(v)
-
-
-def _vec3(table: dict, key: str, where: str) -> np.ndarray:
-    v = table.get(key)
-    if (
-        not isinstance(v, list)
-        or len(v) != 3
-        or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in v)
-    ):
-        raise DefectsError(f"field '{where}.{key}' must be a list of 3 finite numbers, got {v!r}")
-    return np.asarray(v, dtype=float)
-
-
-#: The fields of each table of a defects file.
-DEFECTS_FIELDS = {
-    "": {"format_version", "robot", "material", "cables", "lag", "motors", "mocap", "emulator"},
-    "material": {"softness", "gradient", "gradient_direction"},
-    "cables": {"name", "via_shift_m", "slack_m", "play_m"},
-    "lag": {"tau_fast_s", "tau_slow_s", "slow_fraction"},
-    "motors": {"ticks_per_rev", "profile_velocity_rad_s"},
-    "mocap": {"frame_rate_hz", "noise_sigma_m", "dropout_rate_hz", "dropout_max_frames"},
-    "emulator": {"n_rings", "n_axial"},
-}
-
-
-def _table(data: dict, key: str) -> dict:
-    t = data.get(key)
-    if t is None:
-        raise DefectsError(f"missing table [{key}]")
-    return check_fields(t, DEFECTS_FIELDS[key], key, DefectsError)
-
-
-def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) -> Defects:
-    """Validate a parsed defects TOML document against ``robot`` and build :class:`Defects`."""
-    check_fields(data, DEFECTS_FIELDS[""], "", DefectsError)
-    if data.get("format_version") != FORMAT_VERSION:
-        raise DefectsError(f"field 'format_version' must be {FORMAT_VERSION}, got {data.get('format_version')!r}")
-    if data.get("robot") != robot.name:
-        raise DefectsError(f"field 'robot' is {data.get('robot')!r} but the robot is {robot.name!r}")
-    mat = _table(data, "material")
-    softness = _num(mat, "softness", "material", lo=0.0, lo_open=True)
-    gradient = _num(mat, "gradient", "material", lo=0.0, hi=1.0)
-    direction = _vec3(mat, "gradient_direction", "material")
-    if abs(direction[0]) > 1e-12 or np.linalg.norm(direction) == 0:
-        raise DefectsError(
-            "field 'material.gradient_direction' must be a nonzero direction across the "
-            f"section (x component 0: the body axis is +x), got {direction.tolist()}"
-        )
-    entries = data.get("cables")
-    if not isinstance(entries, list) or len(entries) != robot.n_cables:
-        raise DefectsError(
-            f"[[cables]] must have one table per cable of {robot.name} "
-            f"({robot.n_cables}), got {len(entries) if isinstance(entries, list) else 0}"
-        )
-    cables = []
-    for i, (entry, cable) in enumerate(zip(entries, robot.cables)):
-        where = f"cables[{i}]"
-        check_fields(entry, DEFECTS_FIELDS["cables"], where, DefectsError)
-        if entry.get("name") != cable.name:
-            got = entry.get("name") if isinstance(entry, dict) else entry
-            raise DefectsError(f"field '{where}.name' must be {cable.name!r} (the description's order), got {got!r}")
-        cables.append(
-            CableDefects(
-                cable.name,
-                _vec3(entry, "via_shift_m", where),
-                _num(entry, "slack_m", where, lo=0.0),
-                _num(entry, "play_m", where, lo=0.0),
-            )
-        )
-    lag = _table(data, "lag")
-    tau_fast = _num(lag, "tau_fast_s", "lag", lo=0.0, lo_open=True)
-    tau_slow = _num(lag, "tau_slow_s", "lag", lo=0.0, lo_open=True)
-    if tau_slow < tau_fast:
-        raise DefectsError(f"field 'lag.tau_slow_s' ({tau_slow}) must be >= 'lag.tau_fast_s' ({tau_fast})")
-    motors, mocap = _table(data, "motors"), _table(data, "mocap")
-    emulator = check_fields(data.get("emulator", {}), DEFECTS_FIELDS["emulator"], "emulator", DefectsError)
-    mesh = {
-        k: (_num(emulator, k, "emulator", lo=1, integer=True) if k in emulator else None)
-        for k in ("n_rings", "n_axial")
-    }
-    return Defects(
-        robot=robot.name,
-        softness=softness,
-        gradient=gradient,
-        gradient_direction_W=direction / np.linalg.norm(direction),
-        cables=tuple(cables),
-        tau_fast_s=tau_fast,
-        tau_slow_s=tau_slow,
-        slow_fraction=_num(lag, "slow_fraction", "lag", lo=0.0, hi=1.0),
-        ticks_per_rev=_num(motors, "ticks_per_rev", "motors", lo=0, integer=True),
-        profile_velocity_rad_s=_num(motors, "profile_velocity_rad_s", "motors", lo=0.0, lo_open=True),
-        frame_rate_hz=_num(mocap, "frame_rate_hz", "mocap", lo=0.0, lo_open=True),
-        noise_sigma_m=_num(mocap, "noise_sigma_m", "mocap", lo=0.0),
-        dropout_rate_hz=_num(mocap, "dropout_rate_hz", "mocap", lo=0.0),
-        dropout_max_frames=_num(mocap, "dropout_max_frames", "mocap", lo=1, integer=True),
-        n_rings=mesh["n_rings"],
-        n_axial=mesh["n_axial"],
-        path=path,
-        source=data,
-    )
 
 
 def default_defects_path(robot: RobotDescription) -> Path:
@@ -252,30 +107,106 @@ def youngs_modulus_per_tet(robot: RobotDescription, defects: Defects, tet_centro
     return robot.youngs_modulus_pa * defects.softness * (1.0 + defects.gradient * s)
 
 
+def hyperfoam_mu_per_tet(robot: RobotDescription, defects: Defects, tet_centroids_W: np.ndarray) -> np.ndarray:
+    """As-built initial shear modulus (M,) Pa of the hyperfoam law: ``hyperfoam_mu_pa``
+    scaled per tet by softness and gradient as :func:`youngs_modulus_per_tet` scales E."""
+    s = np.clip(tet_centroids_W @ defects.gradient_direction_W / robot.radius_m, -1.0, 1.0)
+    return defects.hyperfoam_mu_pa * defects.softness * (1.0 + defects.gradient * s)
+
+
+def _elastic_args(robot: RobotDescription, defects: Defects, centroids_W: np.ndarray) -> dict:
+    """ArmFEM's material arguments: the per-tet modulus, or the hyperfoam law."""
+    if defects.law != "hyperfoam":
+        return {"youngs_modulus_pa": youngs_modulus_per_tet(robot, defects, centroids_W)}
+    mu = hyperfoam_mu_per_tet(robot, defects, centroids_W)
+    try:
+        return {"material": HyperfoamMaterial(mu, defects.hyperfoam_alpha, defects.hyperfoam_beta)}
+    except InputError as err:  # a value the parser allows but the law does not take
+        where = f"{defects.path}: " if defects.path else ""
+        raise DefectsError(f'{where}[material] law = "hyperfoam": {err}') from None
+
+
 def as_built_fem(
     robot: RobotDescription, defects: Defects, *, n_rings: int | None = None, n_axial: int | None = None
 ) -> ArmFEM:
-    """The FEM of the as-built arm (moved eyelets, softer graded foam, slack cables).
+    """The FEM of the as-built arm (moved eyelets, softer graded foam -- neo-Hookean, or the
+    hyperfoam law of :mod:`lab.fem.hyperfoam` --, slack cables; gravity ``R_tilt^T g`` in the
+    body frame of a tilted base; stretching cables in series).
 
     Mesh resolution: the arguments, else the defects file's ``[emulator]``, else the
-    description's."""
+    description's. Without the optional defects this is exactly the FEM it always was."""
     built = as_built_robot(robot, defects)
+    if defects.R_tilt is not None:
+        built = dataclasses.replace(built, gravity_m_s2=defects.R_tilt.T @ robot.gravity_m_s2)
     n_rings = n_rings or defects.n_rings or robot.n_rings
     n_axial = n_axial or defects.n_axial or robot.n_axial
     mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
     centroids = mesh.X_W[mesh.tets].mean(axis=1)
+    kw = dict(_elastic_args(robot, defects, centroids), cable_slack_m=defects.slack_m)
+    k_cable = [np.inf if c.stiffness_n_per_m is None else c.stiffness_n_per_m for c in defects.cables]
     try:
-        return ArmFEM(
-            built,
-            mesh,
-            youngs_modulus_pa=youngs_modulus_per_tet(robot, defects, centroids),
-            cable_slack_m=defects.slack_m,
-        )
+        if np.all(np.isinf(k_cable)):
+            return ArmFEM(built, mesh, **kw)
+        return SeriesCableFEM(built, mesh, cable_own_stiffness_n_per_m=k_cable, **kw)
     except ValueError as err:  # an eyelet between the polygonal mesh boundary and the radius
         raise DefectsError(
             f"as-built eyelets do not fit the {n_rings}-ring mesh, whose polygonal section "
             f"is smaller than the radius: {err}; shift them less, or use more rings"
         ) from None
+
+
+class SeriesCableFEM(ArmFEM):
+    """:class:`~lab.fem.energy.ArmFEM` whose cables stretch: cable c's own stiffness
+    ``cable_own_stiffness_n_per_m[c]`` (N/m; ``inf``: inextensible) in series with the
+    description's spring, so it pulls with ``cable_k_n_per_m[c]`` (m,) N/m =
+    :func:`~lab.fem.cables.series_stiffness`. Every derivative stays exact: the springs'
+    tensions and stiffnesses scale with k, and :meth:`hessian` adds ``(k_eff - k)`` times
+    each cable's unit-stiffness block to ArmFEM's (which loops over the cables one stretch
+    at a time, at the description's k)."""
+
+    def __init__(self, robot: RobotDescription, mesh, *, cable_own_stiffness_n_per_m, **kw):
+        super().__init__(robot, mesh, **kw)
+        self.cable_k_n_per_m = series_stiffness(robot.cable_stiffness_n_m, cable_own_stiffness_n_per_m)
+        dof_to_free = np.full(3 * self.mesh.n_nodes, -1)
+        dof_to_free[self.free_dofs] = np.arange(self.n_free)
+        self._block_free = []  # per cable: (its block's rows kept, their free coordinates)
+        for c in self.cables:
+            f = dof_to_free[3 * c.nodes.ravel()[:, None] + np.arange(3)].ravel()
+            keep = np.flatnonzero(f >= 0)
+            self._block_free.append((keep, f[keep]))
+        self._slots = None  # per cable: where its block's entries sit in the Hessian's data
+
+    def cable_springs(self, stretch_m):
+        """Energy (J), tension (N), stiffness (N/m) of every cable (m,) at stretches (m,) m;
+        a single stretch (ArmFEM.hessian's per-cable loop) at the description's k."""
+        d = np.asarray(stretch_m, dtype=float)
+        if d.ndim == 0:
+            return super().cable_springs(d)
+        return spring(d, self.cable_k_n_per_m, self.robot.slack_smoothing_m)
+
+    def hessian(self, q: np.ndarray, u_motor, project: bool = False) -> sp.csr_matrix:
+        """d2E/dq2 (n_free, n_free): ArmFEM's, plus each cable's series correction added in
+        place (the sparsity pattern, and so the solver's symbolic analysis, is unchanged)."""
+        H = super().hessian(q, u_motor, project)
+        if self._slots is None:
+            keys = np.repeat(np.arange(self.n_free), np.diff(H.indptr)) * self.n_free + H.indices
+            self._slots = []
+            for _, f in self._block_free:
+                want = (f[:, None] * self.n_free + f[None, :]).ravel()
+                slot = np.searchsorted(keys, want)
+                if np.any(slot >= len(keys)) or np.any(keys[np.minimum(slot, len(keys) - 1)] != want):
+                    raise AssertionError("SeriesCableFEM: a cable block outside the Hessian's pattern")
+                self._slots.append(slot)
+        x = self.to_nodes(q)
+        dk = self.cable_k_n_per_m - self.robot.cable_stiffness_n_m
+        eps = self.robot.slack_smoothing_m
+        for c, L_star, dk_c, (keep, _), slot in zip(
+            self.cables, self.cable_targets(u_motor), dk, self._block_free, self._slots
+        ):
+            if dk_c != 0.0:
+                block = dk_c * route_hessian(c, x, L_star, 1.0, eps)
+                H.data += np.bincount(slot, weights=block[np.ix_(keep, keep)].ravel(), minlength=len(H.data))
+        return H
 
 
 class EquilibriumCache:

@@ -5,11 +5,12 @@ emulators drive. From a command to the tip: motor goals rounded to encoder ticks
 reached at the profile velocity; a Prandtl play of half-width ``h`` on each cable's
 contraction (hysteresis, erased by the capture protocol's reset); the as-built FEM solved
 once per command (:class:`~lab.rig.asbuilt.EquilibriumCache`), its equilibrium moving
-linearly while the motors turn; and the foam's lag, two first-order modes integrated
-exactly. ``TwinRig`` puts the body on a virtual clock advanced one motion-capture frame
-per ``next_frame()`` and observes the tip through ``MocapModel`` (Gaussian noise and
-occlusion bursts, NaN frames). Deterministic for a given seed. The model step by step:
-``docs/design/rig.md``.
+linearly while the motors turn; the foam's lag, two first-order modes integrated
+exactly (three with the defects file's creep); and where the motion capture sees the tip
+(:meth:`AsBuiltBody.report`: the base's tilt, the mocap's frame error). ``TwinRig`` puts
+the body on a virtual clock advanced one motion-capture frame per ``next_frame()`` and
+observes the tip through ``MocapModel`` (Gaussian noise and occlusion bursts, NaN
+frames). Deterministic for a given seed. The model step by step: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -50,8 +51,15 @@ class AsBuiltBody(Body):
         self._r = robot.spool_radius_m
         self._h = d.play_m
         self._tick = 2 * math.pi / d.ticks_per_rev if d.ticks_per_rev else 0.0
-        self._w = np.array([1.0 - d.slow_fraction, d.slow_fraction])
-        self._tau = np.array([d.tau_fast_s, d.tau_slow_s])
+        if d.creep_fraction > 0:  # a third, slow mode (creep)
+            self._w = np.array([1.0 - d.slow_fraction - d.creep_fraction, d.slow_fraction, d.creep_fraction])
+            self._tau = np.array([d.tau_fast_s, d.tau_slow_s, d.creep_tau_s])
+        else:
+            self._w = np.array([1.0 - d.slow_fraction, d.slow_fraction])
+            self._tau = np.array([d.tau_fast_s, d.tau_slow_s])
+        R_tilt, R_frame = d.R_tilt, d.R_frame
+        self._R_report = R_tilt if R_frame is None else (R_frame if R_tilt is None else R_frame @ R_tilt)
+        self._offset_report = d.frame_offset_m if d.has_frame_offset else None
         zero = np.zeros(self.n_motors)
         p_rest = self.equilibria.tip(zero)
         # Current motion segment, from t0: motors u0 -> goal at speed v, cables from y0,
@@ -59,7 +67,7 @@ class AsBuiltBody(Body):
         self._t0, self._u0, self._goal, self._v = 0.0, zero.copy(), zero.copy(), self.profile_velocity_rad_s
         self._y0, self._p0, self._p1, self._T = zero.copy(), p_rest, p_rest, 0.0
         self._t = 0.0
-        self._z = np.stack([p_rest, p_rest])  # lag modes (2, 3), settled at rest
+        self._z = np.stack([p_rest] * len(self._w))  # lag modes (2 or 3, 3) in the body frame, settled
 
     # ---------------------------------------------------------------- Body interface
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
@@ -83,9 +91,10 @@ class AsBuiltBody(Body):
         self._T = float(travel[k] / (v if np.ndim(v) == 0 else v[k]))
 
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(present motor angles (n_motors,) rad in whole ticks, true tip p_tip_W (3,) m)."""
+        """(present motor angles (n_motors,) rad in whole ticks, tip p_tip_W (3,) m where the
+        motion capture sees it before its noise: :meth:`report` of the body's tip)."""
         self._advance(t_s)
-        return self._quantise(self._motors(self._t)), self._w @ self._z
+        return self._quantise(self._motors(self._t)), self.report(self._w @ self._z)
 
     # ---------------------------------------------------------------- helpers
     @property
@@ -105,8 +114,16 @@ class AsBuiltBody(Body):
 
     def quasi_static_tip(self, u_motor) -> np.ndarray:
         """Noise-free settled tip p_tip_W (3,) m for ``u_motor`` reached after a reset:
-        the quasi-static map the capture protocol measures."""
-        return self.equilibria.tip(self.contraction_from_reset(u_motor))
+        the quasi-static map the capture protocol measures (:meth:`report`, noise-free)."""
+        return self.report(self.equilibria.tip(self.contraction_from_reset(u_motor)))
+
+    def report(self, p_body: np.ndarray) -> np.ndarray:
+        """Where the motion capture reports a point (3,) m of the body frame (the FEM's):
+        ``R_err (R_tilt p_body) + frame_offset_m`` -- the base tilted in the room (about its
+        origin), the room's frame registered with an error. Without those defects, ``p_body``
+        itself (bit for bit)."""
+        p = p_body if self._R_report is None else self._R_report @ p_body
+        return p if self._offset_report is None else p + self._offset_report
 
     def _quantise(self, u: np.ndarray) -> np.ndarray:
         return np.rint(u / self._tick) * self._tick if self._tick else np.array(u, dtype=float)

@@ -64,7 +64,9 @@ class LiveBody:
             return self.body.state(self._tick())
 
     def p_tip_W(self, _t_s: float | None = None) -> np.ndarray:
-        """The true tip position (3,) m now (the argument is ignored: a NatNet tip source)."""
+        """The tip position (3,) m now, as the body gives it (an ``AsBuiltBody``: where the
+        room-registered motion capture sees it, with its defects file's base tilt and frame
+        error; the argument is ignored: a NatNet tip source)."""
         return self.state()[1]
 
 
