@@ -40,7 +40,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     p.add_argument(
         "--rig",
         default="twin",
-        help="sim | twin[:DEFECTS.toml] | twin:random:SEED (an emulated as-built robot of the family) "
+        help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED (an emulated as-built robot of a family) "
         "| hardware:RIG.toml (default: twin)",
     )
     add_spec_flags(p, CaptureSpec, only=("robot",))

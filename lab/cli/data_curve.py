@@ -2,7 +2,7 @@
 per sampling strategy (:mod:`lab.studies.data_curve_run`, :mod:`lab.studies.data_curve`).
 
 For one robot on one rig (``sim``: the nominal FEM; ``twin``, ``twin:DEFECTS.toml``,
-``twin:random:SEED``: an emulated as-built robot), each strategy and each N it writes one
+``twin:random:SEED``, ``twin:foam:SEED``: an emulated as-built robot), each strategy and each N it writes one
 row: the model error on a common held-out set of random allowed commands, the Table I
 tracking errors (unless ``--no-tracking``), the fit time and the capture hours at the
 measured rate. The flags are :class:`lab.studies.data_curve_spec.DataCurveSpec`'s. Rows are

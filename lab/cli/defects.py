@@ -2,13 +2,17 @@
 
     python -m lab defects --random 3 --robot three-cable --out robot3.toml
     python -m lab capture --rig twin:robot3.toml ...   # the same robot as --rig twin:random:3
+    python -m lab defects --foam 3 --out foam3.toml      # the same robot as --rig twin:foam:3
 
 Draws member ``SEED`` of the family of as-built robots (``lab.rig.family``: softness,
 stiffness gradient, eyelet shifts, slack, play, lag, motors, motion capture, from ranges
 justified there) for the robot description ``--robot`` (any number of cables), and writes
-it atomically as a commented defects file in the format of ``lab/rig/defects/``. The same
-seed always gives the same file; edit it freely and pass it as ``--rig twin:FILE``.
-Results on it are an "emulated as-built robot", not the real arm.
+it atomically as a commented defects file in the format of ``lab/rig/defects/``. ``--foam
+SEED`` draws member SEED of the foam family instead (``lab.rig.foam_family``): the same
+in-class defects as ``--random SEED``, plus the hyperfoam law, cable stiffness, creep, a
+tilted base, the mocap's frame error and a finer emulator mesh. The same seed always gives
+the same file; edit it freely and pass it as ``--rig twin:FILE``. Results on it are an
+"emulated as-built robot" ("(foam family)"), not the real arm.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "defects",
         parents=parents,
-        help="write the defects file of an emulated as-built robot (a random member of the family)",
+        help="write the defects file of an emulated as-built robot (a member of the random or foam family)",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -48,7 +52,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 def command_line(spec: FamilyMemberSpec, robot: str) -> str:
     """The command that makes the same file (recorded in its header; without ``--out``, so
     that the file depends only on the robot, the seed and the mesh)."""
-    words = ["python", "-m", "lab", "defects", "--random", str(spec.seed), "--robot", str(robot)]
+    words = ["python", "-m", "lab", "defects", f"--{spec.family}", str(spec.member_seed), "--robot", str(robot)]
     for flag, value in (("--n-rings", spec.mesh.n_rings), ("--n-axial", spec.mesh.n_axial)):
         if value is not None:
             words += [flag, str(value)]
@@ -63,10 +67,14 @@ def run(args) -> int:
     check_writable(args.out)
     robot = load_robot(args.robot)
     defects = spec.write(args.out, robot, command=command_line(spec, args.robot))
+    family = "the foam family" if spec.family == "foam" else "the family"
+    extra = (
+        f", hyperfoam alpha {defects.hyperfoam_alpha:g}, tilt {defects.tilt_deg:g} deg" if spec.family == "foam" else ""
+    )
     print(
-        f"wrote {args.out}: {robot.name} as built, member {spec.seed} of the family (softness "
-        f"{defects.softness:g}, gradient {defects.gradient:g}, slack up to {1e3 * defects.slack_m.max():.1f} mm); "
-        f"use it as --rig twin:{args.out}",
+        f"wrote {args.out}: {robot.name} as built, member {spec.member_seed} of {family} (softness "
+        f"{defects.softness:g}, gradient {defects.gradient:g}, slack up to {1e3 * defects.slack_m.max():.1f} mm"
+        f"{extra}); use it as --rig twin:{args.out}",
         file=sys.stderr,
     )
     return 0

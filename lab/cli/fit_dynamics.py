@@ -37,7 +37,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     c.add_argument(
         "--rig",
         default="twin",
-        help="twin[:DEFECTS.toml] | twin:random:SEED | hardware:CONFIG.toml (default twin; "
+        help="twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED | hardware:CONFIG.toml (default twin; "
         "sim has no dynamics to learn)",
     )
     c.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")

@@ -65,7 +65,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     k.add_argument(
         "--rig",
         default="sim",
-        help="sim | twin[:DEFECTS.toml] | twin:random:SEED (an emulated as-built robot of the family) "
+        help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED (an emulated as-built robot of a family) "
         "| hardware:CONFIG.toml | none (no rig: solve the IK through --model within its training data's "
         "commands and write them to OUT.commands.csv, for your own robot) (default sim)",
     )

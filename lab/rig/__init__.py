@@ -1,8 +1,9 @@
 """Stage 9a: rigs -- the robot behind one interface (:class:`Rig`), simulated, emulated or real.
 
 :class:`RigSpec` (:mod:`.spec`) is the ``--rig`` option -- ``sim`` (the nominal FEM,
-:class:`SimRig`), ``twin``, ``twin:DEFECTS.toml`` or ``twin:random:SEED`` (an emulated
-as-built robot: :class:`TwinRig`, :class:`FamilyTwinRig`), ``hardware:CONFIG.toml``
+:class:`SimRig`), ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED`` or ``twin:foam:SEED``
+(an emulated as-built robot: :class:`TwinRig`, :class:`FamilyTwinRig`, :class:`FoamTwinRig`),
+``hardware:CONFIG.toml``
 (Dynamixel servos and OptiTrack: :mod:`.hardware`) -- and :func:`make_rig` (:mod:`.factory`)
 is the one place that builds the rig it names. On any rig, :func:`capture` (:mod:`.capture`)
 runs the paper's capture protocol (settings: :class:`CaptureSpec`, :class:`ProtocolSpec`)
@@ -23,6 +24,7 @@ from lab.rig.capture_dataset import CapturedDataset
 from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
 from lab.rig.factory import as_built_body, make_rig
 from lab.rig.family import FamilyTwinRig, random_defects, random_defects_toml, write_random_defects
+from lab.rig.foam_family import FoamTwinRig, foam_defects, foam_defects_toml, write_foam_defects
 from lab.rig.journal import Journal, JournalError
 from lab.rig.predictive import PredictiveSampler
 from lab.rig.protocol import PROTOCOLS, Protocol, Sample, SettleDetector, measure
@@ -73,4 +75,8 @@ __all__ = [
     "random_defects",
     "random_defects_toml",
     "write_random_defects",
+    "FoamTwinRig",
+    "foam_defects",
+    "foam_defects_toml",
+    "write_foam_defects",
 ]

@@ -25,7 +25,8 @@ def _spec(spec: RigSpec | str, mesh: MeshSpec | None) -> RigSpec:
 
 def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpec | None = None):
     """The :class:`~lab.rig.twin.AsBuiltBody` of a ``twin`` spec (its defects file, the shipped
-    defects, or member SEED of the family drawn for the mesh), on the spec's mesh or ``mesh``.
+    defects, or member SEED of the ``random`` or ``foam`` family drawn for the mesh), on the
+    spec's mesh or ``mesh`` (a foam member's own, finer mesh where neither sets one).
 
     Raises InputError for a spec of another kind."""
     spec = _spec(spec, mesh)
@@ -35,9 +36,10 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
 
     overrides = spec.mesh.overrides()
     if spec.family_seed is not None:
-        from lab.rig.family import random_defects
+        from lab.rig.family import family_member
 
-        return AsBuiltBody(robot, random_defects(robot, spec.family_seed, **overrides), **overrides)
+        defects = family_member(robot, f"{spec.family}:{spec.family_seed}", **overrides)
+        return AsBuiltBody(robot, defects, **overrides)
     return AsBuiltBody(robot, spec.defects_path, **overrides)
 
 
@@ -53,8 +55,8 @@ def make_rig(
 
     Parameters
     ----------
-    seed: the emulated robot's motion-capture noise seed (``twin:random:SEED`` picks the
-        robot of the family; ``seed`` still only the noise).
+    seed: the emulated robot's motion-capture noise seed (``twin:random:SEED`` or
+        ``twin:foam:SEED`` picks the robot of the family; ``seed`` still only the noise).
     fem: the nominal FEM a ``sim`` rig solves (default: built on the spec's mesh).
     mesh: FEM mesh overrides of a ``sim`` or ``twin`` rig, replacing the spec's.
 
@@ -75,6 +77,10 @@ def make_rig(
             raise InputError("--rig sim: give the FEM or the mesh overrides, not both")
         return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
     if spec.kind == "twin":
+        if spec.family_seed is not None and spec.family == "foam":
+            from lab.rig.foam_family import FoamTwinRig
+
+            return FoamTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
         if spec.family_seed is not None:
             from lab.rig.family import FamilyTwinRig
 

@@ -1,15 +1,17 @@
 """Which emulated as-built robot of the family: :class:`FamilyMemberSpec`, the ``defects`` settings.
 
 A member of the family (:mod:`lab.rig.family`) is named by its seed (``--random SEED``, the
-same as ``--rig twin:random:SEED``) and drawn for the emulator mesh it will run on
-(:class:`lab.fem.MeshSpec`, ``--n-rings``/``--n-axial``, written to the file's
-``[emulator]`` table). :meth:`FamilyMemberSpec.write` writes its defects file.
+same as ``--rig twin:random:SEED``), a member of the foam family (:mod:`lab.rig.foam_family`)
+by ``--foam SEED`` (``--rig twin:foam:SEED``; one of the two), and drawn for the emulator
+mesh it will run on (:class:`lab.fem.MeshSpec`, ``--n-rings``/``--n-axial``, written to the
+file's ``[emulator]`` table). :meth:`FamilyMemberSpec.write` writes its defects file.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from lab.errors import InputError
 from lab.fem.mesh_spec import MeshSpec
 from lab.specs import Spec, non_negative_int, option
 
@@ -18,23 +20,54 @@ __all__ = ["FamilyMemberSpec"]
 
 @dataclass(frozen=True)
 class FamilyMemberSpec(Spec):
-    """Member ``seed`` of the family of as-built robots, on the emulator mesh ``mesh``."""
+    """Member ``seed`` of the family of as-built robots, or member ``foam`` of the foam
+    family (exactly one of the two), on the emulator mesh ``mesh``."""
 
-    seed: int = option(
+    seed: int | None = option(
         None,
         flag="--random",
         type=int,
         metavar="SEED",
-        required=True,
         check=non_negative_int,
         help="the robot of the family to draw (an integer >= 0; the same as --rig twin:random:SEED)",
     )
     mesh: MeshSpec = field(default_factory=MeshSpec)
+    foam: int | None = option(
+        None,
+        flag="--foam",
+        type=int,
+        metavar="SEED",
+        check=non_negative_int,
+        help="or the robot of the foam family, with defects `calibrate` cannot fit (the same as "
+        "--rig twin:foam:SEED; default mesh finer than the description's)",
+    )
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.seed is not None and self.foam is not None:
+            raise InputError("--random and --foam name members of two families: give one of them")
+        if self.seed is None and self.foam is None:
+            raise InputError("give --random SEED (--rig twin:random:SEED) or --foam SEED (--rig twin:foam:SEED)")
+
+    @property
+    def family(self) -> str:
+        """``"random"`` or ``"foam"``: the family of the member."""
+        return "random" if self.foam is None else "foam"
+
+    @property
+    def member_seed(self) -> int:
+        """The member's seed in its family."""
+        return self.seed if self.foam is None else self.foam
 
     def write(self, path, robot, command: str | None = None):
         """Write the member's commented defects file for ``robot`` to ``path`` (atomically);
         returns its :class:`lab.rig.asbuilt.Defects`. A mesh that would not fit in memory
         is refused here (InputError), not first by the command that runs the emulator."""
+        if self.foam is not None:
+            from lab.rig.foam_family import foam_mesh, write_foam_defects
+
+            MeshSpec(*foam_mesh(robot, self.mesh.n_rings, self.mesh.n_axial)).resolve(robot)
+            return write_foam_defects(path, robot, self.foam, **self.mesh.overrides(), command=command)
         from lab.rig.family import write_random_defects
 
         self.mesh.resolve(robot)

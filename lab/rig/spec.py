@@ -1,8 +1,10 @@
 """Which rig a command runs on: :class:`RigSpec`, the typed form of the ``--rig`` option.
 
 ``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED``,
-``hardware:CONFIG.toml``, or for ``track`` alone ``none``: no rig at all, the IK's commands
-written for a lab to send to its own robot -- and :meth:`RigSpec.parse` is the only place
+``twin:foam:SEED`` (a member of the second family, :mod:`lab.rig.foam_family`: defects
+outside the calibrator's model class too), ``hardware:CONFIG.toml``, or for ``track`` alone
+``none``: no rig at all, the IK's commands written for a lab to send to its own robot --
+and :meth:`RigSpec.parse` is the only place
 that reads it; ``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
 (``--n-rings``/``--n-axial``) is the :class:`~lab.fem.MeshSpec` field ``mesh``, which the
 string does not carry. :func:`lab.rig.make_rig` builds the rig a spec names. Every
@@ -18,22 +20,26 @@ from lab.errors import InputError
 from lab.fem.mesh_spec import MeshSpec
 from lab.specs import Spec
 
-__all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS", "parse_robot_seed"]
+__all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS", "FAMILIES", "parse_robot_seed"]
 
 #: The kinds of rig: the nominal quasi-static FEM, the emulated as-built robot, the real one,
 #: and none (``track --rig none``: solve the IK only; :func:`lab.rig.make_rig` refuses it).
 RIG_KINDS = ("sim", "twin", "hardware", "none")
 #: The forms ``--rig`` accepts, as its help and errors name them.
-RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED or hardware:CONFIG.toml"
-_RANDOM = "random"
+RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED, twin:foam:SEED or hardware:CONFIG.toml"
+#: The families of emulated as-built robots a twin may be a member of (``twin:FAMILY:SEED``):
+#: ``random`` (:mod:`lab.rig.family`) and ``foam`` (:mod:`lab.rig.foam_family`).
+FAMILIES = ("random", "foam")
+#: What results on a member of each family are.
+FAMILY_LABELS = {"random": "emulated as-built robot", "foam": "emulated as-built robot (foam family)"}
 
 
-def parse_robot_seed(text: str, spec: str | None = None) -> int:
-    """The robot seed of ``twin:random:SEED`` (a non-negative integer), or InputError."""
+def parse_robot_seed(text: str, spec: str | None = None, family: str = "random") -> int:
+    """The robot seed of ``twin:FAMILY:SEED`` (a non-negative integer), or InputError."""
     where = f"rig {spec!r}: " if spec else ""
     if not re.fullmatch(r"[0-9]+", str(text)):
         raise InputError(
-            f"{where}the robot seed must be a non-negative integer (--rig twin:random:SEED, e.g. twin:random:3), "
+            f"{where}the robot seed must be a non-negative integer (--rig twin:{family}:SEED, e.g. twin:{family}:3), "
             f"got {text!r}"
         )
     return int(text)
@@ -45,9 +51,10 @@ class RigSpec(Spec):
 
     ``kind``: one of :data:`RIG_KINDS` (``none`` only where :meth:`parse` was told it is
     allowed); ``defects_path``: a twin's defects file (None: the
-    robot's shipped defects); ``family_seed``: a twin that is member SEED of the family of
-    random as-built robots (:mod:`lab.rig.family`); ``config_path``: a hardware rig's
-    configuration file; ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
+    robot's shipped defects); ``family_seed``: a twin that is member SEED of the family
+    ``family`` (one of :data:`FAMILIES`: ``random``, :mod:`lab.rig.family`, or ``foam``,
+    :mod:`lab.rig.foam_family`); ``config_path``: a hardware rig's configuration file;
+    ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
     """
 
     kind: str = "sim"
@@ -55,6 +62,7 @@ class RigSpec(Spec):
     family_seed: int | None = None
     config_path: str | None = None
     mesh: MeshSpec = MeshSpec()
+    family: str = "random"
 
     def __post_init__(self):
         super().__post_init__()
@@ -65,6 +73,10 @@ class RigSpec(Spec):
         seed = self.family_seed
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
             raise InputError(f"--rig twin:random:SEED: the robot seed must be a non-negative integer, got {seed!r}")
+        if self.family not in FAMILIES:
+            raise InputError(f"--rig twin:FAMILY:SEED: unknown family {self.family!r}, expected one of {FAMILIES}")
+        if self.family != "random" and seed is None:
+            raise InputError(f"--rig twin:{self.family}:SEED needs the robot's seed (e.g. twin:{self.family}:3)")
         given = {
             "defects file": self.defects_path is not None,
             "robot seed": seed is not None,
@@ -109,13 +121,14 @@ class RigSpec(Spec):
                 raise InputError(f"rig 'sim' takes no argument (--rig sim), got {text!r}")
             return cls("sim", mesh=mesh)
         if kind == "twin":
-            if arg == _RANDOM or arg.startswith(_RANDOM + ":"):
-                robot_seed = arg.partition(":")[2]
+            family, _, robot_seed = arg.partition(":")
+            if family in FAMILIES:
                 if not robot_seed:
                     raise InputError(
-                        f"rig {text!r} needs the robot's seed: --rig twin:random:SEED (e.g. twin:random:3)"
+                        f"rig {text!r} needs the robot's seed: --rig twin:{family}:SEED (e.g. twin:{family}:3)"
                     )
-                return cls("twin", family_seed=parse_robot_seed(robot_seed, text), mesh=mesh)
+                seed = parse_robot_seed(robot_seed, text, family)
+                return cls("twin", family_seed=seed, mesh=mesh, family=family)
             return cls("twin", defects_path=arg or None, mesh=mesh)
         if kind == "hardware":
             if not arg:
@@ -127,15 +140,19 @@ class RigSpec(Spec):
         """The ``--rig`` string of this spec (without the mesh, which has its own flags)."""
         if self.kind == "twin":
             if self.family_seed is not None:
-                return f"twin:{_RANDOM}:{self.family_seed}"
+                return f"twin:{self.family}:{self.family_seed}"
             return "twin" if self.defects_path is None else f"twin:{self.defects_path}"
         if self.kind == "hardware":
             return f"hardware:{self.config_path}"
         return self.kind
 
     def as_dict(self) -> dict:
-        """The fields as JSON-ready values, and the ``--rig`` string as ``rig``."""
-        return {**super().as_dict(), "mesh": self.mesh.as_dict(), "rig": str(self)}
+        """The fields as JSON-ready values, and the ``--rig`` string as ``rig`` (``family``
+        only for a family other than ``random``: a random member's metadata reads as before)."""
+        d = {**super().as_dict(), "mesh": self.mesh.as_dict(), "rig": str(self)}
+        if self.family == "random":
+            del d["family"]
+        return d
 
     @property
     def file(self) -> str | None:
@@ -144,11 +161,11 @@ class RigSpec(Spec):
 
     @property
     def label(self) -> str:
-        """What results on this rig are: "FEM", "emulated as-built robot", "hardware" or
-        "model prediction" (no rig)."""
-        return {"sim": "FEM", "twin": "emulated as-built robot", "hardware": "hardware", "none": "model prediction"}[
-            self.kind
-        ]
+        """What results on this rig are: "FEM", "emulated as-built robot" (with "(foam family)"
+        on a ``twin:foam`` member), "hardware" or "model prediction" (no rig)."""
+        if self.kind == "twin":
+            return FAMILY_LABELS[self.family]
+        return {"sim": "FEM", "hardware": "hardware", "none": "model prediction"}[self.kind]
 
     @property
     def has_rig(self) -> bool:

@@ -75,7 +75,7 @@ class NominalBody:
 
 def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | None = None):
     """``(body, label, noise_sigma_m)`` for a ``--rig`` spec: ``sim`` (the nominal FEM, label
-    "FEM", no noise), ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` (an as-built
+    "FEM", no noise), ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` / ``twin:foam:SEED`` (an as-built
     body, label "emulated as-built robot", its defects' motion-capture noise in m per axis).
     The fast path needs a body: ``hardware:`` rigs are refused (InputError)."""
     from lab.fem.mesh_spec import MeshSpec
@@ -89,7 +89,7 @@ def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | Non
         return body, spec.label, float(body.defects.noise_sigma_m)
     raise InputError(
         f"rig {rig!r}: the data curve measures through a body's quasi-static map; "
-        "expected sim, twin, twin:DEFECTS.toml or twin:random:SEED"
+        "expected sim, twin, twin:DEFECTS.toml, twin:random:SEED or twin:foam:SEED"
     )
 
 

@@ -67,7 +67,7 @@ class DataCurveSpec(Spec):
     """One data-curve study: see the module docstring and the flags' help for each field."""
 
     robot: str = option("three-cable", help="robot name or description TOML")
-    rig: str = option("sim", help="sim | twin[:DEFECTS.toml] | twin:random:SEED")
+    rig: str = option("sim", help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED")
     strategies: tuple[str, ...] | None = option(None, nargs="+", help="grid sobol lhs maximin random active")
     ns: tuple[int, ...] = option(
         DEFAULT_NS, type=int, nargs="+", check=_ints(1, MAX_DESIGN_N), help="numbers of samples N"
@@ -113,7 +113,7 @@ class DataCurveSpec(Spec):
         if self.rig_spec.kind not in ("sim", "twin"):
             raise InputError(
                 f"rig {self.rig!r}: the data curve measures through a body's quasi-static map; "
-                "expected sim, twin, twin:DEFECTS.toml or twin:random:SEED"
+                "expected sim, twin, twin:DEFECTS.toml, twin:random:SEED or twin:foam:SEED"
             )
         if "maximin" in self.strategies and max(self.ns) > MAX_MAXIMIN_N:
             raise InputError(f"--ns: a maximin design takes at most {MAX_MAXIMIN_N} commands, got N = {max(self.ns)}")
