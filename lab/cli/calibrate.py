@@ -5,7 +5,9 @@ The real samples are a dataset from ``capture`` (any rig: ``twin``, ``twin:rando
 ``hardware:RIG.toml``); the fit's flags are :class:`lab.transfer.CalibrationSpec`'s. The
 identified parameters (softness, stiffness gradient, eyelet shifts, slack per cable) and
 their standard deviations are comments at the top of the TOML; a JSON summary goes to
-stdout (and to ``--report``), progress to stderr.
+stdout (and to ``--report``), progress to stderr, ending with a line that says whether the
+calibrated model explains the samples at the declared noise (``--noise-m``: a chi-square
+test of the residual; the JSON's ``model_discrepancy``, ``discrepancy``, ``std_reported``).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def run(args) -> int:
     from lab.description import load_robot
     from lab.files import atomic_write_text, json_default
     from lab.transfer import write_calibrated_robot
-    from lab.transfer.calibration_run import calibration_run, calibration_summary
+    from lab.transfer.calibration_run import calibration_run, calibration_summary, discrepancy_line
 
     spec = spec_from_args(CalibrationSpec, args, mesh=spec_from_args(MeshSpec, args))
     check_paths(
@@ -70,5 +72,6 @@ def run(args) -> int:
         f"{result.iterations} iterations, {result.wall_s:.1f} s; calibrated robot -> {args.out}",
         file=sys.stderr,
     )
+    print(discrepancy_line(result), file=sys.stderr)
     print(text)
     return 0

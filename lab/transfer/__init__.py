@@ -12,7 +12,14 @@ The ``transfer`` and ``calibrate`` commands' runs, with their typed settings, ar
 :mod:`.transfer_run` and :mod:`.calibration_run`.
 """
 
-from lab.transfer.calibrate import DEFAULT_PRIOR_STD, CalibrationResult, calibrate, prior_std
+from lab.transfer.calibrate import (
+    DEFAULT_PRIOR_STD,
+    DISCREPANCY_QUANTILE,
+    CalibrationResult,
+    calibrate,
+    model_check,
+    prior_std,
+)
 from lab.transfer.calibrated import calibrated_model
 from lab.transfer.calibration_run import CalibrationSpec, calibration_run, calibration_summary
 from lab.transfer.recovery import family_recovery, recovery_rows, recovery_summary, true_theta
@@ -22,7 +29,9 @@ from lab.transfer.transfer_run import TRANSFER_METHODS, TransferSpec, fit_mean_d
 __all__ = [
     "DEFAULT_PRIOR_STD",
     "CalibrationResult",
+    "DISCREPANCY_QUANTILE",
     "calibrate",
+    "model_check",
     "prior_std",
     "calibrated_robot",
     "calibrated_toml",

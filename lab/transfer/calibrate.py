@@ -10,9 +10,12 @@ by Levenberg-Marquardt with ``J = dx_tip/dtheta`` from the exact-Hessian sensiti
 prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well posed with as few as 5 samples;
 ``noise`` (default 0.5 mm per coordinate) weighs the data against it. Warm starts make most
 solves one or two Newton steps. The uncertainty is the Gauss-Newton (Laplace) covariance at
-the optimum, with the noise estimated from the residuals.
+the optimum. Whether the model explains the data at all is a chi-square test of the residual
+against ``noise`` (:func:`model_check`): a correct model leaves E[RSS] = (3N - p_eff) noise^2;
+above the 99.9 % quantile of chi2(3N - p_eff) the model is flagged, and the reported
+covariance is inflated by the reduced chi-square (Birge ratio) whenever that exceeds 1.
 
-The prior, the warm starts and the covariance in full: docs/design/transfer.md.
+The prior, the warm starts, the covariance and the test in full: docs/design/transfer.md.
 """
 
 from __future__ import annotations
@@ -27,18 +30,24 @@ from lab.errors import InputError
 from lab.fem.parameters import ParameterLayout, ParametrisedFEM
 from lab.transfer.samples import Samples
 
-__all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "prior_std"]
+__all__ = ["DEFAULT_PRIOR_STD", "DISCREPANCY_QUANTILE", "CalibrationResult", "calibrate", "model_check", "prior_std"]
 
 #: Prior standard deviations of each block of theta (the nominal is the prior mean):
 #: log softness 0.4 (E x/ 1.5), gradient 0.4 per component, eyelet shift 2 mm per axis,
 #: slack 3 mm -- about the half-widths of the as-built family's ranges.
 DEFAULT_PRIOR_STD = {"log_softness": 0.4, "gradient": 0.4, "via_shift_m": 2e-3, "slack_m": 3e-3}
+#: A residual above this quantile of chi2(3N - p_eff) is model error, not noise: a correct
+#: model with the right noise is flagged once in a thousand fits.
+DISCREPANCY_QUANTILE = 0.999
 
 
 @dataclass
 class CalibrationResult:
     """What :func:`calibrate` found. ``theta`` (p,) in the units of ``layout``; ``covariance``
-    (p, p); ``residuals_m`` (N, 3) the tip misfit at ``theta`` in m."""
+    (p, p) the reported one: ``covariance_raw`` (the Laplace covariance at the declared
+    ``noise_m``) inflated by the Birge ratio when the reduced chi-square exceeds 1
+    (:func:`model_check`); ``residuals_m`` (N, 3) the tip misfit at ``theta`` in m;
+    ``p_eff`` the parameters the data determine (trace of the hat matrix)."""
 
     layout: ParameterLayout
     theta: np.ndarray
@@ -56,11 +65,24 @@ class CalibrationResult:
     n_rings: int
     n_axial: int
     history: list = field(default_factory=list, repr=False)
+    covariance_raw: np.ndarray | None = None
+    p_eff: float | None = None
 
     @property
     def std(self) -> np.ndarray:
-        """One standard deviation of each parameter (p,)."""
+        """One standard deviation of each parameter (p,): the reported one (inflated when the
+        model does not explain the data, see :func:`model_check`)."""
         return np.sqrt(np.diag(self.covariance))
+
+    @property
+    def std_raw(self) -> np.ndarray:
+        """One standard deviation (p,) at the declared noise, not inflated."""
+        return np.sqrt(np.diag(self.covariance if self.covariance_raw is None else self.covariance_raw))
+
+    @property
+    def check(self) -> dict:
+        """:func:`model_check` of this fit (the chi-square test, JSON-able)."""
+        return model_check(self.residuals_m, self.noise_m, self.layout.size, self.p_eff)
 
     @property
     def rms_m(self) -> float:
@@ -73,7 +95,11 @@ class CalibrationResult:
         return self.layout.unpack(self.theta)
 
     def summary(self) -> dict:
-        """A JSON-able summary: each parameter's value, std and nominal, and the fit."""
+        """A JSON-able summary: each parameter's value, std (the reported one) and nominal,
+        the fit, and the chi-square test of the residual against the noise
+        (``model_discrepancy``, ``discrepancy``, ``std_reported``, ``std_raw``,
+        ``std_inflated``: :func:`model_check`)."""
+        check = self.check
         return {
             "parameters": {
                 n: {"value": float(v), "std": float(s), "nominal": float(v0), "unit": unit}
@@ -93,6 +119,11 @@ class CalibrationResult:
             "wall_s": self.wall_s,
             "mesh": {"n_rings": self.n_rings, "n_axial": self.n_axial},
             "eyelet_shift_axes": self.layout.axes,
+            "model_discrepancy": check["model_discrepancy"],
+            "discrepancy": check,
+            "std_reported": "inflated" if check["std_inflation"] > 1 else "raw",
+            "std_raw": dict(zip(self.layout.names, map(float, self.std_raw))),
+            "std_inflated": dict(zip(self.layout.names, map(float, self.std))),
         }
 
 
@@ -201,12 +232,14 @@ def calibrate(
             log(
                 f"iteration {it}: RMS tip misfit {1e3 * rms:.3f} mm, largest step {np.max(abs(step) / s):.2g} prior std"
             )
-    cov, sigma = _covariance(J.reshape(-1, lay.size), tips - y, s, noise_m)
+    cov_raw, cov, sigma, p_eff = _covariance(J.reshape(-1, lay.size), tips - y, s, noise_m)
     return CalibrationResult(
         layout=lay,
         theta=theta,
         theta_nominal=theta0,
         covariance=cov,
+        covariance_raw=cov_raw,
+        p_eff=p_eff,
         prior_std=s,
         noise_m=float(noise_m),
         sigma_m=sigma,
@@ -223,9 +256,48 @@ def calibrate(
 
 
 def _covariance(J: np.ndarray, residuals: np.ndarray, s: np.ndarray, noise_m: float):
-    """Laplace covariance (p, p) and the residual noise estimate sigma (m), module docstring."""
+    """Laplace covariances (p, p) at the declared noise (raw) and at ``max(noise_m, sigma)``
+    (inflated by the Birge ratio), sigma (m, the noise the residuals imply) and p_eff."""
     prior = np.diag(1 / s**2)
     M = J.T @ J / noise_m**2
     p_eff = float(np.trace(np.linalg.solve(M + prior, M)))
     sigma = float(np.sqrt(np.sum(residuals**2) / max(J.shape[0] - p_eff, 1.0)))
-    return np.linalg.inv(J.T @ J / max(sigma, 1e-12) ** 2 + prior), sigma
+    inflated = J.T @ J / max(sigma, noise_m) ** 2 + prior
+    return np.linalg.inv(M + prior), np.linalg.inv(inflated), sigma, p_eff
+
+
+def model_check(residuals_m, noise_m: float, p: int, p_eff: float | None = None) -> dict:
+    """The chi-square test of a fit's residuals ``residuals_m`` (N, 3) m against the declared
+    noise ``noise_m`` (m per coordinate) for ``p`` parameters, ``p_eff`` of them determined by
+    the data (default ``p``; with a prior, the trace of the hat matrix). A correct model
+    leaves ``chi2 = RSS / noise^2 ~ chi2(dof)``, ``dof = 3N - p_eff``: RMS 3-D residual
+    ``noise sqrt(dof / N)``. ``model_discrepancy`` when chi2 exceeds the
+    :data:`DISCREPANCY_QUANTILE` quantile; ``std_inflation = max(1, sqrt(chi2 / dof))`` (the
+    Birge ratio, at least 1) scales the data's part of the standard deviations. Lengths in m."""
+    from scipy.stats import chi2 as chi2_dist
+
+    r = np.asarray(residuals_m, float)
+    n = len(r)
+    p_eff = float(p if p_eff is None else p_eff)
+    dof = max(3 * n - p_eff, 1.0)
+    chi2 = float(np.sum(r**2) / noise_m**2)
+    limit = float(chi2_dist.ppf(DISCREPANCY_QUANTILE, dof))
+    return {
+        "model_discrepancy": bool(chi2 > limit),
+        "test": f"chi-square of the residual against the noise, flagged above the {DISCREPANCY_QUANTILE:g} quantile",
+        "rms_m": float(np.sqrt(np.sum(r**2) / n)),
+        "expected_rms_m": float(noise_m * np.sqrt(dof / n)),
+        "threshold_rms_m": float(noise_m * np.sqrt(limit / n)),
+        "noise_m": float(noise_m),
+        "n_data": 3 * n,
+        "p": int(p),
+        "p_eff": p_eff,
+        "dof": dof,
+        "chi2": chi2,
+        "chi2_threshold": limit,
+        "quantile": DISCREPANCY_QUANTILE,
+        "p_value": float(chi2_dist.sf(chi2, dof)),
+        "reduced_chi2": chi2 / dof,
+        "birge_ratio": float(np.sqrt(chi2 / dof)),
+        "std_inflation": float(max(1.0, np.sqrt(chi2 / dof))),
+    }

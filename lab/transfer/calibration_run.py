@@ -6,7 +6,9 @@
 motor columns), runs :func:`lab.transfer.calibrate` and refuses a fit that did not
 converge, or whose misfit is far above what the FEM family can explain
 (:func:`misfit_limit_m`); nothing is written then. :func:`calibration_summary` is the
-JSON summary the command prints and writes.
+JSON summary the command prints and writes; :func:`discrepancy_line` says in one line
+whether the calibrated model explains the samples at the declared noise (the chi-square
+test of :func:`lab.transfer.model_check`) and which standard deviations are reported.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from lab.errors import InputError, LabRuntimeError
 from lab.fem.mesh_spec import MeshSpec
 from lab.specs import Spec, option, positive, positive_int
 
-__all__ = ["CalibrationSpec", "calibration_run", "calibration_summary", "misfit_limit_m"]
+__all__ = ["CalibrationSpec", "calibration_run", "calibration_summary", "discrepancy_line", "misfit_limit_m"]
 
 #: A calibrated misfit above this many noise levels is not noise (``--noise-m``: per coordinate).
 MISFIT_NOISE_FACTOR = 10.0
@@ -119,3 +121,27 @@ def calibration_summary(robot, result, real, out, command: str) -> dict:
         "command": command,
         "code_version": code_version(),
     }
+
+
+def discrepancy_line(result) -> str:
+    """One line on the chi-square test of ``result`` (a :class:`lab.transfer.CalibrationResult`):
+    whether the calibrated model explains the samples at the declared noise, the RMS 3-D
+    residual against the RMS a correct model leaves, and the standard deviations reported."""
+    c = result.check
+    mm = f"residual {1e3 * c['rms_m']:.3f} mm RMS against {1e3 * c['expected_rms_m']:.3f} mm expected from the noise"
+    stat = (
+        f"(--noise-m {1e3 * c['noise_m']:.3g} mm per coordinate; chi-square {c['chi2']:.1f} on {c['dof']:.1f} "
+        f"degrees of freedom, reduced {c['reduced_chi2']:.2f}"
+    )
+    stds = (
+        f"standard deviations inflated by the Birge ratio {c['std_inflation']:.2f}"
+        if c["std_inflation"] > 1
+        else "standard deviations at the declared noise"
+    )
+    if not c["model_discrepancy"]:
+        return f"the calibrated model explains these samples: {mm} {stat}); {stds}"
+    return (
+        f"the calibrated model does not explain these samples: {mm} {stat}, above its {c['quantile']:g} "
+        f"quantile {c['chi2_threshold']:.1f}); {stds}, but model error the FEM has no parameter for (a tilted "
+        "base, the mocap frame, stretching cables, another foam law) biases the parameters beyond any std"
+    )

@@ -5,7 +5,10 @@ its true theta is known: softness, stiffness gradient (size times its direction'
 each cable's eyelet shift (y, z) and slack. :func:`recovery_rows` samples the robot's
 settled tips (the capture protocol's quasi-static map, with its motion-capture noise) at
 N commands, calibrates the nominal description to them, and returns one row per
-parameter: true, recovered, the calibration's standard deviation, and the nominal.
+parameter: true, recovered, the calibration's standard deviations (reported, raw and
+inflated), the nominal, and the fit's chi-square test (:func:`lab.transfer.model_check`).
+:func:`recovery_summary` measures the coverage: how often the truth lies within two
+standard deviations, with the raw and with the inflated ones.
 
 What the FEM's theta does not hold stays out of the comparison and acts as model error:
 eyelet shifts along the body (x), play, lag and hysteresis; slack absorbs part of the
@@ -22,13 +25,17 @@ from lab.fem.parameters import AXES, ParameterLayout
 __all__ = ["true_theta", "recovery_rows", "family_recovery", "recovery_summary"]
 
 
-def true_theta(layout: ParameterLayout, defects) -> np.ndarray:
+def true_theta(layout: ParameterLayout, defects, *, play_as_slack: bool = False) -> np.ndarray:
     """The theta (p,) of ``layout`` that an as-built robot's ``defects`` amount to (eyelet
-    shifts along the axes of ``layout``; any other component is left out)."""
+    shifts along the axes of ``layout``; any other component is left out). ``play_as_slack``:
+    slack plus play -- what the capture protocol's settled tips see, since a cable approached
+    from the reset (contraction ``max(h, r u - h)``) pulls exactly like one with ``h`` more
+    slack once ``r u > 2 h``."""
     g = defects.gradient * np.asarray(defects.gradient_direction_W)[1:]
     shifts = np.array([c.via_shift_m for c in defects.cables], float)
     shifts[:, [i for i in range(3) if i not in AXES[layout.axes]]] = 0.0  # not in theta
-    return layout.pack(defects.softness, g, shifts, defects.slack_m)
+    slack = defects.slack_m + (defects.play_m if play_as_slack else 0.0)
+    return layout.pack(defects.softness, g, shifts, slack)
 
 
 def recovery_rows(
@@ -40,25 +47,34 @@ def recovery_rows(
     seed: int = 0,
     n_rings: int | None = None,
     n_axial: int | None = None,
+    noise_m: float | None = None,
+    play_as_slack: bool = False,
 ) -> list[dict]:
     """Calibrate ``robot`` to the emulated robot with ``defects`` at commands ``u_real``
     (N, m) rad (settled tips plus its mocap noise, seeded by ``seed``), on one mesh for the
-    robot and the fit (default: the description's). One row per parameter: ``robot``
-    (``label``), ``parameter``, ``unit``, ``true``, ``recovered``, ``std``, ``nominal``,
-    plus ``n_real``, ``rms_nominal_m`` and ``rms_m`` (tip misfit before and after, m)."""
+    robot and the fit (default: the description's), with the fit's declared noise
+    ``noise_m`` (m per coordinate; default :func:`lab.transfer.calibrate`'s). One row per
+    parameter: ``robot`` (``label``), ``parameter``, ``unit``, ``true``, ``recovered``,
+    ``std`` (the reported one), ``std_raw``, ``std_inflated``, ``nominal``, plus ``n_real``,
+    ``rms_nominal_m``, ``rms_m`` (tip misfit before and after, m), ``expected_rms_m``,
+    ``reduced_chi2`` and ``model_discrepancy`` (the fit's chi-square test).
+    ``play_as_slack``: the true slack includes the play (:func:`true_theta`)."""
     from lab.rig.twin import AsBuiltBody, quasi_static_tips
     from lab.transfer.calibrate import calibrate
 
     u = np.asarray(u_real, float)
     body = AsBuiltBody(robot, defects, n_rings=n_rings, n_axial=n_axial)
     tips = quasi_static_tips(body, u, defects.noise_sigma_m, seed)
-    res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial)
-    truth = true_theta(res.layout, defects)
+    kw = {} if noise_m is None else {"noise_m": noise_m}
+    res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial, **kw)
+    check = res.check
+    truth = true_theta(res.layout, defects, play_as_slack=play_as_slack)
     # theta's first entry is ln(softness): report the softness itself
-    values, std = res.theta.copy(), res.std.copy()
+    values, std, std_raw = res.theta.copy(), res.std.copy(), res.std_raw.copy()
     nominal = res.theta_nominal.copy()
     names, units = list(res.layout.names), list(res.layout.units)
-    values[0], std[0], truth[0], nominal[0] = np.exp(values[0]), np.exp(values[0]) * std[0], np.exp(truth[0]), 1.0
+    values[0], truth[0], nominal[0] = np.exp(values[0]), np.exp(truth[0]), 1.0
+    std[0], std_raw[0] = values[0] * std[0], values[0] * std_raw[0]
     names[0], units[0] = "softness", "1"
     return [
         {
@@ -68,22 +84,27 @@ def recovery_rows(
             "true": float(t),
             "recovered": float(v),
             "std": float(s),
+            "std_raw": float(sr),
+            "std_inflated": float(s),
             "nominal": float(v0),
             "n_real": len(u),
             "rms_nominal_m": res.rms_nominal_m,
             "rms_m": res.rms_m,
+            "expected_rms_m": check["expected_rms_m"],
+            "reduced_chi2": check["reduced_chi2"],
+            "model_discrepancy": check["model_discrepancy"],
         }
-        for n, unit, t, v, s, v0 in zip(names, units, truth, values, std, nominal)
+        for n, unit, t, v, s, sr, v0 in zip(names, units, truth, values, std, std_raw, nominal)
     ]
 
 
-def _member_rows(robot, label, u, seed, n_rings, n_axial) -> list[dict]:
+def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m) -> list[dict]:
     from lab.rig.family import family_member
     from lab.workers import watch_parent
 
     watch_parent()
     defects = family_member(robot, label, n_rings=n_rings, n_axial=n_axial)
-    return recovery_rows(robot, defects, u, label=label, seed=seed, n_rings=n_rings, n_axial=n_axial)
+    return recovery_rows(robot, defects, u, label=label, seed=seed, n_rings=n_rings, n_axial=n_axial, noise_m=noise_m)
 
 
 def family_recovery(
@@ -95,10 +116,11 @@ def family_recovery(
     n_rings: int | None = None,
     n_axial: int | None = None,
     n_jobs: int = 1,
+    noise_m: float | None = None,
 ) -> list[dict]:
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
     :func:`lab.rig.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
-    each), rows in the order of ``labels``."""
+    each), rows in the order of ``labels``; ``noise_m`` as there."""
     from joblib import Parallel, delayed
 
     from lab.workers import worker_config
@@ -106,7 +128,7 @@ def family_recovery(
     u = np.asarray(u_real, float)
     with worker_config():
         parts = Parallel(n_jobs=max(1, min(n_jobs, len(labels))))(
-            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial) for label in labels
+            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial, noise_m) for label in labels
         )
     return [r for part in parts for r in part]
 
@@ -122,7 +144,8 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
     robots: ``rms_error`` and ``rms_spread`` (RMS of recovered - true and of true - nominal,
     in the block's unit: what calibration leaves against what the nominal robot gets
     wrong) and ``within_2std`` (the fraction of recovered values within two of their
-    standard deviations of the truth)."""
+    standard deviations of the truth: the coverage of the 2-sigma intervals), with rows
+    that have them also ``within_2std_raw`` and ``within_2std_inflated``."""
     out = {}
     for r in rows:
         out.setdefault(_block(r["parameter"]), []).append(r)
@@ -130,15 +153,16 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
     for block, rs in out.items():
         err = np.array([r["recovered"] - r["true"] for r in rs])
         spread = np.array([r["true"] - r["nominal"] for r in rs])
-        std = np.array([r["std"] for r in rs])
-        summary.append(
-            {
-                "block": block,
-                "unit": rs[0]["unit"],
-                "n": len(rs),
-                "rms_error": float(np.sqrt(np.mean(err**2))),
-                "rms_spread": float(np.sqrt(np.mean(spread**2))),
-                "within_2std": float(np.mean(np.abs(err) <= 2 * std)),
-            }
-        )
+        row = {
+            "block": block,
+            "unit": rs[0]["unit"],
+            "n": len(rs),
+            "rms_error": float(np.sqrt(np.mean(err**2))),
+            "rms_spread": float(np.sqrt(np.mean(spread**2))),
+        }
+        for key in ("std", "std_raw", "std_inflated"):
+            if all(key in r for r in rs):
+                std = np.array([r[key] for r in rs])
+                row["within_2" + key] = float(np.mean(np.abs(err) <= 2 * std))
+        summary.append(row)
     return summary
