@@ -137,6 +137,7 @@ def test_every_command_has_its_module():
             "fit-dynamics",
             "import-data",
             "inspect",
+            "compare",
         }
     )
     for name, module in cli.COMMANDS.items():

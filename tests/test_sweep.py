@@ -19,6 +19,9 @@ import pytest
 from filelock import FileLock
 from helpers import subprocess_env, wait_until
 from sweep import COARSE, ROOT, Case, run_case
+from sweep_compare import COMPARE_CASES
+from sweep_defects import DEFECTS_CASES
+from sweep_foam import FOAM_CASES
 from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
@@ -923,9 +926,12 @@ CASES = [
     ),
     # --- rows of the commands and flags of real robots' data, one module each ---------------
     *IMPORT_CASES,
+    *COMPARE_CASES,
     *INSPECT_CASES,
     *HISTORY_CASES,
     *RIG_NONE_CASES,
+    *DEFECTS_CASES,
+    *FOAM_CASES,
 ]
 
 

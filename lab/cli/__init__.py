@@ -23,6 +23,7 @@ import traceback
 from lab.cli import (
     calibrate,
     capture,
+    compare,
     data_curve,
     defects,
     fit_dynamics,
@@ -45,6 +46,7 @@ COMMANDS = {
     "simulate": simulate,
     "import-data": import_data,
     "inspect": inspect,
+    "compare": compare,
     "train": train,
     "splits": splits,
     "track": track,

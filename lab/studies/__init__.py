@@ -6,11 +6,13 @@ writes one results table: :mod:`.table1` merges tracking errors into ``table1.cs
 method on emulated as-built robots (:mod:`.transfer_curve`: the resumable run over a
 family); :mod:`.data_curve` measures error against the number of samples per sampling
 strategy (:mod:`.data_curve_run`: the resumable run of a :class:`DataCurveSpec`);
-:mod:`.capture_rate` samples per hour against accuracy per capture protocol;
+:mod:`.model_comparison` every model side by side on one dataset (:class:`CompareSpec`,
+the :mod:`.baselines`); :mod:`.capture_rate` samples per hour against accuracy per capture protocol;
 :mod:`.period_curve` tracking error against the trajectory's period;
 :mod:`.closed_loop_table` closed-loop result files as one row per pass.
 """
 
+from lab.studies.baselines import PolyModel, fit_poly
 from lab.studies.capture_rate import (
     capture_rate_study,
     protocol_for,
@@ -19,6 +21,7 @@ from lab.studies.capture_rate import (
     write_capture_rate,
 )
 from lab.studies.closed_loop_table import GOALS_M, model_label, pass_rows
+from lab.studies.comparison_spec import CompareSpec
 from lab.studies.data_curve import (
     STRATEGIES,
     NominalBody,
@@ -30,6 +33,7 @@ from lab.studies.data_curve import (
 )
 from lab.studies.data_curve_run import read_data_curve, run_data_curve
 from lab.studies.data_curve_spec import DataCurveSpec
+from lab.studies.model_comparison import read_comparison, run_comparison
 from lab.studies.period_curve import PERIOD_CURVE_COLUMNS, period_curve_rows, read_period_curve, write_period_curve
 from lab.studies.table1 import (
     COLUMNS,
@@ -86,6 +90,11 @@ __all__ = [
     "make_body",
     "plan_rows",
     "DataCurveSpec",
+    "CompareSpec",
+    "run_comparison",
+    "read_comparison",
+    "PolyModel",
+    "fit_poly",
     "run_data_curve",
     "read_data_curve",
     "capture_rate_study",

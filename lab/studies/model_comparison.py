@@ -1,0 +1,256 @@
+"""Every model side by side on one dataset: the rows behind ``python -m lab compare``, resumed.
+
+:func:`run_comparison` fits each model of a :class:`~lab.studies.comparison_spec.CompareSpec`
+(least-squares baselines, scikit-learn peers, lab's networks) with each history length K
+(inputs [u_t, ..., u_{t-K}] within a sequence, :func:`lab.learn.history.history_features`)
+on the same splits -- random rows, whole sequences (:func:`lab.learn.split.divide_groups`;
+a dataset of fewer than three sequences is cut into contiguous blocks, ``group(blocks)``),
+and the first 80 % of rows in measurement order against the rest (``sequential``, one
+split) -- and writes one row per fit: the test errors as 3-D distances (RMS, mean, median,
+max; m), for models with a spread the share of test coordinates within 1 and 2 sigma
+(:func:`lab.learn.ensemble.calibration`), the fit time. ``--ns`` adds learning-curve rows:
+the same random splits, trained on N of their training rows. Rows are appended one at a
+time and the CSV and its sidecar (with the summary,
+:func:`lab.studies.comparison_spec.summarise`) rewritten atomically, so a run stopped in
+any way resumes where it stopped; a row in the file is never fitted again, and a file
+made from other data or with other settings is refused, naming them.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.studies.comparison_spec import (
+    BR_EPOCHS,
+    COMPARE_MODELS,
+    GP_RESTARTS,
+    RECIPES,
+    SEQUENTIAL_TRAIN_FRACTION,
+    SKLEARN_MLP_ITER,
+    CompareSpec,
+    floor_of,
+    json_ready,
+    summarise,
+)
+
+__all__ = ["COMPARE_COLUMNS", "fit_named", "measure_row", "read_comparison", "run_comparison", "split_rows"]
+
+COMPARE_COLUMNS = (
+    "dataset", "model", "history", "split", "split_index", "seed", "n_train", "n_test", "test_rms_m", "test_mean_m",
+    "test_median_m", "test_max_m", "within_1sigma", "within_2sigma", "fit_s",
+)  # fmt: skip
+_TEXT, _INT = ("dataset", "model", "split"), ("history", "split_index", "seed", "n_train", "n_test")
+
+
+def fit_named(name: str, u, y, seed: int):
+    """Fit comparison model ``name`` (:data:`RECIPES`) to inputs u (N, n_x) -> tips y (N, 3) m."""
+    from lab.learn.models import fit_model
+    from lab.learn.peers import fit_gpr, fit_sklearn_mlp
+    from lab.studies.baselines import fit_poly
+
+    if name in ("linear", "poly3"):
+        return fit_poly(u, y, 1 if name == "linear" else 3)
+    if name == "gpr":
+        return fit_gpr(u, y, seed, n_restarts=GP_RESTARTS, subsample=True)
+    if name == "sklearn-mlp":
+        return fit_sklearn_mlp(u, y, hidden=(20, 20), seed=seed, max_iter=SKLEARN_MLP_ITER)
+    if name in ("knn", "mlp"):
+        return fit_model(name, u, y, seed=seed)
+    members = {"members": 5} if name == "ensemble" else {}
+    kind = "ensemble" if name == "ensemble" else "mlp"
+    return fit_model(kind, u, y, hidden=(10, 10), algorithm="br", epochs=BR_EPOCHS, seed=seed, **members)
+
+
+def split_rows(kind: str, index: int, seed: int, n: int, seq_ids, fraction: float):
+    """(label, train (n_train,), test (n_test,)) row indices of split ``kind`` number ``index``."""
+    from lab.learn.split import divide, split_groups
+
+    if kind == "sequential":  # the ASL Trunk authors' split
+        from lab.studies.authors_baseline import sequential_split
+
+        return ("sequential", *sequential_split(n, SEQUENTIAL_TRAIN_FRACTION))
+    groups, what = (None, "") if kind == "random" else split_groups(seq_ids)
+    s = divide(n, (1.0 - fraction, 0.0, fraction), seed, groups)
+    label = kind if what in ("", "sequences") else "group(blocks)"
+    return label, s.train, s.test
+
+
+def measure_row(data: dict, task: tuple) -> dict:
+    """One row: ``task`` = (model, K, split kind, index, seed, N or None) on ``data``
+    ({"u", "y", "seq", "name", "fraction"}); runs here or in a worker process."""
+    from lab.learn.ensemble import calibration
+    from lab.learn.history import history_features
+    from lab.workers import watch_parent
+
+    watch_parent()
+    name, k, kind, index, seed, n_sub = task
+    u, y = data["u"], data["y"]
+    x = history_features(u, data["seq"], k)
+    label, train, test = split_rows(kind, index, seed, len(u), data["seq"], data["fraction"])
+    if n_sub is not None:
+        train = np.sort(np.random.default_rng([seed, n_sub]).choice(train, n_sub, replace=False))
+    t0 = time.perf_counter()
+    model = fit_named(name, x[train], y[train], seed)
+    fit_s = time.perf_counter() - t0
+    if hasattr(model, "predict_with_std"):
+        mean, std = model.predict_with_std(x[test])
+        cal = calibration(y[test], mean, std)
+    else:
+        mean, cal = model.predict(x[test]), {"within_1sigma": float("nan"), "within_2sigma": float("nan")}
+    d = np.linalg.norm(mean - y[test], axis=1)
+    return {
+        "dataset": data["name"], "model": name, "history": k, "split": label, "split_index": index, "seed": seed,
+        "n_train": len(train), "n_test": len(test), "test_rms_m": float(np.sqrt(np.mean(d * d))),
+        "test_mean_m": float(np.mean(d)), "test_median_m": float(np.median(d)), "test_max_m": float(np.max(d)),
+        "within_1sigma": cal["within_1sigma"], "within_2sigma": cal["within_2sigma"], "fit_s": fit_s,
+    }  # fmt: skip
+
+
+def _parse(path: Path, line: int, column: str, value: str):
+    if column in _TEXT:
+        return value
+    try:
+        return int(value) if column in _INT else float(value)
+    except ValueError:
+        raise InputError(
+            f"{path}: line {line}: {column} {value!r} is not a number; repair the file or choose another --out"
+        ) from None
+
+
+def _read(path: Path) -> tuple[list[dict], dict]:
+    """The rows of ``path`` (typed) and its sidecar ({} if there is no file)."""
+    if not path.exists():
+        return [], {}
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(fh)
+        if reader.fieldnames is None or tuple(reader.fieldnames) != COMPARE_COLUMNS:
+            raise InputError(f"{path}: not a compare file (columns {reader.fieldnames}); choose another --out")
+        raw = list(reader)
+    rows = []
+    for i, r in enumerate(raw):
+        if None in r or None in r.values():
+            raise InputError(f"{path}: line {i + 2} does not have the {len(COMPARE_COLUMNS)} columns")
+        rows.append({c: _parse(path, i + 2, c, r[c]) for c in COMPARE_COLUMNS})
+    side = Path(f"{path}.json")
+    try:
+        meta = json.loads(side.read_text())
+    except (OSError, ValueError) as err:
+        raise InputError(
+            f"{side}: the sidecar of {path} cannot be read ({err}); its settings are unknown: choose another --out"
+        ) from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("settings"), dict):
+        raise InputError(f"{side}: the sidecar of {path} must be a JSON object with settings; choose another --out")
+    return rows, meta
+
+
+def read_comparison(path) -> list[dict]:
+    """The rows of a ``compare`` CSV, numbers typed (ints for history, split_index, seed, n_train, n_test)."""
+    return _read(Path(path))[0]
+
+
+def _check_same(out: Path, old: dict, new: dict) -> None:
+    """Refuse a file made with other settings, naming each with both values."""
+    diff = [f"{k} {json.dumps(old.get(k))} (this run: {json.dumps(v)})" for k, v in new.items() if old.get(k) != v]
+    if diff:
+        raise InputError(f"{out} was made with other settings: {'; '.join(diff)}; choose another --out")
+
+
+def _write(out: Path, rows: list[dict], meta: dict, n_full: int, floor_m) -> None:
+    from lab.files import atomic_write_group
+
+    meta["summary"], meta["learning_curve"] = summarise(rows, n_full, floor_m)
+    text = [",".join(COMPARE_COLUMNS)] + [",".join(str(r[c]) for c in COMPARE_COLUMNS) for r in rows]
+    side = json.dumps(json_ready(meta), indent=1, allow_nan=False) + "\n"
+    atomic_write_group({Path(f"{out}.json"): side, out: "\n".join(text) + "\n"})
+
+
+def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None) -> dict:
+    """Fit the rows of ``spec`` on the dataset ``data`` that the CSV ``out`` lacks, on
+    ``jobs`` worker processes, rewriting ``out`` and ``out.json`` after each row. ``floor``:
+    an ``inspect`` report of the same data. Returns the sidecar (with ``summary``,
+    ``learning_curve``, ``floor``). InputError for bad data, flags or files."""
+    from lab.data.dataset import read_dataset
+    from lab.data.sequences import sequence_ids
+    from lab.files import code_version
+    from lab.learn.split import check_enough_data
+    from lab.learn.studies import run_seeds
+
+    log = log or (lambda line: None)
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"--jobs must be a positive integer, got {jobs!r}")
+    data, out = Path(data), Path(out)
+    u, y, meta = read_dataset(data)
+    seq = sequence_ids(meta, len(u), where=f"{data}.json")
+    sha = hashlib.sha256(data.read_bytes()).hexdigest()
+    check_enough_data(u, (1.0 - spec.test_fraction, 0.0, spec.test_fraction))
+    n_full = len(u) - int(round(spec.test_fraction * len(u)))
+    if spec.ns and max(spec.ns) >= n_full:
+        raise InputError(f"--ns {max(spec.ns)}: a learning-curve N must be below the {n_full} training rows of a split")
+    settings = {"data_csv_sha256": sha, **spec.settings(), "recipes": {m: RECIPES[m] for m in COMPARE_MODELS}}
+    rows, old = _read(out)
+    if rows:
+        _check_same(out, old["settings"], settings)
+    # the floor of an earlier run is kept unless --floor names one
+    floor_info = floor_of(floor, data.resolve(), sha) if floor is not None else (old.get("floor") if rows else None)
+    seeds = run_seeds(spec.seed, spec.n_splits)
+    sizes = {"random": (None, *spec.ns) if spec.ns else (None,)}
+    plan = [
+        (m, k, kind, i, seed if kind != "sequential" else spec.seed, n)
+        for kind in spec.splits
+        for i, seed in (enumerate(seeds) if kind != "sequential" else [(0, spec.seed)])
+        for n in sizes.get(kind, (None,))
+        for k in spec.history
+        for m in spec.models
+    ]
+    payload = {"u": u, "y": y, "seq": seq, "name": data.name, "fraction": spec.test_fraction}
+    # every split's training size, which names its rows in the file (and refuses an
+    # impossible split now, not after an hour of fits)
+    n_train = {(t[2], t[3]): len(split_rows(t[2], t[3], t[4], len(u), seq, spec.test_fraction)[1]) for t in plan}
+    have = {(r["model"], r["history"], r["split"].split("(")[0], r["split_index"], r["n_train"]) for r in rows}
+    todo = [t for t in plan if (*t[:4], t[5] or n_train[t[2], t[3]]) not in have]
+    log(f"{len(todo)} fits to run, {len(rows)} rows already in {out}")
+    commands = old.get("commands", []) if rows else []
+    side = {
+        "kind": "lab.model_comparison", "format_version": 1,
+        "dataset": {"path": str(data), "csv_sha256": sha, "n_rows": len(u), "n_sequences": int(seq[-1]) + 1,
+                    "robot": (meta.get("robot") or {}).get("name") if isinstance(meta.get("robot"), dict) else None},
+        "settings": settings, "floor": floor_info, "command": command,
+        "commands": commands + ([command] if command and command not in commands else []),
+        "code_version": code_version(), "units": {"*_m": "m", "fit_s": "s", "within_*": "share of test coordinates"},
+    }  # fmt: skip
+    floor_m = floor_info["floor_m"] if floor_info else None
+    _collect(_results(payload, todo, jobs), rows, out, side, n_full, floor_m, log)
+    return side
+
+
+def _results(payload: dict, todo: list, jobs: int):
+    if jobs == 1 or len(todo) <= 1:
+        yield from (measure_row(payload, t) for t in todo)
+        return
+    from joblib import Parallel, delayed
+
+    from lab.workers import kill_local_workers, worker_config
+
+    try:
+        with worker_config():
+            runner = Parallel(n_jobs=min(jobs, len(todo)), return_as="generator_unordered")
+            yield from runner(delayed(measure_row)(payload, t) for t in todo)
+    except BaseException:  # Ctrl-C, SIGTERM: stop the workers
+        kill_local_workers()
+        raise
+
+
+def _collect(results, rows: list[dict], out: Path, side: dict, n_full: int, floor_m, log) -> None:
+    for row in results:
+        rows.append(row)
+        _write(out, rows, side, n_full, floor_m)
+        log(f"{row['split']} #{row['split_index']} K={row['history']} {row['model']} (N={row['n_train']}): "
+            f"test RMS {1e3 * row['test_rms_m']:.1f} mm, fit {row['fit_s']:.1f} s")  # fmt: skip
+    _write(out, rows, side, n_full, floor_m)
