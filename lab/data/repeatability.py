@@ -17,7 +17,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["scaled_commands", "neighbour_pairs", "revisit_floor", "local_residuals", "pair_fit", "repeatability_floor", "hysteresis"]
+__all__ = [
+    "scaled_commands",
+    "neighbour_pairs",
+    "revisit_floor",
+    "local_residuals",
+    "pair_fit",
+    "repeatability_floor",
+    "hysteresis",
+]
 
 #: Fewer pairs than this and an estimate is not made (``None`` with a reason).
 MIN_PAIRS = 10

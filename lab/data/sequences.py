@@ -37,8 +37,7 @@ def sequence_starts_of(meta: dict, n_rows: int, *, where: str = "the dataset sid
     )
     if not ok:
         raise InputError(
-            f"{where}: sequence_starts must be ascending row indices starting with 0 and below {n_rows}, "
-            f"got {starts!r}"
+            f"{where}: sequence_starts must be ascending row indices starting with 0 and below {n_rows}, got {starts!r}"
         )
     return np.asarray(starts, dtype=int)
 
