@@ -2,8 +2,11 @@
 wherever a rig is taken, and ``python -m lab defects --foam SEED``. A bad seed ends with
 exit 2 naming the rig and its form before anything is written; ``--foam`` with ``--random``
 (two families) or neither is refused; a huge seed is a robot like any other.
+``transfer-curve --family-kind`` takes random or foam only, and a file of one family is not
+resumed with the other (a file made before the flag is of the random family).
 """
 
+import json
 import tomllib
 
 from sweep import Case
@@ -16,10 +19,29 @@ NOT_CAPTURED = ("{dir}/c.csv", "{dir}/c.journal.csv")
 TRACK = ["track", "--model", "{dir}/model.npz", "--trajectory", "{dir}/traj.csv", "--out", "{dir}/r.json"]
 DEFECTS = ["defects", "--out", "{dir}/d.toml"]
 HUGE = "123456789012345678901234567890"
+CURVE = ["transfer-curve", "--sim-model", "{dir}/model.npz", "--family", "1", "--out", "{dir}/tc.csv"]
 
 
 def _copy_six(d):
     (d / "six.toml").write_bytes((ROBOTS_DIR / "six-cable.toml").read_bytes())
+
+
+def _random_curve(recorded: bool):
+    """A setup writing ``tc.csv``: one random-family transfer-curve row; its sidecar records
+    ``family_kind`` if ``recorded`` (else it is a file from before the setting)."""
+
+    def setup(d):
+        from lab.studies.transfer_curve import COLUMNS, TransferCurveSpec
+
+        spec = TransferCurveSpec(sim_model=str(d / "model.npz"))
+        row = {c: "0.01" for c in COLUMNS} | {"robot": "random:0", "method": "real-only", "n_real": "5"}
+        (d / "tc.csv").write_text(",".join(COLUMNS) + "\n" + ",".join(row[c] for c in COLUMNS) + "\n")
+        meta = {"kind": "lab.transfer_curve", "robot": spec.robot, "sim_model": spec.sim_model, **spec.settings()}
+        if not recorded:
+            del meta["family_kind"]
+        (d / "tc.csv.json").write_text(json.dumps(meta))
+
+    return setup
 
 
 def _foam_file(d):
@@ -99,5 +121,24 @@ FOAM_CASES: list = [
         setup=_copy_six,
         unchanged=("{dir}/six.toml",),
         after=lambda d: load_defects(d / "d.toml", load_robot(d / "six.toml")),
+    ),
+    Case(
+        "foam-transfer-curve-family-kind-bogus",
+        [*CURVE, "--family-kind", "bogus"],
+        2,
+        ("--family-kind", "invalid choice: 'bogus'"),
+        absent=("{dir}/tc.csv",),
+        subprocess=True,
+    ),
+    *(
+        Case(
+            f"foam-transfer-curve-resumes-random-{name}",
+            [*CURVE, "--family-kind", "foam"],
+            2,
+            ("{dir}/tc.csv was made with", "--family-kind random (this run: foam)", "choose another --out"),
+            ("{dir}/tc.csv", "{dir}/tc.csv.json"),
+            setup=_random_curve(recorded),
+        )
+        for name, recorded in (("file", True), ("file-from-before-the-flag", False))
     ),
 ]

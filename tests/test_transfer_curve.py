@@ -2,6 +2,7 @@
 family statistics and findings, the figure, and the resumable ``transfer-curve`` command."""
 
 import csv
+import json
 from pathlib import Path
 
 import matplotlib
@@ -171,3 +172,17 @@ def test_transfer_curve_command_writes_and_resumes(tmp_path, capsys):
         csv.writer(fh).writerows([["a", "b"], [1, 2]])
     assert main([*argv[:-1], str(other)]) == 2
     assert "not a transfer-curve file" in capsys.readouterr().err
+
+
+def test_transfer_curve_foam_family_labels_its_rows(tmp_path):
+    out = tmp_path / "foam.csv"
+    argv = ["transfer-curve", "--sim-model", str(SIM_MODEL), "--family", "1", "--ns", "0", "--n-test", "1",
+            "--n-points", "4", "--methods", "sim-only", "--n-rings", "1", "--n-axial", "6", "--jobs", "1"]  # fmt: skip
+    assert main([*argv, "--family-kind", "foam", "--out", str(out)]) == 0
+    rows = read_curve(out)
+    assert [(r["robot"], r["method"], r["n_real"]) for r in rows] == [("foam:0", "sim-only", 0)]
+    assert json.loads((tmp_path / "foam.csv.json").read_text())["family_kind"] == "foam"
+    # the same seed of the other family is another robot: the same network errs differently on it
+    assert main([*argv, "--out", str(tmp_path / "random.csv")]) == 0
+    (random_row,) = read_curve(tmp_path / "random.csv")
+    assert random_row["robot"] == "random:0" and random_row["model_error_m"] != rows[0]["model_error_m"]

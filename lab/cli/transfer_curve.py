@@ -2,7 +2,8 @@
 as-built robots (:mod:`lab.studies.transfer_curve`, :mod:`lab.studies.transfer_study`).
 
 For each robot (``--family K``: members 0..K-1 of :func:`lab.rig.family.random_defects`,
-plus ``--shipped`` for the shipped defects file), each method and each N it writes one row:
+or with ``--family-kind foam`` of :func:`lab.rig.foam_family.foam_defects`, rows labelled
+``foam:K``; plus ``--shipped`` for the shipped defects file), each method and each N it writes one row:
 model error on held-out random commands and Table I tracking errors, in metres. The flags
 are :class:`lab.studies.transfer_curve.TransferCurveSpec`'s. Rows are appended robot by
 robot, so an interrupted run resumes where it stopped; a robot whose rows are all there is

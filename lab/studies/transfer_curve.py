@@ -2,8 +2,9 @@
 
 :class:`TransferCurveSpec` holds its settings (robots, methods, numbers of real samples,
 design, test sizes, meshes, workers). :func:`transfer_curve_run` measures, per robot
-(members 0..K-1 of :func:`lab.rig.family.random_defects`, and the shipped defects), method
-and N, the rows of :func:`lab.studies.transfer_study.curve_rows`, one robot per worker.
+(members 0..K-1 of :func:`lab.rig.family.random_defects`, or with ``family_kind="foam"`` of
+:func:`lab.rig.foam_family.foam_defects`, and the shipped defects), method and N, the rows
+of :func:`lab.studies.transfer_study.curve_rows`, one robot per worker.
 Rows are appended robot by robot (the CSV and its JSON sidecar are rewritten atomically
 each time), so an interrupted run resumes where it stopped; a robot whose rows are all
 there is skipped, and a method added later measures only its own rows.
@@ -57,6 +58,12 @@ class TransferCurveSpec(Spec):
     sim_model: str = option(None, required=True, help="network trained on simulated data (.npz)")
     robot: str = option("three-cable", help="robot name or description TOML")
     family: int = option(10, type=int, check=non_negative_int, help="family members 0..K-1")
+    family_kind: str = option(
+        "random",
+        choices=("random", "foam"),
+        help="which family: random (twin:random:K, in the calibrator's model class) or foam (twin:foam:K, "
+        "defects outside it)",
+    )
     shipped: bool = option(False, action="store_true", help="also the robot of the shipped defects file")
     methods: tuple[str, ...] = option(
         DEFAULT_METHODS,
@@ -89,12 +96,13 @@ class TransferCurveSpec(Spec):
             check_mesh_size(*self.calibration_mesh)
 
     def labels(self) -> list[str]:
-        """The robots of the curve: "shipped" (if asked for), then "random:0".."random:K-1"."""
-        return (["shipped"] if self.shipped else []) + [f"random:{k}" for k in range(self.family)]
+        """The robots of the curve: "shipped" (if asked for), then "KIND:0".."KIND:K-1" (KIND the
+        ``family_kind``, "random" or "foam")."""
+        return (["shipped"] if self.shipped else []) + [f"{self.family_kind}:{k}" for k in range(self.family)]
 
     def settings(self) -> dict:
         """The settings the results file's sidecar records (and that the rows depend on)."""
-        keys = ("seed", "ns", "design", "n_test", "n_points", "methods")
+        keys = ("family_kind", "seed", "ns", "design", "n_test", "n_points", "methods")
         d = {k: getattr(self, k) for k in keys}
         d.update(_mesh(self))
         d.update({"calibration_mesh": self.calibration_mesh, "sim_levels": self.sim_levels})
@@ -152,11 +160,14 @@ def _calibrated_builder(robot, spec: TransferCurveSpec):
 #: What a file is resumed with only if it was made with the same (sidecar key -> flag); the
 #: robots (``--family``, ``--shipped``), ``--methods`` and ``--ns`` may grow from run to run.
 RESUME_FLAGS = {
-    "robot": "--robot", "sim_model": "--sim-model", "seed": "--seed", "design": "--design", "n_test": "--n-test",
-    "n_points": "--n-points", "n_rings": "--n-rings", "n_axial": "--n-axial",
+    "robot": "--robot", "sim_model": "--sim-model", "family_kind": "--family-kind", "seed": "--seed",
+    "design": "--design", "n_test": "--n-test", "n_points": "--n-points",
+    "n_rings": "--n-rings", "n_axial": "--n-axial",
 }  # fmt: skip
 #: ... and, once the file holds calibrated rows, the settings those were measured with.
 CALIBRATED_FLAGS = {"calibration_mesh": "--calibration-mesh", "sim_levels": "--sim-levels"}
+#: The value of a setting added later, in files made before it (other missing keys are not checked).
+SETTING_DEFAULTS = {"family_kind": "random"}
 
 
 def _read(path: Path) -> tuple[list[dict], dict]:
@@ -203,11 +214,12 @@ def _check_resume(spec: TransferCurveSpec, out: Path, rows: list[dict], old: dic
     flags = {**RESUME_FLAGS, **(CALIBRATED_FLAGS if any(r["method"] == "calibrated" for r in rows) else {})}
     diff = []
     for key, flag in flags.items():
-        if key not in old:  # a file from before the setting was recorded
+        if key not in old and key not in SETTING_DEFAULTS:  # a file from before the setting was recorded
             continue
-        same = _same_file(old[key], new[key]) if key == "sim_model" else json.dumps(old[key]) == json.dumps(new[key])
+        was = old.get(key, SETTING_DEFAULTS.get(key))
+        same = _same_file(was, new[key]) if key == "sim_model" else json.dumps(was) == json.dumps(new[key])
         if not same:
-            diff.append(f"{flag} {old[key]} (this run: {new[key]})")
+            diff.append(f"{flag} {was} (this run: {new[key]})")
     if rows and diff:
         raise InputError(
             f"{out} was made with {', '.join(diff)}; its rows would mix two studies: resume it with its own "
