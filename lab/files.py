@@ -121,6 +121,29 @@ def read_csv_table(path: str | Path, columns, what: str) -> list[dict]:
     return rows
 
 
+def read_resumable_rows(path: str | Path, columns, what: str) -> list[dict]:
+    """The rows of a study's results CSV that a run resumes (strings), ``[]`` if ``path``
+    does not exist yet; :class:`lab.errors.InputError` naming the file (and line) for a
+    header other than exactly ``columns`` or a row with fewer or more fields. ``what``
+    names the kind of file, e.g. "data-curve"."""
+    import csv
+
+    from lab.errors import InputError
+
+    path = Path(path)
+    if not path.exists():
+        return []
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(fh)
+        if reader.fieldnames is None or tuple(reader.fieldnames) != tuple(columns):
+            raise InputError(f"{path}: not a {what} file (columns {reader.fieldnames}); choose another --out")
+        rows = list(reader)
+    for line, r in enumerate(rows, start=2):
+        if None in r or None in r.values():
+            raise InputError(f"{path}: line {line} does not have the {len(columns)} columns; choose another --out")
+    return rows
+
+
 def remove_and_release(lock) -> None:
     """Release a held ``filelock`` lock, removing its file first where that is safe.
 

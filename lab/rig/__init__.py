@@ -23,8 +23,8 @@ from lab.rig.capture import Capture, capture, journal_columns
 from lab.rig.capture_dataset import CapturedDataset
 from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
 from lab.rig.factory import as_built_body, make_rig
-from lab.rig.family import FamilyTwinRig, random_defects, random_defects_toml, write_random_defects
-from lab.rig.foam_family import FoamTwinRig, foam_defects, foam_defects_toml, write_foam_defects
+from lab.rig.family import FamilyTwinRig, FoamTwinRig, random_defects, random_defects_toml, write_random_defects
+from lab.rig.foam_family import foam_defects, foam_defects_toml, write_foam_defects
 from lab.rig.journal import Journal, JournalError
 from lab.rig.predictive import PredictiveSampler
 from lab.rig.protocol import PROTOCOLS, Protocol, Sample, SettleDetector, measure

@@ -78,7 +78,7 @@ def make_rig(
         return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
     if spec.kind == "twin":
         if spec.family_seed is not None and spec.family == "foam":
-            from lab.rig.foam_family import FoamTwinRig
+            from lab.rig.family import FoamTwinRig
 
             return FoamTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
         if spec.family_seed is not None:

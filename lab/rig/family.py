@@ -22,7 +22,7 @@ from lab.files import atomic_write_text
 from lab.rig.asbuilt import Defects, as_built_robot, load_defects, parse_defects
 from lab.rig.family_draw import FIXED, RANGES, check_seed, draw_member
 from lab.rig.family_toml import defects_toml
-from lab.rig.foam_family import foam_defects
+from lab.rig.foam_family import FOAM_FAMILY_VERSION, FOAM_LABEL, foam_defects
 from lab.rig.spec import parse_robot_seed
 from lab.rig.twin import AsBuiltBody, TwinRig
 
@@ -37,6 +37,7 @@ __all__ = [
     "write_random_defects",
     "parse_robot_seed",
     "FamilyTwinRig",
+    "FoamTwinRig",
 ]
 
 #: Version of the generator: a change of ranges or draws bumps it (same seed, other robot).
@@ -114,10 +115,12 @@ class FamilyTwinRig(TwinRig):
     records the robot seed, the generator version and the label, so that a dataset says
     which robot it came from."""
 
+    #: The member's defects: (robot, robot_seed, **mesh) -> Defects; a subclass draws another family.
+    draw = staticmethod(random_defects)
+
     def __init__(self, robot: RobotDescription, robot_seed: int, seed: int = 0, **mesh):
         self.robot_seed = check_seed(robot_seed)
-        defects = random_defects(robot, self.robot_seed, **mesh)
-        super().__init__(robot, seed=seed, body=AsBuiltBody(robot, defects))
+        super().__init__(robot, seed=seed, body=AsBuiltBody(robot, self.draw(robot, self.robot_seed, **mesh)))
 
     def describe(self) -> dict:
         return {
@@ -125,3 +128,17 @@ class FamilyTwinRig(TwinRig):
             "label": LABEL,
             "family": {"robot_seed": self.robot_seed, "generator": "lab.rig.family", "version": FAMILY_VERSION},
         }
+
+
+class FoamTwinRig(FamilyTwinRig):
+    """The twin rig on member ``robot_seed`` of the foam family (``--rig twin:foam:SEED``).
+
+    ``seed`` is the motion-capture noise seed, as for :class:`TwinRig`; ``n_rings``/
+    ``n_axial`` override the member's own (finer) mesh. ``describe()`` records the family,
+    the robot seed, the generator version and :data:`FOAM_LABEL`."""
+
+    draw = staticmethod(foam_defects)
+
+    def describe(self) -> dict:
+        family = {"name": "foam", "robot_seed": self.robot_seed, "generator": "lab.rig.foam_family"}
+        return {**super().describe(), "label": FOAM_LABEL, "family": {**family, "version": FOAM_FAMILY_VERSION}}

@@ -41,7 +41,6 @@ from lab.rig.asbuilt import Defects, as_built_robot, parse_defects
 from lab.rig.family_draw import RANGES, check_seed, draw_member, rounded
 from lab.rig.family_toml import defects_toml
 from lab.rig.spec import FAMILY_LABELS
-from lab.rig.twin import AsBuiltBody, TwinRig
 
 __all__ = [
     "FOAM_FAMILY_VERSION",
@@ -51,7 +50,6 @@ __all__ = [
     "foam_defects",
     "foam_defects_toml",
     "write_foam_defects",
-    "FoamTwinRig",
 ]
 
 #: Version of the generator: a change of ranges or draws bumps it (same seed, other robot).
@@ -174,20 +172,3 @@ def write_foam_defects(
     defects = foam_defects(robot, seed, n_rings=n_rings, n_axial=n_axial)
     atomic_write_text(path, text)
     return defects
-
-
-class FoamTwinRig(TwinRig):
-    """The twin rig on member ``robot_seed`` of the foam family (``--rig twin:foam:SEED``).
-
-    ``seed`` is the motion-capture noise seed, as for :class:`TwinRig`; ``n_rings``/
-    ``n_axial`` override the member's own (finer) mesh. ``describe()`` records the family,
-    the robot seed, the generator version and :data:`FOAM_LABEL`."""
-
-    def __init__(self, robot: RobotDescription, robot_seed: int, seed: int = 0, **mesh):
-        self.robot_seed = check_seed(robot_seed)
-        defects = foam_defects(robot, self.robot_seed, **mesh)
-        super().__init__(robot, seed=seed, body=AsBuiltBody(robot, defects))
-
-    def describe(self) -> dict:
-        family = {"name": "foam", "robot_seed": self.robot_seed, "generator": "lab.rig.foam_family"}
-        return {**super().describe(), "label": FOAM_LABEL, "family": {**family, "version": FOAM_FAMILY_VERSION}}

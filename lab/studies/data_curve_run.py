@@ -11,11 +11,11 @@ reads the rows back with their numbers.
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
 from lab.errors import InputError
+from lab.files import read_resumable_rows
 from lab.specs import positive_int
 from lab.studies.data_curve_spec import DataCurveSpec
 
@@ -51,14 +51,8 @@ def _read(path: Path) -> tuple[list[dict], dict]:
     """The rows of ``path`` as written (strings, checked to parse) and its sidecar ({} if none)."""
     if not path.exists():
         return [], {}
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        if reader.fieldnames is None or tuple(reader.fieldnames) != COLUMNS:
-            raise InputError(f"{path}: not a data-curve file (columns {reader.fieldnames}); choose another --out")
-        rows = list(reader)
+    rows = read_resumable_rows(path, COLUMNS, "data-curve")
     for i, r in enumerate(rows):
-        if None in r or None in r.values():
-            raise InputError(f"{path}: line {i + 2} does not have the {len(COLUMNS)} columns; choose another --out")
         for c in COLUMNS:
             if c not in _TEXT:
                 _number(path, i + 2, c, r[c])

@@ -18,7 +18,6 @@ made from other data or with other settings is refused, naming them.
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import json
 import time
@@ -27,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from lab.errors import InputError
+from lab.files import read_resumable_rows
 from lab.studies.comparison_spec import (
     BR_EPOCHS,
     COMPARE_MODELS,
@@ -128,16 +128,8 @@ def _read(path: Path) -> tuple[list[dict], dict]:
     """The rows of ``path`` (typed) and its sidecar ({} if there is no file)."""
     if not path.exists():
         return [], {}
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        if reader.fieldnames is None or tuple(reader.fieldnames) != COMPARE_COLUMNS:
-            raise InputError(f"{path}: not a compare file (columns {reader.fieldnames}); choose another --out")
-        raw = list(reader)
-    rows = []
-    for i, r in enumerate(raw):
-        if None in r or None in r.values():
-            raise InputError(f"{path}: line {i + 2} does not have the {len(COMPARE_COLUMNS)} columns")
-        rows.append({c: _parse(path, i + 2, c, r[c]) for c in COMPARE_COLUMNS})
+    raw = read_resumable_rows(path, COMPARE_COLUMNS, "compare")
+    rows = [{c: _parse(path, i + 2, c, r[c]) for c in COMPARE_COLUMNS} for i, r in enumerate(raw)]
     side = Path(f"{path}.json")
     try:
         meta = json.loads(side.read_text())

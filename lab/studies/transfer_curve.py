@@ -12,7 +12,6 @@ there is skipped, and a method added later measures only its own rows.
 
 from __future__ import annotations
 
-import csv
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +19,7 @@ from pathlib import Path
 from lab.errors import InputError
 from lab.fem.mesh import check_mesh_size
 from lab.fem.mesh_spec import MeshSpec
+from lab.files import read_resumable_rows
 from lab.specs import Spec, non_negative_int, option, positive_int
 
 __all__ = ["COLUMNS", "DEFAULT_NS", "TransferCurveSpec", "study_robot", "transfer_curve_run"]
@@ -174,14 +174,8 @@ def _read(path: Path) -> tuple[list[dict], dict]:
     """The rows of ``path`` (strings, each checked to parse) and its sidecar ({} if none)."""
     if not path.exists():
         return [], {}
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        if reader.fieldnames is None or tuple(reader.fieldnames) != COLUMNS:
-            raise InputError(f"{path}: not a transfer-curve file (columns {reader.fieldnames}); choose another --out")
-        rows = list(reader)
+    rows = read_resumable_rows(path, COLUMNS, "transfer-curve")
     for line, r in enumerate(rows, start=2):
-        if None in r or None in r.values():
-            raise InputError(f"{path}: line {line} does not have the {len(COLUMNS)} columns; choose another --out")
         for c in COLUMNS[2:]:
             try:
                 int(r[c]) if c == "n_real" else float(r[c])
