@@ -183,3 +183,36 @@ def test_one_sequence_is_cut_into_blocks_and_floor_reports_are_checked(tmp_path)
     assert summary[0]["test_rms_m"] == 2.0 and curve == [
         {"history": 0, "model": "poly3", "n_train": 20, "n_splits": 1, "test_rms_m": 5.0}
     ]
+
+
+@pytest.mark.parametrize("sig", ["SIGKILL", "SIGINT"])
+def test_killed_or_interrupted_process_resumes(data, tmp_path, sig):
+    """A real `python -m lab compare` stopped by kill -9 (or Ctrl-C) after its first rows: the
+    file holds only whole rows, the lock does not block the next run, and that run completes
+    the table without refitting them (the rows already written keep their values)."""
+    import signal
+    import subprocess
+    import sys
+
+    from helpers import subprocess_env, wait_until
+
+    out = tmp_path / "c.csv"
+    argv = [sys.executable, "-m", "lab", "compare", str(data), "--models", "linear", "poly3", "gpr",
+            "--history", "0", "1", *CHEAP, "--out", str(out)]  # fmt: skip
+    proc = subprocess.Popen(argv, env=subprocess_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_until(lambda: out.exists() and len(read_comparison(out)) >= 2, timeout_s=120, what="two rows written")
+        proc.send_signal(getattr(signal, sig))
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert "Traceback" not in err
+    if sig == "SIGINT":
+        assert proc.returncode == 130
+    first = {(r["model"], r["history"], r["split"], r["split_index"]): r["test_rms_m"] for r in read_comparison(out)}
+    assert main(["compare", str(data), "--models", "linear", "poly3", "gpr", "--history", "0", "1", *CHEAP,
+                 "--out", str(out)]) == 0  # fmt: skip
+    rows = read_comparison(out)
+    assert len(rows) == 3 * 2 * 5
+    again = {(r["model"], r["history"], r["split"], r["split_index"]): r["test_rms_m"] for r in rows}
+    assert all(again[k] == v for k, v in first.items())
