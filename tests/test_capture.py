@@ -137,6 +137,30 @@ def test_protocol_measures_the_quasi_static_tip(three_cable, twin_defects, twin_
     assert errors["no-reset"] > 2 * errors["protocol"]  # history (play) shows
 
 
+def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_path):
+    """The first command measured again after the last: an unchanged robot gives its tip
+    back within the threshold; one that creeps over minutes does not, and the capture says so."""
+    import copy
+
+    from lab.rig.capture import repeat_check, repeat_threshold_m
+
+    creeping = copy.deepcopy(twin_defects.source)
+    creeping["lag"].update(creep_fraction=0.1, creep_tau_s=60.0)
+    runs = {}
+    for name, d in (("steady", twin_defects), ("creep", parse_defects(creeping, three_cable))):
+        res = capture(TwinRig(three_cable, d, seed=2), COMMANDS, tmp_path / f"{name}.csv", repeat_check=True)
+        runs[name] = res
+        assert len(res.u_motor) == len(COMMANDS)  # the repeat is a note, not a sample
+    steady, creep = runs["steady"].repeat_check, runs["creep"].repeat_check
+    assert steady["threshold_m"] == repeat_threshold_m(Protocol()) == 4e-4
+    assert not steady["drift"] and steady["distance_m"] < 0.2e-3
+    assert creep["drift"] and creep["distance_m"] > 2 * creep["threshold_m"]
+    assert repeat_check(runs["creep"]).startswith("samples drift") and "repeat check" in repeat_check(runs["steady"])
+    # resumed complete: nothing measured again, the note kept
+    again = capture(TwinRig(three_cable, twin_defects, seed=2), COMMANDS, tmp_path / "steady.csv", repeat_check=True)
+    assert [t for t, _ in again.notes].count("repeat-check") == 1 and again.repeat_check == steady
+
+
 # ------------------------------------------------------------------ journal and resume
 def test_resume_after_a_kill_gives_the_uninterrupted_dataset(three_cable, coarse_fem, tmp_path):
     full = capture(SimRig(three_cable, coarse_fem), COMMANDS, tmp_path / "full.csv", header={"x": 1})
@@ -304,6 +328,7 @@ def test_cli_end_to_end(three_cable, tmp_path):
     assert meta["capture"]["n_unsettled"] == 0 and 150 < meta["capture"]["rate_samples_per_hour"] < 600
     assert meta["rig"]["kind"] == "twin" and meta["protocol"]["wait"] and meta["sampler"]["order"] == "shuffled"
     assert meta["command"].startswith("python -m lab capture --rig twin:")
+    assert meta["capture"]["repeat_check"]["drift"] is False and "repeat check: the first command" in r.stderr
     journal = tmp_path / "real.journal.csv"
     assert journal.exists() and not lock_path(journal).exists()
     with Journal.open(journal, *_header_and_columns(journal)):  # a second, concurrent writer is refused

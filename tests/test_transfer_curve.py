@@ -112,8 +112,10 @@ def test_family_statistics_and_findings():
     assert not f["random:1"]["finding_1"] and not f["random:1"]["finding_2"]  # 1.7x; larger
     assert f["random:1"]["shifted"] and not f["random:1"]["smaller"]  # the parts, apart
     assert list(f) == ["random:0", "random:1"]  # the shipped robot lacks its real-data row
-    assert sorted(["random:10", "x", "random:2", "shipped"], key=robot_order) == [
+    assert sorted(["random:10", "foam:10", "x", "random:2", "foam:2", "shipped"], key=robot_order) == [
         "shipped",
+        "foam:2",
+        "foam:10",
         "random:2",
         "random:10",
         "x",

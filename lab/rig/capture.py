@@ -2,7 +2,10 @@
 
 :func:`capture` runs a list of commands through an append-only :class:`~lab.rig.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
-continues with the first command not yet in the journal. ``python -m lab capture``
+continues with the first command not yet in the journal. With ``repeat_check`` the first
+command is measured once more after the last (:func:`repeat_check`): a robot that creeps
+over minutes, drifts or is knocked gives another tip for it, and the capture says so.
+``python -m lab capture``
 (:func:`lab.tracking.capture_design.capture_design`) adds the design, the rig and the dataset.
 """
 
@@ -68,6 +71,12 @@ class Capture:
     pred_std_m: np.ndarray | None = None
     predicted: np.ndarray | None = None
 
+    @property
+    def repeat_check(self) -> dict | None:
+        """The journal's ``repeat-check`` note (:func:`repeat_check`), or None."""
+        found = [info for tag, info in self.notes if tag == "repeat-check"]
+        return found[-1] if found else None
+
     def __post_init__(self):
         n = len(self.u_motor)
         if self.pred_std_m is None:
@@ -101,6 +110,7 @@ def capture(
     progress: bool = False,
     open_ended: bool = False,
     relaxation=None,
+    repeat_check: bool = False,
 ) -> Capture:
     """Capture ``commands`` (N, m) rad, in this order, into the journal at ``journal_path``.
 
@@ -118,6 +128,10 @@ def capture(
     ``protocol.kind == "predictive"`` (:mod:`lab.rig.predictive`): the relaxation is
     ``relaxation`` if given, else the one a resumed journal learned (its ``relaxation``
     note), else learned from the first ``protocol.n_learn`` samples of this session.
+
+    ``repeat_check`` (a fixed list, a waiting protocol): once every command is captured,
+    the first is measured again with the same protocol and the journal's ``repeat-check``
+    note (:func:`repeat_check`) says whether the tip moved (not a dataset row).
     """
     from tqdm import tqdm
 
@@ -172,6 +186,10 @@ def capture(
                     }
                 )
                 bar.update(1)
+            if repeat_check and not open_ended and protocol.wait and not journal.notes_tagged("repeat-check"):
+                first = journal.rows[0]
+                again = sample(commands[0])
+                journal.note("repeat-check", _repeat_note(first, again, protocol))
         except BaseException as err:
             status = f"stopped: {type(err).__name__}: {err}"
             raise
@@ -204,6 +222,55 @@ def capture(
         pred_std_m=col["pred_std_m"] if predictive else None,
         predicted=col["predicted"].astype(bool) if predictive else None,
     )
+
+
+#: A repeat of the first command is flagged when its tip lies further than this many of the
+#: protocol's tolerances (settle_tol_m or predict_tol_m) from the first measurement: each
+#: sample is within about one tolerance of where the tip was going, so two of an unchanged
+#: robot differ by up to two plus the reading noise (0.09-0.19 mm at 0.1 mm on the emulated
+#: in-class family); docs/design/rig.md, "The repeat check".
+REPEAT_TOLERANCES = 4.0
+
+
+def repeat_threshold_m(protocol: Protocol) -> float:
+    """Distance (m) above which a repeated command's tip says the robot changed."""
+    tol = protocol.predict_tol_m if protocol.kind == "predictive" else protocol.settle_tol_m
+    return REPEAT_TOLERANCES * tol
+
+
+def _repeat_note(first: dict, again, protocol: Protocol) -> dict:
+    p_first = np.array([first["x"], first["y"], first["z"]], float)
+    distance = float(np.linalg.norm(again.p_tip_W - p_first))
+    threshold = repeat_threshold_m(protocol)
+    return {
+        "u_motor": [float(v) for v in again.u_motor],
+        "p_first_m": p_first.tolist(),
+        "p_again_m": [float(v) for v in again.p_tip_W],
+        "t_first_s": float(first["t_done_s"]),
+        "t_again_s": float(again.t_done_s),
+        "distance_m": distance,
+        "threshold_m": threshold,
+        "drift": bool(distance > threshold),
+    }
+
+
+def repeat_check(capture: Capture) -> str:
+    """One line on a capture's repeat check ("" if it has none): how far the first command's
+    tip moved between the first sample and its repeat after the last, and whether that says
+    the samples drift (creep over minutes, a drifting rig or mocap frame)."""
+    rc = capture.repeat_check
+    if rc is None:
+        return ""
+    mm = 1e3 * rc["distance_m"]
+    minutes = (rc["t_again_s"] - rc["t_first_s"]) / 60.0  # negative: the rig's clock restarted
+    when = f"{minutes:.0f} min later" if minutes >= 0 else "in a later session"
+    if rc["drift"]:
+        return (
+            f"samples drift: the first command, measured again {when}, gave a tip "
+            f"{mm:.2f} mm away (more than {1e3 * rc['threshold_m']:.2f} mm); the robot changed during the capture "
+            "(creep over minutes, a moved base or mocap frame), so its samples depend on their history"
+        )
+    return f"repeat check: the first command measured again {when}, {mm:.2f} mm away"
 
 
 def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):

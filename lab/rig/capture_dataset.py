@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.description import RobotDescription
-from lab.rig.capture import Capture
+from lab.rig.capture import Capture, repeat_check
 from lab.rig.capture_spec import CaptureSpec
 from lab.rig.protocol import Protocol
 
@@ -111,6 +111,7 @@ def captured_dataset(
             "wall_s_this_session": wall_s,
             "wall_s_all_sessions": res.wall_s,
             "protocol": protocol.kind,
+            "repeat_check": res.repeat_check,
             **(
                 {
                     "relaxation": learned[-1] if learned else {"from": str(spec.protocol.dynamic_model)},
@@ -134,4 +135,5 @@ def captured_dataset(
         + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else "")
         + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else "")
     )
-    return CapturedDataset(u, y, meta, summary)
+    check = repeat_check(res)
+    return CapturedDataset(u, y, meta, summary + (f"\n{check}" if check else ""))

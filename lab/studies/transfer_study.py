@@ -200,11 +200,12 @@ def family_table1(rows: list[dict], real_n: int = 308) -> list[dict]:
 
 
 def robot_order(label: str) -> tuple:
-    """Sort key of robot labels: ``shipped`` first, then ``random:SEED`` by SEED, then others."""
+    """Sort key of robot labels: ``shipped`` first, then ``KIND:SEED`` (``random:3``,
+    ``foam:12``) by kind and SEED, then others."""
     if label == "shipped":
-        return (0, 0, label)
-    seed = label.removeprefix("random:")
-    return (1, int(seed), label) if seed.isdigit() else (2, 0, label)
+        return (0, "", 0, label)
+    kind, _, seed = label.partition(":")
+    return (1, kind, int(seed), label) if seed.isdigit() else (2, "", 0, label)
 
 
 def findings(rows: list[dict], real_n: int = 308, factor: float = 2.0) -> list[dict]:

@@ -64,6 +64,7 @@ def capture_design(spec: CaptureSpec, *, file=None) -> CapturedDataset:
                 session_info={"command": spec.command},
                 progress=spec.progress,
                 relaxation=relaxation,
+                repeat_check=True,
             )
     wall_s = time.perf_counter() - t0
     return captured_dataset(spec, robot, description, protocol, res, u, order, sampler, wall_s)

@@ -22,7 +22,23 @@ import numpy as np
 from lab.description import RobotDescription
 from lab.fem.parameters import AXES, ParameterLayout
 
-__all__ = ["true_theta", "recovery_rows", "family_recovery", "recovery_summary"]
+__all__ = [
+    "true_theta",
+    "recovery_rows",
+    "family_recovery",
+    "recovery_summary",
+    "RECOVERY_COLUMNS",
+    "write_recovery",
+    "read_recovery",
+]
+
+#: Columns of a recovery study's CSV (:func:`write_recovery`): ``family`` ("random", "foam",
+#: ...) and the keys of :func:`recovery_rows`.
+RECOVERY_COLUMNS = (
+    "family", "robot", "parameter", "unit", "true", "recovered", "std", "std_raw", "std_inflated", "nominal",
+    "n_real", "rms_nominal_m", "rms_m", "expected_rms_m", "reduced_chi2", "model_discrepancy",
+)  # fmt: skip
+_TEXT = ("family", "robot", "parameter", "unit")
 
 
 def true_theta(layout: ParameterLayout, defects, *, play_as_slack: bool = False) -> np.ndarray:
@@ -166,3 +182,42 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
                 row["within_2" + key] = float(np.mean(np.abs(err) <= 2 * std))
         summary.append(row)
     return summary
+
+
+def write_recovery(path, rows: list[dict], meta: dict) -> None:
+    """Rows of :data:`RECOVERY_COLUMNS` as CSV (atomic) with the JSON sidecar ``PATH.json`` (``meta``)."""
+    import csv
+    import io
+    import json
+
+    from lab.files import atomic_write_text
+
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(RECOVERY_COLUMNS), lineterminator="\n", extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(path, buf.getvalue())
+    atomic_write_text(f"{path}.json", json.dumps({"format_version": 1, **meta}, indent=2) + "\n")
+
+
+def read_recovery(path) -> list[dict]:
+    """The rows of a recovery study's CSV (:func:`write_recovery`): numbers as float,
+    ``n_real`` as int, ``model_discrepancy`` as bool. InputError names a bad file or cell."""
+    from lab.errors import InputError
+    from lab.files import read_csv_table
+
+    rows = read_csv_table(path, RECOVERY_COLUMNS, "calibration recovery table")
+    for line, r in enumerate(rows, start=2):
+        try:
+            for k in RECOVERY_COLUMNS:
+                if k == "n_real":
+                    r[k] = int(r[k])
+                elif k == "model_discrepancy":
+                    if r[k] not in ("True", "False"):
+                        raise ValueError(r[k])
+                    r[k] = r[k] == "True"
+                elif k not in _TEXT:
+                    r[k] = float(r[k])
+        except ValueError:
+            raise InputError(f"{path}, line {line}, column {k!r}: not a valid value ({r[k]!r})") from None
+    return rows
