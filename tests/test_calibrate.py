@@ -262,7 +262,7 @@ def test_transfer_calibrated_bad_inputs_exit_2(real_csv, tmp_path, capsys):
 FAMILY_MESH = dict(n_rings=2, n_axial=10)
 
 
-def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable):
+def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable, tmp_path):
     # recovered vs true on two emulated as-built robots of the family (2 x 10 mesh: one ring
     # is too coarse for a stiffness gradient to tell from softness): each
     # block of theta ends closer to the truth than the nominal robot starts
@@ -285,3 +285,15 @@ def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable
     assert set(summary) == {"softness", "gradient_y", "gradient_z", "eyelet shift", "slack"}
     for s in summary.values():
         assert s["rms_error"] < 0.5 * s["rms_spread"], s
+    # the study's table round-trips (numbers, flags), and a bad cell is named by line and column
+    from lab.errors import InputError
+    from lab.transfer.recovery import read_recovery, write_recovery
+
+    path = tmp_path / "recovery.csv"
+    write_recovery(path, [{"family": "random", **r} for r in rows], {"command": "test"})
+    back = read_recovery(path)
+    assert len(back) == len(rows) and back[3]["recovered"] == rows[3]["recovered"]
+    assert back[0]["model_discrepancy"] is rows[0]["model_discrepancy"] and back[0]["n_real"] == 15
+    path.write_text(path.read_text().replace(",False\n", ",maybe\n", 1).replace(",True\n", ",maybe\n", 1))
+    with pytest.raises(InputError, match=r"line 2, column 'model_discrepancy'"):
+        read_recovery(path)

@@ -12,7 +12,7 @@ from lab.control.trajectories import write_trajectory_csv
 from lab.rig.base import MocapFrame, Rig
 from lab.tracking import closed_loop as cl
 from lab.tracking.closed_loop import Correction, correct_command, run_closed_loop, tip_from_frames
-from lab.tracking.track import REQUIRED_KEYS, read_result
+from lab.tracking.track import REQUIRED_KEYS, TrackResultError, read_result
 
 C = np.array([0.2, 0.0, -0.01])
 B = 0.01 * np.array([[-0.1, -0.1, -0.1], [0.0, -1.0, 1.0], [1.0, -0.5, -0.5]])  # m/rad, full rank
@@ -331,6 +331,28 @@ def test_pass_table_and_figure(three_cable, tmp_path):
         )
     with pytest.raises(TrackResultError, match="not a closed-loop"):
         pass_rows(tmp_path)
+
+
+def test_targets_at_the_safety_limit_are_split_from_the_rest(three_cable, tmp_path):
+    """at_limit: a motor at u_max or a safety sum at its cap (three-cable: 6.5 rad over all
+    three); final_pass_by_limit splits the last pass's errors by it."""
+    from lab.studies.closed_loop_table import at_limit, final_pass_by_limit
+
+    cap = three_cable.safety_limits[0].max_sum_over_u_max * three_cable.u_max_rad
+    u = np.array([[1.0, 1.0, 1.0], [3.0, 0.0, 0.0], [cap / 3, cap / 3, cap / 3], [2.0, 2.0, cap - 4.0 - 0.01]])
+    assert at_limit(three_cable, u).tolist() == [False, True, True, False]
+    assert at_limit(three_cable, u, tol_rad=0.02).tolist() == [False, True, True, True]
+    targets = np.zeros((4, 3))
+    achieved = np.array([[1e-4, 0, 0], [3e-4, 0, 0], [0, 5e-4, 0], [0, 0, 2e-4]])
+    final = {"commands": u.tolist(), "achieved": achieved.tolist(), "errors_m": [0.0] * 4, "mean_error_m": 0.0}
+    doc = {"targets": targets.tolist(), **final, "max_error_m": 0.0, "timings": {}, "passes": [final]}
+    (tmp_path / "r.json").write_text(json.dumps(doc))
+    split = final_pass_by_limit(tmp_path / "r.json", three_cable)
+    assert split["n"] == 4 and split["n_at_limit"] == 2
+    assert split["mean_inside_m"] == pytest.approx(1.5e-4) and split["mean_at_limit_m"] == pytest.approx(4e-4)
+    (tmp_path / "open.json").write_text(json.dumps({**doc, "passes": []}))
+    with pytest.raises(TrackResultError, match="not a closed-loop"):
+        final_pass_by_limit(tmp_path / "open.json", three_cable)
 
 
 def test_a_short_dropout_grows_the_window_instead_of_skipping(three_cable):

@@ -20,7 +20,7 @@ from lab.studies.capture_rate import (
     run_protocol,
     write_capture_rate,
 )
-from lab.studies.closed_loop_table import GOALS_M, model_label, pass_rows
+from lab.studies.closed_loop_table import GOALS_M, at_limit, final_pass_by_limit, model_label, pass_rows
 from lab.studies.comparison_spec import CompareSpec
 from lab.studies.data_curve import (
     STRATEGIES,
@@ -109,4 +109,6 @@ __all__ = [
     "GOALS_M",
     "model_label",
     "pass_rows",
+    "at_limit",
+    "final_pass_by_limit",
 ]

@@ -2,12 +2,16 @@
 
 :func:`pass_rows` reads ``track --closed-loop`` results (:mod:`.closed_loop`) into one row per
 (trajectory, model, mode, pass); :func:`.pass_rows` output feeds
-:func:`lab.viz.closed_loop.plot_closed_loop`.
+:func:`lab.viz.closed_loop.plot_closed_loop`. :func:`final_pass_by_limit` splits a run's last
+pass into targets whose commands sit on the allowed set's boundary (:func:`at_limit`) and
+the rest: where the safety rule, not the correction, sets the error.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+import numpy as np
 
 from lab.tracking.track import TrackResultError, read_result
 
@@ -51,3 +55,33 @@ def pass_rows(paths) -> list[dict]:
                 }
             )
     return rows
+
+
+def at_limit(robot, u_motor, tol_rad: float = 1e-3) -> np.ndarray:
+    """Whether each command (N, m) rad lies on the allowed set's boundary, within
+    ``tol_rad``: a motor at ``u_max_rad`` or a safety limit's sum at its cap. A target whose
+    command sits there may need more than the safety rule allows; no correction gets past it."""
+    u = np.atleast_2d(np.asarray(u_motor, dtype=float))
+    hit = np.any(u >= robot.u_max_rad - tol_rad, axis=1)
+    for lim in robot.safety_limits:
+        hit |= u[:, list(lim.cables)].sum(axis=1) >= lim.max_sum_over_u_max * robot.u_max_rad - tol_rad
+    return hit
+
+
+def final_pass_by_limit(path, robot, tol_rad: float = 1e-3) -> dict:
+    """The last pass of a closed-loop result split by :func:`at_limit`: ``n``, ``n_at_limit``,
+    ``mean_error_m`` (all targets), ``mean_at_limit_m`` and ``mean_inside_m`` (NaN when empty)."""
+    doc = read_result(path)
+    if not isinstance(doc.get("passes"), list) or not doc["passes"]:
+        raise TrackResultError(f"{path}: not a closed-loop track result (no 'passes')")
+    last = doc["passes"][-1]
+    err = np.linalg.norm(np.asarray(last["achieved"], float) - np.asarray(doc["targets"], float), axis=1)
+    hit = at_limit(robot, last["commands"], tol_rad)
+    mean = lambda a: float(a.mean()) if len(a) else float("nan")  # noqa: E731
+    return {
+        "n": len(err),
+        "n_at_limit": int(hit.sum()),
+        "mean_error_m": mean(err),
+        "mean_at_limit_m": mean(err[hit]),
+        "mean_inside_m": mean(err[~hit]),
+    }
