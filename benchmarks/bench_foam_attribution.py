@@ -1,6 +1,6 @@
 """Where calibrated physics loses on the foam family: one out-of-class defect removed at a time.
 
-    python benchmarks/bench_foam_attribution.py --robots 3    # ~30 min on 1 core
+    python benchmarks/bench_foam_attribution.py --robots 3    # ~40 min on 1 core
 
 For foam members 0..K-1 (``twin:foam:SEED``), the member as drawn and four variants, each
 with one group of the defects that ``calibrate`` has no parameter for taken out:
@@ -68,6 +68,7 @@ def main() -> None:
     ap.add_argument("--n-test", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sim-model", default="data/model_sim_three_cable.npz")
+    ap.add_argument("--variants", nargs="+", help="only these variants (default: all)")
     args = ap.parse_args()
     robot = load_robot("three-cable")
     sim_model = load_model(args.sim_model)
@@ -82,6 +83,8 @@ def main() -> None:
     for k in range(args.robots):
         source = family_member(robot, f"foam:{k}").source
         for name, data in variants(source).items():
+            if args.variants and name not in args.variants and name != "as drawn":
+                continue
             t0 = time.perf_counter()
             d = parse_defects(data, robot, f"foam:{k} {name}")
             body = AsBuiltBody(robot, d)
