@@ -63,7 +63,8 @@ def variants(source: dict) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robots", type=int, default=3)
+    ap.add_argument("--robots", type=int, default=3, help="foam members 0..K-1")
+    ap.add_argument("--seeds", type=int, nargs="+", help="these foam members instead of 0..K-1")
     ap.add_argument("--n", type=int, default=30)
     ap.add_argument("--n-test", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
@@ -80,7 +81,7 @@ def main() -> None:
     print(f"three-cable, N = {args.n} maximin samples, {args.n_test} held-out commands, 24 targets per shape")
     print(f"{'robot':>7} {'variant':>14} {'tracking cm':>11} {'model mm':>9} {'fit RMS mm':>10} {'s':>5}")
     results: dict = {}
-    for k in range(args.robots):
+    for k in args.seeds or range(args.robots):
         source = family_member(robot, f"foam:{k}").source
         for name, data in variants(source).items():
             if args.variants and name not in args.variants and name != "as drawn":

@@ -77,6 +77,15 @@ def subprocess_env() -> dict:
     return env
 
 
+def default_sigint() -> None:
+    """``preexec_fn`` for a subprocess a test interrupts with SIGINT: a suite started in the
+    background (``nohup scripts/test &``) passes SIGINT on as ignored, and Python then installs
+    no KeyboardInterrupt handler, so the child would never see the Ctrl-C the test sends."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 #: Time limits that turn a hang into a named failure. A notebook cell gets CELL_TIMEOUT_S
 #: (papermill's execution_timeout: the error names the cell); a whole chapter's test gets
 #: NOTEBOOK_TEST_TIMEOUT_S (pytest-timeout, names the test). Every other test has pytest.ini's

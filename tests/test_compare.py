@@ -194,12 +194,19 @@ def test_killed_or_interrupted_process_resumes(data, tmp_path, sig):
     import subprocess
     import sys
 
-    from helpers import subprocess_env, wait_until
+    from helpers import default_sigint, subprocess_env, wait_until
 
     out = tmp_path / "c.csv"
     argv = [sys.executable, "-m", "lab", "compare", str(data), "--models", "linear", "poly3", "gpr",
             "--history", "0", "1", *CHEAP, "--out", str(out)]  # fmt: skip
-    proc = subprocess.Popen(argv, env=subprocess_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        argv,
+        env=subprocess_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=default_sigint,
+    )
     try:
         wait_until(lambda: out.exists() and len(read_comparison(out)) >= 2, timeout_s=120, what="two rows written")
         proc.send_signal(getattr(signal, sig))

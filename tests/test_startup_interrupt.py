@@ -13,16 +13,16 @@ import subprocess
 import sys
 
 import pytest
-from helpers import subprocess_env
+from helpers import default_sigint, subprocess_env
 
 HOOK = """
-import os, runpy, signal, sys
+import os, runpy, signal, sys, threading
 
 class Interrupt:
     def find_spec(self, name, path=None, target=None):
         if name == "lab.cli.train":
             os.kill(os.getpid(), {signum})
-            signal.pthread_kill(signal.pthread_self(), 0)  # let the handler run now
+            signal.pthread_kill(threading.get_ident(), 0)  # let the handler run now
         return None
 
 sys.meta_path.insert(0, Interrupt())
@@ -43,6 +43,7 @@ def test_a_signal_while_importing_stops_cleanly(signum, code, words, tmp_path):
         text=True,
         timeout=120,
         env=subprocess_env(),
+        preexec_fn=default_sigint,
     )
     assert r.returncode == code, r.stderr
     assert "Traceback" not in r.stderr, r.stderr

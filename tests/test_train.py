@@ -364,7 +364,7 @@ def test_ctrl_c_while_ensemble_workers_import_exits_130_without_tracebacks(tmp_p
     import signal
 
     import psutil
-    from helpers import subprocess_env, wait_until
+    from helpers import default_sigint, subprocess_env, wait_until
 
     u, y, meta = read_dataset(DATA)
     data, out = tmp_path / "d.csv", tmp_path / "ens.npz"
@@ -378,6 +378,7 @@ def test_ctrl_c_while_ensemble_workers_import_exits_130_without_tracebacks(tmp_p
             stderr=subprocess.PIPE,
             text=True,
             start_new_session=True,  # its own process group, as a terminal's foreground job
+            preexec_fn=default_sigint,
         )
         try:
             parent = psutil.Process(proc.pid)
