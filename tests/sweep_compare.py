@@ -28,12 +28,21 @@ def bad_csv(text: str):
     return setup
 
 
-def report(sha: str | None = "0" * 64, path: str = "other.csv", kind: str = "lab.inspect"):
+def report(sha: str | None = "0" * 64, path: str = "other.csv", kind: str = "lab.inspect", floor_m=0.01):
     """A setup writing ``r.json``: an inspect report of the dataset ``path`` hashing to ``sha``."""
 
     def setup(d: Path):
-        r = {"kind": kind, "dataset": {"path": path, "csv_sha256": sha}, "floor": {"floor_m": 0.01}}
+        r = {"kind": kind, "dataset": {"path": path, "csv_sha256": sha}, "floor": {"floor_m": floor_m}}
         (d / "r.json").write_text(json.dumps(r))
+
+    return setup
+
+
+def own_report(floor_m):
+    """A setup writing ``r.json``: an inspect report of the sweep's ``data.csv`` with ``floor_m``."""
+
+    def setup(d: Path):
+        report(json.loads((d / "data.csv.json").read_text())["csv_sha256"], "data.csv", floor_m=floor_m)(d)
 
     return setup
 
@@ -105,6 +114,12 @@ COMPARE_CASES = [
          ("--floor", "not an inspect report"), KEEP, NO_OUT, setup=report(kind="lab.model_comparison")),
     Case("compare-floor-missing", [*BASE, "--floor", "{dir}/none.json", *OUT], 2,
          ("--floor", "not a readable inspect report"), KEEP, NO_OUT),
+    Case("compare-floor-nan", [*BASE, "--floor", "{dir}/r.json", *OUT], 2,
+         ("--floor", "r.json", "has no floor", "nan"), KEEP, NO_OUT, setup=own_report(float("nan"))),
+    Case("compare-floor-negative", [*BASE, "--floor", "{dir}/r.json", *OUT], 2,
+         ("--floor", "has no floor", "-0.01"), KEEP, NO_OUT, setup=own_report(-0.01)),
+    Case("compare-floor-not-a-number", [*BASE, "--floor", "{dir}/r.json", *OUT], 2,
+         ("--floor", "has no floor", "'1 cm'"), KEEP, NO_OUT, setup=own_report("1 cm")),
     Case("compare-floor-is-out", [*BASE, "--floor", "{dir}/c.csv", *OUT], 2, ("is the input --floor",), KEEP),
     Case("compare-resumed-with-other-settings", [*BASE, "--test-fraction", "0.2", *OUT], 2,
          ("c.csv was made with other settings", "test_fraction 0.3 (this run: 0.2)", "choose another --out"),
