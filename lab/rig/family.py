@@ -18,10 +18,9 @@ Every range and why it is that wide: ``docs/design/rig.md``.
 from __future__ import annotations
 
 from lab.description import RobotDescription
-from lab.files import atomic_write_text
 from lab.rig.asbuilt import Defects, as_built_robot, load_defects, parse_defects
 from lab.rig.family_draw import FIXED, RANGES, check_seed, draw_member
-from lab.rig.family_toml import defects_toml
+from lab.rig.family_toml import defects_toml, write_member
 from lab.rig.foam_family import FOAM_FAMILY_VERSION, FOAM_LABEL, foam_defects
 from lab.rig.spec import parse_robot_seed
 from lab.rig.twin import AsBuiltBody, TwinRig
@@ -102,10 +101,9 @@ def write_random_defects(
 ) -> Defects:
     """Write member ``seed``'s defects file to ``path`` atomically; returns its
     :class:`Defects` (what :func:`lab.rig.asbuilt.load_defects` reads back from ``path``)."""
-    text = random_defects_toml(robot, seed, n_rings=n_rings, n_axial=n_axial, command=command)
-    defects = random_defects(robot, seed, n_rings=n_rings, n_axial=n_axial)
-    atomic_write_text(path, text)
-    return defects
+    return write_member(
+        path, robot, seed, random_defects_toml, random_defects, n_rings=n_rings, n_axial=n_axial, command=command
+    )
 
 
 class FamilyTwinRig(TwinRig):

@@ -22,7 +22,7 @@ import numpy as np
 from lab.description import RobotDescription
 from lab.rig.asbuilt import FORMAT_VERSION
 
-__all__ = ["defects_toml", "fmt_float", "range_text"]
+__all__ = ["defects_toml", "fmt_float", "range_text", "write_member"]
 
 
 def fmt_float(x: float) -> str:
@@ -206,3 +206,15 @@ def defects_toml(robot: RobotDescription, data: dict, notes: dict, *, header: li
     if tomllib.loads(text) != data:  # the file must read back to exactly the drawn values
         raise AssertionError("lab.rig.family_toml: the written defects file does not read back to the draw")
     return text
+
+
+def write_member(path, robot: RobotDescription, seed: int, to_toml, draw, *, n_rings=None, n_axial=None, command=None):
+    """Write a family member's defects file to ``path`` atomically: the text of
+    ``to_toml(robot, seed, ...)``; returns ``draw(robot, seed, ...)``, the
+    :class:`~lab.rig.asbuilt.Defects` that :func:`lab.rig.asbuilt.load_defects` reads back."""
+    from lab.files import atomic_write_text
+
+    text = to_toml(robot, seed, n_rings=n_rings, n_axial=n_axial, command=command)
+    defects = draw(robot, seed, n_rings=n_rings, n_axial=n_axial)
+    atomic_write_text(path, text)
+    return defects

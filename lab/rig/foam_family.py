@@ -36,10 +36,9 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.fem.hyperfoam import hyperfoam_matching
-from lab.files import atomic_write_text
 from lab.rig.asbuilt import Defects, as_built_robot, parse_defects
 from lab.rig.family_draw import RANGES, check_seed, draw_member, rounded
-from lab.rig.family_toml import defects_toml
+from lab.rig.family_toml import defects_toml, write_member
 from lab.rig.spec import FAMILY_LABELS
 
 __all__ = [
@@ -168,7 +167,6 @@ def write_foam_defects(
 ) -> Defects:
     """Write foam member ``seed``'s defects file to ``path`` atomically; returns its
     :class:`Defects` (what :func:`lab.rig.asbuilt.load_defects` reads back from ``path``)."""
-    text = foam_defects_toml(robot, seed, n_rings=n_rings, n_axial=n_axial, command=command)
-    defects = foam_defects(robot, seed, n_rings=n_rings, n_axial=n_axial)
-    atomic_write_text(path, text)
-    return defects
+    return write_member(
+        path, robot, seed, foam_defects_toml, foam_defects, n_rings=n_rings, n_axial=n_axial, command=command
+    )
