@@ -39,7 +39,7 @@ from lab.rig.defects_parse import parse_defects
 from lab.rig.family import random_defects
 from lab.rig.twin import AsBuiltBody, quasi_static_tips
 from lab.transfer import calibrate
-from lab.transfer.recovery import recovery_rows, recovery_summary, true_theta
+from lab.transfer.recovery import recovery_rows, summary_table, true_theta
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--n-rings", type=int, default=2)
@@ -117,13 +117,7 @@ def run_case(case: str, seeds) -> None:
         f"  within 2 std, all {len(err)} parameters: raw {np.mean(np.abs(err) <= 2 * raw):.1%}, "
         f"inflated {np.mean(np.abs(err) <= 2 * inflated):.1%}"
     )
-    print(f"    {'block':<14}{'n':>4}{'raw':>8}{'inflated':>10}{'RMS error':>12}{'RMS spread':>12}")
-    for s in recovery_summary(rows):
-        scale, unit = (1e3, "mm") if s["unit"] == "m" else (1.0, "")
-        print(
-            f"    {s['block']:<14}{s['n']:>4}{s['within_2std_raw']:>8.0%}{s['within_2std_inflated']:>10.0%}"
-            f"{scale * s['rms_error']:>9.3f} {unit:<2}{scale * s['rms_spread']:>9.3f} {unit}"
-        )
+    print(summary_table(rows))
     poor = [(seed, c) for seed, c in zip(seeds, per_robot) if c < 0.75]
     print(f"  robots with all 12 parameters within 2 raw std: {sum(c == 1 for c in per_robot)}/{len(per_robot)}")
     if case == "in class":  # is a poorly covered robot a local minimum, or a fit as good as the truth?

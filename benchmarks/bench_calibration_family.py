@@ -28,7 +28,7 @@ from joblib import Parallel, delayed
 from lab.data.designs import design_commands
 from lab.description import load_robot
 from lab.files import code_version
-from lab.transfer.recovery import read_recovery, recovery_rows, recovery_summary, write_recovery
+from lab.transfer.recovery import read_recovery, recovery_rows, summary_table, write_recovery
 from lab.workers import worker_config
 
 
@@ -75,13 +75,7 @@ def report(rows: list[dict]) -> None:
             f"inflated {np.mean(np.abs(err) <= 2 * inf):.1%}\n"
             f"  robots under 90% coverage (inflated) and not flagged: {len(silent)} {silent}"
         )
-        print(f"    {'block':<14}{'n':>4}{'raw':>8}{'inflated':>10}{'RMS error':>12}{'RMS spread':>12}")
-        for s in recovery_summary(rs):
-            scale, unit = (1e3, "mm") if s["unit"] == "m" else (1.0, "")
-            print(
-                f"    {s['block']:<14}{s['n']:>4}{s['within_2std_raw']:>8.0%}{s['within_2std_inflated']:>10.0%}"
-                f"{scale * s['rms_error']:>9.3f} {unit:<2}{scale * s['rms_spread']:>9.3f} {unit}"
-            )
+        print(summary_table(rs))
 
 
 def main() -> None:

@@ -287,7 +287,10 @@ def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable
         assert s["rms_error"] < 0.5 * s["rms_spread"], s
     # the study's table round-trips (numbers, flags), and a bad cell is named by line and column
     from lab.errors import InputError
-    from lab.transfer.recovery import read_recovery, write_recovery
+    from lab.transfer.recovery import read_recovery, summary_table, write_recovery
+
+    table = summary_table(rows).splitlines()  # one line per block under a header, shifts in mm
+    assert len(table) == 6 and table[4].split()[:2] == ["eyelet", "shift"] and table[4].count(" mm") == 2
 
     path = tmp_path / "recovery.csv"
     write_recovery(path, [{"family": "random", **r} for r in rows], {"command": "test"})

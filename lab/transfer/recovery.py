@@ -27,6 +27,7 @@ __all__ = [
     "recovery_rows",
     "family_recovery",
     "recovery_summary",
+    "summary_table",
     "RECOVERY_COLUMNS",
     "write_recovery",
     "read_recovery",
@@ -182,6 +183,19 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
                 row["within_2" + key] = float(np.mean(np.abs(err) <= 2 * std))
         summary.append(row)
     return summary
+
+
+def summary_table(rows: list[dict], indent: str = "    ") -> str:
+    """:func:`recovery_summary` of ``rows`` as a text table, one line per block: coverage
+    with the raw and the inflated std, RMS error and RMS spread (m shown in mm)."""
+    lines = [f"{indent}{'block':<14}{'n':>4}{'raw':>8}{'inflated':>10}{'RMS error':>12}{'RMS spread':>12}"]
+    for s in recovery_summary(rows):
+        scale, unit = (1e3, "mm") if s["unit"] == "m" else (1.0, "")
+        lines.append(
+            f"{indent}{s['block']:<14}{s['n']:>4}{s['within_2std_raw']:>8.0%}{s['within_2std_inflated']:>10.0%}"
+            f"{scale * s['rms_error']:>9.3f} {unit:<2}{scale * s['rms_spread']:>9.3f} {unit}"
+        )
+    return "\n".join(lines)
 
 
 def write_recovery(path, rows: list[dict], meta: dict) -> None:
