@@ -28,7 +28,7 @@ import numpy as np
 from lab.data.designs import random_commands
 from lab.description import load_robot
 from lab.files import atomic_write_text, code_version
-from lab.rig.capture import capture, repeat_check
+from lab.rig.capture import capture, repeat_check_line
 from lab.rig.family import family_member
 from lab.rig.twin import AsBuiltBody, TwinRig
 from lab.studies.capture_rate import protocol_for
@@ -99,7 +99,7 @@ def main() -> None:
             f"{1e3 * row['max_error_m']:.3f} mm"
             + ("" if kind == "wait" else f"; from the waited samples mean {1e3 * row['mean_from_waited_m']:.3f} mm")
             + (f"; learned tau {row['tau_s']} s, weight {row['weight']}" if learned else "")
-            + f"\n              {repeat_check(res)}",
+            + f"\n              {repeat_check_line(res)}",
             flush=True,
         )
     print(f"total {time.perf_counter() - t0:.0f} s")

@@ -142,7 +142,7 @@ def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_pat
     back within the threshold; one that creeps over minutes does not, and the capture says so."""
     import copy
 
-    from lab.rig.capture import repeat_check, repeat_threshold_m
+    from lab.rig.capture import repeat_check_line, repeat_threshold_m
 
     creeping = copy.deepcopy(twin_defects.source)
     creeping["lag"].update(creep_fraction=0.1, creep_tau_s=60.0)
@@ -155,7 +155,8 @@ def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_pat
     assert steady["threshold_m"] == repeat_threshold_m(Protocol()) == 4e-4
     assert not steady["drift"] and steady["distance_m"] < 0.2e-3
     assert creep["drift"] and creep["distance_m"] > 2 * creep["threshold_m"]
-    assert repeat_check(runs["creep"]).startswith("samples drift") and "repeat check" in repeat_check(runs["steady"])
+    assert repeat_check_line(runs["creep"]).startswith("samples drift")
+    assert "repeat check" in repeat_check_line(runs["steady"])
     # resumed complete: nothing measured again, the note kept
     again = capture(TwinRig(three_cable, twin_defects, seed=2), COMMANDS, tmp_path / "steady.csv", repeat_check=True)
     assert [t for t, _ in again.notes].count("repeat-check") == 1 and again.repeat_check == steady

@@ -3,7 +3,7 @@
 :func:`capture` runs a list of commands through an append-only :class:`~lab.rig.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. With ``repeat_check`` the first
-command is measured once more after the last (:func:`repeat_check`): a robot that creeps
+command is measured once more after the last (:func:`repeat_check_line`): a robot that creeps
 over minutes, drifts or is knocked gives another tip for it, and the capture says so.
 ``python -m lab capture``
 (:func:`lab.tracking.capture_design.capture_design`) adds the design, the rig and the dataset.
@@ -73,7 +73,7 @@ class Capture:
 
     @property
     def repeat_check(self) -> dict | None:
-        """The journal's ``repeat-check`` note (:func:`repeat_check`), or None."""
+        """The journal's ``repeat-check`` note (written by :func:`capture`), or None."""
         found = [info for tag, info in self.notes if tag == "repeat-check"]
         return found[-1] if found else None
 
@@ -131,7 +131,7 @@ def capture(
 
     ``repeat_check`` (a fixed list, a waiting protocol): once every command is captured,
     the first is measured again with the same protocol and the journal's ``repeat-check``
-    note (:func:`repeat_check`) says whether the tip moved (not a dataset row).
+    note says whether the tip moved (not a dataset row; :func:`repeat_check_line` reads it).
     """
     from tqdm import tqdm
 
@@ -227,8 +227,7 @@ def capture(
 #: A repeat of the first command is flagged when its tip lies further than this many of the
 #: protocol's tolerances (settle_tol_m or predict_tol_m) from the first measurement: each
 #: sample is within about one tolerance of where the tip was going, so two of an unchanged
-#: robot differ by up to two plus the reading noise (0.09-0.19 mm at 0.1 mm on the emulated
-#: in-class family); docs/design/rig.md, "The repeat check".
+#: robot differ by up to two plus the reading noise (docs/design/rig.md, "The repeat check").
 REPEAT_TOLERANCES = 4.0
 
 
@@ -254,7 +253,7 @@ def _repeat_note(first: dict, again, protocol: Protocol) -> dict:
     }
 
 
-def repeat_check(capture: Capture) -> str:
+def repeat_check_line(capture: Capture) -> str:
     """One line on a capture's repeat check ("" if it has none): how far the first command's
     tip moved between the first sample and its repeat after the last, and whether that says
     the samples drift (creep over minutes, a drifting rig or mocap frame)."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.description import RobotDescription
-from lab.rig.capture import Capture, repeat_check
+from lab.rig.capture import Capture, repeat_check_line
 from lab.rig.capture_spec import CaptureSpec
 from lab.rig.protocol import Protocol
 
@@ -135,5 +135,5 @@ def captured_dataset(
         + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else "")
         + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else "")
     )
-    check = repeat_check(res)
+    check = repeat_check_line(res)
     return CapturedDataset(u, y, meta, summary + (f"\n{check}" if check else ""))
