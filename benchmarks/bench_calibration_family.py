@@ -28,7 +28,7 @@ from joblib import Parallel, delayed
 from lab.data.designs import design_commands
 from lab.description import load_robot
 from lab.files import code_version
-from lab.transfer.recovery import read_recovery, recovery_rows, summary_table, write_recovery
+from lab.transfer.recovery import read_recovery, recovery_rows, robot_coverage, summary_table, write_recovery
 from lab.workers import worker_config
 
 
@@ -42,24 +42,10 @@ def robot_rows(robot_name: str, label: str, n: int, seed: int) -> list[dict]:
     return [{"family": label.split(":")[0], **r} for r in rows]
 
 
-def per_robot(rows: list[dict]) -> dict:
-    """label -> (fraction of parameters within 2 inflated std, flagged)."""
-    out = {}
-    for r in rows:
-        out.setdefault(r["robot"], []).append(r)
-    return {
-        k: (
-            float(np.mean([abs(r["recovered"] - r["true"]) <= 2 * r["std_inflated"] for r in rs])),
-            bool(rs[0]["model_discrepancy"]),
-        )
-        for k, rs in out.items()
-    }
-
-
 def report(rows: list[dict]) -> None:
     for family in dict.fromkeys(r["family"] for r in rows):
         rs = [r for r in rows if r["family"] == family]
-        robots = per_robot(rs)
+        robots = robot_coverage(rs)
         err = np.array([r["recovered"] - r["true"] for r in rs])
         raw, inf = (np.array([r[k] for r in rs]) for k in ("std_raw", "std_inflated"))
         fits = {r["robot"]: r for r in rs}.values()

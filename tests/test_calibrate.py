@@ -287,7 +287,12 @@ def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable
         assert s["rms_error"] < 0.5 * s["rms_spread"], s
     # the study's table round-trips (numbers, flags), and a bad cell is named by line and column
     from lab.errors import InputError
-    from lab.transfer.recovery import read_recovery, summary_table, write_recovery
+    from lab.transfer.recovery import read_recovery, robot_coverage, summary_table, write_recovery
+
+    wide = [{**r, "std_inflated": 1e9} for r in rows]
+    none_ = [{**r, "std_inflated": 0.0, "model_discrepancy": r["robot"] == "random:1"} for r in rows]
+    assert robot_coverage(wide) == {"random:0": (1.0, False), "random:1": (1.0, False)}
+    assert robot_coverage(none_) == {"random:0": (0.0, False), "random:1": (0.0, True)}
 
     table = summary_table(rows).splitlines()  # one line per block under a header, shifts in mm
     assert len(table) == 6 and table[4].split()[:2] == ["eyelet", "shift"] and table[4].count(" mm") == 2

@@ -28,6 +28,7 @@ __all__ = [
     "family_recovery",
     "recovery_summary",
     "summary_table",
+    "robot_coverage",
     "RECOVERY_COLUMNS",
     "write_recovery",
     "read_recovery",
@@ -183,6 +184,23 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
                 row["within_2" + key] = float(np.mean(np.abs(err) <= 2 * std))
         summary.append(row)
     return summary
+
+
+def robot_coverage(rows: list[dict], std: str = "std_inflated") -> dict:
+    """Per robot of ``rows`` (:func:`recovery_rows`, several robots): ``label -> (coverage,
+    flagged)``, the fraction of its parameters within two ``std`` of the truth and whether
+    the fit's chi-square test flagged a model discrepancy. A robot under 90 % coverage that
+    is not flagged is one whose intervals miss silently."""
+    by_robot: dict = {}
+    for r in rows:
+        by_robot.setdefault(r["robot"], []).append(r)
+    return {
+        label: (
+            float(np.mean([abs(r["recovered"] - r["true"]) <= 2 * r[std] for r in rs])),
+            bool(rs[0]["model_discrepancy"]),
+        )
+        for label, rs in by_robot.items()
+    }
 
 
 def summary_table(rows: list[dict], indent: str = "    ") -> str:
