@@ -95,6 +95,16 @@ CELL_TIMEOUT_S = 600
 NOTEBOOK_TEST_TIMEOUT_S = 1800
 
 
+def output_text(cell) -> str:
+    """Everything a cell showed as text: its streams and the plain-text form of its
+    displays and results (a grader's result, a computed statement)."""
+    parts = []
+    for o in cell.get("outputs", []):
+        parts.append("".join(o.get("text", "")))
+        parts.append("".join(o.get("data", {}).get("text/plain", "")))
+    return "".join(parts)
+
+
 def execute_notebook(notebook, out, **kwargs):
     """papermill.execute_notebook with the per-cell limit and no progress bar."""
     import papermill

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook
+from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook, output_text
 
 from lab.course import NOT_IMPLEMENTED, grade, stub_source, student_edition
 
@@ -36,7 +36,7 @@ def test_grade_says_what_is_wrong(capsys):
     ref = lambda x: (float(x.sum()), 2 * x)  # noqa: E731
     cases = [(np.arange(3.0),)]
     assert "passed" in grade("demo", ref, ref, cases)
-    assert "FAILED on case 1: item 1: at index (2,): 5 instead of 4" in grade(
+    assert "FAILED on case 1 of 1: item 1: at index (2,): 5 instead of 4" in grade(
         "demo", lambda x: (float(x.sum()), 2 * x + (x == 2)), ref, cases
     )
 
@@ -44,7 +44,7 @@ def test_grade_says_what_is_wrong(capsys):
         raise NotImplementedError
 
     assert NOT_IMPLEMENTED in grade("demo", todo, ref, cases)
-    assert "FAILED on case 1: ZeroDivisionError" in grade("demo", lambda x: 1 / 0, ref, cases)  # never raises
+    assert "FAILED on case 1 of 1: ZeroDivisionError" in grade("demo", lambda x: 1 / 0, ref, cases)  # never raises
     assert "shape (2,), expected (3,)" in grade("demo", lambda x: (0.0, x[:2]), lambda x: (0.0, x), cases)
 
 
@@ -75,7 +75,7 @@ def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
     graders = [c for c in json.loads(out.read_text())["cells"] if "grader" in c.get("metadata", {}).get("tags", [])]
     assert graders
     for c in graders:
-        text = "".join("".join(o.get("text", "")) for o in c["outputs"])
+        text = output_text(c)
         assert NOT_IMPLEMENTED in text, text
 
 
@@ -86,3 +86,28 @@ def test_chapters_01_to_07_pose_two_to_four_exercises():
         n = sum("solution" in c.get("metadata", {}).get("tags", []) for c in cells)
         graders = sum("grader" in c.get("metadata", {}).get("tags", []) for c in cells)
         assert 2 <= n <= 4 and graders == n, f"{nb.name}: {n} exercises, {graders} graders"
+
+
+def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
+    """In a kernel, a grader cell whose last line is ``grade(...)`` shows one output (HTML,
+    plain text as fallback), green for pass and red for fail, the failing case's inputs."""
+    import nbformat
+
+    code = (
+        "import numpy as np\nfrom lab.course import grade\n"
+        "ref = lambda x: 2 * x\n"
+        "grade('ok', ref, ref, [(np.arange(3.0),)])"
+    )
+    bad = "grade('bad', lambda x: 2 * x + (x == 2), ref, [(np.arange(5.0),)], hint='twice')"
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(code), nbformat.v4.new_code_cell(bad)])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    path = tmp_path / "g.ipynb"
+    nbformat.write(nb, path)
+    execute_notebook(path, tmp_path / "out.ipynb", kernel_name="python3", cwd=str(tmp_path))
+    cells = json.loads((tmp_path / "out.ipynb").read_text())["cells"]
+    for cell, colour, words in ((cells[0], "#1a7f37", "passed"), (cells[1], "#cf222e", "FAILED")):
+        assert len(cell["outputs"]) == 1, cell["outputs"]  # once: no quoted Out[] copy
+        data = cell["outputs"][0]["data"]
+        assert words in "".join(data["text/plain"]) and colour in "".join(data["text/html"])
+    failed = "".join(cells[1]["outputs"][0]["data"]["text/plain"])
+    assert "x: array (5,) [0, 1, 2, 3, …]" in failed and "Hint: twice" in failed, failed

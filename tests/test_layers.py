@@ -55,6 +55,7 @@ SUBPACKAGES = [
     "studies",
     "peers",
     "viz",
+    "course",
     "cli",
 ]
 

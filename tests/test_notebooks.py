@@ -9,11 +9,12 @@ One test per notebook, found when the module is collected; no notebooks, no
 tests.
 """
 
+import re
 import sys
 from pathlib import Path
 
 import pytest
-from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook
+from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook, output_text
 
 NOTEBOOKS_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOKS_DIR.glob("[0-9][0-9]_*.ipynb"))
@@ -60,8 +61,17 @@ if NOTEBOOKS:
 
         for cell in json.loads((tmp_path / notebook.name).read_text())["cells"]:
             if "grader" in cell.get("metadata", {}).get("tags", []):
-                text = "".join("".join(o.get("text", "")) for o in cell.get("outputs", []))
+                text = output_text(cell)
                 assert "passed" in text, f"{notebook.name}: a reference solution fails its grader: {text}"
+
+        # Every computed statement (lab.course.say) rendered a sentence from the run's values.
+        from lab.course.statements import STATEMENT_KEY
+
+        for cell in json.loads((tmp_path / notebook.name).read_text())["cells"]:
+            for o in cell.get("outputs", []):
+                if o.get("metadata", {}).get(STATEMENT_KEY):
+                    text = "".join(o["data"]["text/plain"])
+                    assert text.strip() and not re.search(r"[{}]|\bnan\b", text), f"{notebook.name}: statement {text!r}"
 
         if "figures_dir" in papermill.inspect_notebook(str(notebook)):
             written = [p for p in figures_dir.rglob("*") if p.is_file()]
