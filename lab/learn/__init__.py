@@ -23,7 +23,7 @@ from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import train_adam, train_lbfgs
 from lab.learn.history import MAX_HISTORY, at_rest, data_bounds, history_features, history_of, with_past
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
-from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, train_lm
+from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, stop_message, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, minmax_gain
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
@@ -90,6 +90,7 @@ __all__ = [
     "DATA_METHODS",
     "transfer_model",
     "STOP_MESSAGES",
+    "stop_message",
     "minmax_gain",
     "MLP",
     "init_mlp",

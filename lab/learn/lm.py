@@ -26,13 +26,26 @@ from scipy.linalg.blas import dsyrk
 from lab.learn.metrics import mse_m2
 from lab.learn.mlp import MLP
 
-STOP_MESSAGES = {  # MATLAB's tr.stop texts
-    "goal": "Performance goal met.",
-    "max_epochs": "Maximum epoch reached.",
-    "min_grad": "Minimum gradient reached.",
-    "mu_max": "Maximum MU reached.",
-    "validation": "Validation stop.",
+#: Why a run stopped, by ``TrainLog.stop_reason``: MATLAB's ``tr.stop`` texts as phrases that
+#: sit inside a sentence ("stopped: minimum gradient reached after 26 epochs"), without
+#: MATLAB's capital and full stop.
+STOP_MESSAGES = {
+    "goal": "performance goal met",
+    "max_epochs": "maximum epoch reached",
+    "min_grad": "minimum gradient reached",
+    "mu_max": "maximum mu reached",
+    "validation": "validation stop",
 }
+
+
+def stop_message(training: dict) -> str:
+    """The stop phrase of a model's ``metadata["training"]``: :data:`STOP_MESSAGES` of its
+    ``stop_reason``, else its stored ``stop_message`` (files written before the phrases lost
+    MATLAB's full stop keep it; it is dropped here), else ``"?"``."""
+    reason = training.get("stop_reason")
+    if reason in STOP_MESSAGES:
+        return STOP_MESSAGES[reason]
+    return str(training.get("stop_message") or reason or "?").rstrip(".")
 
 
 def mse(model: MLP, u: np.ndarray, y: np.ndarray) -> float:

@@ -8,10 +8,12 @@ hardware configuration: the body (rest shape, frame W: x along the body, z up, g
 -z); each cable's route from its anchor on the base face through its via points (eyelets) to
 where it is tied off, coloured per cable; the spools behind the base plate (radius from
 ``[actuation].spool_radius_m``), one per motor, on the line from the cable's anchor straight
-back; the tip marker, and the base markers of a hardware configuration
+back, stepped further back where two would be drawn on top of each other (a disc in the side
+view, a drum seen from above in the top view); the tip marker, and the base markers of a hardware configuration
 (``[[mocap.base_markers]]``) when one is given.
 
-Side view (x-z), top view (x-y) and the base face seen from the tip (y-z), in cm.
+Side view (x-z), top view (x-y) and the base face seen from the tip (y-z), in cm; the cables'
+names in the section sit centred above or below their eyelets, inside its frame.
 """
 
 from __future__ import annotations
@@ -32,30 +34,51 @@ MARKER_RGB = (0.1, 0.1, 0.1)
 
 def setup_geometry(robot, base_markers_W_m=None) -> dict:
     """What Figure 1 draws, in frame W (m): ``routes`` (per cable, (K+1, 3) anchor then via
-    points), ``spools`` (n_cables, 3) spool centres, ``spool_radius_m``, ``tip`` (3,),
+    points), ``spools`` (n_cables, 3) spool centres, ``spool_radius_m``, ``drum_width_m`` (a spool's
+    width along its axis y, as drawn in the top view), ``tip`` (3,),
     ``base_markers`` (B, 3) (empty if none given), ``length_m`` and ``radius_m``."""
     routes = [np.vstack([c.anchor_m, c.via_points_m]) for c in robot.cables]
-    # cables leaving the base at the same point (a six-cable arm's long and short cable
-    # on one side) get spools one behind the other, so that none hides another
-    seen: dict = {}
-    spools = []
-    for c in robot.cables:
-        key = tuple(np.round(c.anchor_m[1:], 4))
-        behind = seen.get(key, 0)
-        seen[key] = behind + 1
-        back = SPOOL_SETBACK_M + PLATE_THICKNESS_M + 2.6 * behind * robot.spool_radius_m
+    r = robot.spool_radius_m
+    spools: list = []
+    for c in robot.cables:  # straight back from the anchor, one more step back while it clashes
+        back = SPOOL_SETBACK_M + PLATE_THICKNESS_M
+        while any(_clash(c.anchor_m + [-back, 0.0, 0.0], other, r) for other in spools):
+            back += 2.6 * r
         spools.append(c.anchor_m + [-back, 0.0, 0.0])
     spools = np.array(spools)
     markers = np.zeros((0, 3)) if base_markers_W_m is None else np.asarray(base_markers_W_m, float).reshape(-1, 3)
     return {
         "routes": routes,
         "spools": spools,
-        "spool_radius_m": robot.spool_radius_m,
+        "spool_radius_m": r,
+        "drum_width_m": _drum_width(spools, r),
         "tip": np.asarray(robot.p_tip_marker_W, float),
         "base_markers": markers,
         "length_m": robot.length_m,
         "radius_m": robot.radius_m,
     }
+
+
+def _clash(a, b, r: float) -> bool:
+    """Whether spools (radius ``r``, axis along y) centred at ``a`` and ``b`` (3,) m would be
+    drawn on top of each other: overlapping discs in the side view, or discs that coincide
+    there (same x and z) with too little room between them in y for two drums in the top view."""
+    dx, dy, dz = np.abs(np.asarray(a) - np.asarray(b))
+    if dx >= 2.05 * r:
+        return False
+    return bool(np.hypot(dx, dz) < 2.05 * r and (np.hypot(dx, dz) > 1e-9 or dy < 0.4 * r))
+
+
+def _drum_width(spools: np.ndarray, r: float) -> float:
+    """The width (m, along y) a spool is drawn with in the top view: 1.2 r, or less where two
+    spools side by side in y would touch (60 % of their gap)."""
+    gaps = [
+        abs(a[1] - b[1])
+        for i, a in enumerate(spools)
+        for b in spools[i + 1 :]
+        if abs(a[0] - b[0]) < 2.05 * r and abs(a[1] - b[1]) > 1e-9
+    ]
+    return float(min([1.2 * r, *(0.6 * g for g in gaps)]))
 
 
 def _body_outline(ax, geo, dims, s):
@@ -72,15 +95,23 @@ def _body_outline(ax, geo, dims, s):
 
 
 def _spools(ax, geo, dims, s, colors):
+    """The spools behind the base plate, each with its motor behind it (dark): a disc in the
+    side view (x-z, the spool's axis is y), a drum of width ``drum_width_m`` in the top view."""
     from matplotlib.patches import Circle, Rectangle
 
-    rs = s * geo["spool_radius_m"]
+    rs, half = s * geo["spool_radius_m"], 0.5 * s * geo["drum_width_m"]
     for k, (c, a) in enumerate(zip(geo["spools"], geo["routes"])):
         p = s * c[list(dims)]
-        if dims[0] == 0:  # seen from the side: the spool is a disc, the cable leaves it tangentially
-            ax.add_patch(Circle(p, rs, facecolor="white", edgecolor=colors[k], lw=1.5))
-            ax.add_patch(Rectangle((p[0] - 1.6 * rs, p[1] - 0.6 * rs), 0.6 * rs, 1.2 * rs, color="0.3"))
-            ax.plot([p[0], s * a[0, dims[0]]], [p[1] + 0 * rs, s * a[0, dims[1]]], color=colors[k], lw=1.2, ls=":")
+        if dims[1] == 2:  # side view: the cable leaves the disc towards its anchor
+            ax.add_patch(Circle(p, rs, facecolor="white", edgecolor=colors[k], lw=1.5, gid="spool"))
+            ax.add_patch(Rectangle((p[0] - 1.6 * rs, p[1] - 0.6 * rs), 0.6 * rs, 1.2 * rs, color="0.3", gid="motor"))
+        else:  # top view: the drum seen from above, its motor behind it
+            ax.add_patch(
+                Rectangle((p[0] - rs, p[1] - half), 2 * rs, 2 * half, facecolor="white", edgecolor=colors[k],
+                          lw=1.5, gid="spool")
+            )  # fmt: skip
+            ax.add_patch(Rectangle((p[0] - 1.6 * rs, p[1] - half), 0.6 * rs, 2 * half, color="0.3", gid="motor"))
+        ax.plot([p[0], s * a[0, dims[0]]], [p[1], s * a[0, dims[1]]], color=colors[k], lw=1.2, ls=":")
 
 
 def _draw(ax, geo, dims, s, names, title, label_cables):
@@ -97,15 +128,18 @@ def _draw(ax, geo, dims, s, names, title, label_cables):
             ax.plot(*p[-1], "s", color=colors[k], ms=5)  # tied off
         else:  # the section: each cable is one point (its eyelets line up along x)
             ax.plot(*p[1:].T, "o", color=colors[k], ms=7, mfc="white", label=label)
-    if dims[0] != 0:  # one label per place, listing every cable there
-        places: dict = {}
+    if dims[0] != 0:  # one label per place, listing every cable there, centred above or below
+        places: dict = {}  # it (away from the middle), so that it stays inside the section
         for k, pts in enumerate(geo["routes"]):
             places.setdefault(tuple(np.round(s * pts[-1, list(dims)], 3)), []).append(k)
         for xy, ks in places.items():
-            for j, k in enumerate(ks):
+            up = xy[1] >= 0
+            for j, k in enumerate(ks[::-1] if up else ks):  # first cable on top
                 ax.annotate(
-                    names[k], xy, textcoords="offset points", xytext=(7, 6 - 10 * j), color=colors[k], fontsize=8
-                )
+                    names[k], xy, textcoords="offset points", xytext=(0, (7 + 10 * j) * (1 if up else -1)),
+                    ha="center", va="bottom" if up else "top", color=colors[k], fontsize=8,
+                    bbox={"boxstyle": "square,pad=0.05", "fc": "white", "ec": "none", "alpha": 0.7},
+                )  # fmt: skip
     tip = s * geo["tip"][list(dims)]
     ax.plot(*tip, "o", color=TIP_RGB, ms=8, label="tip marker" if label_cables else None, zorder=5)
     if len(geo["base_markers"]):

@@ -18,7 +18,11 @@ from lab.errors import InputError
 from lab.viz.arm import arm_geometry, plot_arm
 from lab.viz.tracking import ACHIEVED_COLOR, CABLE_COLORS, TARGET_COLOR
 
-__all__ = ["frame_indices", "solve_frames", "plot_square_frames"]
+__all__ = ["TICK_PT", "frame_indices", "solve_frames", "plot_square_frames"]
+
+#: Font size (pt) of the 3-D panels' tick and axis labels: the figure is about 16 in wide and
+#: shown about 1000 px wide in a notebook, where 10 pt is about 9 px tall.
+TICK_PT = 10
 
 
 def frame_indices(n_targets: int, n_frames: int) -> np.ndarray:
@@ -48,13 +52,13 @@ def _motor_bars(ax, robot, u_motor) -> None:
     n = len(u_motor)
     ax.barh(range(n), u_motor, color=[CABLE_COLORS[k % 6] for k in range(n)], height=0.7)
     for k, u in enumerate(u_motor):
-        ax.text(u + 0.04, k, f"{u:.2f}", va="center", ha="left", fontsize=7)
+        ax.text(u + 0.04, k, f"{u:.2f}", va="center", ha="left", fontsize=TICK_PT - 1)
     ax.axvline(robot.u_max_rad, color="0.6", ls="--", lw=0.8)
     ax.set_xlim(0, 1.02 * robot.u_max_rad)
     ax.set_ylim(n - 0.5, -0.5)  # first motor on top, as in the legend
     ax.set_yticks([])
-    ax.tick_params(labelsize=7, pad=1)
-    ax.set_xlabel("motor angle u [rad]", fontsize=7, labelpad=1)
+    ax.tick_params(labelsize=TICK_PT - 1, pad=1)
+    ax.set_xlabel("motor angle u [rad]", fontsize=TICK_PT - 1, labelpad=1)
     ax.spines[["top", "right"]].set_visible(False)
 
 
@@ -94,7 +98,7 @@ def plot_square_frames(
 
     nrows = -(-n_frames // ncols)
     # a fixed layout: constrained layout does not see the labels of 3-D axes
-    fig = plt.figure(figsize=(4.1 * ncols + 1.2, 3.9 * nrows + 2.7))
+    fig = plt.figure(figsize=(3.7 * ncols + 1.2, 3.6 * nrows + 2.5))
     grid = fig.add_gridspec(
         nrows + 1, ncols, height_ratios=(*[1.0] * nrows, 0.6), left=0.04, right=0.9, bottom=0.07, top=0.93,
         hspace=0.3, wspace=0.12,
@@ -115,11 +119,11 @@ def plot_square_frames(
         ax.view_init(*view)
         ax.set_box_aspect(hi - lo, zoom=1.15)  # equal scales
         ax.locator_params(nbins=4)
-        ax.tick_params(labelsize=7, pad=0)
+        ax.tick_params(labelsize=TICK_PT, pad=0)
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-            axis.label.set_size(8)
-            axis.labelpad = -3
-        ax.set_title(f"{k + 1}: target {i} of {len(targets)}", fontsize=10, pad=-2)
+            axis.label.set_size(TICK_PT)
+            axis.labelpad = -1
+        ax.set_title(f"{k + 1}: target {i} of {len(targets)}", fontsize=TICK_PT + 1, pad=-2)
         _motor_bars(fig.add_subplot(cell[1]), robot, u_all[i])
 
     strip = fig.add_subplot(grid[nrows, :])
@@ -151,7 +155,7 @@ def plot_square_frames(
         Line2D([], [], color=ACHIEVED_COLOR, lw=1.4, label="tip so far"),
         *(Line2D([], [], color=CABLE_COLORS[c % 6], lw=2.2, label=cable.name) for c, cable in enumerate(robot.cables)),
     ]
-    fig.legend(handles=keys, loc="upper left", bbox_to_anchor=(0.905, 0.93), fontsize=8, title="key", title_fontsize=8)
+    fig.legend(handles=keys, loc="upper left", bbox_to_anchor=(0.905, 0.93), fontsize=9, title="key", title_fontsize=9)
     if title:
         fig.suptitle(title)
     return fig
