@@ -2,14 +2,18 @@
 
 Each script is run in a copy of the repository's scripts/ with a stand-in interpreter:
 ``LAB_PYTHON`` "creates" the virtual environment by writing a fake ``.venv/bin/python``
-that answers pip and ipykernel with success and everything else with a deliberate error on
-stderr. A build that silenced the shell's stderr (as ``exec 9<&- 2>/dev/null`` did) loses
-that error and the build's own progress lines; this test sees both, on the first run and
-on the second (when .venv is up to date and the build is skipped).
+that answers pip and ipykernel with success, JupyterLab with a URL and the arguments it
+was given, and everything else with a deliberate error on stderr (``python -m lab.course``
+too, unless a test asks for the real one: the student command's build of its edition).
+A build that silenced the shell's stderr (as ``exec 9<&- 2>/dev/null`` did) loses that
+error and the build's own progress lines; this test sees both, on the first run and on the
+second (when .venv is up to date and the build is skipped). The student command's first
+run prints JupyterLab's URL with its token and opens build/student/.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -25,7 +29,11 @@ FAKE_VENV_PYTHON = """#!/usr/bin/env bash
 case "$1 $2" in
     "-c "*) exec {real} "$@" ;;
     "-m pip" | "-m ipykernel") exit 0 ;;
-    "-m jupyterlab") echo "    http://127.0.0.1:8888/lab?token=deliberate-token" >&2; exit 0 ;;
+    "-m jupyterlab")
+        echo "    http://127.0.0.1:8888/lab?token=deliberate-token" >&2
+        echo "jupyterlab args: $*" >&2
+        exit 0 ;;
+    "-m lab.course") [ -n "${{LAB_TEST_REAL_COURSE:-}}" ] && exec {real} "$@" ;;
 esac
 echo "deliberate error from python $*" >&2
 exit 3
@@ -61,9 +69,10 @@ def repo(tmp_path):
     return root, fake_base
 
 
-def _run(root: Path, fake_base: Path, script: str, *args: str):
+def _run(root: Path, fake_base: Path, script: str, *args: str, **extra_env: str):
     env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "LAB_ROOT")}
     env["LAB_PYTHON"] = str(fake_base)
+    env.update(extra_env)
     return subprocess.run(
         ["bash", str(root / "scripts" / script), *args], capture_output=True, text=True, timeout=100, env=env
     )
@@ -87,3 +96,24 @@ def test_first_build_of_jupyter_prints_its_url(repo):
     r = _run(root, fake_base, "jupyter", "--no-browser")
     assert r.returncode == 0, r.stderr
     assert "lab: .venv is ready" in r.stderr and "token=deliberate-token" in r.stderr, r.stderr
+
+
+def test_first_build_of_the_student_command_prints_its_url_and_opens_the_edition(repo):
+    """A fresh clone's student command: .venv is built, the student edition is written into
+    build/student/ (solutions stubbed), JupyterLab's URL with its token is printed and the
+    server's root is build/student/."""
+    root, fake_base = repo
+    solution = {"cell_type": "code", "metadata": {"tags": ["solution"]}, "outputs": [], "execution_count": 1,
+                "source": ["def f(x):\n", "    return x * 2 + 1\n"]}  # fmt: skip
+    (root / "notebooks" / "01_x.ipynb").write_text(json.dumps({"cells": [solution], "metadata": {}}))
+    r = _run(root, fake_base, "jupyter", "--student", "--no-browser", LAB_TEST_REAL_COURSE="1")
+    assert r.returncode == 0, r.stderr
+    assert "lab: .venv is ready" in r.stderr and "token=deliberate-token" in r.stderr, r.stderr
+    args = next(line for line in r.stderr.splitlines() if line.startswith("jupyterlab args:")).split()
+    assert f"--notebook-dir={root}/build/student" in args and "--no-browser" in args and "--student" not in args
+    edition = json.loads((root / "build" / "student" / "01_x.ipynb").read_text())
+    assert "NotImplementedError" in "".join(edition["cells"][0]["source"]), edition
+    assert "student edition in build/student/" in r.stderr, r.stderr
+    # the instructors' command stays on notebooks/
+    r = _run(root, fake_base, "jupyter", "--no-browser")
+    assert r.returncode == 0 and f"--notebook-dir={root}/notebooks" in r.stderr, r.stderr

@@ -1,22 +1,47 @@
-"""The student edition of a chapter: the same notebook with the exercises' solutions removed.
+"""The student edition of the course: the chapters with the exercises' solutions removed.
 
 A chapter's exercise is a function the student writes in a code cell tagged ``solution``
 (the source notebooks hold the reference solution). :func:`student_edition` keeps only
 the signatures and docstrings of those functions, each body replaced by
 ``raise NotImplementedError``, and clears every output, so the graders say "not
-implemented yet" until the student has written the function. ``scripts/student-edition``
-and ``scripts/jupyter --student`` write the edition to ``build/student/``.
+implemented yet" until the student has written the function.
+
+:func:`build_student_edition` writes the whole course (chapter 00 included) into a folder
+the student then works in (``build/student/``: ``scripts/jupyter --student``,
+``scripts/student-edition``), and never overwrites the student's work. A manifest in that
+folder (``.student-edition.json``) records the SHA-256 of every notebook as written. On a
+rebuild an unedited notebook is refreshed; an edited one (or one the manifest does not
+know) is kept as it is, and when its chapter changed the new edition goes beside it as
+``NN_name.updated.ipynb``. One build at a time (a lock); every file is written atomically.
 """
 
 from __future__ import annotations
 
 import ast
+import contextlib
+import hashlib
 import json
+import re
 from pathlib import Path
 
-__all__ = ["student_edition", "stub_source", "SOLUTION_TAG", "GRADER_TAG"]
+from lab.errors import InputError
+from lab.files import atomic_write_text, remove_and_release
+
+__all__ = [
+    "student_edition",
+    "edition_text",
+    "build_student_edition",
+    "stub_source",
+    "SOLUTION_TAG",
+    "GRADER_TAG",
+    "MANIFEST",
+]
 
 SOLUTION_TAG, GRADER_TAG = "solution", "grader"
+#: The build's record of what it wrote, and its lock, in the edition's folder.
+MANIFEST, LOCK = ".student-edition.json", ".student-edition.lock"
+#: A chapter's file name: two digits, an underscore, a name (not ``01_x.updated.ipynb``).
+CHAPTER_NAME = re.compile(r"\d\d_[\w-]+\.ipynb")
 
 
 def stub_source(source: str) -> str:
@@ -37,9 +62,32 @@ def stub_source(source: str) -> str:
     return "\n\n\n".join(out) + "\n"
 
 
+def edition_text(source: str | Path, up: str = "") -> tuple[str, int]:
+    """The student edition of notebook ``source`` as the text of an ``.ipynb`` file, and the
+    number of stubbed (solution) cells. ``up``: see :func:`student_edition`.
+    :class:`~lab.errors.InputError` naming the file for a notebook that is not JSON."""
+    try:
+        nb = json.loads(Path(source).read_text())
+        cells = nb["cells"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{source}: not a notebook ({type(e).__name__}: {e})") from None
+    n = 0
+    for cell in cells:
+        if cell["cell_type"] != "code":
+            continue
+        cell["outputs"], cell["execution_count"] = [], None
+        if up and "parameters" in cell.get("metadata", {}).get("tags", []):
+            text = "".join(cell["source"]).replace('"../', f'"{up}../')
+            cell["source"] = text.splitlines(keepends=True)
+        if SOLUTION_TAG in cell.get("metadata", {}).get("tags", []):
+            cell["source"] = stub_source("".join(cell["source"])).splitlines(keepends=True)
+            n += 1
+    return json.dumps(nb, indent=1, ensure_ascii=False) + "\n", n
+
+
 def student_edition(source: str | Path, target: str | Path, up: str = "") -> int:
     """Write the student edition of notebook ``source`` to ``target`` (solution cells
-    stubbed, outputs cleared).
+    stubbed, outputs cleared), atomically.
 
     Parameters
     ----------
@@ -52,18 +100,132 @@ def student_edition(source: str | Path, target: str | Path, up: str = "") -> int
     -------
     The number of stubbed (solution) cells.
     """
-    nb = json.loads(Path(source).read_text())
-    n = 0
-    for cell in nb["cells"]:
-        if cell["cell_type"] != "code":
-            continue
-        cell["outputs"], cell["execution_count"] = [], None
-        if up and "parameters" in cell.get("metadata", {}).get("tags", []):
-            text = "".join(cell["source"]).replace('"../', f'"{up}../')
-            cell["source"] = text.splitlines(keepends=True)
-        if SOLUTION_TAG in cell.get("metadata", {}).get("tags", []):
-            cell["source"] = stub_source("".join(cell["source"])).splitlines(keepends=True)
-            n += 1
-    Path(target).parent.mkdir(parents=True, exist_ok=True)
-    Path(target).write_text(json.dumps(nb, indent=1, ensure_ascii=False) + "\n")
+    text, n = edition_text(source, up)
+    atomic_write_text(target, text)
     return n
+
+
+def _sha256(text: str | bytes) -> str:
+    return hashlib.sha256(text.encode() if isinstance(text, str) else text).hexdigest()
+
+
+def _read_manifest(out: Path) -> tuple[dict, list[str]]:
+    """The manifest's ``files`` ({name: [sha256, ...]}: what this command wrote there) and
+    ``chapters`` ({name: sha256 of the last edition made}); an unreadable one counts as empty."""
+    path = out / MANIFEST
+    empty = {"files": {}, "chapters": {}}
+    if not path.exists():
+        return empty, []
+    try:
+        data = json.loads(path.read_text())
+        files, chapters = dict(data["files"]), dict(data["chapters"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return empty, [f"{path}: unreadable; every notebook already in {out} counts as yours and is kept"]
+    return {"files": files, "chapters": chapters}, []
+
+
+def _write_manifest(out: Path, manifest: dict) -> None:
+    body = {"format": "lab student edition", "version": 1, **manifest}
+    atomic_write_text(out / MANIFEST, json.dumps(body, indent=1, sort_keys=True) + "\n")
+
+
+def _not_json(path: Path) -> str:
+    """ " (not a notebook: ...)" for a file that does not parse as JSON, else ""."""
+    try:
+        json.loads(path.read_bytes())
+    except (ValueError, UnicodeDecodeError) as e:
+        return f" (not valid JSON: {e})"
+    return ""
+
+
+def _beside(target: Path, files: dict) -> Path:
+    """Where the new edition of an edited ``target`` goes: ``NAME.updated.ipynb`` (then
+    ``-2``, ``-3``, ...), the first that does not exist or that this command wrote and
+    nobody edited since."""
+    for k in range(1, 1000):
+        path = target.with_name(f"{target.stem}.updated{'' if k == 1 else f'-{k}'}.ipynb")
+        if not path.exists() or _sha256(path.read_bytes()) in files.get(path.name, []):
+            return path
+    raise InputError(f"{target.parent}: 999 updated editions of {target.name} already; move some away")
+
+
+def _plan(chapters: list[Path], out: Path, up: str, manifest: dict):
+    """What to write (``{path: text}``) and what to say, for each chapter."""
+    files, writes, said, made = manifest["files"], {}, [], {}
+    counts = dict.fromkeys(("new", "refreshed", "unchanged", "kept"), 0)
+    for src in chapters:
+        text, _ = edition_text(src, up)
+        new, target = _sha256(text), out / src.name
+        if target.is_dir():
+            raise InputError(f"{target}: a folder where the student edition puts this chapter; move it away")
+        have = _sha256(target.read_bytes()) if target.exists() else None
+        if have is None or (have != new and have in files.get(src.name, [])):
+            writes[target] = text
+            counts["refreshed" if have else "new"] += 1
+        elif have == new:
+            counts["unchanged"] += 1
+        else:
+            counts["kept"] += 1
+            why = "edited since it was written" if src.name in files else "no record of writing it: counted as yours"
+            line = f"{target}: kept as it is ({why}){_not_json(target)}"
+            if manifest["chapters"].get(src.name) != new:
+                writes[alt := _beside(target, files)] = text
+                line += f"; the chapter changed: its new edition is {alt}"
+            said.append(line)
+        made[src.name] = new
+    return writes, said, counts, made
+
+
+def build_student_edition(notebooks: str | Path, out: str | Path, up: str = "../") -> list[str]:
+    """Write the student edition of every chapter ``notebooks/NN_*.ipynb`` into ``out``,
+    keeping the student's work; returns what happened, one line per kept notebook and a
+    summary line last.
+
+    Parameters
+    ----------
+    notebooks : the folder of the source chapters.
+    out : the edition's folder (created); must not be ``notebooks``.
+    up : see :func:`student_edition` ("../" for ``build/student`` beside ``notebooks``).
+
+    A notebook in ``out`` whose SHA-256 is one the manifest recorded as written is
+    refreshed; any other is the student's and is never overwritten (see the module's
+    docstring). :class:`~lab.errors.InputError` when another build holds the lock, for a
+    source that is not a notebook, or when ``out`` is the source folder.
+    """
+    from filelock import FileLock, Timeout
+
+    notebooks, out = Path(notebooks), Path(out)
+    chapters = sorted(p for p in notebooks.glob("[0-9][0-9]_*.ipynb") if CHAPTER_NAME.fullmatch(p.name))
+    if not chapters:
+        raise InputError(f"{notebooks}: no chapter notebooks (NN_name.ipynb) to build the student edition from")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"{out}: cannot hold the student edition ({e.strerror})") from None
+    if out.resolve() == notebooks.resolve():
+        raise InputError(f"{out}: the student edition would overwrite the source chapters; choose another folder")
+    lock = FileLock(out / LOCK, timeout=0)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise InputError(f"{out} is being built by another run (lock {out / LOCK}); wait for it") from None
+    try:
+        for stale in out.glob(".*.tmp[0-9]*"):  # a killed build's temporary file (lab.files)
+            with contextlib.suppress(OSError):
+                stale.unlink()
+        manifest, said = _read_manifest(out)
+        writes, kept, counts, made = _plan(chapters, out, up, manifest)
+        # Record the hashes about to be written first: a build killed in between leaves
+        # each file either as it was or as written, and both count as ours next time.
+        for path, text in writes.items():
+            manifest["files"][path.name] = sorted({*manifest["files"].get(path.name, []), _sha256(text)})
+        _write_manifest(out, manifest)
+        for path, text in writes.items():
+            atomic_write_text(path, text)
+            manifest["files"][path.name] = [_sha256(text)]
+        manifest["chapters"].update(made)  # only now: an interrupted build makes them again
+        _write_manifest(out, manifest)
+    finally:
+        remove_and_release(lock)
+    summary = ", ".join(f"{n} {what}" for what, n in counts.items() if n)
+    return [*said, *kept, f"student edition in {out}/: {len(chapters)} notebooks ({summary})"]
