@@ -99,7 +99,9 @@ def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
         "grade('ok', ref, ref, [(np.arange(3.0),)])"
     )
     bad = "grade('bad', lambda x: 2 * x + (x == 2), ref, [(np.arange(5.0),)], hint='twice')"
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(code), nbformat.v4.new_code_cell(bad)])
+    said = "from lab.course import say, than\nsay(f'tracks {than(0.45, 0.06)} the paper')"
+    cells = [nbformat.v4.new_code_cell(c) for c in (code, bad, said)]
+    nb = nbformat.v4.new_notebook(cells=cells)
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     path = tmp_path / "g.ipynb"
     nbformat.write(nb, path)
@@ -111,3 +113,6 @@ def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
         assert words in "".join(data["text/plain"]) and colour in "".join(data["text/html"])
     failed = "".join(cells[1]["outputs"][0]["data"]["text/plain"])
     assert "x: array (5,) [0, 1, 2, 3, …]" in failed and "Hint: twice" in failed, failed
+    # A computed statement (lab.course.say) is shown once too, as Markdown.
+    (out,) = cells[2]["outputs"]
+    assert "".join(out["data"]["text/markdown"]) == "tracks above the paper", out

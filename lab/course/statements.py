@@ -10,7 +10,7 @@ Markdown states no other run-dependent number and that every statement renders.
 
 from __future__ import annotations
 
-__all__ = ["say", "than", "STATEMENT_KEY"]
+__all__ = ["say", "than", "Statement", "STATEMENT_KEY"]
 
 #: Output metadata key that marks a computed statement (found by the tests).
 STATEMENT_KEY = "lab_statement"
@@ -24,9 +24,17 @@ def than(value: float, reference: float, lower: str = "below", higher: str = "ab
     return lower if value < reference else higher
 
 
-def say(text: str) -> str:
+class Statement(str):
+    """A computed statement: the text (the ``str`` itself), already shown by :func:`say`;
+    IPython does not show it a second time as the cell's result."""
+
+    def _ipython_display_(self) -> None:
+        pass
+
+
+def say(text: str) -> Statement:
     """Show ``text`` (Markdown, already formatted from the run's values) as the cell's
-    output, marked as a computed statement; printed outside IPython. Returns ``text``."""
+    output, once, marked as a computed statement; printed outside IPython. Returns it."""
     try:
         from IPython import get_ipython
         from IPython.display import display
@@ -36,4 +44,4 @@ def say(text: str) -> str:
         display({"text/markdown": text, "text/plain": text}, raw=True, metadata={STATEMENT_KEY: True})
     else:
         print(text)
-    return text
+    return Statement(text)
