@@ -5,7 +5,8 @@ against the period (s) on log-log axes, one colour per robot, open loop dashed a
 feed-forward solid (rows of :mod:`lab.studies.period_curve`). :func:`plot_streamed_trajectory`
 draws a target shape with what the tip did over the last period of two streamed runs (track
 results of :mod:`lab.tracking.stream`, e.g. open loop and feed-forward at T = 5 s), in the
-plane of the shape (y-z, cm).
+plane of the shape (y-z, cm). Both put their legend beside the axes, never on the data:
+ten curves fill every corner of the period plot, and a closed shape every corner of its own.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_per
     With ``goal_ratio``, the goal -- the open loop's error divided by it at
     ``goal_period_s`` -- is marked per curve. Returns ``ax``."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
@@ -33,9 +35,11 @@ def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_per
 
     keys = list(dict.fromkeys(key(r) for r in rows))
     several_models = len({k[1] for k in keys}) > 1
+    handles = []  # the legend: one entry per curve's colour, then one per mode's line style
     for i, k in enumerate(keys):
         color, label = f"C{i}", f"{k[0]} [{k[1]}]" if several_models else k[0]
         mine = [r for r in rows if key(r) == k]
+        handles.append(Line2D([], [], color=color, lw=3, label=label))
         for mode, (ls, marker) in MODE_STYLES.items():
             pts = sorted(
                 (float(r["period_s"]), 1e3 * float(r["mean_error_m"]))
@@ -62,8 +66,21 @@ def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_per
         title += f"\n(bars: {goal_ratio:g}x below open loop at T = {goal_period_s:g} s)"
     ax.set_title(title, fontsize=9)
     ax.grid(True, which="major", alpha=0.3)
-    ax.legend(fontsize=7)
+    modes = [m for m in MODE_STYLES if any(r["mode"] == m for r in rows)]
+    handles += [Line2D([], [], color="0.3", ls=MODE_STYLES[m][0], marker=MODE_STYLES[m][1], label=m) for m in modes]
+    if goal_ratio:
+        handles.append(Line2D([], [], color="0.3", ls="none", marker="_", ms=12, mew=2, label="goal"))
+    fig = ax.figure
+    if type(fig.get_layout_engine()).__name__ == "ConstrainedLayoutEngine":  # under the axes, outside them
+        fig.legend(handles=handles, fontsize=7, loc="outside lower center", ncol=2)
+    else:
+        ax.legend(handles=handles, fontsize=7)
     return ax
+
+
+def _legend_beside(ax) -> None:
+    """The legend right of ``ax``, outside it: a closed shape fills every corner."""
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
 
 
 def _doc(result):
@@ -93,6 +110,6 @@ def plot_streamed_trajectory(results: dict, ax=None):
     ax.set_xlabel("y [cm]")
     ax.set_ylabel("z [cm]")
     ax.set_aspect("equal")
-    ax.legend(fontsize=7, loc="upper right")
+    _legend_beside(ax)
     ax.grid(True, alpha=0.3)
     return ax

@@ -16,24 +16,26 @@ import numpy as np
 CABLE_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
 TARGET_COLOR = "#e377c2"  # the paper draws targets in pink (Fig. 4)
 ACHIEVED_COLOR = "0.15"
+KEY_PT = 9  # font size of the cable key and its names: legible at a notebook's width
 
 
 def _cable_key(ax, robot) -> None:
-    """Cross-section of the arm (seen from the tip, y-z) with each cable's colour."""
+    """Cross-section of the arm (seen from the tip, y-z) with each cable's colour, in an axes
+    of its own (never an inset over data), and the cables' names listed below it."""
     from matplotlib.patches import Circle
 
     R = 100 * robot.radius_m
     ax.add_patch(Circle((0, 0), R, fill=False, color="0.5"))
     for i, c in enumerate(robot.cables):
         y, z = 100 * c.via_points_m[-1, 1:]
-        ax.plot(y, z, "o", color=CABLE_COLORS[i % 6], ms=6)
+        ax.plot(y, z, "o", color=CABLE_COLORS[i % 6], ms=8, label=c.name)
     ax.set_xlim(-1.5 * R, 1.5 * R)
     ax.set_ylim(-1.5 * R, 1.5 * R)
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_yticks([])
-    # the label goes below the key, so it never meets the panel's title above
-    ax.set_xlabel("cables, seen\nfrom the tip", fontsize=6, labelpad=1)
+    ax.set_title("cables, seen\nfrom the tip", fontsize=KEY_PT)
+    ax.legend(fontsize=KEY_PT, loc="upper center", bbox_to_anchor=(0.5, -0.04), frameon=False, handletextpad=0.2)
 
 
 def plot_commands(ax, result, robot, legend: bool = True) -> None:
@@ -73,14 +75,24 @@ def _equal_3d(ax, points_cm: np.ndarray, zoom: float) -> None:
     ax.set_box_aspect((1, 1, 1), zoom=zoom)
 
 
+def _few_ticks(ax, n: int = 5, steps=None) -> None:
+    """At most ``n`` ticks per 3-D axis (on multiples of ``steps``, MaxNLocator's): a
+    foreshortened axis's labels ("16 17 18 19 20 21") otherwise run into one another."""
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(n, steps=steps))
+
+
 def plot_tracking_row(results: dict, robot, title: str = ""):
     """Figure 3, one row: per trajectory (columns) the y-z projection of targets and achieved
     tip positions, with the motor commands below. ``results``: {name: TrackResult}."""
     import matplotlib.pyplot as plt
 
     n = len(results)
-    fig = plt.figure(figsize=(4.3 * n, 7.2), layout="constrained")
-    grid = fig.add_gridspec(2, n, height_ratios=(1.6, 1))
+    fig = plt.figure(figsize=(4.3 * n + 1.3, 7.2), layout="constrained")
+    # a narrow last column holds the keys, so none sits on a shape or a command curve
+    grid = fig.add_gridspec(2, n + 1, height_ratios=(1.6, 1), width_ratios=(1,) * n + (0.3,))
     for k, (name, res) in enumerate(results.items()):
         ax = fig.add_subplot(grid[0, k])
         _plane(ax, res, 1, 2)
@@ -90,9 +102,12 @@ def plot_tracking_row(results: dict, robot, title: str = ""):
             fontsize=10,
         )
         if k == 0:
-            ax.legend(fontsize=8, loc="lower left")
-            _cable_key(ax.inset_axes([0.8, 0.1, 0.2, 0.2]), robot)  # lower right: empty for a circle
-        plot_commands(fig.add_subplot(grid[1, k]), res, robot, legend=k == 0)
+            handles = ax.get_legend_handles_labels()
+        plot_commands(fig.add_subplot(grid[1, k]), res, robot, legend=False)
+    ax_legend = fig.add_subplot(grid[0, n])
+    ax_legend.set_axis_off()
+    ax_legend.legend(*handles, fontsize=KEY_PT, loc="center")
+    _cable_key(fig.add_subplot(grid[1, n]), robot)
     if title:
         fig.suptitle(title)
     return fig
@@ -148,6 +163,7 @@ def plot_helix(result, robot, title: str = ""):
     ax3.plot(*t.T, color=TARGET_COLOR, lw=2.5, label="target")
     ax3.plot(*p.T, ".", color=ACHIEVED_COLOR, ms=3, label="achieved")
     _equal_3d(ax3, np.vstack([t, p]), zoom=0.85)
+    _few_ticks(ax3, 4, steps=(1, 2, 5, 10))  # whole or even centimetres: 16, 18, 20
     ax3.view_init(elev=15, azim=-35)
     ax3.legend(fontsize=8, loc="upper left")
     ax3.set_title("3-D")
@@ -157,9 +173,9 @@ def plot_helix(result, robot, title: str = ""):
         ax.set_title(name)
     ax.set_aspect("auto")  # the helix is only ~1 cm deep along x
     ax.set_title("side view (x-z), x stretched")
-    ax_u = fig.add_subplot(grid[1, :2])
-    plot_commands(ax_u, result, robot)
-    _cable_key(ax_u.inset_axes([0.0, 0.62, 0.12, 0.38]), robot)
+    bottom = grid[1, :2].subgridspec(1, 2, width_ratios=(0.14, 1))
+    _cable_key(fig.add_subplot(bottom[0, 0]), robot)  # beside the commands, not over them
+    plot_commands(fig.add_subplot(bottom[0, 1]), result, robot, legend=False)
     ax_e = fig.add_subplot(grid[1, 2])
     ax_e.plot(100 * result.errors_m, color=ACHIEVED_COLOR)
     ax_e.set_xlabel("target index")
@@ -175,7 +191,6 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
     paper's colours for this figure), centimetres, equal axis scales; the panel title gives
     the mean and max 3-D error. ``results``: {name: TrackResult}."""
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import MaxNLocator
 
     n = len(results)
     ncols = 2 if n == 4 else min(n, 3)  # four paths: a 2 x 2 grid of roomy panels
@@ -187,8 +202,7 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
         ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
         ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
         _equal_3d(ax, np.vstack([t, p]), zoom=0.85)
-        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-            axis.set_major_locator(MaxNLocator(5))  # fewer ticks: no colliding labels
+        _few_ticks(ax)
         ax.view_init(elev=20, azim=-50)
         ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm", fontsize=9)
         if k == 0:
