@@ -1,0 +1,158 @@
+"""Chapters 5, 6 and 7's graders (lab.course.ch05, ch06, ch07) pass a right answer and
+catch the wrong ones a student is likely to write.
+
+Each grader runs without showing its result: a correct implementation, written here
+independently of ``lab``'s, must pass, and each wrong variant must fail: for the
+cross-validation of exercise 5.3 a per-fold average, a fit that saw its held-out samples
+and the squared distance; for the walk of exercise 6.2 a walk without the polish, a pull
+towards the previous command only and cold starts; for the split study of exercise 7.1 the
+MSE and seeds that are not ``run_seeds``'.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lab.control import CommandSet
+from lab.course.ch05 import check_gp_jacobian, check_maximin_order, check_prior_weight
+from lab.course.ch06 import check_project_command, check_regularised_walk
+from lab.course.ch07 import check_mean_test_distance, check_median_and_quartiles
+from lab.data import read_dataset
+from lab.description import load_robot
+from lab.learn import load_model, run_seeds, size_sweep, train
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+# ---- chapter 5 ------------------------------------------------------------------------
+
+
+def _maximin(pool, first, n, nearest=True):
+    chosen = [first]
+    while len(chosen) < n:
+        d = np.linalg.norm(pool[:, None, :] - pool[chosen][None], axis=2)  # (P, chosen)
+        chosen.append(int(np.argmax(d.min(axis=1) if nearest else d[:, -1])))
+    return chosen
+
+
+def _gp_jacobian(X, alpha, ls, s2, u, scale=True):
+    k = s2 * np.exp(-0.5 * np.sum(((u - X) / ls) ** 2, axis=1))  # (N,)
+    dk = -k[:, None] * (u - X) / (ls**2 if scale else ls)  # (N, m)
+    return np.einsum("nk,nj->kj", alpha, dk)
+
+
+def _cross_validation(how="right"):
+    def choose(fit, u, y, lambdas, folds):
+        errors = []
+        for lam in lambdas:
+            per_sample, per_fold = [], []
+            for test in folds:
+                keep = np.ones(len(u), bool)
+                keep[test] = how == "leak"
+                d = np.linalg.norm(fit(u[keep], y[keep], lam).predict(u[test]) - y[test], axis=1)
+                per_sample += list(d**2 if how == "squared" else d)
+                per_fold.append(d.mean())
+            errors.append(np.mean(per_fold if how == "per-fold" else per_sample))
+        return lambdas[int(np.argmin(errors))], np.array(errors)
+
+    return choose
+
+
+def test_chapter_5_graders_pass_right_and_catch_wrong_answers():
+    assert check_maximin_order(_maximin, show=False).status == "passed"
+    assert check_maximin_order(lambda p, f, n: _maximin(p, f, n, nearest=False), show=False).status == "failed"
+    assert check_gp_jacobian(_gp_jacobian, show=False).status == "passed"
+    assert check_gp_jacobian(lambda *a: _gp_jacobian(*a, scale=False), show=False).status == "failed"
+    sim_model = load_model(ROOT / "data" / "model_sim_three_cable.npz")
+    u, y, _ = read_dataset(ROOT / "data" / "real_three_cable.csv")
+    pick = np.random.default_rng(5).choice(len(u), 30, replace=False)
+    assert check_prior_weight(_cross_validation(), sim_model, u[pick], y[pick], show=False).status == "passed"
+    for wrong in ("per-fold", "leak", "squared"):
+        result = check_prior_weight(_cross_validation(wrong), sim_model, u[pick], y[pick], show=False)
+        assert result.status == "failed", wrong
+
+
+# ---- chapter 6 ------------------------------------------------------------------------
+
+
+def _project(v, u_max, s_max):
+    # sort-based: the multiplier from the breakpoints of the clipped sum (no bisection)
+    def total(lam):
+        return np.clip(v - lam, 0, u_max).sum()
+
+    if total(0.0) <= s_max:
+        return np.clip(v, 0, u_max)
+    knots = np.unique(np.concatenate([v, v - u_max, [0.0]]))
+    knots = knots[knots >= 0]
+    sums = np.array([total(k) for k in knots])
+    i = int(np.searchsorted(-sums, -s_max))  # first knot with sum <= s_max
+    lo, hi = knots[i - 1], knots[i]
+    lam = lo + (total(lo) - s_max) / (total(lo) - total(hi)) * (hi - lo)  # the sum is linear between knots
+    return np.clip(v - lam, 0, u_max)
+
+
+def _walk(how="right"):
+    def walk(solver, targets, u_start):
+        w_c, w_p = solver.config.reg_weight, solver.config.posture_weight
+        u, out = np.array(u_start, float), []
+        for target in targets:
+            start = solver.u_posture if how == "cold" else u
+            ref = u if how == "previous only" else (w_c * u + w_p * solver.u_posture) / (w_c + w_p)
+            u = solver.solve(target, start, u_ref=ref, reg_weight=w_c + w_p).u_motor
+            if how != "no polish":
+                u = solver.solve(target, u, reg_weight=0.0).u_motor
+            out.append(u)
+        return np.array(out)
+
+    return walk
+
+
+@pytest.fixture(scope="module")
+def six_cable():
+    return load_model(ROOT / "data" / "model_sim_six_cable.npz"), CommandSet.from_robot(load_robot("six-cable"))
+
+
+def test_chapter_6_graders_pass_right_and_catch_wrong_answers(six_cable):
+    model, commands = six_cable
+    assert check_project_command(_project, commands, show=False).status == "passed"
+    scaled = lambda v, u_max, s_max: (x := np.clip(v, 0, u_max)) * min(1.0, s_max / x.sum())  # noqa: E731
+    assert check_project_command(scaled, commands, show=False).status == "failed"
+    assert check_project_command(lambda v, u_max, s_max: np.clip(v, 0, u_max), commands, show=False).status == "failed"
+    assert check_regularised_walk(_walk(), model, commands, show=False).status == "passed"
+    for wrong in ("no polish", "previous only", "cold"):
+        assert check_regularised_walk(_walk(wrong), model, commands, show=False).status == "failed", wrong
+
+
+# ---- chapter 7 ------------------------------------------------------------------------
+
+
+def _one_width(how="right"):
+    def mean_test_distance(u, y, width, n_runs, seed, epochs):
+        seeds = run_seeds(seed, n_runs) if how != "seed + r" else [seed + r for r in range(n_runs)]
+        out = []
+        for s in seeds:
+            fit = train(u, y, (width, width), ratios=(0.8, 0.1, 0.1), seed=s, epochs=epochs)
+            err = fit.model.predict(u[fit.split.test]) - y[fit.split.test]
+            out.append(np.mean(err**2) if how == "mse" else np.mean(np.sqrt(np.sum(err**2, axis=1))))
+        return float(np.mean(out))
+
+    return mean_test_distance
+
+
+def _quartiles(width, d, method="linear"):
+    width, d = np.asarray(width), np.asarray(d, float)
+    ws = sorted(set(width.tolist()))
+    q = np.array([np.quantile(d[width == w], [0.5, 0.25, 0.75], method=method) for w in ws])
+    return np.array(ws, float), q[:, 0], q[:, 1], q[:, 2]
+
+
+def test_chapter_7_graders_pass_right_and_catch_wrong_answers():
+    u, y, _ = read_dataset(ROOT / "data" / "sim_three_cable.csv")
+    assert check_mean_test_distance(_one_width(), u, y, show=False).status == "passed"
+    for wrong in ("mse", "seed + r"):
+        assert check_mean_test_distance(_one_width(wrong), u, y, show=False).status == "failed", wrong
+    sweeps = [size_sweep(u, y, [2, 4], n_runs=3, seed=1, epochs=3)]
+    assert check_median_and_quartiles(_quartiles, sweeps, show=False).status == "passed"
+    nearest = lambda w, d: _quartiles(w, d, method="nearest")  # noqa: E731
+    assert check_median_and_quartiles(nearest, sweeps, show=False).status == "failed"
