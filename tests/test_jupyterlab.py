@@ -108,9 +108,10 @@ def _first_cells(figures_dir) -> str:
     return "".join(params["source"]) + f"\nfigures_dir = {str(figures_dir)!r}\n" + imports
 
 
-def _execute(base, kernel_id, code, timeout=120):
+def _execute(base, kernel_id, code, timeout=120, allow_stdin=False):
     """Run ``code`` in a kernel over the server's websocket (Jupyter messaging protocol):
-    the execute_reply's content and everything the code printed."""
+    the execute_reply's content and everything the code printed. ``allow_stdin=True``
+    executes as JupyterLab does (papermill and nbclient send False)."""
     import websocket  # websocket-client, a dependency of jupyter_server
 
     ws = websocket.create_connection(
@@ -130,15 +131,17 @@ def _execute(base, kernel_id, code, timeout=120):
                     "silent": False,
                     "store_history": False,
                     "user_expressions": {},
-                    "allow_stdin": False,
+                    "allow_stdin": allow_stdin,
                     "stop_on_error": True,
                 },
             }
         )
     )
-    reply, printed, deadline = None, "", time.monotonic() + timeout
+    reply, idle, printed, deadline = None, False, "", time.monotonic() + timeout
     try:
-        while reply is None and time.monotonic() < deadline:
+        # The reply (shell channel) can overtake the printed text (iopub): wait for both it
+        # and the kernel's "idle" status, which follows the code's last output.
+        while (reply is None or not idle) and time.monotonic() < deadline:
             msg = json.loads(ws.recv())
             if msg.get("parent_header", {}).get("msg_id") != msg_id:
                 continue
@@ -148,6 +151,8 @@ def _execute(base, kernel_id, code, timeout=120):
                 raise AssertionError("\n".join(msg["content"]["traceback"]))
             elif msg["msg_type"] == "execute_reply":
                 reply = msg["content"]
+            elif msg["msg_type"] == "status":
+                idle = msg["content"]["execution_state"] == "idle"
     finally:
         ws.close()
     assert reply is not None and reply["status"] == "ok", reply

@@ -1,7 +1,7 @@
 """Drawing: the arm in matplotlib and meshcat (:mod:`.arm`), meshcat animations
 (:mod:`.animation`), trajectory-tracking figures (:mod:`.tracking`), Figure 1's set-up
-(:mod:`.setup`), the interactive arm of chapter 01 (:mod:`.sliders`) and a dataset's
-diagnostics (:mod:`.real_data`).
+(:mod:`.setup`), the interactive arm of chapter 01 (:mod:`.sliders`), the live meshcat
+viewer a kernel serves (:mod:`.live`, :mod:`.live_arm`) and a dataset's diagnostics (:mod:`.real_data`).
 """
 
 from lab.viz.animation import (
@@ -43,6 +43,9 @@ from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_lo
 from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
+from lab.viz.live import LiveViewer, live_viewer, live_viewer_wanted, stop_live_viewer
+from lab.viz.live_arm import LiveArm, show_animation, show_arm
+from lab.viz.placement import plot_trajectory_placement
 from lab.viz.real_data import AXIS_COLORS, plot_diagnostics
 from lab.viz.setup import plot_setup, setup_geometry
 from lab.viz.sliders import ArmExplorer, widgets_available
@@ -57,6 +60,7 @@ from lab.viz.tracking import (
     plot_paths_3d,
     plot_tracking_row,
 )
+from lab.viz.training import plot_lm_training
 from lab.viz.transfer import METHOD_COLORS, PAPER_MEAN_CM, plot_transfer_curve
 
 __all__ = [
@@ -103,7 +107,16 @@ __all__ = [
     "ArmExplorer",
     "widgets_available",
     "IKPicker",
+    "LiveViewer",
+    "LiveArm",
+    "show_arm",
+    "show_animation",
+    "live_viewer",
+    "live_viewer_wanted",
+    "stop_live_viewer",
     "plot_square_frames",
+    "plot_trajectory_placement",
+    "plot_lm_training",
     "METHOD_COLORS",
     "PAPER_MEAN_CM",
     "plot_transfer_curve",

@@ -85,6 +85,17 @@ def segment_transforms(points, radius_m: float) -> np.ndarray:
     return T
 
 
+def end_caps(body) -> np.ndarray:
+    """Transforms (2, ..., 4, 4) of the unit cylinder as the thin discs (0.1 mm) that close
+    the open body tube at its base and its tip, from the body pieces ``body`` (S, ..., 4, 4)."""
+    caps = np.array([body[0], body[-1]])
+    for cap, end in zip(caps, (-0.5, 0.5)):
+        axis = cap[..., :3, 1].copy()
+        cap[..., :3, 3] += end * axis  # centred on the axis end
+        cap[..., :3, 1] *= 1e-4 / np.linalg.norm(axis, axis=-1, keepdims=True)
+    return caps
+
+
 @dataclass(frozen=True)
 class ArmPieces:
     """Transforms (4, 4) of the unit cylinders: ``body`` (S, 4, 4), one (K, 4, 4)
@@ -216,11 +227,9 @@ def animate_arm(
     for i in range(body.shape[1]):
         root[f"body/{i:02d}"].set_object(tube, body_mat)
         moving[f"body/{i:02d}"] = body[:, i]
-    for name, T, end in (("base", body[:, 0], -0.5), ("end", body[:, -1], 0.5)):
+    caps = end_caps(body.transpose(1, 0, 2, 3))  # (2, T, 4, 4)
+    for name, cap in zip(("base", "end"), caps):
         root[f"body/{name}"].set_object(disc, body_mat)
-        cap = T.copy()
-        cap[:, :3, 3] += end * T[:, :3, 1]  # centred on the axis end
-        cap[:, :3, 1] *= 1e-4 / np.linalg.norm(T[:, :3, 1], axis=1, keepdims=True)  # 0.1 mm thick
         moving[f"body/{name}"] = cap
     for c, route in enumerate(fem.robot.cables):
         for k in range(len(pieces[0].cables[c])):

@@ -10,7 +10,10 @@ tip while the motors move linearly from the previous command to the new one.
 
 :meth:`IKPicker.update` is plain Python (tests call it headless); :meth:`IKPicker.widget`
 wraps it in x/y/z sliders (cm) and a drop-down of trajectory points, or prints why it
-cannot (no ipywidgets, or run by papermill) and shows the last static figure.
+cannot (no ipywidgets, or run by papermill) and shows the last static figure. In an
+interactive front end the arm, the target (black), the model's tip (blue), its path and the
+trajectory's points move in this kernel's live meshcat viewer (:mod:`lab.viz.live`). The
+drop-down shows "custom target" as soon as a slider moves the target off a trajectory point.
 """
 
 from __future__ import annotations
@@ -22,24 +25,16 @@ import numpy as np
 from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.viz.arm import TIP_RGB
-from lab.viz.sliders import figure_png, widgets_available
+from lab.viz.live import front_end_available
+from lab.viz.sliders import figure_png, fixed_width_slider
 from lab.viz.tracking import CABLE_COLORS, TARGET_COLOR
 
-__all__ = ["IKPicker", "front_end_available"]
+__all__ = ["IKPicker", "front_end_available", "CUSTOM_TARGET"]
 
 #: Colour of the model's predicted tip and its path.
 PREDICTED_COLOR = "#1f3a93"
-
-
-def front_end_available() -> bool:
-    """True if widgets can be shown: ipywidgets imports, an IPython kernel runs, and the
-    client lets the user type (``allow_stdin``). Papermill and nbclient execute with
-    ``allow_stdin=False``, so a notebook they run gets the static figure instead."""
-    if not widgets_available():
-        return False
-    from IPython import get_ipython
-
-    return bool(getattr(get_ipython().kernel, "_allow_stdin", True))
+#: The drop-down's entry for a target set with the sliders (not a trajectory point).
+CUSTOM_TARGET = "custom target"
 
 
 def arc_W(p_tip_W, n: int = 30) -> np.ndarray:
@@ -76,6 +71,7 @@ class IKPicker:
         self.p_pred_W = np.asarray(model.predict(self.u_motor), float)
         self.fig = self.axes = None
         self.last: dict | None = None
+        self.scene = self.sliders = self.points = None
 
     def update(self, p_target_W, draw: bool = True) -> dict:
         """Solve the IK for ``p_target_W`` (3,) m and (if ``draw``) redraw.
@@ -137,6 +133,10 @@ class IKPicker:
             ax.grid(alpha=0.3)
         self.axes[0].legend(fontsize=7, loc="lower left")
         self._draw_motors(self.axes[2], out["u_motor"])
+        self.fig.suptitle(self.headline(out), fontsize=10)
+
+    def headline(self, out) -> str:
+        """One line on an :meth:`update`: the target (cm), reached or how far off."""
         t = 100 * out["p_target_W"]
         head = f"target ({t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}) cm: "
         if out["reachable"]:
@@ -145,7 +145,7 @@ class IKPicker:
             head += f"out of reach, the model's best tip is {100 * out['residual_m']:.2f} cm away"
         if out["p_tip_W"] is not None:
             head += f"; simulated robot's tip {100 * np.linalg.norm(out['p_tip_W'] - out['p_target_W']):.2f} cm off"
-        self.fig.suptitle(head, fontsize=10)
+        return head
 
     def _draw_view(self, ax, out, a: int, b: int) -> None:
         if out["q"] is not None:
@@ -181,11 +181,55 @@ class IKPicker:
         ax.set_ylim(0, 1.08 * self.robot.u_max_rad)
         ax.set(title="motor commands", ylabel="u [rad]")
 
+    # ------------------------------------------------------------------ live viewer
+    def _live_scene(self, viewer):
+        """Objects under ``vis["picker"]``, sent once: the arm (:class:`lab.viz.live.LiveArm`,
+        with an FEM), target, model's tip, trajectory points."""
+        from matplotlib.colors import to_rgb
+
+        from lab.viz.animation import MARKER_RADIUS_M, TARGET_RGB
+        from lab.viz.arm import _hex, _meshcat
+        from lab.viz.live_arm import LiveArm
+
+        g, root = _meshcat().geometry, viewer.vis["picker"]
+        root.delete()
+        arm = None if self.explorer is None else LiveArm(viewer.vis, self.explorer.fem, prefix="picker/arm")
+        for name, rgb in (("target", TARGET_RGB), ("model_tip", to_rgb(PREDICTED_COLOR))):  # black as in Fig. 5
+            root[name].set_object(g.Sphere(MARKER_RADIUS_M), g.MeshLambertMaterial(color=_hex(rgb)))
+        if self.targets_W is not None:
+            pts = np.ascontiguousarray(self.targets_W.T, np.float32)
+            pink = np.tile(np.float32([[1.0], [0.41], [0.71]]), pts.shape[1])  # meshcat colours points per vertex
+            root["points"].set_object(g.PointsGeometry(pts, pink), g.PointsMaterial(size=0.003))
+        return root, arm
+
+    def _live_update(self, viewer, out) -> None:
+        from matplotlib.colors import to_rgb
+
+        from lab.viz.arm import _hex, _meshcat
+
+        g, (root, arm) = _meshcat().geometry, self.scene
+        viewer.focus("picker")
+        if arm is not None and out["q"] is not None:
+            arm.update(out["q"], out["u_motor"])
+        for name, p in (("target", out["p_target_W"]), ("model_tip", out["p_pred_W"])):
+            T = np.eye(4)
+            T[:3, 3] = p
+            root[name].set_transform(T)
+        lines = {"path": (out["path_W"], PREDICTED_COLOR)}  # geometry that changes: sent anew
+        if arm is None:
+            lines["sketch"] = (arc_W(out["p_pred_W"]), "0.55")
+        for name, (pts, color) in lines.items():
+            geometry = g.PointsGeometry(np.ascontiguousarray(pts.T, np.float32))
+            root[name].set_object(g.Line(geometry, g.LineBasicMaterial(color=_hex(to_rgb(color)))))
+
     # ------------------------------------------------------------------ widget
-    def widget(self, p_start_W=None):
-        """x/y/z sliders (cm) and a drop-down of ``targets_W`` above the live figure, or
-        None when no front end can show widgets: then the static figure of the last
-        update (or of ``p_start_W``, default the first trajectory point) is shown."""
+    def widget(self, p_start_W=None, live: bool | None = None):
+        """x/y/z sliders (cm) and a drop-down of ``targets_W`` above the arm, or None when no
+        front end can show widgets: then the static figure of the last update (or of
+        ``p_start_W``, default the first trajectory point) is shown. ``live`` (None:
+        :func:`lab.viz.live.live_viewer_wanted`): the arm is this kernel's live meshcat
+        viewer; otherwise a matplotlib image redrawn. Widgets kept in ``self.sliders`` and
+        ``self.points`` (the drop-down)."""
         import matplotlib.pyplot as plt
 
         p0 = p_start_W if p_start_W is not None else (self.p_pred_W if self.targets_W is None else self.targets_W[0])
@@ -197,31 +241,42 @@ class IKPicker:
             return None
         import ipywidgets as w
 
+        from lab.viz import live as L
+
+        live = L.live_viewer_wanted() if live is None else live
         lo, hi = 100 * self.solver.seeds[1].min(0) - 1, 100 * self.solver.seeds[1].max(0) + 1
         sliders = [
-            w.FloatSlider(
-                value=float(np.clip(100 * p0[k], lo[k], hi[k])),
-                min=float(lo[k]),
-                max=float(hi[k]),
-                step=0.1,
-                description=f"target {'xyz'[k]} [cm]",
-                continuous_update=False,
-                style={"description_width": "initial"},
-            )
+            fixed_width_slider(f"target {'xyz'[k]} [cm]", float(np.clip(100 * p0[k], lo[k], hi[k])), lo[k], hi[k], 0.1)
             for k in range(3)
         ]
         n = 0 if self.targets_W is None else len(self.targets_W)
-        points = w.Dropdown(options=[("(sliders)", -1)] + [(f"trajectory point {i}", i) for i in range(n)], value=-1)
-        status, canvas, busy = w.HTML(), w.Image(format="png"), [False]
+        options = [(CUSTOM_TARGET, -1)] + [(f"trajectory point {i}", i) for i in range(n)]
+        start = [i for i in range(n) if np.allclose(self.targets_W[i], p0)][:1] or [-1]
+        points = w.Dropdown(options=options, value=start[0], layout=w.Layout(width="auto"))
+        status, busy = w.HTML(), [False]
+        if live:
+            viewer = L.live_viewer()
+            self.scene = self._live_scene(viewer)
+            canvas = w.HTML(viewer.iframe_html(), layout=w.Layout(width="100%"))
+        else:
+            canvas = w.Image(format="png")
 
-        def on_change(_change=None):
+        def solve():
+            out = self.update([s.value / 100 for s in sliders], draw=not live)
+            if live:
+                self._live_update(viewer, out)
+            else:
+                canvas.value = figure_png(self.fig)
+            status.value = f"{self.headline(out)}<br>IK {1e3 * out['ik_s']:.1f} ms, redraw included " + (
+                f"{1e3 * out['elapsed_s']:.0f} ms; "
+                + ("reached" if out["reachable"] else "<b>out of reach</b>: best allowed command shown")
+            )
+
+        def on_slider(_change):
             if busy[0]:
                 return
-            out = self.update([s.value / 100 for s in sliders])
-            canvas.value = figure_png(self.fig)
-            status.value = f"IK {1e3 * out['ik_s']:.1f} ms, redraw included {1e3 * out['elapsed_s']:.0f} ms; " + (
-                "reached" if out["reachable"] else "<b>out of reach</b>: best allowed command shown"
-            )
+            points.value = -1  # the target is no longer the trajectory point (on_point ignores -1)
+            solve()
 
         def on_point(change):
             if change["new"] < 0:
@@ -230,11 +285,13 @@ class IKPicker:
             for s, v in zip(sliders, 100 * self.targets_W[change["new"]]):
                 s.value = float(np.clip(v, s.min, s.max))
             busy[0] = False
-            on_change()
+            solve()
 
         for s in sliders:
-            s.observe(on_change, names="value")
+            s.observe(on_slider, names="value")
         points.observe(on_point, names="value")
-        on_change()
-        plt.close(self.fig)  # shown through the Image widget only
+        solve()
+        if self.fig is not None:
+            plt.close(self.fig)  # shown through the Image widget only
+        self.sliders, self.points = sliders, points
         return w.VBox([*sliders, points, status, canvas] if n else [*sliders, status, canvas])

@@ -9,7 +9,10 @@ dozen. The pose drawn is the exact equilibrium, not an interpolation.
 The logic (:meth:`ArmExplorer.update`) is plain Python, so tests and papermill call it
 headless; :meth:`ArmExplorer.widget` wraps it in ipywidgets sliders when a front end
 can show them, and otherwise (no ipywidgets, or no kernel front end) returns ``None``
-after saying so, leaving the static figure in place.
+after saying so, leaving the static figure in place. In an interactive front end the
+sliders move the arm in this kernel's live meshcat viewer (:mod:`lab.viz.live`); under
+papermill they redraw a matplotlib image instead. Every slider has the same description
+and track width (:data:`SLIDER_STYLE`, :data:`SLIDER_LAYOUT`), whatever its label.
 """
 
 from __future__ import annotations
@@ -19,19 +22,31 @@ import time
 import numpy as np
 
 from lab.errors import InputError
+from lab.viz.live import widgets_available
 
-__all__ = ["ArmExplorer", "widgets_available", "figure_png"]
+__all__ = ["ArmExplorer", "widgets_available", "figure_png", "fixed_width_slider", "SLIDER_STYLE", "SLIDER_LAYOUT"]
+
+#: One description width and one total width for every slider of the course's widgets, so
+#: that their tracks line up ("initial" sized each description to its text: 147/108/98 px).
+SLIDER_STYLE = {"description_width": "8.5em"}
+SLIDER_LAYOUT = {"width": "36em"}
 
 
-def widgets_available() -> bool:
-    """True if ipywidgets imports and an IPython kernel (a front end's) is running."""
-    try:
-        import ipywidgets  # noqa: F401
-        from IPython import get_ipython
-    except ImportError:
-        return False
-    shell = get_ipython()
-    return shell is not None and getattr(shell, "kernel", None) is not None
+def fixed_width_slider(description: str, value: float, lo: float, hi: float, step: float):
+    """An ``ipywidgets.FloatSlider`` with :data:`SLIDER_STYLE` and :data:`SLIDER_LAYOUT`,
+    solving when let go (``continuous_update=False``)."""
+    import ipywidgets as w
+
+    return w.FloatSlider(
+        value=value,
+        min=lo,
+        max=hi,
+        step=step,
+        description=description,
+        continuous_update=False,
+        style=dict(SLIDER_STYLE),
+        layout=w.Layout(**SLIDER_LAYOUT),
+    )
 
 
 def figure_png(fig, dpi: int = 90) -> bytes:
@@ -51,11 +66,12 @@ class ArmExplorer:
     commands over [0, u_max] (more levels: a longer start, faster first moves).
     """
 
-    def __init__(self, fem, levels: int = 2, figsize=(11, 4.2)):
+    def __init__(self, fem, levels: int = 2, figsize=(11, 4.2), prefix: str = "arm"):
         from lab.fem import solve_static
 
         self.fem, self.robot = fem, fem.robot
-        self.figsize = figsize
+        self.figsize, self.prefix = figsize, prefix  # prefix: the arm's name in the live viewer
+        self.scene = self.sliders = None
         self.u_cache: list[np.ndarray] = []
         self.q_cache: list[np.ndarray] = []
         self.dq_du_cache: list[np.ndarray] = []
@@ -125,47 +141,60 @@ class ArmExplorer:
                 ax.set_xlim(*((-0.1 * L, 1.1 * L) if dims[0] == 0 else (-0.8 * L, 0.8 * L)))
                 ax.set_ylim(-0.8 * L, 0.8 * L)
                 ax.set_title(title)
+        self.fig.suptitle(self.headline(out), fontsize=10)
+
+    def headline(self, out) -> str:
+        """One line on an :meth:`update`: the command and where the tip went (cm)."""
+        if out["safe"]:
             p = 100 * out["p_tip_W"]
             head = f"tip at ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) cm"
         else:
             head = "unsafe command: outside the robot's safety limits, not applied"
         angles = ", ".join(f"{c.name} {v:.2f}" for c, v in zip(self.robot.cables, out["u_motor"]))
-        self.fig.suptitle(f"u = [{angles}] rad: {head}", fontsize=10)
+        return f"u = [{angles}] rad: {head}"
 
-    def widget(self, step_rad: float = 0.05):
-        """ipywidgets sliders (one per motor) above the live figure, or None (with a
-        printed reason) when no front end can show widgets."""
+    def widget(self, step_rad: float = 0.05, live: bool | None = None):
+        """ipywidgets sliders (one per motor) above the arm, or None (with a printed reason)
+        when no front end can show widgets. ``live`` (None: :func:`lab.viz.live.live_viewer_wanted`):
+        the arm is this kernel's live meshcat viewer, moved on every release of a slider;
+        otherwise a matplotlib image redrawn. The sliders stay in ``self.sliders``."""
         if not widgets_available():
             print("no widget front end here (papermill, a plain Python): the static figures stand in for the sliders")
             return None
         import ipywidgets as w
         import matplotlib.pyplot as plt
 
-        sliders = [
-            w.FloatSlider(
-                value=0.0,
-                min=0.0,
-                max=self.robot.u_max_rad,
-                step=step_rad,
-                description=f"{c.name} [rad]",
-                continuous_update=False,  # solve when the slider is let go
-                style={"description_width": "initial"},
-            )
-            for c in self.robot.cables
-        ]
-        status, canvas = w.HTML(), w.Image(format="png")
+        from lab.viz import live as L
+        from lab.viz.live_arm import LiveArm
+
+        live = L.live_viewer_wanted() if live is None else live
+        u_max = self.robot.u_max_rad
+        sliders = [fixed_width_slider(f"{c.name} [rad]", 0.0, 0.0, u_max, step_rad) for c in self.robot.cables]
+        status = w.HTML()
+        if live:
+            viewer = L.live_viewer()
+            self.scene = LiveArm(viewer.vis, self.fem, prefix=self.prefix)
+            canvas = w.HTML(viewer.iframe_html(), layout=w.Layout(width="100%"))
+        else:
+            canvas = w.Image(format="png")
 
         def on_change(_change=None):
-            out = self.update([s.value for s in sliders])
-            canvas.value = figure_png(self.fig)
+            out = self.update([s.value for s in sliders], draw=not live)
+            if not live:
+                canvas.value = figure_png(self.fig)
+            elif out["safe"]:
+                viewer.focus(self.prefix)
+                self.scene.update(out["q"], out["u_motor"])
             status.value = (
-                f"solved in {1e3 * out['elapsed_s']:.0f} ms ({out['iterations']} Newton steps)"
+                f"{self.headline(out)}; solved in {1e3 * out['elapsed_s']:.0f} ms ({out['iterations']} Newton steps)"
                 if out["safe"]
-                else "<b>unsafe command</b>: not applied"
+                else f"<b>{self.headline(out)}</b>"
             )
 
         for s in sliders:
             s.observe(on_change, names="value")
         on_change()
-        plt.close(self.fig)  # shown through the Image widget only
+        if self.fig is not None:
+            plt.close(self.fig)  # shown through the Image widget only
+        self.sliders = sliders
         return w.VBox([*sliders, status, canvas])

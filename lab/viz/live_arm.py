@@ -1,0 +1,122 @@
+"""The arm in the live meshcat viewer (:mod:`lab.viz.live`), moved rather than redrawn.
+
+:class:`LiveArm` sends the arm's rigid pieces once (``set_object``: the body tube as
+segments, each cable as thin cylinders, the tip marker; the pieces of
+:func:`lab.viz.animation.arm_pieces`) and then, per update, only their transforms and a
+cable's colour when its command's colour changes: a slider move is about 50 small
+messages (under 10 ms), not a new scene, and a page opened later gets the current pose.
+
+:func:`show_arm` and :func:`show_animation` are what the chapters call: in an interactive
+front end they draw in this kernel's live viewer and show its page in an iframe; elsewhere
+(papermill, the docs, tests) they return the self-contained static HTML page as before, so
+no run outside a live kernel starts a server.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.viz.animation import (
+    CABLE_RADIUS_M,
+    MARKER_RADIUS_M,
+    _unit_cylinder,
+    arm_pieces,
+    centreline_embedding,
+    end_caps,
+)
+from lab.viz.arm import CABLE_RGB, FOAM_RGB, TIP_RGB, _hex, _meshcat, cable_colors
+from lab.viz.live import live_viewer, live_viewer_wanted
+
+__all__ = ["LiveArm", "show_arm", "show_animation"]
+
+
+class LiveArm:
+    """The arm of ``fem`` drawn under ``vis[prefix]`` as rigid pieces (those of
+    :func:`lab.viz.animation.arm_pieces`): the objects are sent once, here, and each
+    :meth:`update` sends only their transforms and the cables' colours. Pieces:
+    ``body/00``.., ``body/base``, ``body/end``, ``cables/<name>/00``.., ``tip``."""
+
+    def __init__(self, vis, fem, *, prefix: str = "arm", n_segments: int = 20, foam_opacity: float = 0.4):
+        g = _meshcat().geometry
+        self.vis, self.fem, self.prefix = vis, fem, prefix
+        self.root = vis[prefix]
+        self.root.delete()  # a cell run again draws a fresh arm
+        self.embedding = centreline_embedding(fem, n_segments)
+        tube, disc, cable = _unit_cylinder(48, True), _unit_cylinder(48, False), _unit_cylinder(12, False)
+        body_mat = g.MeshLambertMaterial(color=_hex(FOAM_RGB), opacity=foam_opacity, side=0)
+        for i in range(n_segments):
+            self.root[f"body/{i:02d}"].set_object(tube, body_mat)
+        for name in ("base", "end"):
+            self.root[f"body/{name}"].set_object(disc, body_mat)
+        self.cable_paths = [
+            [f"cables/{route.name}/{k:02d}" for k in range(len(route.via_points_m))] for route in fem.robot.cables
+        ]
+        for paths in self.cable_paths:
+            for path in paths:
+                self.root[path].set_object(cable, g.MeshLambertMaterial(color=_hex(CABLE_RGB)))
+        self.root["tip"].set_object(g.Sphere(MARKER_RADIUS_M), g.MeshLambertMaterial(color=_hex(TIP_RGB)))
+        self._colors = [None] * fem.robot.n_cables
+        self.update()
+
+    def update(self, q=None, u_motor=None):
+        """Move the arm to free coordinates ``q`` (n_free,) m (None: rest), cables coloured
+        by ``u_motor`` (n_cables,) rad (None: grey). Returns the
+        :class:`lab.viz.animation.ArmPieces` drawn (``tip_W`` (3,) m)."""
+        n_segments = len(self.embedding[0]) - 1
+        pieces = arm_pieces(self.fem, q, n_segments, cable_radius_m=CABLE_RADIUS_M, embedding=self.embedding)
+        for i, T in enumerate(pieces.body):
+            self.root[f"body/{i:02d}"].set_transform(T)
+        for name, T in zip(("base", "end"), end_caps(pieces.body)):
+            self.root[f"body/{name}"].set_transform(T)
+        colors = cable_colors(self.fem.robot.n_cables, u_motor, self.fem.robot.u_max_rad)
+        for c, (paths, Ts) in enumerate(zip(self.cable_paths, pieces.cables)):
+            rgba = [*np.round(colors[c], 3).tolist(), 1.0]
+            for path, T in zip(paths, Ts):
+                self.root[path].set_transform(T)
+                if rgba != self._colors[c]:  # only when the command's colour changes
+                    self.root[path].set_property("color", rgba)
+            self._colors[c] = rgba
+        T_tip = np.eye(4)
+        T_tip[:3, 3] = pieces.tip_W
+        self.root["tip"].set_transform(T_tip)
+        return pieces
+
+
+def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str = "view", height_px: int = 400):
+    """The arm at ``q`` (n_free,) m, cables coloured by ``u_motor`` (n_cables,) rad, as a
+    notebook output (``IPython.display.HTML``): drawn in this kernel's live viewer under
+    ``prefix`` when ``live`` (None: :func:`live_viewer_wanted`), else a self-contained
+    static snapshot (meshcat's JavaScript embedded, works offline). Prints which."""
+    from IPython.display import HTML
+
+    from lab.viz.arm import meshcat_scene, meshcat_visualizer, notebook_html
+
+    if live_viewer_wanted() if live is None else live:
+        viewer = live_viewer()
+        LiveArm(viewer.vis, fem, prefix=prefix).update(q, u_motor)
+        viewer.focus(prefix)
+        print(f"live viewer at {viewer.url}, served by this kernel")
+        return viewer.show(height_px)
+    with meshcat_visualizer() as vis:
+        meshcat_scene(fem, q, vis, u_motor=u_motor)
+        page = notebook_html(vis, height_px)
+    print(f"static snapshot: {len(page) / 1e6:.1f} MB of HTML")
+    return HTML(page)
+
+
+def show_animation(page_html: str, fem, q_frames, u_frames=None, *, live=None, prefix="anim", height_px=400, **kwargs):
+    """:func:`lab.viz.animation.animation_html`'s animation as a notebook output: played
+    by this kernel's live viewer (:func:`lab.viz.animation.animate_arm` with ``kwargs``
+    under ``prefix``) when ``live`` (None: :func:`live_viewer_wanted`), else its page
+    ``page_html`` in an iframe."""
+    from IPython.display import HTML
+
+    from lab.viz.animation import animate_arm, notebook_iframe
+
+    if not (live_viewer_wanted() if live is None else live):
+        return HTML(notebook_iframe(page_html, height_px))
+    viewer = live_viewer()
+    viewer.vis[prefix].delete()
+    animate_arm(viewer.vis, fem, q_frames, u_frames, prefix=prefix, **kwargs)
+    viewer.focus(prefix)
+    return viewer.show(height_px)
