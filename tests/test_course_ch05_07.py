@@ -4,8 +4,11 @@ catch the wrong ones a student is likely to write.
 Each grader runs without showing its result: a correct implementation, written here
 independently of ``lab``'s, must pass, and each wrong variant must fail: for the
 cross-validation of exercise 5.3 a per-fold average, a fit that saw its held-out samples
-and the squared distance; for the walk of exercise 6.2 a walk without the polish, a pull
-towards the previous command only and cold starts; for the split study of exercise 7.1 the
+and the squared distance; for the walk along the family of solutions of exercise 6.1 no
+correction, a single one, one along the Jacobian at the new command, a step along the whole
+direction or of the wrong length, and a walk that ignores the allowed set or keeps the command
+that leaves it; for the walk of exercise 6.2 a walk without the polish, a pull towards the
+previous command only and cold starts; for the split study of exercise 7.1 the
 MSE and seeds that are not ``run_seeds``'.
 """
 
@@ -16,7 +19,7 @@ import pytest
 
 from lab.control import CommandSet
 from lab.course.ch05 import check_gp_jacobian, check_maximin_order, check_prior_weight
-from lab.course.ch06 import check_project_command, check_regularised_walk
+from lab.course.ch06 import check_regularised_walk, check_walk_in_place
 from lab.course.ch07 import check_mean_test_distance, check_median_and_quartiles
 from lab.data import read_dataset
 from lab.description import load_robot
@@ -76,20 +79,33 @@ def test_chapter_5_graders_pass_right_and_catch_wrong_answers():
 # ---- chapter 6 ------------------------------------------------------------------------
 
 
-def _project(v, u_max, s_max):
-    # sort-based: the multiplier from the breakpoints of the clipped sum (no bisection)
-    def total(lam):
-        return np.clip(v - lam, 0, u_max).sum()
+def _walk_in_place(how="right"):
+    def walk(model, commands, u_start, direction, step, n_steps):
+        # independent of lab's: the null space from the SVD, Newton on the three multipliers of J's rows
+        u, out = np.array(u_start, float), [np.array(u_start, float)]
+        tip = model.predict(u)
+        for _ in range(n_steps):
+            J = model.jacobian(u)
+            null = np.linalg.svd(J)[2][3:]  # (3, 6): an orthonormal basis of what J cannot see
+            d = direction if how == "whole direction" else null.T @ (null @ direction)
+            v = u + step * (d if how == "unscaled" else d / np.linalg.norm(d))
+            for _ in range(0 if how == "no correction" else 1 if how == "one correction" else 50):
+                miss = model.predict(v) - tip
+                if np.linalg.norm(miss) < 1e-13:
+                    break
+                if how == "new jacobian":  # corrects along the rows of J at v, not at u
+                    v = v - np.linalg.pinv(model.jacobian(v)) @ miss
+                else:
+                    v = v - J.T @ np.linalg.solve(model.jacobian(v) @ J.T, miss)
+            if not commands.contains(v) and how != "ignores the set":
+                if how == "keeps the last":
+                    out.append(v)
+                break
+            u = v
+            out.append(u)
+        return np.array(out)
 
-    if total(0.0) <= s_max:
-        return np.clip(v, 0, u_max)
-    knots = np.unique(np.concatenate([v, v - u_max, [0.0]]))
-    knots = knots[knots >= 0]
-    sums = np.array([total(k) for k in knots])
-    i = int(np.searchsorted(-sums, -s_max))  # first knot with sum <= s_max
-    lo, hi = knots[i - 1], knots[i]
-    lam = lo + (total(lo) - s_max) / (total(lo) - total(hi)) * (hi - lo)  # the sum is linear between knots
-    return np.clip(v - lam, 0, u_max)
+    return walk
 
 
 def _walk(how="right"):
@@ -115,10 +131,10 @@ def six_cable():
 
 def test_chapter_6_graders_pass_right_and_catch_wrong_answers(six_cable):
     model, commands = six_cable
-    assert check_project_command(_project, commands, show=False).status == "passed"
-    scaled = lambda v, u_max, s_max: (x := np.clip(v, 0, u_max)) * min(1.0, s_max / x.sum())  # noqa: E731
-    assert check_project_command(scaled, commands, show=False).status == "failed"
-    assert check_project_command(lambda v, u_max, s_max: np.clip(v, 0, u_max), commands, show=False).status == "failed"
+    assert check_walk_in_place(_walk_in_place(), model, commands, show=False).status == "passed"
+    wrong_walks = ("no correction", "one correction", "new jacobian", "whole direction", "unscaled")
+    for wrong in (*wrong_walks, "ignores the set", "keeps the last"):
+        assert check_walk_in_place(_walk_in_place(wrong), model, commands, show=False).status == "failed", wrong
     assert check_regularised_walk(_walk(), model, commands, show=False).status == "passed"
     for wrong in ("no polish", "previous only", "cold"):
         assert check_regularised_walk(_walk(wrong), model, commands, show=False).status == "failed", wrong
