@@ -34,7 +34,7 @@ class IKConfig(Spec):
     Levenberg-Marquardt, no regulariser. :meth:`automatic` gives those of ``python -m lab
     track`` and :meth:`lab.control.ik.IKSolver.for_model`: the method picked for the model
     and automatic weights. ``None`` fields are filled in by the solver
-    (:attr:`lab.control.ik.IKSolver.config` holds the filled-in copy)."""
+    (``IKSolver.config`` holds the filled-in copy)."""
 
     method: str | None = option(
         "lm",

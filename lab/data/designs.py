@@ -33,7 +33,7 @@ class Chunk:
 
 
 def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
-    """Safe points of the ``levels``^m grid over [0, u_max]^m, lexicographic order (N, m)."""
+    """Safe points of the ``levels**m`` grid over [0, u_max]^m, lexicographic order (N, m)."""
     if levels < 2:
         raise InputError("a grid needs at least 2 levels per motor")
     axis = np.linspace(0.0, robot.u_max_rad, levels)

@@ -113,7 +113,7 @@ class FamilyTwinRig(TwinRig):
     records the robot seed, the generator version and the label, so that a dataset says
     which robot it came from."""
 
-    #: The member's defects: (robot, robot_seed, **mesh) -> Defects; a subclass draws another family.
+    #: The member's defects: ``(robot, robot_seed, **mesh) -> Defects``; a subclass draws another family.
     draw = staticmethod(random_defects)
 
     def __init__(self, robot: RobotDescription, robot_seed: int, seed: int = 0, **mesh):

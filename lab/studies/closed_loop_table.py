@@ -1,6 +1,6 @@
 """Closed-loop result files as a per-pass table (chapter 09; files in ``data/closed_loop/``).
 
-:func:`pass_rows` reads ``track --closed-loop`` results (:mod:`.closed_loop`) into one row per
+:func:`pass_rows` reads ``track --closed-loop`` results (:mod:`lab.tracking.closed_loop`) into one row per
 (trajectory, model, mode, pass); :func:`.pass_rows` output feeds
 :func:`lab.viz.closed_loop.plot_closed_loop`. :func:`final_pass_by_limit` splits a run's last
 pass into targets whose commands sit on the allowed set's boundary (:func:`at_limit`) and

@@ -1,6 +1,6 @@
 """Closed-loop trajectory tracking: motion-capture feedback through the model's Jacobian.
 
-Open loop (:mod:`.track`) sends the IK's commands once; with the tip measured, each command
+Open loop (:mod:`lab.tracking.track`) sends the IK's commands once; with the tip measured, each command
 is corrected by a damped Gauss-Newton step through the learned model's tip Jacobian
 ``J = dy/du`` (3, m) m/rad, kept inside the allowed commands and shortened to at most
 ``max_step_rad`` per motor (:func:`correct_command`). A measurement (:func:`measure_tip`)

@@ -1,0 +1,143 @@
+"""Store compact recorded copies of executed chapters for the documentation site.
+
+    python scripts/record_notebooks.py --figures figures --out figures/notebooks build/notebooks/NN_*.ipynb
+
+scripts/reproduce calls this after a full run: it turns each executed chapter papermill wrote
+to build/notebooks/ into ``figures/notebooks/NN_name.ipynb``, committed like the rest of
+figures/, so that the site (scripts/docs) shows every chapter with the outputs of a recorded
+run from a fresh clone -- the notebooks in notebooks/ stay cleared. A recorded copy is kept
+small: a figure a cell saved into figures/ is shown as a reference to that committed file (an
+inline image of it, if the kernel drew one, is dropped), widget views (no state without a live
+kernel) keep only their text, and an output over ``MAX_OUTPUT_BYTES`` (a self-contained 3-D
+scene) is replaced by a line saying what it was. The exercises' solution cells are shown as
+the student edition has them (:func:`lab.course.edition.stub_source`); the graders' outputs
+are those of the reference solutions. Per-cell timestamps are dropped (no churn in git).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+from pathlib import Path
+
+from lab.course.edition import SOLUTION_TAG, stub_source
+from lab.errors import InputError
+from lab.files import atomic_write_text
+
+#: Outputs larger than this (bytes of their largest representation) are left out.
+MAX_OUTPUT_BYTES = 200_000
+#: Mime types that need a live kernel: dropped, the output's text/plain stays.
+KERNEL_ONLY = ("application/vnd.jupyter.widget-view+json",)
+#: A figure file named in a cell's source or printed by it ("wrote ../figures/x.png").
+FIGURE_NAME = re.compile(r"[\w.-]+\.(?:png|html)\b")
+
+
+def _text(value) -> str:
+    return "".join(value) if isinstance(value, list) else value if isinstance(value, str) else json.dumps(value)
+
+
+def saved_figures(cell: dict, figures_dir: Path) -> list[str]:
+    """The files of ``figures_dir`` a code cell saved, in the order it names them: names in
+    its source (cells that save into ``figures_dir``) and in the paths it printed."""
+    source = _text(cell["source"])
+    texts = [_text(o.get("text", "")) for o in cell.get("outputs", []) if o.get("output_type") == "stream"]
+    names = FIGURE_NAME.findall(source) if ("figures_dir" in source or "savefig" in source) else []
+    names += [os.path.basename(n) for t in texts for n in FIGURE_NAME.findall(t)]
+    return [n for n in dict.fromkeys(names) if (figures_dir / n).is_file()]
+
+
+def _reference(name: str, figures_dir: Path, out_dir: Path) -> dict:
+    rel = Path(os.path.relpath(figures_dir / name, out_dir)).as_posix()
+    # (a page of its own, e.g. an animation, is named, not copied into the site: megabytes)
+    text = f"![{name}]({rel})" if name.endswith(".png") else f"`{name}`: a page of its own in `figures/`, for a browser"
+    return {"output_type": "display_data", "metadata": {}, "data": {"text/markdown": text, "text/plain": name}}
+
+
+def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
+    """The outputs without the first ``n_figures`` inline images (they duplicate saved
+    figures), kernel-only mime types, and with outputs over the size limit replaced by a note."""
+    kept = []
+    for out in outputs:
+        data = out.get("data")
+        if data is None:
+            kept.append(out)
+            continue
+        if n_figures and any(k.startswith("image/") for k in data):
+            n_figures -= 1
+            continue
+        data = {k: v for k, v in data.items() if k not in KERNEL_ONLY}
+        size = max((len(_text(v).encode()) for v in data.values()), default=0)
+        if size > MAX_OUTPUT_BYTES:
+            kinds = ", ".join(sorted(k for k in data if k != "text/plain"))
+            note = f"*(an output of {size / 1e6:.1f} MB ({kinds}) is left out of the recorded copy: "
+            note += "run the chapter to see it)*"
+            data = {"text/markdown": note, "text/plain": note}
+        kept.append({**out, "data": data, "metadata": out.get("metadata", {})})
+    return kept
+
+
+def recorded_copy(executed: str | Path, figures_dir: str | Path, out_dir: str | Path) -> dict:
+    """The recorded copy (a notebook as a dict) of the executed chapter ``executed``, with
+    figures referenced in ``figures_dir`` relative to ``out_dir`` where it will be stored."""
+    executed, figures_dir, out_dir = Path(executed), Path(figures_dir), Path(out_dir)
+    try:
+        nb = json.loads(executed.read_text())
+    except (OSError, ValueError) as e:
+        raise InputError(f"{executed}: not an executed notebook ({type(e).__name__}: {e})") from None
+    if not isinstance(nb, dict) or not isinstance(nb.get("cells", []), list):
+        raise InputError(f"{executed}: not an executed notebook (no list of cells)")
+    cells = nb.setdefault("cells", [])
+    run = nb.get("metadata", {}).get("papermill", {})
+    for cell in cells:
+        meta = cell.get("metadata", {})
+        for key in ("papermill", "execution", "ExecuteTime"):
+            meta.pop(key, None)
+        if cell["cell_type"] != "code":
+            continue
+        if SOLUTION_TAG in meta.get("tags", []):
+            cell["source"] = stub_source(_text(cell["source"]))
+        figures = saved_figures(cell, figures_dir)
+        cell["outputs"] = compact_outputs(cell.get("outputs", []), len(figures))
+        cell["outputs"] += [_reference(n, figures_dir, out_dir) for n in figures]
+    params = run.get("parameters", {})
+    mode = "quick" if params.get("quick") else "full"
+    date = str(run.get("start_time") or "")[:10] or "an unrecorded date"
+    note = (
+        f"*A recorded run: the outputs below are those of `scripts/reproduce` ({mode} mode, {date}); "
+        "its figures are the committed files in `figures/`. The exercises' solutions are left out, "
+        "as in the student edition; the graders' outputs are those of the reference solutions.*"
+    )
+    at = 1 if cells and cells[0]["cell_type"] == "markdown" else 0
+    cells.insert(at, {"cell_type": "markdown", "id": "recorded-run", "metadata": {}, "source": note})
+    nb.setdefault("metadata", {})["papermill"] = {"parameters": params}
+    nb["metadata"].pop("widgets", None)
+    return nb
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("executed", nargs="+", help="executed chapters (build/notebooks/NN_*.ipynb)")
+    parser.add_argument("--figures", required=True, help="the folder the run wrote its figures into")
+    parser.add_argument("--out", required=True, help="where the recorded copies go")
+    args = parser.parse_args(argv)
+    out_dir = Path(args.out)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for path in args.executed:
+            nb = recorded_copy(path, args.figures, out_dir)
+            target = out_dir / Path(path).name
+            if target.resolve() == Path(path).resolve():
+                raise InputError(f"--out {out_dir}: the recorded copy would overwrite its input {path}")
+            atomic_write_text(target, json.dumps(nb, indent=1, ensure_ascii=False) + "\n")
+            print(f"recorded {path} -> {target} ({target.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
+    except InputError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
