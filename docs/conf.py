@@ -6,7 +6,9 @@ the topic pages are docs/*.md and docs/design/*.md, the chapters are the recorde
 figures/notebooks/NN_*.ipynb (written by scripts/reproduce; never executed here), and the
 API reference is docs/api/*.rst (generated from ``__all__`` by docs/_ext/lab_api.py). The
 sidebar's table of contents is added to the README when Sphinx reads it (GitHub never sees
-it). Why Sphinx, MyST-NB and Furo: docs/site.md.
+it). Formulas are typeset by MathJax copied into the site (docs/_ext/lab_mathjax.py), so
+they render offline; a page's later top-level headings go under its title
+(docs/_ext/lab_sections.py). Why Sphinx, MyST-NB and Furo: docs/site.md.
 """
 
 from __future__ import annotations
@@ -19,10 +21,12 @@ DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 sys.path[:0] = [str(DOCS / "_ext"), str(ROOT)]
 
+import lab_mathjax  # noqa: E402  (docs/_ext, just put on the path)
+
 project = "lab"
 author = "the lab authors"
 copyright = "the lab authors, MIT licence"
-extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "lab_api"]
+extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "lab_api", "lab_mathjax", "lab_sections"]
 
 root_doc = "README"
 include_patterns = ["README.md", "docs/*.md", "docs/design/*.md", "docs/api/*.rst", "figures/notebooks/*.ipynb"]
@@ -50,6 +54,13 @@ nb_merge_streams = True
 nb_render_markdown_format = "myst"
 myst_heading_anchors = 4  # GitHub's anchors (README.md#for-students)
 myst_enable_extensions = ["dollarmath"]
+# "$$...$$" inside a paragraph is display math, as JupyterLab shows it (chapter 01's goals)
+myst_dmath_double_inline = True
+
+# --- math: MathJax 3 from the site itself (docs/_ext/lab_mathjax.py copies it), never a CDN ---
+mathjax_path = lab_mathjax.MATHJAX_PATH
+# (MyST adds the classes MathJax processes: its math and the notebooks' outputs)
+mathjax3_config = {"options": {}}
 
 # --- API reference ---
 autodoc_member_order = "bysource"

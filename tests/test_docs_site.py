@@ -5,8 +5,10 @@ build/docs/), then: no warning (``-W``, ``-n``: every cross-reference resolves);
 internal link of the built HTML names a file that exists and an anchor in it; every public
 name of every module's ``__all__`` has an API entry; and Chromium, with no network, shows
 the front page, a chapter with its figure (an image that loaded), the API entry of
-``lab.fem.solve_static`` with its signature, and the built-in search finds it. Without the
-build: every chapter has a recorded run in figures/notebooks/ (scripts/record_notebooks.py,
+``lab.fem.solve_static`` with its signature, and the built-in search finds it; every
+chapter's formulas are typeset by the site's own copy of MathJax, with its fonts, and no raw
+TeX is left; the sidebar lists each page once (chapter 04's "Part 2" is no course entry).
+Without the build: every chapter has a recorded run in figures/notebooks/ (scripts/record_notebooks.py,
 run by scripts/reproduce) that is small, and the recorder keeps a cell's saved figure as a
 reference to the committed file.
 """
@@ -310,3 +312,65 @@ def test_pages_and_search_in_chromium(site, tmp_path):
             60,
             "a search hit on lab.fem",
         )
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_sidebar_lists_each_page_once(site):
+    """A page's second top-level heading (chapter 04's "Part 2") is no entry of its own."""
+    sidebar = (site[0] / "README.html").read_text()
+    entries = re.findall(r'<li class="toctree-l1[^"]*"><a class="reference internal" href="([^"]+)"', sidebar)
+    assert any(e.endswith("04_trajectory_following.html") for e in entries), entries
+    assert not [e for e in entries if "#" in e], f"sidebar entries that are a heading of a page: {entries}"
+    chapter = (site[0] / "figures" / "notebooks" / "04_trajectory_following.html").read_text()
+    part2 = re.search(r'id="part-2-the-real-emulated-as-built-robot">\s*(<span [^>]*></span>)?<h(\d)', chapter)
+    assert part2 and part2[2] == "2", "chapter 04's Part 2 is no subsection of the page's title"
+    assert chapter.count("<h1") == 1
+
+
+#: JavaScript: [formulas on the page, formulas MathJax typeset, its errors].
+_MATH_COUNTS = (
+    "[...['article .math', 'article mjx-container', 'mjx-merror']].map(s => document.querySelectorAll(s).length)"
+)
+#: JavaScript: the article's text outside code and typeset formulas (where raw TeX would show).
+_PROSE = (
+    "(() => { const a = document.querySelector('article').cloneNode(true);"
+    " a.querySelectorAll('pre, code, mjx-container').forEach(e => e.remove()); return a.textContent; })()"
+)
+#: Raw TeX in prose: a \( or \[ delimiter, or a pair of dollars.
+_RAW_TEX = re.compile(r"\\[(\[]|\$\$|\$[^$\s][^$]*\$")
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_math_renders_offline_in_chromium(site, tmp_path):
+    """Every chapter's formulas typeset by the site's own MathJax 3 and its fonts, none left raw."""
+    require_chromium()
+    out = site[0]
+    flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
+    command = [*_no_network_prefix(), str(test_viz.CHROMIUM), *flags]
+    mathjax = (out / "_static" / "mathjax" / "tex-chtml-full.js").as_uri()
+    pages = sorted((out / "figures" / "notebooks").glob("[0-9][0-9]_*.html"))
+    chapters = [p for p in pages if 'class="math' in p.read_text()]  # MathJax is on pages with math only
+    assert "04_trajectory_following.html" in [p.name for p in chapters], [p.name for p in pages]
+    with DevToolsPage(command, tmp_path / "profile", width=1200, height=900) as page:
+        for chapter in chapters:
+            page.navigate(chapter.as_uri())
+            started = f"location.href.endsWith('{chapter.name}') && document.readyState === 'complete'"
+            _wait(page, f"{started} && !!window.MathJax?.startup?.promise", 60, f"MathJax on {chapter.name}")
+            assert page.evaluate("MathJax.startup.promise.then(() => MathJax.version)", await_promise=True) == "3.2.2"
+            scripts = page.evaluate("[...document.scripts].map(s => s.src).filter(s => /mathjax/i.test(s))")
+            assert scripts == [mathjax], f"{chapter.name} loads MathJax from {scripts}"
+            _wait(page, f"(([m, t]) => m > 0 && t === m)({_MATH_COUNTS})", 60, f"every formula of {chapter.name}")
+            assert page.evaluate(_MATH_COUNTS)[2] == 0, f"a formula of {chapter.name} failed to typeset"
+            prose = page.evaluate(_PROSE)
+            raw = [prose[max(0, m.start() - 40) : m.end() + 40] for m in _RAW_TEX.finditer(prose)]
+            assert not raw, f"{chapter.name}: {len(raw)} formulas show as raw TeX, e.g. {raw[:3]}"
+            if chapter.name.startswith("04_"):  # the objective O(u) of its goals, in MathJax's own fonts
+                formulas = "[...document.querySelectorAll('article mjx-container')].map(e => e.textContent)"
+                typeset = page.evaluate(formulas)
+                assert any(f.startswith("O(u)=") for f in typeset), typeset[:8]
+                loaded = "[...document.fonts].filter(f => f.status === 'loaded').map(f => f.family)"
+                fonts = page.evaluate(f"document.fonts.ready.then(() => {loaded})", await_promise=True)
+                assert "MJXTEX" in fonts, f"MathJax's fonts did not load from _static/: {fonts}"
