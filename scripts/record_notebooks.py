@@ -79,6 +79,22 @@ def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
     return kept
 
 
+def _without_root(out: dict) -> dict:
+    """``out`` with this checkout's absolute path written as ``<repository>``: the recorded
+    copy shows where a file is in the repository, not on the machine that ran it."""
+    root = str(Path(__file__).resolve().parent.parent)
+
+    def strip(v):
+        return [t.replace(root, "<repository>") for t in v] if isinstance(v, list) else v.replace(root, "<repository>")
+
+    out = dict(out)
+    if "text" in out:
+        out["text"] = strip(out["text"])
+    if "data" in out:
+        out["data"] = {k: strip(v) if k.startswith("text/") else v for k, v in out["data"].items()}
+    return out
+
+
 def recorded_copy(executed: str | Path, figures_dir: str | Path, out_dir: str | Path) -> dict:
     """The recorded copy (a notebook as a dict) of the executed chapter ``executed``, with
     figures referenced in ``figures_dir`` relative to ``out_dir`` where it will be stored."""
@@ -100,7 +116,7 @@ def recorded_copy(executed: str | Path, figures_dir: str | Path, out_dir: str | 
         if SOLUTION_TAG in meta.get("tags", []):
             cell["source"] = stub_source(_text(cell["source"]))
         figures = saved_figures(cell, figures_dir)
-        cell["outputs"] = compact_outputs(cell.get("outputs", []), len(figures))
+        cell["outputs"] = [_without_root(o) for o in compact_outputs(cell.get("outputs", []), len(figures))]
         cell["outputs"] += [_reference(n, figures_dir, out_dir) for n in figures]
     params = run.get("parameters", {})
     mode = "quick" if params.get("quick") else "full"

@@ -148,6 +148,16 @@ def test_recorded_copy_refers_to_saved_figures(tmp_path):
     assert "left out of the recorded copy" in scene["data"]["text/markdown"] and "0.3 MB" in scene["data"]["text/plain"]
 
 
+def test_recorded_copies_name_no_machine_path():
+    """The committed recorded runs show paths in the repository, not on the machine that ran them."""
+    record = _load_script("record_notebooks")
+    root = str(ROOT.resolve())
+    out = record._without_root({"output_type": "stream", "name": "stdout", "text": [f"figures -> {root}/figures\n"]})
+    assert out["text"] == ["figures -> <repository>/figures\n"]
+    leaks = [p.name for p in sorted((ROOT / "figures" / "notebooks").glob("*.ipynb")) if root in p.read_text()]
+    assert not leaks, f"recorded copies with this checkout's path {root}: {leaks}"
+
+
 def test_recorder_refuses_to_overwrite_its_input(tmp_path, capsys):
     record = _load_script("record_notebooks")
     executed, figures = _executed(tmp_path)
