@@ -26,6 +26,7 @@ def test_stub_keeps_signature_and_docstring():
     src = 'def f(a: int, b=2) -> int:\n    """Add.\n\n    Units: none."""\n    return a + b\n'
     stub = stub_source(src)
     assert stub.startswith("def f(a: int, b=2) -> int:") and "Units: none." in stub and "return a + b" not in stub
+    assert '"""Add.\n\n    Units: none."""' in stub  # the docstring's blank line stays blank (no whitespace)
     scope = {}
     exec(stub, scope)
     with pytest.raises(NotImplementedError):

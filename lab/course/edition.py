@@ -56,7 +56,7 @@ def stub_source(source: str) -> str:
         start = min([node.lineno, *(d.lineno for d in node.decorator_list)])
         head = "\n".join(lines[start - 1 : node.body[0].lineno - 1])  # decorators and signature
         doc = ast.get_docstring(node)
-        doc = doc.replace("\n", "\n    ") if doc else doc
+        doc = "\n".join(("    " + line) if line else "" for line in doc.split("\n")).lstrip() if doc else doc
         body = ([f'    """{doc}"""'] if doc else []) + [f'    raise NotImplementedError("exercise: write {node.name}")']
         out.append(head + "\n" + "\n".join(body))
     return "\n\n\n".join(out) + "\n"
