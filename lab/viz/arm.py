@@ -7,7 +7,8 @@
   :func:`notebook_html` (self-contained HTML, works offline: nothing fetched from a CDN).
   :func:`meshcat_visualizer` creates a ``meshcat.Visualizer`` and, as meshcat 0.3.2's
   ``close()`` is broken, stops its zmq server process itself. Never call ``vis.get_image()``
-  (hangs without a connected browser) or ``vis.jupyter_cell()`` (iframe to localhost).
+  (hangs without a connected browser). The live viewer of a notebook (an iframe to a server on
+  the kernel's loopback) is :mod:`lab.viz.live`, not meshcat's ``jupyter_cell()``.
 * matplotlib: :func:`plot_arm` on a 3-D axes, :func:`plot_arm_views` for a 3-D view plus x-z
   (side) and y-z (front) projections, in centimetres.
 
