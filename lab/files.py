@@ -22,6 +22,7 @@ __all__ = [
     "json_default",
     "code_version",
     "remove_and_release",
+    "exclusive_lock",
     "format_bytes",
 ]
 
@@ -163,6 +164,26 @@ def remove_and_release(lock) -> None:
         with contextlib.suppress(OSError):  # left behind, it is harmless
             os.unlink(lock.lock_file)
     lock.release()
+
+
+@contextlib.contextmanager
+def exclusive_lock(lock_file: str | Path, busy: str):
+    """Hold ``lock_file`` while one writer works; a second is refused at once with
+    ``InputError(busy)`` instead of waiting or colliding. The file is removed when done
+    (see :func:`remove_and_release`)."""
+    from filelock import FileLock, Timeout
+
+    from lab.errors import InputError
+
+    lock = FileLock(lock_file, timeout=0)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise InputError(busy) from None
+    try:
+        yield
+    finally:
+        remove_and_release(lock)
 
 
 def format_bytes(n: float) -> str:

@@ -4,9 +4,8 @@ the DevTools protocol, so that screenshots wait for the page's state, not for ti
 
 import numpy as np
 import pytest
-import test_viz
 from helpers import DevToolsPage
-from test_viz import _no_network_prefix, _pixel_counts, require_chromium
+from test_viz import _pixel_counts, devtools_command, require_chromium
 
 from lab.description import load_robot
 from lab.fem.energy import ArmFEM
@@ -224,13 +223,12 @@ def test_animation_plays_in_chromium(coarse_fem, bent_q, tmp_path):
     pages = {
         play: A.animation_html(fem, q, u, targets_W=tips + [0, 0, 0.01], fps=0.5, play=play) for play in (True, False)
     }
-    flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
 
     def shot(page):
         img = page.screenshot()[20:]  # below meshcat's GUI bar
         return _pixel_counts(img), _red_centroid(img)
 
-    command = [*_no_network_prefix(), str(test_viz.CHROMIUM), *flags]
+    command = devtools_command()
     with DevToolsPage(command, tmp_path / "profile") as page:
         _load(page, pages[True], tmp_path / "play.html")
         assert page.evaluate("viewer.animator.duration") == 4

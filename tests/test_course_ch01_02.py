@@ -12,19 +12,13 @@ from scipy.sparse.linalg import spsolve
 
 from lab.course.ch01 import WARM_FRACTION, check_cable_length, check_newton_solve, check_warm_walk, walk_cases
 from lab.course.ch02 import check_capture_sample, check_first_settled, check_goal_ticks
-from lab.description import load_robot
 from lab.fem import ArmFEM, solve_static
 from lab.rig import AsBuiltBody, SettleDetector
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return load_robot("three-cable")
-
-
-@pytest.fixture(scope="module")
-def fem(robot):
-    return ArmFEM(robot, n_rings=1, n_axial=8)
+def fem(three_cable):
+    return ArmFEM(three_cable, n_rings=1, n_axial=8)
 
 
 # --- chapter 1 ------------------------------------------------------------------------
@@ -58,7 +52,7 @@ def _newton(fem, u, q0, tol_step_m=1e-7, steps=100):
     return q
 
 
-def test_newton_grader(fem, robot):
+def test_newton_grader(fem, three_cable):
     sols = {k: solve_static(fem, u) for k, u in (("rest", [0, 0, 0]), ("top", [3, 0, 0]), ("mixed", [2, 1, 0.5]))}
     assert check_newton_solve(_newton, fem, sols, show=False).status == "passed"
     for wrong in (
@@ -99,13 +93,15 @@ def test_warm_walk_grader(fem):
 # --- chapter 2 ------------------------------------------------------------------------
 
 
-def test_goal_ticks_grader(robot):
+def test_goal_ticks_grader(three_cable):
     def ticks(u, zero, direction, rounding=np.rint):
         return np.asarray(zero) + np.asarray(direction) * rounding(np.asarray(u) * 4096 / (2 * np.pi)).astype(int)
 
-    assert check_goal_ticks(ticks, robot.u_max_rad, show=False).status == "passed"
-    assert check_goal_ticks(lambda *a: ticks(*a, rounding=np.floor), robot.u_max_rad, show=False).status == "failed"
-    assert check_goal_ticks(lambda u, z, d: ticks(u, z, 1), robot.u_max_rad, show=False).status == "failed"
+    assert check_goal_ticks(ticks, three_cable.u_max_rad, show=False).status == "passed"
+    assert (
+        check_goal_ticks(lambda *a: ticks(*a, rounding=np.floor), three_cable.u_max_rad, show=False).status == "failed"
+    )
+    assert check_goal_ticks(lambda u, z, d: ticks(u, z, 1), three_cable.u_max_rad, show=False).status == "failed"
 
 
 def _first_settled(readings, n_previous=20, tol_m=1e-4, valid_only=True):
@@ -155,8 +151,8 @@ def _capture(rig, u, reset=True, release=True, wait=True):
 
 
 @pytest.fixture(scope="module")
-def body(robot):
-    return AsBuiltBody(robot, None, n_rings=2, n_axial=6)
+def body(three_cable):
+    return AsBuiltBody(three_cable, None, n_rings=2, n_axial=6)
 
 
 def test_capture_grader(body):

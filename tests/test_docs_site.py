@@ -28,10 +28,9 @@ from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
 import pytest
-import test_viz
 from helpers import DevToolsPage, wait_until
 from test_layers import SUBPACKAGES
-from test_viz import _no_network_prefix, require_chromium
+from test_viz import devtools_command, require_chromium
 
 ROOT = Path(__file__).resolve().parent.parent
 RECORDED = ROOT / "figures" / "notebooks"
@@ -284,8 +283,7 @@ def _wait(page, expression, timeout_s, what):
 def test_pages_and_search_in_chromium(site, tmp_path):
     require_chromium()
     out = site[0]
-    flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
-    command = [*_no_network_prefix(), str(test_viz.CHROMIUM), *flags]
+    command = devtools_command()
     loaded = "document.readyState === 'complete'"
     with DevToolsPage(command, tmp_path / "profile", width=1200, height=900) as page:
         page.navigate((out / "index.html").as_uri())  # redirects to the front page
@@ -358,8 +356,7 @@ def test_math_renders_offline_in_chromium(site, tmp_path):
     """Every chapter's formulas typeset by the site's own MathJax 3 and its fonts, none left raw."""
     require_chromium()
     out = site[0]
-    flags = [f for f in test_viz.CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
-    command = [*_no_network_prefix(), str(test_viz.CHROMIUM), *flags]
+    command = devtools_command()
     mathjax = (out / "_static" / "mathjax" / "tex-chtml-full.js").as_uri()
     pages = sorted((out / "figures" / "notebooks").glob("[0-9][0-9]_*.html"))
     chapters = [p for p in pages if 'class="math' in p.read_text()]  # MathJax is on pages with math only

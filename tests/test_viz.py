@@ -148,6 +148,13 @@ def _no_network_prefix() -> list[str]:
     return []
 
 
+def devtools_command() -> list[str]:
+    """How a DevToolsPage starts Chromium: no network, CHROMIUM_FLAGS without the virtual
+    time budget (those tests wait for the page's own state instead)."""
+    flags = [f for f in CHROMIUM_FLAGS if not f.startswith("--virtual-time-budget")]
+    return [*_no_network_prefix(), str(CHROMIUM), *flags]
+
+
 def _screenshot(html: str, tmp_path: Path, name: str) -> np.ndarray:
     page, png = tmp_path / f"{name}.html", tmp_path / f"{name}.png"
     page.write_text(html)

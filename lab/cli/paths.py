@@ -19,7 +19,7 @@ import tempfile
 from pathlib import Path
 
 from lab.errors import InputError
-from lab.files import remove_and_release
+from lab.files import exclusive_lock
 
 __all__ = ["check_paths", "check_writable", "dataset_outputs", "existing", "output_lock", "ignore_file_size_signal"]
 
@@ -84,19 +84,10 @@ def existing(arg) -> str | None:
 def output_lock(path, what: str = "--out"):
     """Hold ``PATH.lock`` while a command writes ``path``: a second run with the same output
     is refused at once (InputError) instead of both working to the end and colliding."""
-    from filelock import FileLock, Timeout
-
     lock_file = Path(f"{path}.lock")
     lock_file.parent.mkdir(parents=True, exist_ok=True)  # the run starts writing here
-    lock = FileLock(lock_file, timeout=0)
-    try:
-        lock.acquire()
-    except Timeout:
-        raise InputError(f"{what} {path} is being written by another run (lock {lock_file}); wait for it") from None
-    try:
+    with exclusive_lock(lock_file, f"{what} {path} is being written by another run (lock {lock_file}); wait for it"):
         yield
-    finally:
-        remove_and_release(lock)  # unlink while held: see lab.files.remove_and_release
 
 
 def ignore_file_size_signal() -> None:

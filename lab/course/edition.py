@@ -25,7 +25,7 @@ import re
 from pathlib import Path
 
 from lab.errors import InputError
-from lab.files import atomic_write_text, remove_and_release
+from lab.files import atomic_write_text, exclusive_lock
 
 __all__ = [
     "student_edition",
@@ -192,8 +192,6 @@ def build_student_edition(notebooks: str | Path, out: str | Path, up: str = "../
     docstring). :class:`~lab.errors.InputError` when another build holds the lock, for a
     source that is not a notebook, or when ``out`` is the source folder.
     """
-    from filelock import FileLock, Timeout
-
     notebooks, out = Path(notebooks), Path(out)
     chapters = sorted(p for p in notebooks.glob("[0-9][0-9]_*.ipynb") if CHAPTER_NAME.fullmatch(p.name))
     if not chapters:
@@ -204,12 +202,7 @@ def build_student_edition(notebooks: str | Path, out: str | Path, up: str = "../
         raise InputError(f"{out}: cannot hold the student edition ({e.strerror})") from None
     if out.resolve() == notebooks.resolve():
         raise InputError(f"{out}: the student edition would overwrite the source chapters; choose another folder")
-    lock = FileLock(out / LOCK, timeout=0)
-    try:
-        lock.acquire()
-    except Timeout:
-        raise InputError(f"{out} is being built by another run (lock {out / LOCK}); wait for it") from None
-    try:
+    with exclusive_lock(out / LOCK, f"{out} is being built by another run (lock {out / LOCK}); wait for it"):
         for stale in out.glob(".*.tmp[0-9]*"):  # a killed build's temporary file (lab.files)
             with contextlib.suppress(OSError):
                 stale.unlink()
@@ -225,7 +218,5 @@ def build_student_edition(notebooks: str | Path, out: str | Path, up: str = "../
             manifest["files"][path.name] = [_sha256(text)]
         manifest["chapters"].update(made)  # only now: an interrupted build makes them again
         _write_manifest(out, manifest)
-    finally:
-        remove_and_release(lock)
     summary = ", ".join(f"{n} {what}" for what, n in counts.items() if n)
     return [*said, *kept, f"student edition in {out}/: {len(chapters)} notebooks ({summary})"]
