@@ -13,8 +13,9 @@ from lab.description import load_robot  # noqa: E402
 from lab.errors import InputError  # noqa: E402
 from lab.fem import ArmFEM, solve_static  # noqa: E402
 from lab.rig.hardware_config import load_hardware_config  # noqa: E402
-from lab.viz import ArmExplorer, plot_setup, setup_geometry  # noqa: E402
+from lab.viz import ArmExplorer, plot_setup  # noqa: E402
 from lab.viz import sliders as sliders_module  # noqa: E402
+from lab.viz.setup import setup_geometry  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = sorted((ROOT / "lab" / "robots").glob("*.toml"))

@@ -12,7 +12,7 @@ the :mod:`.baselines`); :mod:`.capture_rate` samples per hour against accuracy p
 :mod:`.closed_loop_table` closed-loop result files as one row per pass.
 """
 
-from lab.studies.baselines import PolyModel, fit_poly
+from lab.studies.baselines import fit_poly
 from lab.studies.capture_rate import (
     capture_rate_study,
     protocol_for,
@@ -20,7 +20,7 @@ from lab.studies.capture_rate import (
     run_protocol,
     write_capture_rate,
 )
-from lab.studies.closed_loop_table import GOALS_M, at_limit, final_pass_by_limit, model_label, pass_rows
+from lab.studies.closed_loop_table import GOALS_M, final_pass_by_limit, model_label, pass_rows
 from lab.studies.comparison_spec import CompareSpec
 from lab.studies.data_curve import (
     STRATEGIES,
@@ -31,7 +31,7 @@ from lab.studies.data_curve import (
     make_body,
     plan_rows,
 )
-from lab.studies.data_curve_run import read_data_curve, run_data_curve
+from lab.studies.data_curve_run import run_data_curve
 from lab.studies.data_curve_spec import DataCurveSpec
 from lab.studies.model_comparison import read_comparison, run_comparison
 from lab.studies.period_curve import PERIOD_CURVE_COLUMNS, period_curve_rows, read_period_curve, write_period_curve
@@ -41,8 +41,6 @@ from lab.studies.table1 import (
     PAPER_CM,
     SHAPES,
     Table1Error,
-    read_table1,
-    render_markdown,
     update_table1,
 )
 from lab.studies.transfer_curve import TransferCurveSpec, transfer_curve_run
@@ -66,9 +64,7 @@ __all__ = [
     "CONDITIONS",
     "COLUMNS",
     "Table1Error",
-    "read_table1",
     "update_table1",
-    "render_markdown",
     "METHOD_MIN_N",
     "TransferCurveSpec",
     "transfer_curve_run",
@@ -93,10 +89,8 @@ __all__ = [
     "CompareSpec",
     "run_comparison",
     "read_comparison",
-    "PolyModel",
     "fit_poly",
     "run_data_curve",
-    "read_data_curve",
     "capture_rate_study",
     "protocol_for",
     "run_protocol",
@@ -109,6 +103,5 @@ __all__ = [
     "GOALS_M",
     "model_label",
     "pass_rows",
-    "at_limit",
     "final_pass_by_limit",
 ]

@@ -13,11 +13,8 @@ from lab.viz.animation import (
     animate_arm,
     animation_html,
     arm_pieces,
-    centreline,
     centreline_embedding,
     notebook_iframe,
-    rotation_from_y,
-    segment_transforms,
 )
 from lab.viz.arm import (
     CABLE_RGB,
@@ -25,7 +22,6 @@ from lab.viz.arm import (
     FOAM_RGB,
     TIP_RGB,
     UNITS,
-    ArmGeometry,
     arm_geometry,
     cable_colors,
     meshcat_scene,
@@ -36,25 +32,23 @@ from lab.viz.arm import (
     set_view,
     static_html,
     stop_visualizer,
-    update_scene,
 )
 from lab.viz.capture_rate import PROTOCOL_STYLES, plot_capture_rate
 from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_loop
 from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
 from lab.viz.efficiency import METRIC_LABELS, STRATEGY_COLORS, plot_calibration, plot_error_vs_n
 from lab.viz.ik_picker import IKPicker
-from lab.viz.live import LiveViewer, live_viewer, live_viewer_wanted, stop_live_viewer
+from lab.viz.live import live_viewer, live_viewer_wanted
 from lab.viz.live_arm import LiveArm, show_animation, show_arm
 from lab.viz.placement import plot_trajectory_placement
 from lab.viz.real_data import AXIS_COLORS, plot_diagnostics
-from lab.viz.setup import plot_setup, setup_geometry
+from lab.viz.setup import plot_setup
 from lab.viz.sliders import ArmExplorer, widgets_available
 from lab.viz.square_frames import plot_square_frames
 from lab.viz.tracking import (
     ACHIEVED_COLOR,
     CABLE_COLORS,
     TARGET_COLOR,
-    plot_commands,
     plot_figure3,
     plot_helix,
     plot_paths_3d,
@@ -69,13 +63,11 @@ __all__ = [
     "TIP_RGB",
     "CMAP",
     "UNITS",
-    "ArmGeometry",
     "arm_geometry",
     "cable_colors",
     "meshcat_visualizer",
     "stop_visualizer",
     "set_view",
-    "update_scene",
     "meshcat_scene",
     "static_html",
     "notebook_html",
@@ -86,9 +78,6 @@ __all__ = [
     "CABLE_RADIUS_M",
     "MARKER_RADIUS_M",
     "centreline_embedding",
-    "centreline",
-    "rotation_from_y",
-    "segment_transforms",
     "ArmPieces",
     "arm_pieces",
     "animate_arm",
@@ -97,23 +86,19 @@ __all__ = [
     "CABLE_COLORS",
     "TARGET_COLOR",
     "ACHIEVED_COLOR",
-    "plot_commands",
     "plot_tracking_row",
     "plot_figure3",
     "plot_helix",
     "plot_paths_3d",
     "plot_setup",
-    "setup_geometry",
     "ArmExplorer",
     "widgets_available",
     "IKPicker",
-    "LiveViewer",
     "LiveArm",
     "show_arm",
     "show_animation",
     "live_viewer",
     "live_viewer_wanted",
-    "stop_live_viewer",
     "plot_square_frames",
     "plot_trajectory_placement",
     "plot_lm_training",
