@@ -114,10 +114,24 @@ class PolyModel:
 
 
 def fit_poly(u, y, degree: int) -> PolyModel:
-    """Least-squares polynomial of total degree ``degree`` (1..:data:`MAX_POLY_DEGREE`, all
-    cross terms) from inputs ``u`` (N, n_u) to tips ``y`` (N, n_y) m, the inputs min-max
-    scaled to [-1, 1] by their range in ``u``. ``metadata["training"]`` records the number
-    of terms, the rank of the design and the training RMS 3-D residual (m)."""
+    """Least-squares polynomial of total degree ``degree`` (all cross terms) from inputs
+    to tips, the inputs min-max scaled to [-1, 1] by their range in ``u``.
+
+    Parameters
+    ----------
+    u : array_like, shape (N, n_u)
+        Training inputs (motor commands, rad, or any input unit), N >= 2.
+    y : array_like, shape (N, n_y)
+        Training tips (m), e.g. n_y = 3 for the tip in W.
+    degree : int
+        Total degree, 1 .. :data:`MAX_POLY_DEGREE`.
+
+    Returns
+    -------
+    PolyModel
+        The fitted model; ``metadata["training"]`` records the number of terms, the rank of
+        the design and the training RMS 3-D residual ``train_rms_m`` (m).
+    """
     u, y = np.asarray(u, float), np.asarray(y, float)
     if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or not 1 <= degree <= MAX_POLY_DEGREE:
         raise InputError(f"polynomial degree must be an integer from 1 to {MAX_POLY_DEGREE}, got {degree!r}")

@@ -45,16 +45,51 @@ COLUMNS = (
 
 
 def protocol_for(kind: str, tol_m: float, **settings) -> Protocol:
-    """The capture protocol ``kind`` ("wait" or "predictive") at tolerance ``tol_m`` (m):
-    the settle tolerance of the waiting protocol, the prediction's 3-D std of the predictive one."""
+    """The capture protocol ``kind`` at tolerance ``tol_m``.
+
+    Parameters
+    ----------
+    kind : str
+        ``"wait"`` (settle, then record) or ``"predictive"``.
+    tol_m : float
+        The waiting protocol's settle tolerance, or the predictive one's tolerance on the
+        prediction's 3-D std (m).
+    **settings
+        Further :class:`~lab.rig.protocol.Protocol` fields.
+
+    Returns
+    -------
+    Protocol
+        The protocol to pass to :func:`lab.rig.capture.capture`.
+    """
     if kind == "wait":
         return Protocol(settle_tol_m=tol_m, **settings)
     return Protocol(kind="predictive", predict_tol_m=tol_m, **settings)
 
 
 def run_protocol(body, commands: np.ndarray, protocol: Protocol, *, seed: int = 0, journal_dir=None) -> dict:
-    """Capture ``commands`` (N, m) rad on the as-built ``body`` (a twin rig around it) with
-    ``protocol``; one row of :data:`COLUMNS` (errors against the noise-free settled tips)."""
+    """Capture ``commands`` on the as-built ``body`` (a twin rig around it) with ``protocol``.
+
+    Parameters
+    ----------
+    body : AsBuiltBody
+        The emulated as-built robot (:class:`lab.rig.twin.AsBuiltBody`); its optional ``label``
+        names the row's robot (``"shipped"`` if absent).
+    commands : numpy.ndarray, shape (N, m)
+        Motor commands (rad).
+    protocol : Protocol
+        The capture protocol (:func:`protocol_for`).
+    seed : int, optional
+        Seed of the twin rig's noise.
+    journal_dir : str or Path, optional
+        Where the temporary capture journal goes (the system's temporary folder if None).
+
+    Returns
+    -------
+    dict
+        One row of :data:`COLUMNS`: rates (samples per hour), errors against the noise-free
+        settled tips (m), the learned and the true relaxation times (s) and slow fraction.
+    """
     from lab.rig.twin import TwinRig
 
     robot = body.robot
@@ -101,10 +136,34 @@ def capture_rate_study(
     mesh: dict | None = None,
     progress=None,
 ) -> list[dict]:
-    """Rows of :data:`COLUMNS`: for each robot label (``"shipped"`` or ``"random:SEED"``,
-    :func:`lab.rig.family.family_member`), ``n_samples`` random allowed commands (seeded by
-    ``seed``) captured with each tolerance of each protocol. ``mesh``: ``n_rings``/``n_axial``
-    of the emulator's FEM (coarse meshes for tests). ``progress(row)`` is called per row."""
+    """Samples per hour and accuracy of each protocol and tolerance, per robot.
+
+    For each robot label, ``n_samples`` random allowed commands (seeded by ``seed``) are
+    captured with each tolerance of each protocol.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    robots : sequence of str, optional
+        Robot labels: ``"shipped"`` or ``"random:SEED"`` (:func:`lab.rig.family.family_member`).
+    n_samples : int, optional
+        Commands captured per run.
+    wait_tols_m, predict_tols_m : sequence of float, optional
+        Settle tolerances of the waiting protocol and prediction tolerances of the predictive
+        one (m).
+    seed : int, optional
+        Seed of the commands and of the twins' noise.
+    mesh : dict, optional
+        ``n_rings``/``n_axial`` of the emulator's FEM (coarse meshes for tests).
+    progress : callable, optional
+        ``progress(row)`` is called after each row.
+
+    Returns
+    -------
+    list of dict
+        Rows of :data:`COLUMNS`, robot by robot, the waiting runs before the predictive ones.
+    """
     from lab.data.designs import random_commands
     from lab.rig.family import family_member
     from lab.rig.twin import AsBuiltBody
@@ -125,7 +184,17 @@ def capture_rate_study(
 
 
 def write_capture_rate(path, rows, command: str) -> None:
-    """Rows of :data:`COLUMNS` as CSV (atomic) with a JSON sidecar ``PATH.json`` (``command``)."""
+    """Rows of :data:`COLUMNS` as CSV (atomic) with a JSON sidecar ``PATH.json``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file to write.
+    rows : list of dict
+        Rows of :data:`COLUMNS` (:func:`capture_rate_study`).
+    command : str
+        The command line recorded in the sidecar.
+    """
     import json
 
     from lab.files import atomic_write_text, code_version
@@ -138,7 +207,19 @@ def write_capture_rate(path, rows, command: str) -> None:
 
 
 def read_capture_rate(path) -> list[dict]:
-    """Rows written by :func:`write_capture_rate` (numbers as float); InputError names a bad file."""
+    """Rows written by :func:`write_capture_rate`; InputError names a bad file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+
+    Returns
+    -------
+    list of dict
+        Rows of :data:`COLUMNS`: ``robot`` and ``protocol`` as str, every other column as
+        float (units as in the column names).
+    """
     from lab.files import read_csv_table
 
     rows = read_csv_table(path, COLUMNS, "capture-rate table")

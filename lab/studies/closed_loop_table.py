@@ -20,7 +20,18 @@ GOALS_M = {"real": 3e-4, "sim": 5e-4}
 
 
 def model_label(model_path) -> str:
-    """``real``/``sim`` for the shipped ``model_{real,sim}_*.npz``, else the file's stem."""
+    """The label of a model file in the closed-loop table.
+
+    Parameters
+    ----------
+    model_path : str or Path
+        The model file.
+
+    Returns
+    -------
+    str
+        ``"real"``/``"sim"`` for the shipped ``model_{real,sim}_*.npz``, else the file's stem.
+    """
     stem = Path(str(model_path)).stem
     for label in ("real", "sim"):
         if stem.startswith(f"model_{label}_"):
@@ -29,9 +40,21 @@ def model_label(model_path) -> str:
 
 
 def pass_rows(paths) -> list[dict]:
-    """Rows ``trajectory, model, mode, pass, mean_error_m, max_error_m, n_skipped, file`` (errors
-    in m) from closed-loop result files: ``paths`` a folder (its ``*.json``) or a list of files.
-    A file that is no closed-loop result raises :class:`.track.TrackResultError`."""
+    """One row per (trajectory, model, mode, pass) from closed-loop result files.
+
+    A file that is no closed-loop result raises :class:`.track.TrackResultError`.
+
+    Parameters
+    ----------
+    paths : str, Path or list of str or Path
+        A folder (its ``*.json``), one file or a list of files written by ``track --closed-loop``.
+
+    Returns
+    -------
+    list of dict
+        Rows ``trajectory, model, mode, pass, mean_error_m, max_error_m, n_skipped, file``
+        (errors in m), in file order then pass order.
+    """
     if isinstance(paths, (str, Path)) and Path(paths).is_dir():
         paths = sorted(Path(paths).glob("*.json"))
     elif isinstance(paths, (str, Path)):
@@ -69,8 +92,23 @@ def at_limit(robot, u_motor, tol_rad: float = 1e-3) -> np.ndarray:
 
 
 def final_pass_by_limit(path, robot, tol_rad: float = 1e-3) -> dict:
-    """The last pass of a closed-loop result split by :func:`at_limit`: ``n``, ``n_at_limit``,
-    ``mean_error_m`` (all targets), ``mean_at_limit_m`` and ``mean_inside_m`` (NaN when empty)."""
+    """The last pass of a closed-loop result split by :func:`at_limit`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A closed-loop track result file.
+    robot : RobotDescription
+        The robot whose limits (``u_max_rad``, safety limits) define the boundary.
+    tol_rad : float, optional
+        How close to a limit (rad) counts as on it.
+
+    Returns
+    -------
+    dict
+        ``n``, ``n_at_limit`` (int), ``mean_error_m`` (all targets), ``mean_at_limit_m`` and
+        ``mean_inside_m`` (m; NaN when empty).
+    """
     doc = read_result(path)
     if not isinstance(doc.get("passes"), list) or not doc["passes"]:
         raise TrackResultError(f"{path}: not a closed-loop track result (no 'passes')")

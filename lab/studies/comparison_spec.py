@@ -98,7 +98,26 @@ def _fraction(v) -> str | None:
 
 @dataclass(frozen=True)
 class CompareSpec(Spec):
-    """One comparison: see the module docstring and each flag's help."""
+    """One comparison: see the module docstring and each flag's help.
+
+    Attributes
+    ----------
+    models : tuple of str
+        Models to fit, among :data:`COMPARE_MODELS` (each once, in the order given).
+    splits : tuple of str
+        Splits among :data:`COMPARE_SPLITS`: random rows, whole sequences (``group``) or the
+        first 80 % in measurement order (``sequential``).
+    n_splits : int
+        Repeats of the random and group splits, 1 .. :data:`MAX_COMPARE_SPLITS`.
+    history : tuple of int
+        Past commands K in each model's inputs, 0 .. ``MAX_HISTORY``.
+    ns : tuple of int or None
+        Learning curve: also fit on N training rows of each random split (N >= :data:`MIN_CURVE_N`).
+    test_fraction : float
+        Test share of the random and group splits, 0.01 .. 0.5.
+    seed : int
+        Seed of the splits and the fits, >= 0.
+    """
 
     models: tuple[str, ...] = option(COMPARE_MODELS, nargs="+", check=_names(COMPARE_MODELS), help="models to fit")
     splits: tuple[str, ...] = option(
@@ -129,7 +148,13 @@ class CompareSpec(Spec):
 
     def settings(self) -> dict:
         """What a results file resumes with only if it was made with the same (the models,
-        splits, counts, histories and ``ns`` only choose rows and may grow)."""
+        splits, counts, histories and ``ns`` only choose rows and may grow).
+
+        Returns
+        -------
+        dict
+            ``test_fraction``, ``seed`` and ``sequential_train_fraction``.
+        """
         return {
             "test_fraction": self.test_fraction,
             "seed": self.seed,

@@ -26,22 +26,10 @@ from lab.rig.twin import quasi_static_tips
 from lab.studies.transfer_study import SHAPES, evaluate_model, random_safe_commands
 
 __all__ = [
-    "STRATEGIES",
-    "PAPER_GRID_N",
-    "NominalBody",
-    "make_body",
-    "check_strategies",
-    "check_model",
-    "MODELS",
-    "grid_levels_for",
-    "plan_rows",
-    "heldout_set",
-    "fit_forward_model",
-    "draw_and_measure",
-    "data_curve_row",
-    "smallest_n",
-    "hours_saved",
-]
+    "STRATEGIES", "PAPER_GRID_N", "NominalBody", "make_body", "check_strategies", "check_model", "MODELS",
+    "grid_levels_for", "plan_rows", "heldout_set", "fit_forward_model", "draw_and_measure", "data_curve_row",
+    "smallest_n", "hours_saved"
+]  # fmt: skip
 
 #: Sampling strategies: a grid of L levels per motor (safe points), scrambled Sobol, Latin
 #: hypercube, greedy maximin, independent uniform draws, and active sampling (batches where a
@@ -55,10 +43,15 @@ MODELS = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp")
 
 
 class NominalBody:
-    """The nominal FEM as a body with a quasi-static map (no lag, play or noise):
-    ``quasi_static_tip(u_motor)`` is the equilibrium tip p_tip_W (3,) m at ``u_motor`` (m,) rad,
-    each solve warm-started from the nearest cached one. ``n_rings``/``n_axial`` override
-    the description's mesh."""
+    """The nominal FEM as a body with a quasi-static map (no lag, play or noise; warm-started solves).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    n_rings, n_axial : int, optional
+        Override the description's mesh.
+    """
 
     def __init__(self, robot, *, n_rings: int | None = None, n_axial: int | None = None):
         from lab.fem.energy import ArmFEM
@@ -69,15 +62,40 @@ class NominalBody:
         self.equilibria = EquilibriumCache(self.fem)
 
     def quasi_static_tip(self, u_motor) -> np.ndarray:
+        """The equilibrium tip p_tip_W (3,) m (world frame) at ``u_motor`` (m,) rad.
+
+        Parameters
+        ----------
+        u_motor : array_like, shape (m,)
+            Motor command (rad).
+
+        Returns
+        -------
+        numpy.ndarray, shape (3,)
+            The settled tip (m).
+        """
         u = np.asarray(u_motor, dtype=float)
         return self.equilibria.tip(self.robot.spool_radius_m * u)
 
 
 def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | None = None):
-    """``(body, label, noise_sigma_m)`` for a ``--rig`` spec: ``sim`` (the nominal FEM, label
-    "FEM", no noise), ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` / ``twin:foam:SEED`` (an as-built
-    body, label "emulated as-built robot", its defects' motion-capture noise in m per axis).
-    The fast path needs a body: ``hardware:`` rigs are refused (InputError)."""
+    """The body a ``--rig`` spec measures through; ``hardware:`` rigs are refused (InputError).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    rig : str
+        ``sim`` or ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` / ``twin:foam:SEED``.
+    n_rings, n_axial : int, optional
+        Override the description's mesh.
+
+    Returns
+    -------
+    tuple
+        ``(body, label, noise_sigma_m)``: ``sim``: a :class:`NominalBody`, "FEM", 0; ``twin...``: an
+        as-built body, "emulated as-built robot", its motion-capture noise (m per axis).
+    """
     from lab.fem.mesh_spec import MeshSpec
     from lab.rig import RigSpec, as_built_body
 
@@ -148,8 +166,22 @@ def grid_levels_for(robot, ns, levels=None) -> dict[int, int]:
 
 
 def plan_rows(robot, strategies, ns, grid_levels=None) -> list[tuple[str, int, int | None]]:
-    """The rows of a study, ``(strategy, n, levels)`` (``levels`` None but for grids), in
-    the order they are measured: strategy by strategy, N increasing."""
+    """The rows of a study in the order they are measured: strategy by strategy, N increasing.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot (its grids' safe counts).
+    strategies, ns : sequence of str, sequence of int
+        Sampling strategies (:data:`STRATEGIES`) and sample counts N (each >= 1).
+    grid_levels : sequence of int, optional
+        Grid levels per motor (None: those nearest each N, :func:`grid_levels_for`).
+
+    Returns
+    -------
+    list of tuple
+        ``(strategy, n, levels)``, ``levels`` None but for grids.
+    """
     ns = sorted({int(n) for n in ns})
     if not ns or ns[0] < 1:
         raise InputError(f"every N must be >= 1, got {ns}")
@@ -163,8 +195,20 @@ def plan_rows(robot, strategies, ns, grid_levels=None) -> list[tuple[str, int, i
 
 
 def heldout_set(body, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, str]:
-    """The common held-out set: ``n`` random allowed commands (n, m) rad (seeded by ``seed``),
-    their noise-free settled tips (n, 3) m, and a short fingerprint of the commands."""
+    """The common held-out set: ``n`` random allowed commands (seeded by ``seed``), noise-free.
+
+    Parameters
+    ----------
+    body : NominalBody or AsBuiltBody
+        The body whose settled tips are the truth.
+    n, seed : int
+        Number of commands (>= 1) and their seed.
+
+    Returns
+    -------
+    tuple
+        Commands (n, m) rad, their noise-free settled tips (n, 3) m, a short fingerprint (str).
+    """
     if n < 1:
         raise InputError(f"the held-out set needs at least 1 command, got {n}")
     u = random_safe_commands(body.robot, n, seed)
@@ -259,12 +303,36 @@ def data_curve_row(
     n_points: int = 24,
     samples_per_hour: float,
 ) -> dict:
-    """One row: ``strategy`` draws ``n`` commands (a grid: its ``levels``, whose safe count
-    ``n`` is), the body's tips are measured, ``model`` is fitted and evaluated on ``heldout``
-    = (u (H, m) rad, settled tips (H, 3) m, fingerprint). Errors in m, times in s, ``capture_h``
-    in hours at ``samples_per_hour``; the shapes' errors are NaN without ``tracking``.
-    ``algorithm`` trains the model (and the active sampler's ensemble); ``batch`` and
-    ``n_initial`` (None: the sampler's default) are the active sampler's."""
+    """One row: draw ``n`` commands by ``strategy``, measure the body's tips, fit ``model``, evaluate it.
+
+    Parameters
+    ----------
+    body : NominalBody or AsBuiltBody
+        The body measured (:func:`make_body`).
+    strategy, n, levels : str, int, int or None
+        Sampling strategy (:data:`STRATEGIES`); number of samples; a grid's levels per motor
+        (whose safe count ``n`` is; None for the other strategies).
+    heldout : tuple
+        ``(u (H, m) rad, settled tips (H, 3) m, fingerprint)`` (:func:`heldout_set`).
+    model, algorithm : str, optional
+        Forward model (:data:`MODELS`) and the rule that trains it (and the active sampler's ensemble).
+    noise_sigma_m, seed : float, int, optional
+        Measurement noise per axis (m); seed of the draw, the noise and the fit.
+    hidden, epochs : tuple of int, int, optional
+        Hidden layer widths; epoch cap (None: the trainer's).
+    batch, n_initial : int, optional
+        The active sampler's batch size and initial draw (None: the sampler's default).
+    tracking, n_points : bool, int, optional
+        Track Table I's shapes with ``n_points`` targets each (else the shapes' errors are NaN).
+    samples_per_hour : float
+        Capture rate that turns N into ``capture_h``.
+
+    Returns
+    -------
+    dict
+        ``strategy, n, grid_levels, seed, model, model_error_m``, each ``{shape}_m``,
+        ``tracking_mean_m`` (m), ``fit_s``, ``design_s`` (s), ``capture_h`` (h), ``heldout_id``.
+    """
     t0 = time.perf_counter()
     u, y = draw_and_measure(
         body, strategy, n, levels, noise_sigma_m=noise_sigma_m, seed=seed,
@@ -315,6 +383,18 @@ def smallest_n(rows, metric: str, threshold: float) -> dict:
 
 
 def hours_saved(n: int, samples_per_hour: float, reference_n: int = PAPER_GRID_N) -> float:
-    """Capture hours saved by capturing ``n`` samples instead of ``reference_n`` (the paper's
-    7^3 grid) at ``samples_per_hour`` (negative: it costs more)."""
+    """Capture hours saved by capturing ``n`` samples instead of ``reference_n``.
+
+    Parameters
+    ----------
+    n, reference_n : int
+        Samples captured; the reference count (default: the paper's 7^3 grid).
+    samples_per_hour : float
+        Capture rate.
+
+    Returns
+    -------
+    float
+        Hours saved (h; negative: it costs more).
+    """
     return (reference_n - n) / samples_per_hour

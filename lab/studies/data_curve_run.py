@@ -137,10 +137,29 @@ def _meta(spec: DataCurveSpec, old: dict, resumed: bool, rate: tuple, heldout_id
 
 
 def run_data_curve(spec: DataCurveSpec, out, *, jobs: int = 1, command: str = "", log=None) -> list[dict]:
-    """Measure the rows of ``spec`` not yet in the CSV ``out`` (read first, resumed) on
-    ``jobs`` worker processes, rewriting ``out`` and ``out.json`` after each row; returns
-    all rows (as written). ``log(line)`` is told the plan and each row; ``command`` is
-    recorded in the sidecar. InputError for a file made with other settings or unreadable."""
+    """Measure the rows of ``spec`` not yet in the CSV ``out`` (read first, resumed),
+    rewriting ``out`` and ``out.json`` after each row. InputError for a file made with other
+    settings or unreadable.
+
+    Parameters
+    ----------
+    spec : DataCurveSpec
+        The study.
+    out : str or Path
+        The results CSV (its sidecar is ``out.json``).
+    jobs : int, optional
+        Worker processes (1: measure in this process).
+    command : str, optional
+        The command line recorded in the sidecar.
+    log : callable, optional
+        ``log(line)`` is told the plan and each row.
+
+    Returns
+    -------
+    list of dict
+        All rows of the file (the old ones as written, as strings; the new ones as measured),
+        columns :data:`COLUMNS` (errors in m, times in s, ``capture_h`` in h).
+    """
     from lab.description import load_robot
     from lab.studies.data_curve import heldout_set, plan_rows
 

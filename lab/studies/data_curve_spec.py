@@ -64,7 +64,42 @@ def default_strategies() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class DataCurveSpec(Spec):
-    """One data-curve study: see the module docstring and the flags' help for each field."""
+    """One data-curve study: see the module docstring and the flags' help for each field.
+
+    Attributes
+    ----------
+    robot : str
+        Robot name or description TOML.
+    rig : str
+        ``sim``, ``twin[:DEFECTS.toml]``, ``twin:random:SEED`` or ``twin:foam:SEED``.
+    strategies : tuple of str
+        Sampling strategies (None: every one but ``active`` this install has).
+    ns, grid_levels : tuple of int
+        Numbers of samples N; a grid's levels per motor (None: nearest each N).
+    model, algorithm : str
+        Forward model (``mlp``, ``ensemble``, ``gpr``, ``knn``, ``sklearn-mlp``) and its training
+        (``lm``, ``br``, ``adam``, ``lbfgs``).
+    hidden : tuple of int
+        Hidden layer widths.
+    epochs : int or None
+        Maximum training epochs.
+    heldout, heldout_seed : int
+        Held-out random allowed commands, and their seed.
+    seeds : tuple of int
+        Seeds of designs, noise and training: a row per seed.
+    batch, n_initial : int
+        Active sampling: samples per batch, initial Sobol design (None: the sampler's default).
+    n_points : int
+        Targets per Table I trajectory.
+    tracking : bool
+        Track Table I's shapes (False: the model error only).
+    samples_per_hour : float or None
+        Capture rate that turns N into hours (None: read from ``rate_from``).
+    rate_from : str
+        Dataset whose sidecar's ``capture.rate_samples_per_hour`` is used.
+    mesh : MeshSpec
+        The FEM mesh of the robot's body.
+    """
 
     robot: str = option("three-cable", help="robot name or description TOML")
     rig: str = option("sim", help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED")
@@ -138,7 +173,13 @@ class DataCurveSpec(Spec):
 
     def check(self, robot) -> None:
         """Refuse (InputError) what does not fit ``robot``: a mesh that would not fit in memory,
-        a ``--grid-levels`` grid over :data:`lab.data.design_spec.MAX_GRID_CANDIDATES` commands."""
+        a ``--grid-levels`` grid over :data:`lab.data.design_spec.MAX_GRID_CANDIDATES` commands.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            The study's robot.
+        """
         if not self.mesh.is_default:
             self.mesh.resolve(robot)
         if "grid" in self.strategies and self.grid_levels:
@@ -151,7 +192,18 @@ class DataCurveSpec(Spec):
 
     def settings(self, samples_per_hour: float) -> dict:
         """What a results file is resumed with only if it was made with the same (its sidecar's
-        ``settings``), the capture rate resolved to ``samples_per_hour``."""
+        ``settings``), the capture rate resolved to ``samples_per_hour``.
+
+        Parameters
+        ----------
+        samples_per_hour : float
+            The resolved capture rate (:meth:`capture_rate`).
+
+        Returns
+        -------
+        dict
+            The settings named by :data:`lab.studies.data_curve_run.SETTINGS` (JSON-ready).
+        """
         return {
             "robot": self.robot, "rig": self.rig, "model": self.model, "hidden": list(self.hidden),
             "epochs": self.epochs, "heldout_seed": self.heldout_seed, "heldout": self.heldout,
@@ -162,15 +214,32 @@ class DataCurveSpec(Spec):
 
     def row_options(self, samples_per_hour: float) -> dict:
         """The keyword arguments of :func:`lab.studies.data_curve.data_curve_row` (but the
-        body, the row's plan, the held-out set and the noise)."""
+        body, the row's plan, the held-out set and the noise).
+
+        Parameters
+        ----------
+        samples_per_hour : float
+            The resolved capture rate (:meth:`capture_rate`).
+
+        Returns
+        -------
+        dict
+            ``model, hidden, epochs, algorithm, batch, n_initial, tracking, n_points, samples_per_hour``.
+        """
         return {"model": self.model, "hidden": tuple(self.hidden), "epochs": self.epochs,
                 "algorithm": self.algorithm, "batch": self.batch, "n_initial": self.n_initial,
                 "tracking": self.tracking, "n_points": self.n_points, "samples_per_hour": samples_per_hour}  # fmt: skip
 
     def capture_rate(self) -> tuple[float, str]:
-        """(samples per hour, where the number comes from): ``samples_per_hour``, else the
-        ``capture.rate_samples_per_hour`` of ``rate_from``'s sidecar (the shipped dataset's
-        built-in copy when it is the default and not at hand)."""
+        """The capture rate: ``samples_per_hour``, else the ``capture.rate_samples_per_hour``
+        of ``rate_from``'s sidecar (the shipped dataset's built-in copy when it is the default
+        and not at hand).
+
+        Returns
+        -------
+        tuple of (float, str)
+            Samples per hour, and where the number comes from.
+        """
         if self.samples_per_hour is not None:
             return float(self.samples_per_hour), "--samples-per-hour"
         side = Path(self.rate_from if str(self.rate_from).endswith(".json") else f"{self.rate_from}.json")

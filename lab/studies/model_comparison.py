@@ -143,7 +143,19 @@ def _read(path: Path) -> tuple[list[dict], dict]:
 
 
 def read_comparison(path) -> list[dict]:
-    """The rows of a ``compare`` CSV, numbers typed (ints for history, split_index, seed, n_train, n_test)."""
+    """The rows of a ``compare`` CSV, numbers typed.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV written by :func:`run_comparison` (its sidecar ``PATH.json`` must be readable).
+
+    Returns
+    -------
+    list of dict
+        Rows of ``COMPARE_COLUMNS``: ints for history, split_index, seed, n_train, n_test;
+        errors as float (m), ``fit_s`` (s); dataset, model, split as str.
+    """
     return _read(Path(path))[0]
 
 
@@ -164,10 +176,32 @@ def _write(out: Path, rows: list[dict], meta: dict, n_full: int, floor_m) -> Non
 
 
 def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None) -> dict:
-    """Fit the rows of ``spec`` on the dataset ``data`` that the CSV ``out`` lacks, on
-    ``jobs`` worker processes, rewriting ``out`` and ``out.json`` after each row. ``floor``:
-    an ``inspect`` report of the same data. Returns the sidecar (with ``summary``,
-    ``learning_curve``, ``floor``). InputError for bad data, flags or files."""
+    """Fit the rows of ``spec`` on the dataset ``data`` that the CSV ``out`` lacks, rewriting
+    ``out`` and ``out.json`` after each row. InputError for bad data, flags or files.
+
+    Parameters
+    ----------
+    spec : CompareSpec
+        The comparison.
+    data : str or Path
+        The dataset CSV (with its sidecar).
+    out : str or Path
+        The results CSV (read first and resumed; its sidecar is ``out.json``).
+    floor : str or Path, optional
+        An ``inspect`` report of the same data (None: keep the floor of an earlier run).
+    jobs : int, optional
+        Worker processes (1: fit in this process).
+    command : str, optional
+        The command line recorded in the sidecar.
+    log : callable, optional
+        ``log(line)`` is told the plan and each row.
+
+    Returns
+    -------
+    dict
+        The sidecar: dataset, settings, ``floor``, ``summary`` and ``learning_curve``
+        (:func:`lab.studies.comparison_spec.summarise`; errors in m, times in s).
+    """
     from lab.data.dataset import read_dataset
     from lab.data.sequences import sequence_ids
     from lab.files import code_version

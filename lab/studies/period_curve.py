@@ -51,13 +51,32 @@ _FLOATS = ("period_s", "mean_error_m", "max_error_m", "max_motor_speed_rad_s")
 
 
 def period_curve_rows(make_rig, runs, targets_W, periods_s, *, log=None, **stream_kw):
-    """Rows (dicts with :data:`PERIOD_CURVE_COLUMNS`) for every run in ``runs`` -- tuples
-    ``(spec, model_label, solver, relax)``: a rig spec, the name of the quasi-static model the
-    ``solver`` (:class:`~lab.control.ik.IKSolver`) solves through, and the fitted
-    :class:`~lab.dynamics.relaxation.Relaxation` -- every period in ``periods_s`` (s) and both
-    modes. ``make_rig(spec)`` returns a fresh rig; ``stream_kw`` go to ``stream_trajectory``;
-    ``log(text)`` is told each result. Returns the rows and the results
-    ``{(spec, model_label, period, mode): StreamResult}``."""
+    """Stream a trajectory at every period of ``periods_s``, open loop and feed-forward, per run.
+
+    Parameters
+    ----------
+    make_rig : callable
+        ``make_rig(spec)`` returns a fresh rig (a context manager).
+    runs : iterable of tuple
+        ``(spec, model_label, solver, relax)``: a rig spec, the name of the quasi-static model
+        the ``solver`` (:class:`~lab.control.ik.IKSolver`) solves through, and the fitted
+        :class:`~lab.dynamics.relaxation.Relaxation`.
+    targets_W : array_like, shape (K, 3)
+        The trajectory's targets (m, world frame).
+    periods_s : iterable of float
+        Periods of the trajectory (s).
+    log : callable, optional
+        ``log(text)`` is told each result.
+    **stream_kw
+        Go to :func:`lab.tracking.stream.stream_trajectory`.
+
+    Returns
+    -------
+    rows : list of dict
+        One per (run, period, mode), with :data:`PERIOD_CURVE_COLUMNS` (errors in m, periods in s).
+    results : dict
+        ``{(spec, model_label, period_s, mode): StreamResult}``.
+    """
     from lab.tracking.stream import stream_trajectory
 
     rows, results = [], {}
@@ -94,8 +113,17 @@ def period_curve_rows(make_rig, runs, targets_W, periods_s, *, log=None, **strea
 
 
 def write_period_curve(path, rows, sidecar: dict | None = None) -> None:
-    """Write ``rows`` as CSV (:data:`PERIOD_CURVE_COLUMNS`) to ``path`` and ``sidecar``
-    (JSON-able, plus the code version) to ``path.json``, both atomically."""
+    """Write ``rows`` as CSV (:data:`PERIOD_CURVE_COLUMNS`) and a sidecar, both atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file; the sidecar is ``path.json``.
+    rows : list of dict
+        Rows of :func:`period_curve_rows`.
+    sidecar : dict, optional
+        JSON-able settings written into the sidecar (plus the code version).
+    """
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=PERIOD_CURVE_COLUMNS, lineterminator="\n")
     w.writeheader()
@@ -107,8 +135,19 @@ def write_period_curve(path, rows, sidecar: dict | None = None) -> None:
 
 
 def read_period_curve(path) -> list[dict]:
-    """The rows of a period-curve CSV, numbers as floats (``n_*`` as ints); InputError for a
-    missing file or one without the columns."""
+    """The rows of a period-curve CSV; InputError for a missing file or one without the columns.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV written by :func:`write_period_curve`.
+
+    Returns
+    -------
+    list of dict
+        Rows of :data:`PERIOD_CURVE_COLUMNS`: numbers as floats (m, s, rad/s), ``n_*`` as ints,
+        ``rig``, ``mode``, ``model``, ``tau_s``, ``weight`` as str.
+    """
     rows = read_csv_table(path, PERIOD_CURVE_COLUMNS[:5], "period curve")
     out = []
     for r in rows:

@@ -74,9 +74,26 @@ def update_table1(
     source: str,
     n_points: dict[str, int] | None = None,
 ) -> dict[str, dict]:
-    """Set the rows of the conditions in ``results_cm`` ({condition: {shape: mean error in cm}},
-    any subset of :data:`SHAPES`), keep every other row, rewrite both files. ``source`` says
-    what produced the rows (e.g. the notebook); ``n_points`` ({shape: N}) is recorded."""
+    """Set the rows of the conditions in ``results_cm``, keep every other row, rewrite both files.
+
+    Raises :class:`Table1Error` for unknown trajectories, bad errors or a file that is not Table I's.
+
+    Parameters
+    ----------
+    results_cm : dict
+        ``{condition: {shape: mean error (cm)}}``, any subset of :data:`SHAPES`.
+    csv_path, md_path : str or Path
+        The table as CSV (:data:`COLUMNS`) and as Markdown beside the paper's numbers.
+    source : str
+        What produced the rows (e.g. the notebook).
+    n_points : dict, optional
+        ``{shape: N}`` targets per trajectory, recorded.
+
+    Returns
+    -------
+    dict
+        Every row of the table by condition (str values, errors in cm).
+    """
     for cond, row in results_cm.items():
         unknown = set(row) - set(SHAPES)
         if unknown:

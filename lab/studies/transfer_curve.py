@@ -53,7 +53,40 @@ def _mesh(spec) -> dict:
 
 @dataclass(frozen=True)
 class TransferCurveSpec(Spec):
-    """A transfer curve: which robots, methods and N, how they are measured."""
+    """A transfer curve: which robots, methods and N, how they are measured.
+
+    Attributes
+    ----------
+    sim_model : str
+        Network trained on simulated data (.npz), required.
+    robot : str
+        Robot name or description TOML.
+    family : int
+        Family members 0..K-1.
+    family_kind : str
+        ``random`` (twin:random:K, in the calibrator's model class) or ``foam`` (twin:foam:K,
+        defects outside it).
+    shipped : bool
+        Also the robot of the shipped defects file.
+    methods : tuple of str
+        Transfer methods (:data:`lab.studies.transfer_study.METHOD_MIN_N`).
+    ns : tuple of int
+        Numbers of real samples N.
+    design : str
+        Which N commands: ``random``, ``sobol`` or ``maximin``.
+    n_test, n_points : int
+        Held-out random commands per robot; targets per trajectory.
+    seed : int
+        Seed of designs, noise and training.
+    calibration_mesh : tuple of (int, int) or None
+        ``calibrated``: mesh (rings, axial) of calibration and re-simulation (None: the robot's).
+    sim_levels : int
+        ``calibrated``: re-simulate the safe points of this lattice (levels per motor).
+    jobs : int
+        Worker processes, one robot each.
+    mesh : MeshSpec
+        The emulated robots' FEM mesh.
+    """
 
     sim_model: str = option(None, required=True, help="network trained on simulated data (.npz)")
     robot: str = option("three-cable", help="robot name or description TOML")
@@ -97,11 +130,24 @@ class TransferCurveSpec(Spec):
 
     def labels(self) -> list[str]:
         """The robots of the curve: "shipped" (if asked for), then "KIND:0".."KIND:K-1" (KIND the
-        ``family_kind``, "random" or "foam")."""
+        ``family_kind``, "random" or "foam").
+
+        Returns
+        -------
+        list of str
+            The robot labels, in that order.
+        """
         return (["shipped"] if self.shipped else []) + [f"{self.family_kind}:{k}" for k in range(self.family)]
 
     def settings(self) -> dict:
-        """The settings the results file's sidecar records (and that the rows depend on)."""
+        """The settings the results file's sidecar records (and that the rows depend on).
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``family_kind, seed, ns, design, n_test, n_points, methods``, the mesh's
+            ``n_rings``/``n_axial``, ``calibration_mesh`` and ``sim_levels``.
+        """
         keys = ("family_kind", "seed", "ns", "design", "n_test", "n_points", "methods")
         d = {k: getattr(self, k) for k in keys}
         d.update(_mesh(self))
@@ -255,7 +301,25 @@ def _commands(meta: dict, command: str) -> list[str]:
 
 def transfer_curve_run(spec: TransferCurveSpec, out, *, command: str = "", log=None) -> list[dict]:
     """Measure the rows of ``spec`` not yet in the CSV ``out`` (read first, resumed) on
-    ``spec.jobs`` workers, rewriting ``out`` and ``out.json`` after each robot; returns all rows."""
+    ``spec.jobs`` workers, rewriting ``out`` and ``out.json`` after each robot.
+
+    Parameters
+    ----------
+    spec : TransferCurveSpec
+        The curve.
+    out : str or Path
+        The results CSV (its sidecar is ``out.json``).
+    command : str, optional
+        The command line recorded in the sidecar.
+    log : callable, optional
+        ``log(line)`` is told the plan and each robot's rows.
+
+    Returns
+    -------
+    list of dict
+        All rows of the file (the old ones as written, as strings), columns :data:`COLUMNS`
+        (errors and shifts in m, ``fit_s`` in s).
+    """
     from joblib import Parallel, delayed
 
     from lab.files import code_version

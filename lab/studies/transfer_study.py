@@ -25,41 +25,59 @@ from lab.errors import InputError
 from lab.rig.twin import quasi_static_tips  # noqa: F401 (part of this module's API)
 
 __all__ = [
-    "SHAPES",
-    "METHOD_MIN_N",
-    "random_safe_commands",
-    "quasi_static_tips",
-    "evaluate_model",
-    "curve_rows",
-    "expected_pairs",
-    "make_methods",
-    "read_curve",
-    "family_table1",
-    "robot_order",
-    "findings",
-    "smallest_n",
-    "defect_variants",
-]
+    "SHAPES", "METHOD_MIN_N", "random_safe_commands", "quasi_static_tips", "evaluate_model", "curve_rows",
+    "expected_pairs", "make_methods", "read_curve", "family_table1", "robot_order", "findings", "smallest_n",
+    "defect_variants"
+]  # fmt: skip
 
 SHAPES = ("circle", "square", "rose")
 
 
 def random_safe_commands(robot, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` commands (n, n_cables) rad drawn uniformly from the robot's safe set, for
-    held-out tests: almost surely not lattice points (:func:`lab.data.designs.random_commands`)."""
+    """Commands drawn uniformly from the robot's safe set, for held-out tests: almost surely
+    not lattice points (:func:`lab.data.designs.random_commands`).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    n, seed : int
+        Number of commands and their seed.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n_cables)
+        Motor commands (rad).
+    """
     from lab.data.designs import random_commands
 
     return random_commands(robot, n, seed)
 
 
 def evaluate_model(model, body, u_test, tips_test, n_points: int | None = 24, shapes=SHAPES) -> dict:
-    """Model error on held-out commands ``u_test`` (with true tips ``tips_test``) and the
-    Table I tracking error per shape, in metres: ``{"model_error_m", "circle_m", ...}``,
-    with each shape's size ratio (RMS spread about the centroid, reached over target) and
-    centroid shift ``{shape}_shift_m`` (3,) m, and their means over the shapes. ``shapes``:
-    built-in trajectories of :func:`lab.control.trajectories.builtin` (default Table I's; the
-    six-cable arm's :data:`lab.control.trajectories.SIX_CABLE`), ``n_points`` targets each
-    (None: each path's default)."""
+    """Model error on held-out commands and the Table I tracking error per shape, in metres.
+
+    Parameters
+    ----------
+    model : forward model
+        Has ``predict(u)`` (N, 3) m (and what :meth:`IKSolver.for_model` needs).
+    body : AsBuiltBody or NominalBody
+        The robot the IK's commands are played on (its quasi-static map).
+    u_test, tips_test : numpy.ndarray, shapes (H, m), (H, 3)
+        Held-out commands (rad) and their true tips (m).
+    n_points : int or None, optional
+        Targets per shape (None: each path's default).
+    shapes : sequence of str, optional
+        Built-in trajectories of :func:`lab.control.trajectories.builtin` (default Table I's;
+        the six-cable arm's :data:`lab.control.trajectories.SIX_CABLE`).
+
+    Returns
+    -------
+    dict
+        ``model_error_m``; per shape ``{shape}_m``, ``{shape}_size_ratio`` (RMS spread about the
+        centroid, reached over target) and centroid shift ``{shape}_shift_m`` (3,) m; their means
+        ``tracking_mean_m``, ``size_ratio_mean``, ``shift_mean_m``.
+    """
     row = {"model_error_m": float(np.mean(np.linalg.norm(model.predict(u_test) - tips_test, axis=1)))}
     solver = IKSolver.for_model(model, body.robot)
     for shape in shapes:
@@ -92,11 +110,32 @@ def curve_rows(
     on_row: Callable | None = None,
     skip=frozenset(),
 ) -> list[dict]:
-    """One row per (method, N): ``methods[name](u_real, y_real)`` builds a forward model
-    from N real samples (N = 0: the simulation network itself, where the method allows);
-    ``u_pool`` (P, m) rad is the space-filling order the first N samples are taken from.
-    ``on_row(row)`` is called after each row (e.g. to append it to a results file);
-    (method, N) pairs in ``skip`` (measured before) are not measured again."""
+    """One row per (method, N); ``on_row(row)`` is called after each row (e.g. to append it
+    to a results file).
+
+    Parameters
+    ----------
+    body : AsBuiltBody
+        The emulated robot.
+    methods : dict
+        ``{name: make(u_real, y_real) -> model or None}`` (:func:`make_methods`; N = 0: the
+        simulation network itself, where the method allows).
+    ns : iterable of int
+        Numbers of real samples N.
+    u_pool, u_test : numpy.ndarray, shapes (P, m), (H, m)
+        The space-filling order (rad) the first N samples are taken from; held-out commands (rad).
+    noise_sigma_m, seed : float, int
+        Motion-capture noise on the real samples (m per axis) and its seed.
+    n_points, label : int, str, optional
+        Targets per Table I shape; the rows' ``robot``.
+    on_row, skip : callable, set of tuple, optional
+        Called with each row; (method, N) pairs measured before, not measured again.
+
+    Returns
+    -------
+    list of dict
+        ``robot, method, n_real, fit_s`` (s) and :func:`evaluate_model`'s errors (m).
+    """
     ns = sorted(int(n) for n in ns)
     if ns and ns[-1] > len(u_pool):
         raise InputError(f"N = {ns[-1]} real samples asked for, but the pool has {len(u_pool)} commands")
@@ -136,10 +175,24 @@ def expected_pairs(methods, ns) -> set:
 
 
 def make_methods(sim_model, names, hidden=(20, 20), seed: int = 0, extra: dict | None = None) -> dict:
-    """Model builders ``(u_real, y_real) -> model or None`` for the ``names`` of
-    :data:`METHOD_MIN_N` (and any ``extra`` builders, e.g. the calibrated physics):
-    ``sim-only`` is the simulation network at N = 0 only; the others use
-    :func:`lab.learn.transfer.transfer_model` from their minimum N on."""
+    """Model builders for the ``names`` of :data:`METHOD_MIN_N`: ``sim-only`` is the
+    simulation network at N = 0 only; the others use :func:`lab.learn.transfer.transfer_model`
+    from their minimum N on.
+
+    Parameters
+    ----------
+    sim_model, names : MLP, sequence of str
+        The network trained on simulated data; the methods (InputError for an unknown one).
+    hidden, seed : tuple of int, int, optional
+        Hidden widths and seed of the networks trained on real samples.
+    extra : dict, optional
+        Further ``{name: builder}`` (e.g. the calibrated physics).
+
+    Returns
+    -------
+    dict
+        ``{name: make(u_real, y_real) -> model or None}``.
+    """
     from lab.learn.transfer import transfer_model
 
     def builder(name):
@@ -160,7 +213,18 @@ def make_methods(sim_model, names, hidden=(20, 20), seed: int = 0, extra: dict |
 
 
 def read_curve(path) -> list[dict]:
-    """Rows of a ``transfer-curve`` CSV, numbers as floats (``n_real`` as int)."""
+    """Rows of a ``transfer-curve`` CSV.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV.
+
+    Returns
+    -------
+    list of dict
+        Numbers as floats (m, s), ``n_real`` as int, ``robot`` and ``method`` as str.
+    """
     import csv
 
     with open(path, newline="") as fh:
@@ -176,10 +240,19 @@ def family_table1(rows: list[dict], real_n: int = 308) -> list[dict]:
     """Table I over the family, in cm: for the conditions "Real Data + Real Robot" (the
     3-20-20-3 trained on ``real_n`` real samples, ``real-only``) and "Sim Data + Real Robot"
     (``sim-only``), per shape the mean and standard deviation over the random robots, the
-    shipped robot's value (if measured) and the paper's; plus, per robot, whether the
-    paper's two findings hold (sim-data error at least twice the real-data error;
-    sim-data trajectories smaller -- size ratio below 1 -- and shifted by more than the
-    real-data ones)."""
+    shipped robot's value (if measured) and the paper's.
+
+    Parameters
+    ----------
+    rows, real_n : list of dict, int
+        Rows of a transfer curve (:func:`read_curve`); N of the real-data condition.
+
+    Returns
+    -------
+    list of dict
+        One per condition: ``condition``, ``n_robots``, per shape ``{shape}_mean_cm``,
+        ``_std_cm``, ``_shipped_cm``, ``_paper_cm`` (NaN where not measured).
+    """
     from lab.studies.table1 import PAPER_CM
 
     pick = {"Real Data + Real Robot": ("real-only", real_n), "Sim Data + Real Robot": ("sim-only", 0)}
@@ -213,8 +286,20 @@ def findings(rows: list[dict], real_n: int = 308, factor: float = 2.0) -> list[d
     tracking error (finding 1 holds if >= ``factor``); ``size_ratio`` of the sim-data
     trajectories and their centroid shift (m) against the real-data ones (finding 2 holds if
     they come out smaller -- ``smaller`` -- and further off-centre -- ``shifted``; each part
-    is reported too, since a softer arm than modelled moves *more*). Robots in the order
-    shipped, random:0, random:1, ..."""
+    is reported too, since a softer arm than modelled moves *more*).
+
+    Parameters
+    ----------
+    rows, real_n : list of dict, int
+        Rows of a transfer curve (:func:`read_curve`); N of the real-data condition.
+    factor : float, optional
+        Gap ratio that finding 1 needs.
+
+    Returns
+    -------
+    list of dict
+        One per robot with both conditions, in the order shipped, random:0, random:1, ...
+    """
     out = []
     for robot in sorted(dict.fromkeys(r["robot"] for r in rows), key=robot_order):
         sim = next((r for r in rows if r["robot"] == robot and r["method"] == "sim-only"), None)
@@ -243,8 +328,20 @@ def findings(rows: list[dict], real_n: int = 308, factor: float = 2.0) -> list[d
 
 
 def smallest_n(rows: list[dict], threshold_m: float, metric: str = "tracking_mean_m") -> dict:
-    """Per method: the smallest N whose family-mean ``metric`` is at most ``threshold_m``
-    (None if no N reaches it), and that mean."""
+    """Per method: the smallest N whose family-mean ``metric`` is at most ``threshold_m``.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of a transfer curve (the shipped robot's are left out).
+    threshold_m, metric : float, str
+        The threshold (m) and the column compared.
+
+    Returns
+    -------
+    dict
+        ``{method: (N, mean) or None}`` (None if no N reaches it).
+    """
     out = {}
     for method in dict.fromkeys(r["method"] for r in rows):
         means = {}
@@ -258,9 +355,19 @@ def smallest_n(rows: list[dict], threshold_m: float, metric: str = "tracking_mea
 
 def defect_variants(defects, robot) -> dict:
     """The as-built ``defects`` taken apart, to trace the sim-to-real bias to its causes:
-    ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> a :class:`lab.rig.asbuilt.Defects`
-    with only that geometric defect (softness, stiffness gradient, eyelet shifts, cable
-    slack; "all": every one) and no friction play, so that each is a quasi-static map."""
+    each variant has only that geometric defect (softness, stiffness gradient, eyelet shifts,
+    cable slack; "all": every one) and no friction play, so that each is a quasi-static map.
+
+    Parameters
+    ----------
+    defects, robot : Defects, RobotDescription
+        The as-built defects (with their ``source``) and the nominal robot.
+
+    Returns
+    -------
+    dict
+        ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> :class:`lab.rig.asbuilt.Defects`.
+    """
     import copy
 
     from lab.rig.asbuilt import parse_defects
