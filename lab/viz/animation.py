@@ -40,10 +40,23 @@ MARKER_RADIUS_M = 0.004
 
 # ------------------------------------------------------------------ geometry
 def centreline_embedding(fem, n_segments: int = 20):
-    """Barycentric embedding (nodes (S+1, 4), weights (S+1, 4)) of ``n_segments`` + 1
-    equally spaced points on the body axis (x from 0 to length, y = z = 0) in the rest
-    mesh. Embedded points move with the FEM interpolation, so this works for any tet
-    mesh containing the axis and any ``n_segments`` (no need to find cross-sections)."""
+    """Barycentric embedding of ``n_segments`` + 1 equally spaced points on the body axis
+    (x from 0 to length, y = z = 0) in the rest mesh. Embedded points move with the FEM
+    interpolation, so this works for any tet mesh containing the axis and any ``n_segments``
+    (no need to find cross-sections).
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    n_segments : int, optional
+        Number of axis segments S (>= 1).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Nodes (S+1, 4) int and weights (S+1, 4) of the containing tets.
+    """
     if int(n_segments) != n_segments or n_segments < 1:
         raise InputError(f"n_segments must be a positive integer, got {n_segments!r}")
     x = np.linspace(0.0, fem.robot.length_m, int(n_segments) + 1)
@@ -98,8 +111,17 @@ def end_caps(body) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ArmPieces:
-    """Transforms (4, 4) of the unit cylinders: ``body`` (S, 4, 4), one (K, 4, 4)
-    array per cable in ``cables``; ``tip_W`` (3,) m."""
+    """Transforms (4, 4) of the unit cylinders that draw the arm in one frame.
+
+    Attributes
+    ----------
+    body : numpy.ndarray, shape (S, 4, 4)
+        The body's segments.
+    cables : list of numpy.ndarray
+        One (K, 4, 4) array per cable.
+    tip_W : numpy.ndarray, shape (3,)
+        The tip marker (m, world frame).
+    """
 
     body: np.ndarray
     cables: list
@@ -109,7 +131,26 @@ class ArmPieces:
 def arm_pieces(
     fem, q=None, n_segments: int = 20, *, cable_radius_m: float = CABLE_RADIUS_M, embedding=None
 ) -> ArmPieces:
-    """The rigid pieces of the arm at ``q`` (n_free,) (None: rest)."""
+    """The rigid pieces of the arm at ``q``.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    q : array_like, shape (n_free,), optional
+        Free coordinates (m; None: rest).
+    n_segments : int, optional
+        Body segments S.
+    cable_radius_m : float, optional
+        Radius of the cable cylinders (m).
+    embedding : tuple, optional
+        :func:`centreline_embedding`'s result, reused across frames.
+
+    Returns
+    -------
+    ArmPieces
+        The transforms of the body, cable and tip pieces.
+    """
     x = fem.X_W if q is None else fem.to_nodes(np.asarray(q, float))
     axis = centreline(fem, q, n_segments, embedding)
     return ArmPieces(
@@ -176,20 +217,47 @@ def animate_arm(
     repetitions: int = 1,
     paths: bool = True,
 ):
-    """Draw the arm under ``vis[prefix]`` and animate it through the states
-    ``q_frames`` (T, n_free) m, shown at ``fps`` frames per second.
+    """Draw the arm under ``vis[prefix]`` and animate it through the states ``q_frames``.
 
-    ``u_frames`` (T, m) rad colours each cable by its command, rounded to one of
-    ``n_color_levels`` levels over [0, u_max] (None: grey cables). ``targets_W`` (T, 3)
-    m adds a moving target sphere and, with ``paths``, the target path (black) and
-    achieved tip path (pink) as lines. The body is ``n_segments`` cylinders of the
-    body radius (``foam_opacity`` lets the cables inside show). The scene shows
-    frame 0 until the animation runs; a single frame is drawn but not animated.
-    Pieces under ``vis[prefix]``: ``body/00``.., ``body/base``, ``body/end``,
+    The scene shows frame 0 until the animation runs; a single frame is drawn but not
+    animated. Pieces under ``vis[prefix]``: ``body/00``.., ``body/base``, ``body/end``,
     ``cables/<name>/00``.. (colour levels ``u0``.. below them), ``tip``, ``target``,
-    ``target_path``, ``tip_path``. Sends the animation with ``vis.set_animation``
-    (``play``, ``repetitions``) and returns the ``meshcat.animation.Animation``.
-    Raises ValueError on bad shapes or values."""
+    ``target_path``, ``tip_path``. Raises InputError on bad shapes or values.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The scene.
+    fem : ArmFEM
+        The arm's FEM.
+    q_frames : array_like, shape (T, n_free)
+        Free coordinates per frame (m).
+    u_frames : array_like, shape (T, m), optional
+        Commands (rad) that colour each cable, rounded to one of ``n_color_levels`` levels
+        over [0, u_max] (None: grey cables).
+    targets_W : array_like, shape (T, 3), optional
+        Adds a moving target sphere (m, world frame) and, with ``paths``, the target path
+        (black) and the achieved tip path (pink) as lines.
+    fps : float, optional
+        Frames per second.
+    prefix : str, optional
+        The scene path of the drawing.
+    n_segments : int, optional
+        Cylinders of the body radius along the body.
+    n_color_levels : int, optional
+        Colour levels of the cables (>= 2).
+    foam_opacity : float, optional
+        The body's opacity (lets the cables inside show).
+    play, repetitions : bool, int, optional
+        Passed to ``vis.set_animation``.
+    paths : bool, optional
+        Draw the target and tip paths.
+
+    Returns
+    -------
+    meshcat.animation.Animation
+        The animation sent to ``vis``.
+    """
     g = _meshcat().geometry
     from meshcat.animation import Animation
 
@@ -276,8 +344,23 @@ def animate_arm(
 def animation_html(fem, q_frames, u_frames=None, *, targets_W=None, view: bool = True, camera_W=None, **kwargs) -> str:
     """Self-contained HTML page (meshcat JavaScript embedded, no network needed) of
     :func:`animate_arm`, from a fresh visualizer that is stopped afterwards.
-    ``view``: white background, no grid/axes, camera at ``camera_W`` (3,) m
-    (default: :func:`lab.viz.arm.set_view`'s). ``kwargs`` go to :func:`animate_arm`."""
+
+    Parameters
+    ----------
+    fem, q_frames, u_frames, targets_W
+        As :func:`animate_arm`'s.
+    view : bool, optional
+        White background, no grid/axes, camera at ``camera_W``.
+    camera_W : array_like, shape (3,), optional
+        Camera position (m, world frame; default: :func:`lab.viz.arm.set_view`'s).
+    **kwargs
+        Go to :func:`animate_arm`.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
     with meshcat_visualizer() as vis:
         if view:
             set_view(vis, **({} if camera_W is None else {"camera_W": camera_W}))
@@ -288,7 +371,20 @@ def animation_html(fem, q_frames, u_frames=None, *, targets_W=None, view: bool =
 def notebook_iframe(page_html: str, height_px: int = 400) -> str:
     """``page_html`` in an ``<iframe srcdoc>`` for ``IPython.display.HTML``, as
     ``vis.render_static()`` wraps it: works on remote kernels and offline, and its
-    styles stay out of the notebook page."""
+    styles stay out of the notebook page.
+
+    Parameters
+    ----------
+    page_html : str
+        A self-contained page (:func:`animation_html`).
+    height_px : int, optional
+        The frame's height (pixels; resizable).
+
+    Returns
+    -------
+    str
+        The HTML of the frame.
+    """
     srcdoc_escape = _meshcat().visualizer.srcdoc_escape
     return (
         f'<div style="height: {height_px}px; width: 100%; overflow-x: auto; overflow-y: hidden; '

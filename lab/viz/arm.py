@@ -45,15 +45,42 @@ class ArmGeometry:
 
 
 def arm_geometry(fem, q=None) -> ArmGeometry:
-    """Geometry of ``fem`` (an :class:`lab.fem.energy.ArmFEM`) at free coordinates ``q``
-    (n_free,) in metres; ``q=None`` is the rest shape."""
+    """Geometry of ``fem`` at free coordinates ``q``.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM (:class:`lab.fem.energy.ArmFEM`).
+    q : array_like, shape (n_free,), optional
+        Free coordinates (m); None is the rest shape.
+
+    Returns
+    -------
+    ArmGeometry
+        Nodes, surface triangles, cable polylines and tip (m, frame W).
+    """
     x = fem.X_W.copy() if q is None else fem.to_nodes(np.asarray(q, float))
     return ArmGeometry(x, fem.mesh.surface_triangles(), [c.points(x) for c in fem.cables], fem.tip(x))
 
 
 def cable_colors(n_cables: int, u_motor=None, u_max: float = 1.0, cmap: str = CMAP) -> np.ndarray:
-    """RGB colours (n_cables, 3) in [0, 1]: ``u_motor`` (n_cables,) rad mapped by
-    ``cmap`` over [0, ``u_max``] rad, or :data:`CABLE_RGB` for every cable if None."""
+    """RGB colours of the cables: ``u_motor`` mapped by ``cmap`` over [0, ``u_max``] rad, or
+    :data:`CABLE_RGB` for every cable if None.
+
+    Parameters
+    ----------
+    n_cables : int
+        Number of cables.
+    u_motor : array_like, shape (n_cables,), optional
+        Motor commands (rad).
+    u_max, cmap : float, str, optional
+        The command (rad) at the top of the matplotlib colour map ``cmap``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_cables, 3)
+        RGB in [0, 1].
+    """
     if u_motor is None:
         return np.tile(CABLE_RGB, (n_cables, 1))
     import matplotlib
@@ -80,7 +107,13 @@ def _hex(rgb) -> int:
 @contextlib.contextmanager
 def meshcat_visualizer():
     """``with meshcat_visualizer() as vis:`` a fresh ``meshcat.Visualizer`` (own zmq
-    server subprocess on 127.0.0.1), always stopped on exit."""
+    server subprocess on 127.0.0.1), always stopped on exit.
+
+    Yields
+    ------
+    meshcat.Visualizer
+        The visualizer, stopped (:func:`stop_visualizer`) when the block ends.
+    """
     with contextlib.redirect_stdout(io.StringIO()):  # it prints its URL
         vis = _meshcat().Visualizer()
     try:
@@ -91,7 +124,13 @@ def meshcat_visualizer():
 
 def stop_visualizer(vis) -> None:
     """Stop the server subprocess that ``meshcat.Visualizer()`` started (instead of
-    the broken ``vis.close()``) and close the client socket."""
+    the broken ``vis.close()``) and close the client socket.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        A visualizer that started its own server.
+    """
     proc = vis.window.server_proc
     vis.window.zmq_socket.close(linger=0)
     if proc is not None and proc.poll() is None:
@@ -106,8 +145,18 @@ def stop_visualizer(vis) -> None:
 def set_view(
     vis, camera_W=(0.06, -0.26, 0.08), background_rgb=(1.0, 1.0, 1.0), grid: bool = False, axes: bool = False
 ) -> None:
-    """Camera at ``camera_W`` (3,) m, looking at the origin (the base; meshcat 0.3.2
-    orbits about the world origin), a uniform background, grid/axes on or off."""
+    """Camera at ``camera_W``, looking at the origin (the base; meshcat 0.3.2 orbits about
+    the world origin), a uniform background, grid/axes on or off.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The scene.
+    camera_W, background_rgb : sequence of float, shape (3,), optional
+        Camera position (m, world frame); background colour (RGB in [0, 1]).
+    grid, axes : bool, optional
+        Show meshcat's grid and axes.
+    """
     x, y, z = camera_W  # the default camera sits in a frame rotated +90 deg about x
     vis["/Cameras/default/rotated/<object>"].set_property("position", [x, z, -y])
     vis["/Background"].set_property("top_color", list(background_rgb))
@@ -153,9 +202,29 @@ def meshcat_scene(
     **kwargs,
 ):
     """Draw the arm at ``q`` in ``vis`` (a new ``meshcat.Visualizer`` if None: stop
-    it with :func:`stop_visualizer`). ``view``: also apply :func:`set_view` (white
-    background, no grid/axes, camera framing the 20 cm arm from the front-left).
-    ``kwargs`` go to :func:`update_scene`. Returns ``vis``."""
+    it with :func:`stop_visualizer`).
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    q, u_motor : array_like, shapes (n_free,), (m,), optional
+        Free coordinates (m; None: rest); motor commands (rad) that colour the cables.
+    vis : meshcat.Visualizer, optional
+        The scene (None: a new visualizer).
+    prefix, tip_radius_m : str, float, optional
+        The scene path of the drawing; the tip sphere's radius (m).
+    view : bool, optional
+        Also apply :func:`set_view` (white background, no grid/axes, camera framing the
+        20 cm arm from the front-left).
+    **kwargs
+        Go to :func:`update_scene`.
+
+    Returns
+    -------
+    meshcat.Visualizer
+        ``vis`` (or the new one).
+    """
     meshcat = _meshcat()
     if vis is None:
         with contextlib.redirect_stdout(io.StringIO()):
@@ -170,15 +239,38 @@ def meshcat_scene(
 
 def static_html(vis) -> str:
     """The whole scene as one self-contained HTML document (meshcat JS embedded, no
-    network needed), e.g. to write to a file. For a notebook cell use
-    :func:`notebook_html`."""
+    network needed), e.g. to write to a file. For a notebook cell use :func:`notebook_html`.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The scene.
+
+    Returns
+    -------
+    str
+        The HTML document.
+    """
     return vis.static_html()
 
 
 def notebook_html(vis, height_px: int = 400) -> str:
-    """:func:`static_html` wrapped in an ``<iframe srcdoc>`` (what
-    ``vis.render_static()`` shows), for ``IPython.display.HTML``: safe on remote
-    kernels, and its styles do not leak into the notebook page."""
+    """:func:`static_html` wrapped in an ``<iframe srcdoc>`` (what ``vis.render_static()``
+    shows), for ``IPython.display.HTML``: safe on remote kernels, and its styles do not leak
+    into the notebook page.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The scene.
+    height_px : int, optional
+        The frame's height (pixels).
+
+    Returns
+    -------
+    str
+        The HTML of the frame.
+    """
     return vis.render_static(height=height_px).data
 
 
@@ -196,11 +288,33 @@ def plot_arm(
     linewidth: float = 2.0,
     geometry: ArmGeometry | None = None,
 ):
-    """Draw the arm at ``q`` on ``ax``: a 3-D axes (``dims`` = (0, 1, 2)) or, with two
-    ``dims`` such as (0, 2), its projection on a 2-D axes. Coordinates in ``unit``
-    ("m", "cm", "mm"). Cables coloured by ``u_motor`` (rad) over [0, ``u_max``].
-    Sets equal aspect. Returns the :class:`ArmGeometry`. On a 3-D axes made with
-    ``computed_zorder=False`` the cables and tip stay on top of the foam."""
+    """Draw the arm at ``q`` on ``ax``: a 3-D axes or, with two ``dims``, its projection on a
+    2-D axes. Sets equal aspect. On a 3-D axes made with ``computed_zorder=False`` the cables
+    and tip stay on top of the foam.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        A 3-D axes (``dims`` = (0, 1, 2)) or a 2-D one (two ``dims`` such as (0, 2)).
+    fem : ArmFEM
+        The arm's FEM.
+    q, u_motor : array_like, shapes (n_free,), (m,), optional
+        Free coordinates (m; None: rest); motor commands (rad) colouring the cables over
+        [0, ``u_max``] (None: grey).
+    unit, dims : str, sequence of int, optional
+        Unit of the coordinates ("m", "cm" or "mm"); world axes drawn (0 = x, 1 = y, 2 = z).
+    u_max : float, optional
+        Top of the colour scale (rad; default the robot's u_max).
+    foam_alpha, linewidth : float, optional
+        The foam's opacity; the cables' line width (points).
+    geometry : ArmGeometry, optional
+        Geometry already computed at ``q`` (reused).
+
+    Returns
+    -------
+    ArmGeometry
+        The geometry drawn (m, frame W).
+    """
     from matplotlib.collections import PolyCollection
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -233,9 +347,27 @@ def plot_arm(
 
 
 def plot_arm_views(fem, q=None, u_motor=None, *, unit: str = "cm", u_max=None, figsize=(13, 4.5)):
-    """Figure with a 3-D view, the x-z side view and the y-z front view of the arm
-    at ``q`` (axes in ``unit``, default cm), plus a colour bar of the motor command
-    when ``u_motor`` is given. Returns ``(fig, (ax3d, ax_xz, ax_yz))``."""
+    """Figure with a 3-D view, the x-z side view and the y-z front view of the arm at ``q``,
+    plus a colour bar of the motor command when ``u_motor`` is given.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    q, u_motor : array_like, shapes (n_free,), (m,), optional
+        Free coordinates (m; None: rest); motor commands (rad) that colour the cables.
+    unit : str, optional
+        Unit of the axes ("m", "cm", "mm").
+    u_max : float, optional
+        Top of the colour scale (rad; default the robot's u_max).
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, (ax3d, ax_xz, ax_yz))``: the matplotlib Figure and its three axes.
+    """
     import matplotlib.pyplot as plt
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize

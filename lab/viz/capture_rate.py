@@ -19,11 +19,28 @@ LABEL_PT = 7  # font size of the tolerance labels
 
 def plot_capture_rate(rows, ax=None, *, after_learning: bool = True, goal_rate_per_hour: float | None = 900.0):
     """Samples per hour of robot time (y) against mean distance from the noise-free settled
-    tips (x, mm). ``rows``: dicts with ``robot``, ``protocol``, ``tol_m``, the rate and error
-    columns (CSV strings or numbers). The shipped robot's rows are joined into one line per
-    protocol (its tolerance sweep, each point labelled with the tolerance in mm); the family's
-    are single markers. ``after_learning``: the predictive protocol's rate and error after its
-    learning samples (else over every sample). Returns ``ax``."""
+    tips (x, mm). The shipped robot's rows are joined into one line per protocol (its
+    tolerance sweep, each point labelled with the tolerance in mm); the family's are single
+    markers.
+
+    Parameters
+    ----------
+    rows : iterable of dict
+        Rows of :mod:`lab.studies.capture_rate`: ``robot``, ``protocol``, ``tol_m``, the rate
+        (per hour) and error (m) columns (CSV strings or numbers).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (None: a new figure).
+    after_learning : bool, optional
+        The predictive protocol's rate and error after its learning samples (else over every
+        sample).
+    goal_rate_per_hour : float or None, optional
+        A goal rate drawn as a dotted line (None: none).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:

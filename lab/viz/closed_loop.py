@@ -20,8 +20,23 @@ MODE_TITLES = {"ilc": "iterative learning control (whole passes)", "feedback": "
 
 def plot_closed_loop(rows, *, metric: str = "mean_error_m", figsize=(11, 4.2)):
     """Error ``metric`` (m, drawn in cm, log axis) against the pass, one panel per mode (ILC
-    first) in ``rows`` (dicts with ``trajectory``, ``model``, ``mode``, ``pass`` and the metric).
-    Returns ``(fig, axes)`` (axes a flat array)."""
+    first), with the chapter's goals; ValueError when there are no rows.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of :func:`lab.studies.closed_loop_table.pass_rows`: ``trajectory``, ``model``,
+        ``mode``, ``pass`` and the metric.
+    metric : str, optional
+        The error column (m): ``mean_error_m`` or ``max_error_m``.
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, axes)``: the matplotlib Figure and its axes as a flat array, one per mode.
+    """
     import matplotlib.pyplot as plt
 
     from lab.studies.closed_loop_table import GOALS_M

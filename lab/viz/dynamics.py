@@ -20,10 +20,25 @@ MODE_STYLES = {"open-loop": ("--", "s"), "feed-forward": ("-", "o")}
 
 
 def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_period_s: float = 5.0):
-    """Mean error (mm) against period (s), log-log: ``rows`` are dicts with ``rig``,
-    ``period_s``, ``mode``, ``mean_error_m`` (and ``model``: one curve per rig and model).
-    With ``goal_ratio``, the goal -- the open loop's error divided by it at
-    ``goal_period_s`` -- is marked per curve. Returns ``ax``."""
+    """Mean error (mm) against period (s), log-log, one curve per rig and model and mode.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of :mod:`lab.studies.period_curve`: ``rig``, ``period_s``, ``mode``,
+        ``mean_error_m`` (and ``model``).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (None: a new figure).
+    goal_ratio : float or None, optional
+        Marks per curve the goal: the open loop's error divided by it at ``goal_period_s``.
+    goal_period_s : float, optional
+        Period of the goal (s).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
@@ -89,9 +104,22 @@ def _doc(result):
 
 
 def plot_streamed_trajectory(results: dict, ax=None):
-    """``results``: ``{label: streamed track result}`` (StreamResult or its JSON as read by
-    :func:`lab.tracking.track.read_result`). Draws the first one's targets (black) and each
-    result's measured tip over the last period, y-z plane in cm. Returns ``ax``."""
+    """Draws the first result's targets (black) and each result's measured tip over the
+    last period, y-z plane in cm.
+
+    Parameters
+    ----------
+    results : dict
+        ``{label: streamed track result}`` (StreamResult or its JSON as read by
+        :func:`lab.tracking.track.read_result`).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (None: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:

@@ -29,9 +29,25 @@ METRIC_LABELS = {
 
 
 def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), *, goals=None, figsize=None):
-    """One row of panels per data set, one column per metric. ``panels``: ``{title: rows}``,
-    rows being dicts with ``strategy``, ``n`` and the metrics (m, drawn in mm). ``goals``:
-    ``{metric: (value_m, label)}`` drawn as horizontal lines. Returns ``(fig, axes)``."""
+    """One row of panels per data set, one column per metric: each strategy's mean over the
+    rows of each N against N, log-log, the band spanning their range.
+
+    Parameters
+    ----------
+    panels : dict
+        ``{title: rows}``, rows being dicts with ``strategy``, ``n`` and the metrics (m, drawn in mm).
+    metrics : sequence of str, optional
+        The columns drawn, one per panel column.
+    goals : dict, optional
+        ``{metric: (value_m, label)}`` drawn as horizontal lines.
+    figsize : tuple of float, optional
+        Figure size (inches; default from the number of panels).
+
+    Returns
+    -------
+    tuple
+        ``(fig, axes)``: the matplotlib Figure and its (n_data_sets, n_metrics) axes array.
+    """
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
@@ -75,10 +91,23 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
 
 
 def plot_calibration(curves: dict, k_max: float = 3.0, *, ax=None):
-    """Reliability of predicted spreads: ``curves`` = ``{label: z}``, z the per-coordinate
-    normalised errors ``|y - mean| / std`` (any shape). Draws the fraction of z <= k against
-    k in [0, ``k_max``] for each, with the Gaussian reference and its 1- and 2-sigma points.
-    Returns the axes."""
+    """Reliability of predicted spreads: the fraction of z <= k against k in [0, ``k_max``]
+    for each curve, with the Gaussian reference and its 1- and 2-sigma points.
+
+    Parameters
+    ----------
+    curves : dict
+        ``{label: z}``, z the per-coordinate normalised errors ``|y - mean| / std`` (any shape).
+    k_max : float, optional
+        Right end of the k axis (standard deviations).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (None: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes.
+    """
     import matplotlib.pyplot as plt
     from scipy.special import erf
 

@@ -53,10 +53,21 @@ def arc_W(p_tip_W, n: int = 30) -> np.ndarray:
 
 
 class IKPicker:
-    """Target picker for ``robot`` through the learned ``model`` (``predict``,
-    ``predict_and_jacobian``, metres and radians); ``fem`` (an :class:`lab.fem.ArmFEM`,
-    optional) draws the arm's equilibrium at each solved command. ``targets_W`` (N, 3) m:
-    trajectory points offered in the drop-down and drawn in pink."""
+    """Target picker for ``robot`` through the learned ``model``.
+
+    Parameters
+    ----------
+    model : forward model
+        Has ``predict`` and ``predict_and_jacobian`` (metres and radians).
+    robot : RobotDescription
+        The robot (its limits bound the IK).
+    fem : ArmFEM, optional
+        Draws the arm's equilibrium at each solved command (None: a schematic arc).
+    targets_W : array_like, shape (N, 3), optional
+        Trajectory points (m, world frame) offered in the drop-down and drawn in pink.
+    figsize : tuple of float, optional
+        Size of the static figure (inches).
+    """
 
     def __init__(self, model, robot, fem=None, *, targets_W=None, figsize=(12, 4.2)):
         self.model, self.robot, self.figsize = model, robot, figsize
@@ -74,13 +85,26 @@ class IKPicker:
         self.scene = self.sliders = self.points = None
 
     def update(self, p_target_W, draw: bool = True) -> dict:
-        """Solve the IK for ``p_target_W`` (3,) m and (if ``draw``) redraw.
+        """Solve the IK for ``p_target_W`` and (if ``draw``) redraw.
 
-        Returns ``{"p_target_W", "u_motor" (m,) rad, "p_pred_W" (3,) m (model's tip at the
-        command), "p_tip_W" (3,) m (FEM tip, or None without FEM), "reachable",
-        "residual_m" (|p_pred - target|), "status", "path_W" (K, 3) m, "ik_s",
-        "elapsed_s"}``. A target out of reach gives the best allowed command with
-        ``reachable=False``; a non-finite target raises :class:`lab.errors.InputError`."""
+        A target out of reach gives the best allowed command with ``reachable=False``; a
+        non-finite target raises :class:`lab.errors.InputError`.
+
+        Parameters
+        ----------
+        p_target_W : array_like, shape (3,)
+            The target (m, world frame).
+        draw : bool, optional
+            Redraw the static figure.
+
+        Returns
+        -------
+        dict
+            ``p_target_W`` (3,) m, ``u_motor`` (m,) rad, ``p_pred_W`` (3,) m (the model's tip at the
+            command), ``p_tip_W`` (3,) m (FEM tip, or None without FEM), ``q`` (FEM state or None),
+            ``reachable``, ``residual_m`` (``|p_pred - target|``, m), ``status``, ``path_W`` (K, 3) m,
+            ``ik_s`` and ``elapsed_s`` (s).
+        """
         t0 = time.perf_counter()
         target = check_targets(p_target_W)
         if target.ndim != 1:
@@ -136,7 +160,18 @@ class IKPicker:
         self.fig.suptitle(self.headline(out), fontsize=10)
 
     def headline(self, out) -> str:
-        """One line on an :meth:`update`: the target (cm), reached or how far off."""
+        """One line on an :meth:`update`: the target (cm), reached or how far off.
+
+        Parameters
+        ----------
+        out : dict
+            What :meth:`update` returned.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         t = 100 * out["p_target_W"]
         head = f"target ({t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}) cm: "
         if out["reachable"]:
@@ -226,10 +261,21 @@ class IKPicker:
     def widget(self, p_start_W=None, live: bool | None = None):
         """x/y/z sliders (cm) and a drop-down of ``targets_W`` above the arm, or None when no
         front end can show widgets: then the static figure of the last update (or of
-        ``p_start_W``, default the first trajectory point) is shown. ``live`` (None:
-        :func:`lab.viz.live.live_viewer_wanted`): the arm is this kernel's live meshcat
-        viewer; otherwise a matplotlib image redrawn. Widgets kept in ``self.sliders`` and
-        ``self.points`` (the drop-down)."""
+        ``p_start_W``) is shown. Widgets kept in ``self.sliders`` and ``self.points`` (the drop-down).
+
+        Parameters
+        ----------
+        p_start_W : array_like, shape (3,), optional
+            The first target (m; default the first trajectory point, else the model's current tip).
+        live : bool, optional
+            Draw the arm in this kernel's live meshcat viewer (else a matplotlib image redrawn;
+            None: :func:`lab.viz.live.live_viewer_wanted`).
+
+        Returns
+        -------
+        ipywidgets.VBox or None
+            The widget, or None without a widget front end.
+        """
         import matplotlib.pyplot as plt
 
         p0 = p_start_W if p_start_W is not None else (self.p_pred_W if self.targets_W is None else self.targets_W[0])

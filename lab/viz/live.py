@@ -50,7 +50,13 @@ CAMERA_W = (0.03, -0.17, 0.05)
 
 
 def widgets_available() -> bool:
-    """True if ipywidgets imports and an IPython kernel (a front end's) is running."""
+    """Whether ipywidgets imports and an IPython kernel (a front end's) is running.
+
+    Returns
+    -------
+    bool
+        True if both hold.
+    """
     try:
         import ipywidgets  # noqa: F401
         from IPython import get_ipython
@@ -73,7 +79,13 @@ def front_end_available() -> bool:
 
 def live_viewer_wanted() -> bool:
     """Whether to draw in the live viewer: ``LAB_LIVE_VIEWER=0`` no, ``=1`` in any IPython
-    kernel, unset when :func:`front_end_available` (an interactive front end)."""
+    kernel, unset when :func:`front_end_available` (an interactive front end).
+
+    Returns
+    -------
+    bool
+        True to draw in the live viewer, False for the static snapshot.
+    """
     setting = os.environ.get(LIVE_VIEWER_ENV, "").strip()
     if setting == "0":
         return False
@@ -251,7 +263,13 @@ _VIEWER_LOCK = threading.Lock()
 
 
 def live_viewer() -> LiveViewer:
-    """This process's live viewer, started on the first call (reused by every cell)."""
+    """This process's live viewer, started on the first call (reused by every cell).
+
+    Returns
+    -------
+    LiveViewer
+        The running viewer (a new one if the last one died).
+    """
     global _VIEWER
     with _VIEWER_LOCK:
         if _VIEWER is None or not _VIEWER.alive:

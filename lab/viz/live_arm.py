@@ -34,7 +34,21 @@ class LiveArm:
     """The arm of ``fem`` drawn under ``vis[prefix]`` as rigid pieces (those of
     :func:`lab.viz.animation.arm_pieces`): the objects are sent once, here, and each
     :meth:`update` sends only their transforms and the cables' colours. Pieces:
-    ``body/00``.., ``body/base``, ``body/end``, ``cables/<name>/00``.., ``tip``."""
+    ``body/00``.., ``body/base``, ``body/end``, ``cables/<name>/00``.., ``tip``.
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The live viewer's scene (:attr:`lab.viz.live.LiveViewer.vis`).
+    fem : ArmFEM
+        The arm's FEM.
+    prefix : str, optional
+        The scene path of the arm (deleted and drawn anew).
+    n_segments : int, optional
+        Body segments.
+    foam_opacity : float, optional
+        The body's opacity.
+    """
 
     def __init__(self, vis, fem, *, prefix: str = "arm", n_segments: int = 20, foam_opacity: float = 0.4):
         g = _meshcat().geometry
@@ -59,9 +73,21 @@ class LiveArm:
         self.update()
 
     def update(self, q=None, u_motor=None):
-        """Move the arm to free coordinates ``q`` (n_free,) m (None: rest), cables coloured
-        by ``u_motor`` (n_cables,) rad (None: grey). Returns the
-        :class:`lab.viz.animation.ArmPieces` drawn (``tip_W`` (3,) m)."""
+        """Move the arm to free coordinates ``q`` (None: rest), cables coloured by ``u_motor``
+        (None: grey).
+
+        Parameters
+        ----------
+        q : array_like, shape (n_free,), optional
+            Free coordinates (m).
+        u_motor : array_like, shape (n_cables,), optional
+            Motor commands (rad).
+
+        Returns
+        -------
+        ArmPieces
+            The pieces drawn (:class:`lab.viz.animation.ArmPieces`; ``tip_W`` (3,) m).
+        """
         n_segments = len(self.embedding[0]) - 1
         pieces = arm_pieces(self.fem, q, n_segments, cable_radius_m=CABLE_RADIUS_M, embedding=self.embedding)
         for i, T in enumerate(pieces.body):
@@ -83,10 +109,30 @@ class LiveArm:
 
 
 def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str = "view", height_px: int = 400):
-    """The arm at ``q`` (n_free,) m, cables coloured by ``u_motor`` (n_cables,) rad, as a
-    notebook output (``IPython.display.HTML``): drawn in this kernel's live viewer under
-    ``prefix`` when ``live`` (None: :func:`live_viewer_wanted`), else a self-contained
-    static snapshot (meshcat's JavaScript embedded, works offline). Prints which."""
+    """The arm at ``q``, cables coloured by ``u_motor``, as a notebook output: drawn in this
+    kernel's live viewer under ``prefix`` when ``live``, else a self-contained static snapshot
+    (meshcat's JavaScript embedded, works offline). Prints which.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    q : array_like, shape (n_free,), optional
+        Free coordinates (m; None: rest).
+    u_motor : array_like, shape (n_cables,), optional
+        Motor commands (rad; None: grey cables).
+    live : bool, optional
+        Use the live viewer (None: :func:`live_viewer_wanted`).
+    prefix : str, optional
+        The arm's scene path in the live viewer.
+    height_px : int, optional
+        Height of the output (pixels).
+
+    Returns
+    -------
+    IPython.display.HTML
+        The viewer's iframe or the static page.
+    """
     from IPython.display import HTML
 
     from lab.viz.arm import meshcat_scene, meshcat_visualizer, notebook_html
@@ -105,10 +151,29 @@ def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str
 
 
 def show_animation(page_html: str, fem, q_frames, u_frames=None, *, live=None, prefix="anim", height_px=400, **kwargs):
-    """:func:`lab.viz.animation.animation_html`'s animation as a notebook output: played
-    by this kernel's live viewer (:func:`lab.viz.animation.animate_arm` with ``kwargs``
-    under ``prefix``) when ``live`` (None: :func:`live_viewer_wanted`), else its page
-    ``page_html`` in an iframe."""
+    """:func:`lab.viz.animation.animation_html`'s animation as a notebook output: played by
+    this kernel's live viewer when ``live``, else its page ``page_html`` in an iframe.
+
+    Parameters
+    ----------
+    page_html : str
+        The static page (:func:`lab.viz.animation.animation_html`).
+    fem, q_frames, u_frames
+        As :func:`lab.viz.animation.animate_arm`'s: the FEM, (T, n_free) m, (T, m) rad.
+    live : bool, optional
+        Use the live viewer (None: :func:`live_viewer_wanted`).
+    prefix : str, optional
+        The animation's scene path in the live viewer.
+    height_px : int, optional
+        Height of the output (pixels).
+    **kwargs
+        Go to :func:`lab.viz.animation.animate_arm` (live only).
+
+    Returns
+    -------
+    IPython.display.HTML
+        The viewer's iframe or the static page's.
+    """
     from IPython.display import HTML
 
     from lab.viz.animation import animate_arm, notebook_iframe

@@ -26,10 +26,27 @@ DASHES = 15
 
 
 def plot_trajectory_placement(shapes, centre_W, angles_rad, r_max_m, p_data_W=None, *, figsize=(10, 5.5)):
-    """The trajectories ``shapes`` (name -> (N, 3) m, frame W) over the reachable region at
-    x = ``centre_W[0]``: radius ``r_max_m`` (K,) m around ``centre_W`` (3,) m in the directions
-    ``angles_rad`` (K,) of the y-z plane; ``p_data_W`` (M, 3) m, the training data's tips, in
-    the side view. Returns ``(fig, (ax_front, ax_side))``."""
+    """The trajectories over the reachable region at x = ``centre_W[0]``, front (y-z) and
+    side (x-z) views, in cm.
+
+    Parameters
+    ----------
+    shapes : dict
+        ``{name: points (N, 3)}`` (m, frame W).
+    centre_W : array_like, shape (3,)
+        Centre of the reachable region (m).
+    angles_rad, r_max_m : array_like, shape (K,)
+        Directions in the y-z plane (rad) and the reachable radius in each (m).
+    p_data_W : array_like, shape (M, 3), optional
+        The training data's tips (m), drawn in the side view.
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, (ax_front, ax_side))``: the matplotlib Figure and its two axes.
+    """
     import matplotlib.pyplot as plt
 
     centre = np.asarray(centre_W, float)

@@ -142,7 +142,21 @@ def _gap_panel(ax, d: dict) -> None:
 def plot_diagnostics(report: dict, *, title: str = "", figsize=(12, 8.5)):
     """Draw a report of :func:`lab.data.diagnostics.inspect_dataset` (lengths in m, drawn
     in mm) on a 2 x 2 grid: floor, hysteresis, drift of blocks, pairs against time.
-    Returns ``(fig, axes)`` (axes: (2, 2))."""
+
+    Parameters
+    ----------
+    report : dict
+        The report (or its saved JSON, loaded).
+    title : str, optional
+        The figure's title.
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, axes)``: the matplotlib Figure and its (2, 2) axes array.
+    """
     import matplotlib.pyplot as plt
 
     unit = (report.get("dataset") or {}).get("u_unit") or "unit"

@@ -153,11 +153,24 @@ def _draw(ax, geo, dims, s, names, title, label_cables):
 
 
 def plot_setup(robot, base_markers_W_m=None, *, figsize=(12, 6.2)):
-    """Figure 1 equivalent for ``robot`` (a :class:`lab.description.RobotDescription`):
-    side (x-z), top (x-y) and base-face (y-z) views of the set-up in cm, with the spools,
-    cable routes through their eyelets, the tip marker and, if given, the base markers
-    ``base_markers_W_m`` (B, 3) m (e.g. ``HardwareConfig.natnet.base_positions_W_m``).
-    Returns ``(fig, (ax_side, ax_top, ax_face))``."""
+    """Figure 1 equivalent for ``robot``: side (x-z), top (x-y) and base-face (y-z) views of
+    the set-up in cm, with the spools, cable routes through their eyelets, the tip marker and,
+    if given, the base markers.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot (:class:`lab.description.RobotDescription`).
+    base_markers_W_m : array_like, shape (B, 3), optional
+        Base markers (m, frame W; e.g. ``HardwareConfig.natnet.base_positions_W_m``).
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, (ax_side, ax_top, ax_face))``: the matplotlib Figure and its three axes.
+    """
     import matplotlib.pyplot as plt
 
     geo = setup_geometry(robot, base_markers_W_m)

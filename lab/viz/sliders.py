@@ -60,10 +60,19 @@ def figure_png(fig, dpi: int = 90) -> bytes:
 
 
 class ArmExplorer:
-    """Motor-angle sliders for ``fem`` (an :class:`lab.fem.ArmFEM`).
+    """Motor-angle sliders for ``fem``.
 
-    ``levels``: the equilibria solved up front, on a ``levels``-per-motor grid of safe
-    commands over [0, u_max] (more levels: a longer start, faster first moves).
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM (:class:`lab.fem.ArmFEM`).
+    levels : int, optional
+        The equilibria solved up front, on a ``levels``-per-motor grid of safe commands over
+        [0, u_max] (more levels: a longer start, faster first moves).
+    figsize : tuple of float, optional
+        Size of the static figure (inches).
+    prefix : str, optional
+        The arm's name in the live viewer.
     """
 
     def __init__(self, fem, levels: int = 2, figsize=(11, 4.2), prefix: str = "arm"):
@@ -103,11 +112,24 @@ class ArmExplorer:
         return self.q_cache[k] + self.dq_du_cache[k] @ (u - self.u_cache[k])
 
     def update(self, u_motor, draw: bool = True) -> dict:
-        """Solve the arm at ``u_motor`` (n_cables,) rad and (if ``draw``) redraw it.
+        """Solve the arm at ``u_motor`` and (if ``draw``) redraw it.
 
-        Returns ``{"u_motor", "safe", "p_tip_W" (3,) m or None, "q", "iterations",
-        "elapsed_s"}``. An unsafe command (outside the robot's safety limits) is not
-        solved: ``safe`` is False, the arm stays where it was and the title says why."""
+        An unsafe command (outside the robot's safety limits) is not solved: ``safe`` is False,
+        the arm stays where it was and the title says why. InputError for a wrong number of angles.
+
+        Parameters
+        ----------
+        u_motor : array_like, shape (n_cables,)
+            Motor commands (rad).
+        draw : bool, optional
+            Redraw the static figure.
+
+        Returns
+        -------
+        dict
+            ``u_motor`` (n_cables,) rad, ``safe``, ``p_tip_W`` (3,) m or None, ``q`` (n_free,) m or
+            None, ``iterations`` (Newton steps), ``elapsed_s`` (s).
+        """
         from lab.fem import solve_static
 
         t0 = time.perf_counter()
@@ -144,7 +166,18 @@ class ArmExplorer:
         self.fig.suptitle(self.headline(out), fontsize=10)
 
     def headline(self, out) -> str:
-        """One line on an :meth:`update`: the command and where the tip went (cm)."""
+        """One line on an :meth:`update`: the command and where the tip went (cm).
+
+        Parameters
+        ----------
+        out : dict
+            What :meth:`update` returned.
+
+        Returns
+        -------
+        str
+            The line.
+        """
         if out["safe"]:
             p = 100 * out["p_tip_W"]
             head = f"tip at ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) cm"
@@ -155,9 +188,21 @@ class ArmExplorer:
 
     def widget(self, step_rad: float = 0.05, live: bool | None = None):
         """ipywidgets sliders (one per motor) above the arm, or None (with a printed reason)
-        when no front end can show widgets. ``live`` (None: :func:`lab.viz.live.live_viewer_wanted`):
-        the arm is this kernel's live meshcat viewer, moved on every release of a slider;
-        otherwise a matplotlib image redrawn. The sliders stay in ``self.sliders``."""
+        when no front end can show widgets. The sliders stay in ``self.sliders``.
+
+        Parameters
+        ----------
+        step_rad : float, optional
+            The sliders' step (rad).
+        live : bool, optional
+            The arm is this kernel's live meshcat viewer, moved on every release of a slider;
+            otherwise a matplotlib image redrawn (None: :func:`lab.viz.live.live_viewer_wanted`).
+
+        Returns
+        -------
+        ipywidgets.VBox or None
+            The sliders, status line and arm, or None without a widget front end.
+        """
         if not widgets_available():
             print("no widget front end here (papermill, a plain Python): the static figures stand in for the sliders")
             return None

@@ -73,14 +73,33 @@ def plot_square_frames(
     view=(28.0, -125.0),
     title: str = "",
 ):
-    """Figure 2: the arm of ``fem`` (an :class:`lab.fem.ArmFEM`) at ``n_frames`` points of the
-    trajectory ``targets_W`` (N, 3) m, commanded ``commands`` (N, m) rad.
+    """Figure 2: the arm of ``fem`` at ``n_frames`` points of the trajectory ``targets_W``,
+    commanded ``commands``.
 
-    ``achieved_W`` (N, 3) m: the recorded tips, drawn as the trail (default: the FEM tips of
-    the frames only); ``ncols``: frames per row; ``view``: (elevation, azimuth) in degrees.
-    Returns the figure: one 3-D axes per frame (title ``"k: target i of N"``), each with a
-    bar axes of the motor angles beside it, and the command strip (commands against the
-    target index, frames marked) along the bottom."""
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM (:class:`lab.fem.ArmFEM`).
+    targets_W : array_like, shape (N, 3)
+        The trajectory (m, frame W).
+    commands : array_like, shape (N, m)
+        Motor commands (rad).
+    achieved_W : array_like, shape (N, 3), optional
+        The recorded tips (m), drawn as the trail (default: the FEM tips of the frames only).
+    n_frames, ncols : int, optional
+        Frames drawn; frames per row.
+    view : tuple of float, optional
+        (elevation, azimuth) in degrees.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One 3-D axes per frame (title ``"k: target i of N"``), each with a bar axes of the
+        motor angles beside it, and the command strip (commands against the target index,
+        frames marked) along the bottom.
+    """
     import matplotlib.pyplot as plt
 
     targets, u_all = np.asarray(targets_W, float), np.asarray(commands, float)

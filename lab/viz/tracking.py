@@ -86,7 +86,22 @@ def _few_ticks(ax, n: int = 5, steps=None) -> None:
 
 def plot_tracking_row(results: dict, robot, title: str = ""):
     """Figure 3, one row: per trajectory (columns) the y-z projection of targets and achieved
-    tip positions, with the motor commands below. ``results``: {name: TrackResult}."""
+    tip positions (cm), with the motor commands (rad) below.
+
+    Parameters
+    ----------
+    results : dict
+        ``{name: TrackResult}``.
+    robot : RobotDescription
+        The robot (its cables and u_max).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     import matplotlib.pyplot as plt
 
     n = len(results)
@@ -116,8 +131,20 @@ def plot_tracking_row(results: dict, robot, title: str = ""):
 def plot_figure3(rows: dict, title: str = ""):
     """Figure 3 as in the paper: one row per condition, one column per trajectory, each panel
     the y-z projection of the targets (pink) and the achieved tip (dark), with its mean
-    error. ``rows``: {condition: {trajectory name: TrackResult}}; every row has the same
-    trajectories. All panels share one scale (cm), so sizes and offsets compare across rows."""
+    error. All panels share one scale (cm), so sizes and offsets compare across rows.
+
+    Parameters
+    ----------
+    rows : dict
+        ``{condition: {trajectory name: TrackResult}}``; every row has the same trajectories.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     import matplotlib.pyplot as plt
 
     names = list(next(iter(rows.values())))
@@ -153,7 +180,22 @@ def plot_figure3(rows: dict, title: str = ""):
 
 def plot_helix(result, robot, title: str = ""):
     """Figure 4: the helix in 3-D (target pink, achieved dark), its y-z and x-z projections,
-    and the motor commands."""
+    and the motor commands.
+
+    Parameters
+    ----------
+    result : TrackResult
+        The tracked helix.
+    robot : RobotDescription
+        The robot (its cables and u_max).
+    title : str, optional
+        The figure's title (default: the number of targets).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     import matplotlib.pyplot as plt
 
     fig = plt.figure(figsize=(15, 8), layout="constrained")
@@ -187,9 +229,23 @@ def plot_helix(result, robot, title: str = ""):
 
 
 def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achieved_color: str = TARGET_COLOR):
-    """Figure 5: one 3-D panel per trajectory, target in black and achieved tip in pink (the
-    paper's colours for this figure), centimetres, equal axis scales; the panel title gives
-    the mean and max 3-D error. ``results``: {name: TrackResult}."""
+    """Figure 5: one 3-D panel per trajectory, target and achieved tip, centimetres, equal axis
+    scales; the panel title gives the mean and max 3-D error.
+
+    Parameters
+    ----------
+    results : dict
+        ``{name: TrackResult}``.
+    title : str, optional
+        The figure's title.
+    target_color, achieved_color : str, optional
+        Colours of the target (black) and the achieved tip (pink: the paper's for this figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     import matplotlib.pyplot as plt
 
     n = len(results)

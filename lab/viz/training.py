@@ -20,9 +20,23 @@ SETS = (("perf", "training"), ("vperf", "validation"), ("tperf", "test"))
 
 
 def plot_lm_training(log, n_train: int, *, figsize=(11, 3.8)):
-    """The training figure of ``log`` (a :class:`lab.learn.TrainLog` whose ``history`` has
-    ``epoch``, ``perf``/``vperf``/``tperf`` in m², ``gradient`` and ``mu``) for a run on
-    ``n_train`` training samples. Returns ``(fig, (ax_perf, ax_lm))``."""
+    """The training figure of a run on ``n_train`` training samples.
+
+    Parameters
+    ----------
+    log : TrainLog
+        A :class:`lab.learn.TrainLog` whose ``history`` has ``epoch``, ``perf``/``vperf``/``tperf``
+        in m², ``gradient`` and ``mu``.
+    n_train : int
+        Training samples of the run.
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, (ax_perf, ax_lm))``: the matplotlib Figure and its two axes.
+    """
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
 

@@ -35,9 +35,26 @@ PAPER_MEAN_CM = _paper_means()
 
 
 def plot_transfer_curve(rows, metrics=("tracking_mean_m", "model_error_m"), *, title: str = "", figsize=(12, 4.6)):
-    """One panel per metric (m, drawn in cm) against N (log axis). ``rows``: dicts with
-    ``robot``, ``method``, ``n_real`` and the metrics (the shipped robot, if present, is left
-    out of the family statistics). Returns ``(fig, axes)``."""
+    """One panel per metric (m, drawn in cm) against N (log axis): per method the family's
+    mean (line) and range (band); the shipped robot, if present, is left out of the family
+    statistics.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of a transfer curve: ``robot``, ``method``, ``n_real`` and the metrics (m).
+    metrics : sequence of str, optional
+        The columns drawn, one panel each.
+    title : str, optional
+        The figure's title (default: a description with the number of robots).
+    figsize : tuple of float, optional
+        Figure size (inches).
+
+    Returns
+    -------
+    tuple
+        ``(fig, axes)``: the matplotlib Figure and its axes, one per metric.
+    """
     import matplotlib.pyplot as plt
 
     fam = [r for r in rows if r["robot"] != "shipped"]
