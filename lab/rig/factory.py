@@ -36,9 +36,9 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
 
     overrides = spec.mesh.overrides()
     if spec.family_seed is not None:
-        from lab.rig.family import family_member
+        from lab.asbuilt.family import FAMILIES
 
-        defects = family_member(robot, f"{spec.family}:{spec.family_seed}", **overrides)
+        defects = FAMILIES[spec.family].defects(robot, spec.family_seed, **overrides)
         return AsBuiltBody(robot, defects, **overrides)
     return AsBuiltBody(robot, spec.defects_path, **overrides)
 
@@ -77,14 +77,12 @@ def make_rig(
             raise InputError("--rig sim: give the FEM or the mesh overrides, not both")
         return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
     if spec.kind == "twin":
-        if spec.family_seed is not None and spec.family == "foam":
-            from lab.rig.family import FoamTwinRig
-
-            return FoamTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
         if spec.family_seed is not None:
-            from lab.rig.family import FamilyTwinRig
+            from lab.asbuilt.family import FAMILIES
+            from lab.rig.twin import FamilyTwinRig
 
-            return FamilyTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
+            family = FAMILIES[spec.family]
+            return FamilyTwinRig(robot, spec.family_seed, seed=seed, family=family, **spec.mesh.overrides())
         from lab.rig.twin import TwinRig
 
         return TwinRig(robot, seed=seed, body=as_built_body(spec, robot))

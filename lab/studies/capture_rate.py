@@ -2,7 +2,7 @@
 
 :func:`capture_rate_study` captures the same random allowed commands on each robot with
 the waiting protocol (the paper's, at several settle tolerances) and the predictive one
-(:mod:`lab.rig.predictive`, at several prediction tolerances), on the twin's virtual
+(:mod:`lab.capture.predictive`, at several prediction tolerances), on the twin's virtual
 clock, and compares every recorded tip with the robot's **noise-free settled tip** for
 that command (:meth:`~lab.rig.twin.AsBuiltBody.quasi_static_tip`): the truth a capture
 is after. Rates and errors count every sample (the predictive protocol's learning samples, captured by
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
 from lab.description import RobotDescription
-from lab.rig.capture import capture
-from lab.rig.protocol import Protocol
 
 #: columns of the study's rows / CSV
 COLUMNS = (
@@ -102,11 +102,11 @@ def capture_rate_study(
     progress=None,
 ) -> list[dict]:
     """Rows of :data:`COLUMNS`: for each robot label (``"shipped"`` or ``"random:SEED"``,
-    :func:`lab.rig.family.family_member`), ``n_samples`` random allowed commands (seeded by
+    :func:`lab.asbuilt.family.family_member`), ``n_samples`` random allowed commands (seeded by
     ``seed``) captured with each tolerance of each protocol. ``mesh``: ``n_rings``/``n_axial``
     of the emulator's FEM (coarse meshes for tests). ``progress(row)`` is called per row."""
+    from lab.asbuilt.family import family_member
     from lab.data.designs import random_commands
-    from lab.rig.family import family_member
     from lab.rig.twin import AsBuiltBody
 
     mesh = mesh or {}

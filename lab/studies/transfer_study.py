@@ -258,12 +258,12 @@ def smallest_n(rows: list[dict], threshold_m: float, metric: str = "tracking_mea
 
 def defect_variants(defects, robot) -> dict:
     """The as-built ``defects`` taken apart, to trace the sim-to-real bias to its causes:
-    ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> a :class:`lab.rig.asbuilt.Defects`
+    ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> a :class:`lab.asbuilt.arm.Defects`
     with only that geometric defect (softness, stiffness gradient, eyelet shifts, cable
     slack; "all": every one) and no friction play, so that each is a quasi-static map."""
     import copy
 
-    from lab.rig.asbuilt import parse_defects
+    from lab.asbuilt.arm import parse_defects
 
     def only(material=None, eyelets=False, slack=False):
         d = copy.deepcopy(defects.source)
