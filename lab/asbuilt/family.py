@@ -177,6 +177,8 @@ class Family:
         return {"label": self.label, "family": family}
 
 
+# The headers and generator names below are what members' files and rig metadata have
+# always recorded (paths of the modules that first wrote them): byte for byte the same files.
 #: The first family: every in-class defect drawn uniformly from :data:`~lab.asbuilt.draw.RANGES`.
 RANDOM = Family(
     name="random",
