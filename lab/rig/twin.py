@@ -10,7 +10,8 @@ exactly (three with the defects file's creep); and where the motion capture sees
 (:meth:`AsBuiltBody.report`: the base's tilt, the mocap's frame error). ``TwinRig`` puts
 the body on a virtual clock advanced one motion-capture frame per ``next_frame()`` and
 observes the tip through ``MocapModel`` (Gaussian noise and occlusion bursts, NaN
-frames). Deterministic for a given seed. The model step by step: ``docs/design/rig.md``.
+frames). Deterministic for a given seed. :class:`FamilyTwinRig` is the twin on a member of a
+family of as-built robots (:class:`lab.asbuilt.Family`). The model step by step: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
