@@ -74,7 +74,7 @@ class Family:
     def defects(
         self, robot: RobotDescription, seed: int, *, n_rings: int | None = None, n_axial: int | None = None
     ) -> Defects:
-        """Member ``seed`` of the family of as-built ``robot``s.
+        """Member ``seed`` of the family: an as-built copy of ``robot``.
 
         Parameters
         ----------
