@@ -3,7 +3,7 @@
     python benchmarks/bench_calibration_coverage.py        # ~10 minutes on 1 core
     python benchmarks/bench_calibration_coverage.py --seeds 5 --out-seeds 3   # a quick look
 
-Each robot is a member of the emulated as-built family (`twin:random:SEED`, lab.rig.family),
+Each robot is a member of the emulated as-built family (`twin:random:SEED`, lab.asbuilt.family),
 on a coarse 2-ring x 10-layer mesh (robot and fit on the same mesh: mesh error is not the
 subject here), sampled at N maximin commands with its own mocap noise, the settled tips
 of the capture protocol (lab.rig.twin.quasi_static_tips). The fit declares the robot's true
@@ -14,7 +14,7 @@ noise (--noise-m = noise_sigma_m), so a correct model leaves chi2 ~ chi2(3N - p_
 - as drawn: the member itself (axial eyelet shifts of up to 2 mm, play counted as slack:
   lab.transfer.recovery.true_theta(play_as_slack=True));
 - out of class: the in-class member plus one defect calibrate has no parameter for
-  (lab/rig/defects_fields.py): base tilt 1.5 deg, mocap frame rotation 0.5 deg, cable
+  (lab/asbuilt/fields.py): base tilt 1.5 deg, mocap frame rotation 0.5 deg, cable
   stiffness 500 N/m, the hyperfoam law (alpha 8, matched to the nominal E and nu at small
   strain). Creep is left out: the settled tips have no time in them.
 
@@ -31,12 +31,12 @@ import time
 
 import numpy as np
 
+from lab.asbuilt import RANDOM
+from lab.asbuilt.parse import parse_defects
 from lab.data.designs import design_commands
 from lab.description import load_robot
 from lab.fem.hyperfoam import hyperfoam_matching
 from lab.fem.parameters import ParametrisedFEM
-from lab.rig.defects_parse import parse_defects
-from lab.rig.family import random_defects
 from lab.rig.twin import AsBuiltBody, quasi_static_tips
 from lab.transfer import calibrate
 from lab.transfer.recovery import recovery_rows, summary_table, true_theta
@@ -71,7 +71,7 @@ DEFECTS = {
 
 
 def member(seed: int, case: str):
-    data = copy.deepcopy(random_defects(robot, seed, **mesh).source)
+    data = copy.deepcopy(RANDOM.defects(robot, seed, **mesh).source)
     if case != "as drawn":
         in_class(data)
     if case in DEFECTS:

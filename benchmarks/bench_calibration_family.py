@@ -33,7 +33,7 @@ from lab.workers import worker_config
 
 
 def robot_rows(robot_name: str, label: str, n: int, seed: int) -> list[dict]:
-    from lab.rig.family import family_member
+    from lab.asbuilt.family import family_member
 
     robot = load_robot(robot_name)
     u = design_commands(robot, n, "maximin", seed)

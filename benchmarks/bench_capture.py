@@ -109,11 +109,11 @@ def part2(robot):
 
 
 def part3(robot, relax, n):
+    from lab.capture.protocol import Protocol
+    from lab.capture.session import capture
     from lab.data.designs import random_commands
-    from lab.rig.capture import capture
     from lab.rig.emulators import EmulatedBench
     from lab.rig.hardware import HardwareRig
-    from lab.rig.protocol import Protocol
     from lab.rig.twin import AsBuiltBody
 
     print(f"\n3. emulators, real clock: {n} samples per protocol through dynamixel-sdk + NatNet")

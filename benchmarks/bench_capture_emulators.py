@@ -24,12 +24,12 @@ from pathlib import Path
 import numpy as np
 
 import lab.rig.dynamixel as dynamixel
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
 from lab.data.designs import random_commands
 from lab.description import load_robot
-from lab.rig.capture import capture
 from lab.rig.emulators import EmulatedBench
 from lab.rig.hardware import HardwareRig
-from lab.rig.protocol import Protocol
 from lab.rig.twin import AsBuiltBody
 
 

@@ -21,11 +21,11 @@ import time
 
 import numpy as np
 
+from lab.asbuilt.family import family_member
+from lab.asbuilt.parse import parse_defects
 from lab.data.designs import design_commands, grid_commands
 from lab.description import load_robot
 from lab.learn import load_model
-from lab.rig.defects_parse import parse_defects
-from lab.rig.family import family_member
 from lab.rig.twin import AsBuiltBody, quasi_static_tips
 from lab.studies.transfer_study import evaluate_model, make_methods, random_safe_commands
 from lab.transfer.calibrated import calibrated_model

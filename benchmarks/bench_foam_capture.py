@@ -5,7 +5,7 @@
 The same ``--n`` random allowed commands are captured on ``--rig twin:foam:SEED`` (the
 hyperfoam law, tilt, frame error, stretching cables and a third lag mode of minutes: creep),
 first by waiting (the paper's protocol) and then predictively (``capture --protocol
-predictive``), each on a fresh rig with the repeat check on (:func:`lab.rig.capture.capture`).
+predictive``), each on a fresh rig with the repeat check on (:func:`lab.capture.session.capture`).
 Per protocol: samples per hour of robot time, the mean distance from the tip the robot
 settles to after a long hold (:meth:`lab.rig.twin.AsBuiltBody.quasi_static_tip`, every
 mode relaxed), the mean distance of the predicted samples from the waited ones (same
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.asbuilt.family import family_member
+from lab.capture.session import capture, repeat_check_line
 from lab.data.designs import random_commands
 from lab.description import load_robot
 from lab.files import atomic_write_text, code_version
-from lab.rig.capture import capture, repeat_check_line
-from lab.rig.family import family_member
 from lab.rig.twin import AsBuiltBody, TwinRig
 from lab.studies.capture_rate import protocol_for
 

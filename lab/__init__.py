@@ -8,11 +8,12 @@ commands and solving them gives (u, y) **data** (:mod:`lab.data`), from which
 :mod:`lab.learn` trains the **model** -- a small MLP with the Appendix's analytic
 Jacobian -- and :mod:`lab.dynamics` the foam's lag in time. :mod:`lab.control` inverts any
 such forward map (**IK**) and makes **trajectories**; :mod:`lab.rig` drives the **rig** --
-the FEM, an emulated as-built twin or the Dynamixel/OptiTrack hardware -- and captures data
-on it; :mod:`lab.transfer` calibrates the FEM to it; :mod:`lab.tracking` follows
-trajectories on a rig; :mod:`lab.studies` tabulates Table I and the measured curves.
-:mod:`lab.viz` draws, :mod:`lab.cli` is the command line (``python -m lab``). Errors raised
-on purpose derive from :class:`lab.errors.LabError`; typed settings are in :mod:`lab.specs`.
+the FEM, an emulated as-built twin (the **as-built robots**: :mod:`lab.asbuilt`) or the
+Dynamixel/OptiTrack hardware -- and :mod:`lab.capture` captures data on it;
+:mod:`lab.transfer` calibrates the FEM to it; :mod:`lab.tracking` follows trajectories on
+a rig; :mod:`lab.studies` tabulates Table I and the measured curves. :mod:`lab.viz` draws,
+:mod:`lab.cli` is the command line (``python -m lab``). Errors raised on purpose derive
+from :class:`lab.errors.LabError`; typed settings are in :mod:`lab.specs`.
 """
 
 __version__ = "0.1.0"

@@ -11,8 +11,8 @@ import tomllib
 
 from sweep import Case
 
+from lab.asbuilt.arm import load_defects
 from lab.description import ROBOTS_DIR, load_robot
-from lab.rig.asbuilt import load_defects
 
 CAPTURE = ["capture", "--grid", "2", "--no-progress", "--out", "{dir}/c.csv"]
 NOT_CAPTURED = ("{dir}/c.csv", "{dir}/c.journal.csv")

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from helpers import subprocess_env
 
+from lab.asbuilt.arm import as_built_fem, load_defects
 from lab.cli import main
 from lab.data.dataset import read_dataset, write_dataset
 from lab.data.designs import sobol_commands
@@ -18,7 +19,6 @@ from lab.description import DescriptionError, load_robot, parse_robot
 from lab.fem.energy import ArmFEM
 from lab.fem.parameters import ParametrisedFEM
 from lab.fem.statics import solve_static
-from lab.rig.asbuilt import as_built_fem, load_defects
 from lab.transfer import calibrate, calibrated_robot, prior_std, robot_toml, write_calibrated_robot
 
 MESH = dict(n_rings=1, n_axial=6)
@@ -266,14 +266,14 @@ def test_recovery_on_family_members_beats_the_nominal_in_every_block(three_cable
     # recovered vs true on two emulated as-built robots of the family (2 x 10 mesh: one ring
     # is too coarse for a stiffness gradient to tell from softness): each
     # block of theta ends closer to the truth than the nominal robot starts
+    from lab.asbuilt import RANDOM
     from lab.data.designs import design_commands
-    from lab.rig.family import random_defects
     from lab.transfer.recovery import recovery_rows, recovery_summary, true_theta
 
     u = design_commands(three_cable, 15, "maximin", 0)
     rows = []
     for seed in (0, 1):
-        d = random_defects(three_cable, seed, **FAMILY_MESH)
+        d = RANDOM.defects(three_cable, seed, **FAMILY_MESH)
         pf = ParametrisedFEM(three_cable, **FAMILY_MESH)
         theta = true_theta(pf.layout, d)
         assert np.isclose(np.exp(theta[0]), d.softness) and np.allclose(theta[pf.layout.slack], d.slack_m)

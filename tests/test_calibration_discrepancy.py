@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from scipy.stats import chi2 as chi2_dist
 
+from lab.asbuilt.arm import load_defects
 from lab.cli import main
 from lab.data.dataset import write_dataset
 from lab.data.designs import design_commands
-from lab.rig.asbuilt import load_defects
 from lab.rig.twin import AsBuiltBody, quasi_static_tips
 from lab.transfer import DISCREPANCY_QUANTILE, calibrate, model_check
 from lab.transfer.recovery import true_theta

@@ -10,16 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lab.asbuilt.arm import default_defects_path, parse_defects
+from lab.capture.journal import Journal, JournalError, lock_path
+from lab.capture.protocol import Protocol, SettleDetector, measure
+from lab.capture.session import capture
+from lab.capture.spec import CaptureSpec, ProtocolSpec
 from lab.data.dataset import read_dataset
 from lab.data.design_spec import DesignSpec
 from lab.data.designs import grid_commands
 from lab.errors import InputError
-from lab.rig.asbuilt import default_defects_path, parse_defects
 from lab.rig.base import MocapError, MocapFrame, Rig
-from lab.rig.capture import capture
-from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
-from lab.rig.journal import Journal, JournalError, lock_path
-from lab.rig.protocol import Protocol, SettleDetector, measure
 from lab.rig.sim import SimRig
 from lab.rig.spec import RigSpec
 from lab.rig.twin import AsBuiltBody, TwinRig
@@ -142,7 +142,7 @@ def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_pat
     back within the threshold; one that creeps over minutes does not, and the capture says so."""
     import copy
 
-    from lab.rig.capture import repeat_check_line, repeat_threshold_m
+    from lab.capture.session import repeat_check_line, repeat_threshold_m
 
     creeping = copy.deepcopy(twin_defects.source)
     creeping["lag"].update(creep_fraction=0.1, creep_tau_s=60.0)

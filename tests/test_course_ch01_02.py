@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from scipy.sparse.linalg import spsolve
 
+from lab.capture import SettleDetector
 from lab.course.ch01 import WARM_FRACTION, check_cable_length, check_newton_solve, check_warm_walk, walk_cases
 from lab.course.ch02 import check_capture_sample, check_first_settled, check_goal_ticks
 from lab.fem import ArmFEM, solve_static
-from lab.rig import AsBuiltBody, SettleDetector
+from lab.rig import AsBuiltBody
 
 
 @pytest.fixture(scope="module")

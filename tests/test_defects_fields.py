@@ -1,5 +1,5 @@
 """Defects outside the calibrator's model class: base tilt, mocap frame error, cable
-stiffness, creep, and the hyperfoam law's fields (lab.rig.defects_fields / defects_parse).
+stiffness, creep, and the hyperfoam law's fields (lab.asbuilt.fields / defects_parse).
 
 Everything runs on the coarse mesh (n_rings=1, n_axial=6), eyelets in place (the 1-ring
 mesh is too thin for the shipped shifts). Absent -- or zero -- the new fields leave the
@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 from helpers import fd_jacobian
 
+from lab.asbuilt.arm import DefectsError, SeriesCableFEM, as_built_fem, default_defects_path, load_defects
+from lab.asbuilt.fields import rotation
+from lab.asbuilt.parse import parse_defects
+from lab.capture.protocol import measure
 from lab.errors import InputError
 from lab.fem.energy import ArmFEM
 from lab.fem.statics import solve_static
-from lab.rig.asbuilt import DefectsError, SeriesCableFEM, as_built_fem, default_defects_path, load_defects
-from lab.rig.defects_fields import rotation
-from lab.rig.defects_parse import parse_defects
-from lab.rig.protocol import measure
 from lab.rig.twin import AsBuiltBody, TwinRig, quasi_static_tips
 
 COARSE = dict(n_rings=1, n_axial=6)
@@ -219,7 +219,7 @@ def test_hyperfoam_law_reaches_the_fem_scaled_per_tet(three_cable, shipped):
 
 
 def test_a_law_that_refuses_its_parameters_names_the_file(three_cable, shipped, monkeypatch):
-    import lab.rig.asbuilt as asbuilt
+    import lab.asbuilt.arm as asbuilt
 
     def refuse(*args):
         raise InputError("hyperfoam beta must be finite and >= 0")

@@ -119,7 +119,7 @@ def test_twin_integrates_motors_play_and_lag_at_the_frame_rate(three_cable):
 
 # --- fit-dynamics ----------------------------------------------------------------------------------
 def test_probe_plan_is_allowed_and_reproducible(three_cable):
-    from lab.rig.dynamics_probe import probe_plan
+    from lab.capture.dynamics_probe import probe_plan
 
     a, b = probe_plan(three_cable, 3, 4, 10), probe_plan(three_cable, 3, 4, 10)
     assert np.array_equal(a.u_motor, b.u_motor) and len(a.u_motor) == 15
@@ -130,8 +130,8 @@ def test_probe_plan_is_allowed_and_reproducible(three_cable):
 
 
 def test_fit_recovers_the_twins_lag(three_cable):
+    from lab.capture.dynamics_probe import probe_plan, run_probe
     from lab.dynamics.relaxation_fit import fit_stream
-    from lab.rig.dynamics_probe import probe_plan, run_probe
 
     rig = coarse_rig(three_cable)
     relax, report = fit_stream(run_probe(rig, probe_plan(three_cable, 0, 4, 20)), 2)
@@ -146,9 +146,9 @@ def test_fit_dynamics_cli_writes_a_model(three_cable, tmp_path):
     args = ["fit-dynamics", "--rig", "twin:random:2", "--out", str(out), "--n-steps", "3", "--n-random", "12"]
     assert main([*args, *COARSE_FLAGS]) == 0
     relax = load_relaxation(out)
-    from lab.rig.family import random_defects
+    from lab.asbuilt import RANDOM
 
-    d = random_defects(three_cable, 2)
+    d = RANDOM.defects(three_cable, 2)
     assert relax.tau_s == pytest.approx([d.tau_fast_s, d.tau_slow_s], rel=0.1)
     with np.load(out) as z:
         meta = json.loads(str(z["metadata"]))
@@ -220,8 +220,8 @@ def streamed(three_cable, solver):
     """The 5 s circle on the coarse twin, open loop and feed-forward through its defects' filter
     (two periods after a 5 s lead-in; the model is the shipped twin's, 8.5 mm off the coarse
     twin's statics, which bounds the feed-forward: 2.7x better here, 25x on the shipped twin)."""
+    from lab.asbuilt.arm import load_defects
     from lab.control.trajectories import load_trajectory
-    from lab.rig.asbuilt import load_defects
     from lab.tracking.stream import stream_trajectory
 
     relax = defects_filter(load_defects(None, three_cable))
@@ -321,7 +321,7 @@ def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
     a 3 s hold shows all of a step, whatever the load on the machine does to the clock."""
     import dataclasses
 
-    from lab.rig.asbuilt import load_defects
+    from lab.asbuilt.arm import load_defects
     from lab.rig.emulators import EmulatedBench
 
     out = tmp_path / "dyn.npz"

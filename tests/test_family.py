@@ -1,4 +1,4 @@
-"""The family of emulated as-built robots (lab.rig.family): seeded defects files, their
+"""The family of emulated as-built robots (lab.asbuilt.RANDOM): seeded defects files, their
 ranges, ``--rig twin:random:SEED`` and ``python -m lab defects``. Emulators run on coarse
 meshes (2 rings, 4 layers)."""
 
@@ -10,22 +10,15 @@ import numpy as np
 import pytest
 from sweep import Case, run_case
 
+from lab.asbuilt import RANDOM
+from lab.asbuilt.arm import as_built_fem, load_defects
+from lab.asbuilt.draw import FIXED, RANGES
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
 from lab.cli import main
 from lab.description import ROBOTS_DIR, Cable, load_robot, shipped_robots
 from lab.errors import InputError
-from lab.rig import make_rig
-from lab.rig.asbuilt import as_built_fem, load_defects
-from lab.rig.capture import capture
-from lab.rig.family import (
-    FIXED,
-    LABEL,
-    RANGES,
-    FamilyTwinRig,
-    random_defects,
-    random_defects_toml,
-    write_random_defects,
-)
-from lab.rig.protocol import Protocol
+from lab.rig import FamilyTwinRig, make_rig
 
 SEEDS = range(40)
 COARSE = dict(n_rings=2, n_axial=4)
@@ -72,34 +65,34 @@ def field_values(robot, d) -> dict:
 
 def test_same_seed_same_file_and_different_seeds_differ(three_cable, tmp_path):
     a, b = tmp_path / "a.toml", tmp_path / "sub" / "b.toml"
-    write_random_defects(a, three_cable, 3)
-    write_random_defects(b, three_cable, 3)
-    assert a.read_bytes() == b.read_bytes() == random_defects_toml(three_cable, 3).encode()
+    RANDOM.write(a, three_cable, 3)
+    RANDOM.write(b, three_cable, 3)
+    assert a.read_bytes() == b.read_bytes() == RANDOM.toml(three_cable, 3).encode()
     assert not list(tmp_path.rglob(".*.tmp*"))  # written atomically, nothing left over
-    hashes = {random_defects(three_cable, s).sha256 for s in range(10)}
+    hashes = {RANDOM.defects(three_cable, s).sha256 for s in range(10)}
     assert len(hashes) == 10
-    softness = [random_defects(three_cable, s).softness for s in range(10)]
+    softness = [RANDOM.defects(three_cable, s).softness for s in range(10)]
     assert len(set(softness)) == 10
 
 
 def test_round_trip_through_load_defects(three_cable, tmp_path):
     for seed in (0, 7, 123456789):
         path = tmp_path / f"d{seed}.toml"
-        drawn = write_random_defects(path, three_cable, seed, **COARSE)
+        drawn = RANDOM.write(path, three_cable, seed, **COARSE)
         loaded = load_defects(path, three_cable)
-        assert loaded.sha256 == drawn.sha256 == random_defects(three_cable, seed, **COARSE).sha256
+        assert loaded.sha256 == drawn.sha256 == RANDOM.defects(three_cable, seed, **COARSE).sha256
         assert loaded.source == drawn.source and (loaded.n_rings, loaded.n_axial) == (2, 4)
         for c_l, c_d in zip(loaded.cables, drawn.cables):
             assert np.array_equal(c_l.via_shift_m, c_d.via_shift_m) and c_l.slack_m == c_d.slack_m
         text = path.read_text()
-        assert f"member {seed} of the family of {LABEL}s" in text and "U(0.55, 1.1)" in text
+        assert f"member {seed} of the family of {RANDOM.label}s" in text and "U(0.55, 1.1)" in text
 
 
 def test_ranges_respected_spread_and_wider_than_the_shipped_file(three_cable):
     shipped = load_defects(None, three_cable)
     drawn = {k: [] for k in RANGES}
     for seed in SEEDS:
-        d = random_defects(three_cable, seed)
+        d = RANDOM.defects(three_cable, seed)
         assert d.ticks_per_rev == FIXED["ticks_per_rev"] and d.frame_rate_hz == FIXED["frame_rate_hz"]
         assert d.tau_slow_s >= d.tau_fast_s
         for k, v in field_values(three_cable, d).items():
@@ -132,12 +125,12 @@ def _held_out_robot(three_cable):
 def test_every_robot_builds_its_as_built_fem(name, three_cable):
     robot = _held_out_robot(three_cable) if name == "held-out" else coarse(load_robot(name))
     for seed in range(6):
-        d = random_defects(robot, seed)
+        d = RANDOM.defects(robot, seed)
         assert len(d.cables) == robot.n_cables
         fem = as_built_fem(robot, d)  # every eyelet inside the body and the mesh
         assert fem.mesh.n_nodes > 0
     if name == "six-cable":  # cables through the same eyelets share their shift
-        d = random_defects(robot, 1)
+        d = RANDOM.defects(robot, 1)
         for long, short in ((0, 3), (1, 4), (2, 5)):
             assert np.array_equal(d.cables[long].via_shift_m, d.cables[short].via_shift_m)
             assert d.cables[long].slack_m != d.cables[short].slack_m
@@ -147,21 +140,21 @@ def test_shifts_are_shrunk_to_fit_a_one_ring_mesh(three_cable):
     robot = dataclasses.replace(three_cable, n_rings=1, n_axial=6)
     limit = 0.02 * math.cos(math.pi / 6)  # the 1-ring section: a hexagon
     for seed in SEEDS:
-        d = random_defects(robot, seed)
+        d = RANDOM.defects(robot, seed)
         for cable, c in zip(robot.cables, d.cables):
             assert np.hypot(*(cable.via_points_m[:, 1:] + c.via_shift_m[1:]).T).max() < limit
-    as_built_fem(robot, random_defects(robot, 5))
+    as_built_fem(robot, RANDOM.defects(robot, 5))
 
 
 def test_twin_random_rig_captures(three_cable, tmp_path):
     robot = coarse(three_cable)
     u = np.array([[1.0, 0.0, 0.5], [0.0, 2.0, 1.0]])
     with make_rig("twin:random:3", robot, seed=1) as rig:
-        assert isinstance(rig, FamilyTwinRig) and rig.defects.sha256 == random_defects(robot, 3).sha256
+        assert isinstance(rig, FamilyTwinRig) and rig.defects.sha256 == RANDOM.defects(robot, 3).sha256
         res = capture(rig, u, tmp_path / "j.csv", Protocol(), progress=False)
         info = rig.describe()
     assert res.p_tip_W.shape == (2, 3) and np.all(np.isfinite(res.p_tip_W))
-    assert info["kind"] == "twin" and info["label"] == LABEL and info["family"]["robot_seed"] == 3
+    assert info["kind"] == "twin" and info["label"] == RANDOM.label and info["family"]["robot_seed"] == 3
     assert info["defects"]["path"] == "random:3" and info["seed"] == 1
     with make_rig("twin:random:4", robot) as other:  # another robot of the family
         assert other.defects.sha256 != rig.defects.sha256
@@ -185,14 +178,14 @@ def test_bad_random_specs(spec, words, three_cable):
 def test_bad_seed_arguments(three_cable):
     for bad in (-1, 1.5, True, "3"):
         with pytest.raises(InputError, match="non-negative integer"):
-            random_defects(three_cable, bad)
+            RANDOM.defects(three_cable, bad)
 
 
 def test_defects_cli_writes_the_family_member(tmp_path, capsys, three_cable):
     out = tmp_path / "d.toml"
     assert main(["defects", "--random", "3", "--robot", "three-cable", "--n-rings", "2", "--out", str(out)]) == 0
     assert "twin:" in capsys.readouterr().err
-    assert load_defects(out, three_cable).sha256 == random_defects(three_cable, 3, n_rings=2).sha256
+    assert load_defects(out, three_cable).sha256 == RANDOM.defects(three_cable, 3, n_rings=2).sha256
     data = tomllib.loads(out.read_text())
     assert data["emulator"] == {"n_rings": 2} and "--random 3 --robot three-cable --n-rings 2" in out.read_text()
     again = tmp_path / "again.toml"

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from helpers import fd_jacobian
 
+from lab.asbuilt.arm import as_built_fem, load_defects
 from lab.fem.energy import ArmFEM
 from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM
 from lab.fem.statics import sensitivities, solve_static
-from lab.rig.asbuilt import as_built_fem, load_defects
 
 MESH = dict(n_rings=1, n_axial=6)
 U = np.array([1.5, 0.8, 0.3])

@@ -1,4 +1,4 @@
-"""The foam family of emulated as-built robots (lab.rig.foam_family, ``--rig twin:foam:SEED``,
+"""The foam family of emulated as-built robots (lab.asbuilt.FOAM, ``--rig twin:foam:SEED``,
 ``python -m lab defects --foam SEED``): the random family unchanged, the same in-class draws,
 the out-of-class fields within their ranges, the TOML round trip and a capture end to end.
 Emulators run on coarse meshes."""
@@ -11,26 +11,19 @@ import math
 import numpy as np
 import pytest
 
+from lab.asbuilt import FOAM, RANDOM, family_member
+from lab.asbuilt.arm import SeriesCableFEM, load_defects
+from lab.asbuilt.foam import FOAM_RANGES, foam_mesh
 from lab.cli import main
 from lab.description import ROBOTS_DIR, load_robot
 from lab.errors import InputError
 from lab.fem import MeshSpec
 from lab.fem.hyperfoam import hyperfoam_matching
-from lab.rig import FoamTwinRig, RigSpec, as_built_body, make_rig
-from lab.rig.asbuilt import SeriesCableFEM, load_defects
-from lab.rig.family import family_member, random_defects, random_defects_toml
-from lab.rig.foam_family import (
-    FOAM_LABEL,
-    FOAM_RANGES,
-    foam_defects,
-    foam_defects_toml,
-    foam_mesh,
-    write_foam_defects,
-)
+from lab.rig import FamilyTwinRig, RigSpec, as_built_body, make_rig
 
 COARSE = dict(n_rings=1, n_axial=6)
 
-#: sha256 of random_defects_toml(...) text, printed by the code before the foam family
+#: sha256 of RANDOM.toml(...) text, printed by the code before the foam family
 #: existed (git 083f1b7): the random family must stay bit for bit what it was.
 RANDOM_BEFORE = {
     ("three-cable", 3, ()): "ebca4146761960821f9dc4d06349e3d55502268f35a569d9d3bcbd4a8da51220",
@@ -46,7 +39,7 @@ RANDOM_BEFORE = {
 
 def test_the_random_family_is_unchanged(three_cable):
     for (name, seed, mesh), digest in RANDOM_BEFORE.items():
-        text = random_defects_toml(load_robot(name), seed, **dict(mesh))
+        text = RANDOM.toml(load_robot(name), seed, **dict(mesh))
         assert hashlib.sha256(text.encode()).hexdigest() == digest, (name, seed, mesh)
     assert RigSpec.parse("twin:random:2").as_dict()["rig"] == "twin:random:2"
     assert "family" not in RigSpec.parse("twin:random:2").as_dict()  # its metadata as before
@@ -54,11 +47,11 @@ def test_the_random_family_is_unchanged(three_cable):
 
 def test_same_seed_same_file_and_the_seeds_differ(three_cable, tmp_path):
     a, b = tmp_path / "a.toml", tmp_path / "sub" / "b.toml"
-    write_foam_defects(a, three_cable, 3)
-    write_foam_defects(b, three_cable, 3)
-    assert a.read_bytes() == b.read_bytes() == foam_defects_toml(three_cable, 3).encode()
+    FOAM.write(a, three_cable, 3)
+    FOAM.write(b, three_cable, 3)
+    assert a.read_bytes() == b.read_bytes() == FOAM.toml(three_cable, 3).encode()
     assert not list(tmp_path.rglob(".*.tmp*"))
-    assert len({foam_defects(three_cable, s).sha256 for s in range(8)}) == 8
+    assert len({FOAM.defects(three_cable, s).sha256 for s in range(8)}) == 8
     text = a.read_text()
     assert "member 3 of the foam family" in text and "--rig twin:foam:3" in text and "logU(200, 2000)" in text
 
@@ -71,7 +64,7 @@ IN_CLASS += ("profile_velocity_rad_s", "frame_rate_hz", "noise_sigma_m", "dropou
 def test_the_in_class_draws_are_those_of_the_random_member(name, mesh):
     robot = load_robot(name)
     for seed in range(6):
-        rand, foam = random_defects(robot, seed, **mesh), foam_defects(robot, seed, **mesh)
+        rand, foam = RANDOM.defects(robot, seed, **mesh), FOAM.defects(robot, seed, **mesh)
         for key in IN_CLASS:
             assert getattr(foam, key) == getattr(rand, key), (seed, key)
         assert np.array_equal(foam.gradient_direction_W, rand.gradient_direction_W)
@@ -85,7 +78,7 @@ def test_the_foam_fields_are_within_their_ranges_and_spread(three_cable):
     E, nu = three_cable.youngs_modulus_pa, three_cable.poisson_ratio
     drawn = {k: [] for k in FOAM_RANGES}
     for seed in range(40):
-        d = foam_defects(three_cable, seed)
+        d = FOAM.defects(three_cable, seed)
         mu, beta = hyperfoam_matching(E, nu, d.hyperfoam_alpha)  # the description's E and nu
         assert d.hyperfoam_mu_pa == pytest.approx(mu, rel=1e-6) and d.hyperfoam_beta == pytest.approx(beta, rel=1e-6)
         assert abs(d.tilt_axis_W[2]) < 1e-12 and np.linalg.norm(d.tilt_axis_W) == pytest.approx(1.0)  # horizontal
@@ -110,7 +103,7 @@ def test_the_foam_fields_are_within_their_ranges_and_spread(three_cable):
 def test_the_foam_member_is_the_emulated_robot(three_cable):
     spec = RigSpec.parse("twin:foam:3")
     assert spec == RigSpec("twin", family_seed=3, family="foam") and str(spec) == "twin:foam:3"
-    assert spec.label == FOAM_LABEL == "emulated as-built robot (foam family)"
+    assert spec.label == FOAM.label == "emulated as-built robot (foam family)"
     assert spec.as_dict()["family"] == "foam" and RigSpec.parse(str(spec)) == spec
     coarse = dataclasses.replace(three_cable, n_rings=1, n_axial=4)
     body = as_built_body(spec, coarse)  # its own mesh, finer than the description's: (2, 6)
@@ -150,10 +143,10 @@ def test_the_written_file_is_the_same_robot(tmp_path, capsys, three_cable):
     assert "member 3 of the foam family" in capsys.readouterr().err
     assert "--foam 3 --robot three-cable --n-rings 1 --n-axial 6" in out.read_text()
     loaded = load_defects(out, three_cable)
-    assert loaded.sha256 == foam_defects(three_cable, 3, **COARSE).sha256
+    assert loaded.sha256 == FOAM.defects(three_cable, 3, **COARSE).sha256
     u = np.array([1.5, 0.0, 0.8])
     with make_rig("twin:foam:3", three_cable, mesh=MeshSpec(**COARSE)) as drawn:
-        assert isinstance(drawn, FoamTwinRig) and drawn.describe()["label"] == FOAM_LABEL
+        assert isinstance(drawn, FamilyTwinRig) and drawn.family is FOAM and drawn.describe()["label"] == FOAM.label
         p_drawn = drawn.body.quasi_static_tip(u)
     with make_rig(f"twin:{out}", three_cable) as from_file:  # the file's [emulator] mesh
         assert np.array_equal(from_file.body.quasi_static_tip(u), p_drawn)
@@ -170,7 +163,7 @@ def test_capture_on_a_foam_member_end_to_end(tmp_path, monkeypatch):
     assert main([*args, "--seed", "1", "--out", "real.csv", "--no-progress"]) == 0
     meta = json.loads((tmp_path / "real.csv.json").read_text())
     rig = meta["rig"]
-    assert rig["label"] == FOAM_LABEL and rig["family"] == {
+    assert rig["label"] == FOAM.label and rig["family"] == {
         "name": "foam",
         "robot_seed": 3,
         "generator": "lab.rig.foam_family",

@@ -20,7 +20,8 @@ import pytest
 LAB = Path(__file__).resolve().parent.parent / "lab"
 
 #: The pipeline, lowest first: description -> fem (mesh, energy, statics) -> data -> model
-#: (learn) -> IK and trajectories (control) -> rig -> tracking -> studies; drawing and the CLI on top.
+#: (learn) -> IK and trajectories (control) -> the as-built robots (asbuilt) -> rig -> capture
+#: on a rig -> tracking -> studies; drawing and the CLI on top.
 LAYERS = [
     "lab",
     "errors",
@@ -33,7 +34,9 @@ LAYERS = [
     "learn",
     "dynamics",
     "control",
+    "asbuilt",
     "rig",
+    "capture",
     "transfer",
     "tracking",
     "studies",
@@ -49,7 +52,9 @@ SUBPACKAGES = [
     "learn",
     "dynamics",
     "control",
+    "asbuilt",
     "rig",
+    "capture",
     "transfer",
     "tracking",
     "studies",
@@ -127,16 +132,57 @@ def test_control_does_not_import_learn():
     assert not bad, bad
 
 
-def test_rig_does_not_import_learn():
+def in_package(module: str, package: str) -> bool:
+    """Whether ``module`` is ``lab.<package>`` or one of its modules."""
+    return module == f"lab.{package}" or module.startswith(f"lab.{package}.")
+
+
+#: the packages of the robot and its capture: the as-built robots, the rigs, capture on a rig
+RIG_PACKAGES = ("asbuilt", "rig", "capture")
+
+
+@pytest.mark.parametrize("package", RIG_PACKAGES)
+def test_rig_does_not_import_learn(package):
     # A rig drives a robot; the foam's dynamics it needs live below it (lab.dynamics), not in the model stage.
     bad = [
         f"{a} imports {b}"
         for a, deps in graph().items()
-        if a.startswith("lab.rig")
+        if in_package(a, package)
         for b in deps
-        if b.startswith("lab.learn")
+        if in_package(b, "learn")
     ]
     assert not bad, bad
+
+
+def test_rig_split_by_concern():
+    # The rig interface, its drivers and emulators know nothing of capture; the as-built
+    # robots know nothing of rigs or capture; capture works through the rig interface only,
+    # never on the as-built robots behind a twin.
+    forbidden = {"asbuilt": ("rig", "capture"), "rig": ("capture",), "capture": ("asbuilt",)}
+    bad = [
+        f"{a} imports {b}"
+        for a, deps in graph().items()
+        for package, others in forbidden.items()
+        if in_package(a, package)
+        for b in deps
+        if any(in_package(b, o) for o in others)
+    ]
+    assert not bad, bad
+
+
+def test_one_family_class():
+    # The families of as-built robots are parameter draws of one Family, not parallel copies.
+    from lab.asbuilt import FAMILIES, Family
+
+    assert set(FAMILIES) == {"random", "foam"} and all(type(f) is Family for f in FAMILIES.values())
+    classes = [
+        f"{module_name(p)}.{n.name}"
+        for p in sorted(LAB.rglob("*.py"))
+        if in_package(module_name(p), "asbuilt") or in_package(module_name(p), "rig")
+        for n in ast.walk(ast.parse(p.read_text()))
+        if isinstance(n, ast.ClassDef) and "Family" in n.name and not n.name.endswith("Spec")
+    ]
+    assert sorted(classes) == ["lab.asbuilt.family.Family", "lab.rig.twin.FamilyTwinRig"], classes
 
 
 def find_cycle(g: dict[str, set[str]]) -> list[str] | None:
@@ -340,7 +386,7 @@ def test_only_rigs_parse_rig_strings():
     bad = [
         f"{module_name(p)}:{line}: {code}"
         for p in sorted(LAB.rglob("*.py"))
-        if not module_name(p).startswith("lab.rig")
+        if not in_package(module_name(p), "rig")
         for line, code in rig_string_parsing(p.read_text())
     ]
     assert not bad, "--rig strings taken apart outside lab/rig (use lab.rig's parser):\n" + "\n".join(bad)

@@ -1,4 +1,4 @@
-"""The predictive capture protocol (lab.rig.predictive) and its Kalman filter (lab.rig.tip_filter)."""
+"""The predictive capture protocol (lab.capture.predictive) and its Kalman filter (lab.capture.tip_filter)."""
 
 import dataclasses
 import json
@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lab.asbuilt.arm import load_defects
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
+from lab.capture.tip_filter import TipFilter
 from lab.data.designs import random_commands
 from lab.dynamics.relaxation import Relaxation
 from lab.errors import InputError
-from lab.rig.asbuilt import load_defects
-from lab.rig.capture import capture
-from lab.rig.protocol import Protocol
-from lab.rig.tip_filter import TipFilter
 from lab.rig.twin import AsBuiltBody, TwinRig
 
 COARSE = {"n_rings": 2, "n_axial": 8}

@@ -13,12 +13,12 @@ counted in frames: nothing here depends on the machine's load.
 import numpy as np
 import pytest
 
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
 from lab.data.designs import random_commands
-from lab.rig.capture import capture
 from lab.rig.dynamixel_units import synced_velocity_units
 from lab.rig.emulators import EmulatedBench
 from lab.rig.hardware import HardwareRig
-from lab.rig.protocol import Protocol
 
 
 def test_synced_velocities_bring_every_servo_in_together():

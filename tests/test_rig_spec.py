@@ -2,11 +2,11 @@
 
 import pytest
 
+from lab.asbuilt import RANDOM
 from lab.errors import InputError
 from lab.fem import MeshSpec
 from lab.fem.energy import ArmFEM
 from lab.rig import FamilyTwinRig, RigSpec, SimRig, TwinRig, as_built_body, make_rig
-from lab.rig.family import random_defects
 
 TWIN_MESH = MeshSpec(n_rings=2, n_axial=4)
 
@@ -138,7 +138,7 @@ def test_make_rig_family_member_on_a_mesh(three_cable):
     with make_rig("twin:random:3", three_cable, seed=1, mesh=TWIN_MESH) as rig:
         assert isinstance(rig, FamilyTwinRig) and rig.robot_seed == 3 and rig.seed == 1
         assert rig.body.fem.mesh.n_nodes == want
-        assert rig.defects.sha256 == random_defects(three_cable, 3, **TWIN_MESH.overrides()).sha256
+        assert rig.defects.sha256 == RANDOM.defects(three_cable, 3, **TWIN_MESH.overrides()).sha256
     body = as_built_body("twin:random:3", three_cable, mesh=TWIN_MESH)
     assert body.defects.sha256 == rig.defects.sha256 and body.fem.mesh.n_nodes == want
 

@@ -1110,9 +1110,9 @@ def test_capture_stops_cleanly_on_sigterm_and_sighup(sig, code, tmp_path):
 def test_track_keeps_measured_points_when_the_rig_fails(tmp_path, monkeypatch, capsys):
     from sweep import make_inputs
 
+    from lab.capture.protocol import measure as real_measure
     from lab.cli import main
     from lab.rig import RigError
-    from lab.rig.protocol import measure as real_measure
 
     make_inputs(tmp_path)
     calls = []

@@ -299,7 +299,7 @@ def test_a_rerun_never_loses_the_kept_points(model_file, tmp_path, monkeypatch, 
     """An ILC run stopped after 6 points, a rerun stopped after 2, a rerun whose rig fails at
     once: the points file only grows (6, then 8 rows, then the same bytes); a run that
     completes writes the result and removes it."""
-    from lab.rig.protocol import measure as real_measure
+    from lab.capture.protocol import measure as real_measure
 
     out, points = tmp_path / "r.json", tmp_path / "r.json.points.csv"
     argv = ["track", "--model", str(model_file), "--trajectory", "circle", "--n-points", "4", *COARSE]

@@ -11,9 +11,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from lab.fem.statics import solve_static
-from lab.rig import make_rig
-from lab.rig.asbuilt import (
+from lab.asbuilt.arm import (
     DefectsError,
     as_built_fem,
     as_built_robot,
@@ -21,6 +19,8 @@ from lab.rig.asbuilt import (
     load_defects,
     parse_defects,
 )
+from lab.fem.statics import solve_static
+from lab.rig import make_rig
 from lab.rig.base import RigError
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
 

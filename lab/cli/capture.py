@@ -6,12 +6,12 @@
 
 Captures the safe commands of the grid (308 of 343 for 7 levels) or N commands of a
 space-filling design (--sobol N, --lhs N, --design D --n N) with the protocol of
-lab.rig.capture into an append-only journal (default: OUT with .journal.csv), then writes
+lab.capture.session into an append-only journal (default: OUT with .journal.csv), then writes
 the dataset OUT (+ OUT.json) in grid (or design) order. With --active N --batch B each batch
 is picked where an ensemble fitted to the samples so far disagrees most (rows in capture
 order; --order does not apply). Killed or failed, it keeps every sample so far and the same
 command continues where it stopped (an active run first finishes its batch); the rig is
-closed (torque off). Flags: lab.rig.CaptureSpec; the run: lab.tracking.capture_design.
+closed (torque off). Flags: lab.capture.CaptureSpec; the run: lab.tracking.capture_design.
 """
 
 from __future__ import annotations
@@ -19,12 +19,12 @@ from __future__ import annotations
 import argparse
 import sys
 
+from lab.capture.spec import CaptureSpec, ProtocolSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal
 from lab.cli.sampling import add_design_flags, design_from_args
 from lab.cli.signals import exit_code
 from lab.errors import LabError
-from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
 from lab.rig.spec import RigSpec
 
 

@@ -4,11 +4,11 @@
     python -m lab capture --rig twin:robot3.toml ...   # the same robot as --rig twin:random:3
     python -m lab defects --foam 3 --out foam3.toml      # the same robot as --rig twin:foam:3
 
-Draws member ``SEED`` of the family of as-built robots (``lab.rig.family``: softness,
+Draws member ``SEED`` of the family of as-built robots (``lab.asbuilt.family``: softness,
 stiffness gradient, eyelet shifts, slack, play, lag, motors, motion capture, from ranges
 justified there) for the robot description ``--robot`` (any number of cables), and writes
 it atomically as a commented defects file in the format of ``lab/rig/defects/``. ``--foam
-SEED`` draws member SEED of the foam family instead (``lab.rig.foam_family``): the same
+SEED`` draws member SEED of the foam family instead (``lab.asbuilt.foam``): the same
 in-class defects as ``--random SEED``, plus the hyperfoam law, cable stiffness, creep, a
 tilted base, the mocap's frame error and a finer emulator mesh. The same seed always gives
 the same file; edit it freely and pass it as ``--rig twin:FILE``. Results on it are an
@@ -21,10 +21,10 @@ import argparse
 import shlex
 import sys
 
+from lab.asbuilt.member_spec import FamilyMemberSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.mesh_spec import MeshSpec
-from lab.rig.member_spec import FamilyMemberSpec
 
 MESH_HELP = {
     "n_rings": "FEM mesh rings of the emulator, written to [emulator]",

@@ -1,8 +1,8 @@
 """``python -m lab fit-dynamics``: learn the foam's relaxation filter of a rig from step
 responses and short random motions.
 
-The rig is driven through the excitation of :mod:`lab.rig.dynamics_probe` while the motion
-capture is recorded (:class:`~lab.rig.recorder.StreamRecorder`); ``K`` relaxation modes
+The rig is driven through the excitation of :mod:`lab.capture.dynamics_probe` while the motion
+capture is recorded (:class:`~lab.capture.recorder.StreamRecorder`); ``K`` relaxation modes
 (time constants and weights) and every command's equilibrium are fitted to the recording
 (:func:`lab.dynamics.relaxation_fit.fit_stream`), and the filter is written as ``DYN.npz``
 (:meth:`lab.dynamics.relaxation.Relaxation.save`, kind ``lab.dynamics``) with the robot, the
@@ -17,11 +17,11 @@ import argparse
 import shlex
 import sys
 
+from lab.capture.dynamics_probe import ProbeSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.errors import InputError
 from lab.fem.mesh_spec import MeshSpec
-from lab.rig.dynamics_probe import ProbeSpec
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -56,10 +56,10 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """``python -m lab fit-dynamics``; returns the exit code."""
+    from lab.capture.dynamics_probe import run_probe
     from lab.description import load_robot
     from lab.dynamics.relaxation_fit import fit_stream
     from lab.rig import RigSpec, make_rig
-    from lab.rig.dynamics_probe import run_probe
 
     rig_spec = RigSpec.parse(args.rig)
     check_paths({"--robot": existing(args.robot), "--rig": existing(rig_spec.file)}, {"--out": args.out})
@@ -88,7 +88,7 @@ def run(args) -> int:
 
 def _save(args, robot, relax, report: dict, describe: dict, plan) -> None:
     """Write the fitted filter to ``--out`` with its provenance, and say what was fitted."""
-    from lab.rig.dynamics_probe import plan_info
+    from lab.capture.dynamics_probe import plan_info
 
     relax.save(
         args.out,

@@ -1,8 +1,8 @@
 """``python -m lab transfer-curve``: the sim-to-real curve over a family of emulated
 as-built robots (:mod:`lab.studies.transfer_curve`, :mod:`lab.studies.transfer_study`).
 
-For each robot (``--family K``: members 0..K-1 of :func:`lab.rig.family.random_defects`,
-or with ``--family-kind foam`` of :func:`lab.rig.foam_family.foam_defects`, rows labelled
+For each robot (``--family K``: members 0..K-1 of :data:`lab.asbuilt.RANDOM`,
+or with ``--family-kind foam`` of :data:`lab.asbuilt.FOAM`, rows labelled
 ``foam:K``; plus ``--shipped`` for the shipped defects file), each method and each N it writes one row:
 model error on held-out random commands and Table I tracking errors, in metres. The flags
 are :class:`lab.studies.transfer_curve.TransferCurveSpec`'s. Rows are appended robot by

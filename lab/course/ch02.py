@@ -4,8 +4,8 @@ Each ``check_*`` takes the student's function, draws its own cases from its own 
 ``np.random.default_rng`` (the chapter's random stream is untouched) and calls
 :func:`lab.course.grade` against ``lab``'s own implementation:
 :func:`lab.rig.dynamixel_units.ticks_from_u` (the bus code) for exercise 2.1,
-:class:`lab.rig.SettleDetector` for 2.2 and :func:`lab.rig.measure` with the default
-:class:`lab.rig.Protocol` for 2.3. The references live here, out of the student's sight: a
+:class:`lab.capture.SettleDetector` for 2.2 and :func:`lab.capture.measure` with the default
+:class:`lab.capture.Protocol` for 2.3. The references live here, out of the student's sight: a
 grader cell in ``notebooks/02_data_capture.ipynb`` is one import and one call.
 
 Exercise 2.3 runs the student's capture and ``measure`` on two identical emulated rigs
@@ -22,8 +22,9 @@ import copy
 
 import numpy as np
 
+from lab.capture import Protocol, SettleDetector, measure
 from lab.course.grading import Grade, grade
-from lab.rig import Protocol, RigError, SettleDetector, TwinRig, measure
+from lab.rig import RigError, TwinRig
 from lab.rig.dynamixel_units import ticks_from_u
 
 __all__ = ["check_goal_ticks", "check_first_settled", "check_capture_sample", "CAPTURE_TOL_M", "capture_cases"]
@@ -59,7 +60,7 @@ def _first_settled_lab(readings_W, n_previous=20, tol_m=1e-4):
 
 def check_first_settled(student, *, show: bool = True) -> Grade:
     """Exercise 2.2: ``student(readings_W (N, 3) m, n_previous, tol_m) -> index or -1`` on
-    creeping, noisy, partly occluded (NaN) sequences, against :class:`lab.rig.SettleDetector`."""
+    creeping, noisy, partly occluded (NaN) sequences, against :class:`lab.capture.SettleDetector`."""
     rng = np.random.default_rng(21)
     cases = []
     for tau, noise in ((0.5, 2e-5), (1.5, 5e-5), (3.0, 1e-5), (0.2, 3e-4)):
@@ -115,7 +116,7 @@ def capture_cases(robot, seed: int = 24, n_cases: int = 4) -> list[tuple]:
 
 def check_capture_sample(student, body, *, show: bool = True) -> Grade:
     """Exercise 2.3: ``student(rig, u_motor (m,) rad) -> p_tip_W (3,) m``, one sample by the
-    protocol (reset, wait until settled, record), against :func:`lab.rig.measure` on an
+    protocol (reset, wait until settled, record), against :func:`lab.capture.measure` on an
     identical emulated rig, to :data:`CAPTURE_TOL_M` per coordinate.
 
     ``body``: the chapter's :class:`lab.rig.AsBuiltBody`, not yet driven by any rig; each

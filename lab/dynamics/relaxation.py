@@ -7,7 +7,7 @@ creep with ``K`` first-order modes (two by default), the same for every axis::
 
 integrated exactly for equilibria that move linearly in time (:meth:`Relaxation.interval`).
 Being linear in the equilibria makes it cheap to fit (:mod:`lab.dynamics.relaxation_fit`),
-to run as a Kalman filter during capture (:mod:`lab.rig.predictive`) and to invert into a
+to run as a Kalman filter during capture (:mod:`lab.capture.predictive`) and to invert into a
 feed-forward command (:meth:`Relaxation.invert`). Saved as ``.npz`` (arrays ``tau_s``,
 ``weight``, JSON ``metadata`` with ``kind = "lab.dynamics"``); no pickle.
 """

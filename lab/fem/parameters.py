@@ -1,6 +1,6 @@
 """The as-built arm as a parametrised FEM: parameters theta -> :class:`ArmFEM`, and dx/dtheta.
 
-The same defects as the emulated as-built robot (``lab.rig.asbuilt``), as one vector
+The same defects as the emulated as-built robot (``lab.asbuilt.arm``), as one vector
 theta (p,) = ``[ln s, g_y, g_z, delta_1, ..., delta_m, sigma_1, ..., sigma_m]``: log softness
 ``ln s`` (s = E_as-built / E), stiffness gradient ``g`` across the section (dimensionless,
 |g| < 1), eyelet shift ``delta_c`` of cable c (m; (y, z) by default, (x, y, z) with

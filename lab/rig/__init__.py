@@ -2,43 +2,25 @@
 
 :class:`RigSpec` (:mod:`.spec`) is the ``--rig`` option -- ``sim`` (the nominal FEM,
 :class:`SimRig`), ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED`` or ``twin:foam:SEED``
-(an emulated as-built robot: :class:`TwinRig`, :class:`FamilyTwinRig`, :class:`FoamTwinRig`),
-``hardware:CONFIG.toml``
-(Dynamixel servos and OptiTrack: :mod:`.hardware`) -- and :func:`make_rig` (:mod:`.factory`)
-is the one place that builds the rig it names. On any rig, :func:`capture` (:mod:`.capture`)
-runs the paper's capture protocol (settings: :class:`CaptureSpec`, :class:`ProtocolSpec`)
-into an append-only :class:`Journal`, or the predictive one
-(:class:`PredictiveSampler`: the settled tip predicted by a Kalman filter, :class:`TipFilter`,
-of the learned relaxation of :mod:`lab.dynamics`, from readings kept by
-:class:`StreamRecorder`). Emulators of the servo bus and the NatNet server for tests and dry
-runs are in :mod:`lab.rig.emulators`; the design and its measured history are in
-``docs/design/rig.md``.
+(an emulated as-built robot, :class:`TwinRig`; a member of a family of them,
+:class:`FamilyTwinRig`), ``hardware:CONFIG.toml`` (Dynamixel servos and OptiTrack:
+:mod:`.hardware`) -- and :func:`make_rig` (:mod:`.factory`) is the one place that builds
+the rig it names. The as-built robots the twins emulate (defects files, the families that
+draw them) are :mod:`lab.asbuilt`, below this package; capture on a rig (the protocol,
+the journal, the predictive sampler) is :mod:`lab.capture`, above it. Emulators of the
+servo bus and the NatNet server for tests and dry runs are in :mod:`lab.rig.emulators`;
+the design and its measured history are in ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
 
-from lab.rig.asbuilt import Defects, DefectsError, default_defects_path, load_defects, parse_defects
 from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
-from lab.rig.capture import Capture, capture, journal_columns
-from lab.rig.capture_dataset import CapturedDataset
-from lab.rig.capture_spec import CaptureSpec, ProtocolSpec
 from lab.rig.factory import as_built_body, make_rig
-from lab.rig.family import FamilyTwinRig, FoamTwinRig, random_defects, random_defects_toml, write_random_defects
-from lab.rig.foam_family import foam_defects, foam_defects_toml, write_foam_defects
-from lab.rig.journal import Journal, JournalError
-from lab.rig.predictive import PredictiveSampler
-from lab.rig.protocol import PROTOCOLS, Protocol, Sample, SettleDetector, measure
-from lab.rig.recorder import StreamRecorder
 from lab.rig.sim import SimRig
 from lab.rig.spec import RIG_FORMS, RIG_KINDS, RigSpec
-from lab.rig.tip_filter import TipFilter
-from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
+from lab.rig.twin import AsBuiltBody, FamilyTwinRig, MocapModel, TwinRig
 
 __all__ = [
-    "PROTOCOLS",
-    "PredictiveSampler",
-    "StreamRecorder",
-    "TipFilter",
     "make_rig",
     "as_built_body",
     "RigSpec",
@@ -50,33 +32,9 @@ __all__ = [
     "RigError",
     "ServoError",
     "MocapError",
-    "Capture",
-    "CaptureSpec",
-    "CapturedDataset",
-    "ProtocolSpec",
-    "Protocol",
-    "Sample",
-    "SettleDetector",
-    "capture",
-    "journal_columns",
-    "measure",
-    "Journal",
-    "JournalError",
     "SimRig",
     "TwinRig",
+    "FamilyTwinRig",
     "AsBuiltBody",
     "MocapModel",
-    "Defects",
-    "DefectsError",
-    "default_defects_path",
-    "load_defects",
-    "parse_defects",
-    "FamilyTwinRig",
-    "random_defects",
-    "random_defects_toml",
-    "write_random_defects",
-    "FoamTwinRig",
-    "foam_defects",
-    "foam_defects_toml",
-    "write_foam_defects",
 ]

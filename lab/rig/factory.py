@@ -24,11 +24,24 @@ def _spec(spec: RigSpec | str, mesh: MeshSpec | None) -> RigSpec:
 
 
 def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpec | None = None):
-    """The :class:`~lab.rig.twin.AsBuiltBody` of a ``twin`` spec (its defects file, the shipped
-    defects, or member SEED of the ``random`` or ``foam`` family drawn for the mesh), on the
-    spec's mesh or ``mesh`` (a foam member's own, finer mesh where neither sets one).
+    """The emulated as-built arm of a ``twin`` spec, without the rig around it.
 
-    Raises InputError for a spec of another kind."""
+    Parameters
+    ----------
+    spec : RigSpec or str
+        A ``twin`` spec: its defects file, the shipped defects, or member SEED of the
+        ``random`` or ``foam`` family (:data:`lab.asbuilt.FAMILIES`) drawn for the mesh.
+    robot : RobotDescription
+        The nominal robot.
+    mesh : MeshSpec or None
+        FEM mesh overrides replacing the spec's (a foam member's own, finer mesh where
+        neither sets one).
+
+    Returns
+    -------
+    AsBuiltBody
+        The body (:class:`~lab.rig.twin.AsBuiltBody`); InputError for a spec of another kind.
+    """
     spec = _spec(spec, mesh)
     if spec.kind != "twin":
         raise InputError(f"--rig {spec}: an as-built body is emulated for --rig twin only")
@@ -36,9 +49,9 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
 
     overrides = spec.mesh.overrides()
     if spec.family_seed is not None:
-        from lab.rig.family import family_member
+        from lab.asbuilt.family import FAMILIES
 
-        defects = family_member(robot, f"{spec.family}:{spec.family_seed}", **overrides)
+        defects = FAMILIES[spec.family].defects(robot, spec.family_seed, **overrides)
         return AsBuiltBody(robot, defects, **overrides)
     return AsBuiltBody(robot, spec.defects_path, **overrides)
 
@@ -55,13 +68,26 @@ def make_rig(
 
     Parameters
     ----------
-    seed: the emulated robot's motion-capture noise seed (``twin:random:SEED`` or
+    spec : RigSpec or str
+        The rig, as a spec or a ``--rig`` string.
+    robot : RobotDescription
+        The nominal robot.
+    seed : int
+        The emulated robot's motion-capture noise seed (``twin:random:SEED`` or
         ``twin:foam:SEED`` picks the robot of the family; ``seed`` still only the noise).
-    fem: the nominal FEM a ``sim`` rig solves (default: built on the spec's mesh).
-    mesh: FEM mesh overrides of a ``sim`` or ``twin`` rig, replacing the spec's.
+    fem : ArmFEM or None
+        The nominal FEM a ``sim`` rig solves (default: built on the spec's mesh).
+    mesh : MeshSpec or None
+        FEM mesh overrides of a ``sim`` or ``twin`` rig, replacing the spec's.
 
-    Raises InputError (a ValueError) naming the problem: a bad spec, ``none`` (no rig), an
-    FEM for a rig that is not ``sim``, an FEM and a mesh together, a mesh for a hardware rig.
+    Returns
+    -------
+    Rig
+        A :class:`~lab.rig.sim.SimRig`, :class:`~lab.rig.twin.TwinRig` (or
+        :class:`~lab.rig.twin.FamilyTwinRig`) or :class:`~lab.rig.hardware.HardwareRig`.
+        Raises InputError (a ValueError) naming the problem: a bad spec, ``none`` (no rig),
+        an FEM for a rig that is not ``sim``, an FEM and a mesh together, a mesh for a
+        hardware rig.
     """
     spec = _spec(spec, mesh)
     if not spec.has_rig:
@@ -77,14 +103,12 @@ def make_rig(
             raise InputError("--rig sim: give the FEM or the mesh overrides, not both")
         return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
     if spec.kind == "twin":
-        if spec.family_seed is not None and spec.family == "foam":
-            from lab.rig.family import FoamTwinRig
-
-            return FoamTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
         if spec.family_seed is not None:
-            from lab.rig.family import FamilyTwinRig
+            from lab.asbuilt.family import FAMILIES
+            from lab.rig.twin import FamilyTwinRig
 
-            return FamilyTwinRig(robot, spec.family_seed, seed=seed, **spec.mesh.overrides())
+            family = FAMILIES[spec.family]
+            return FamilyTwinRig(robot, spec.family_seed, seed=seed, family=family, **spec.mesh.overrides())
         from lab.rig.twin import TwinRig
 
         return TwinRig(robot, seed=seed, body=as_built_body(spec, robot))

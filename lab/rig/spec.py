@@ -1,7 +1,7 @@
 """Which rig a command runs on: :class:`RigSpec`, the typed form of the ``--rig`` option.
 
 ``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED``,
-``twin:foam:SEED`` (a member of the second family, :mod:`lab.rig.foam_family`: defects
+``twin:foam:SEED`` (a member of the second family, :mod:`lab.asbuilt.foam`: defects
 outside the calibrator's model class too), ``hardware:CONFIG.toml``, or for ``track`` alone
 ``none``: no rig at all, the IK's commands written for a lab to send to its own robot --
 and :meth:`RigSpec.parse` is the only place
@@ -13,36 +13,20 @@ problem is an :class:`~lab.errors.InputError` naming ``--rig``.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
+from lab.asbuilt.family import FAMILIES, parse_robot_seed
 from lab.errors import InputError
 from lab.fem.mesh_spec import MeshSpec
 from lab.specs import Spec
 
-__all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS", "FAMILIES", "parse_robot_seed"]
+__all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS"]
 
 #: The kinds of rig: the nominal quasi-static FEM, the emulated as-built robot, the real one,
 #: and none (``track --rig none``: solve the IK only; :func:`lab.rig.make_rig` refuses it).
 RIG_KINDS = ("sim", "twin", "hardware", "none")
 #: The forms ``--rig`` accepts, as its help and errors name them.
 RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED, twin:foam:SEED or hardware:CONFIG.toml"
-#: The families of emulated as-built robots a twin may be a member of (``twin:FAMILY:SEED``):
-#: ``random`` (:mod:`lab.rig.family`) and ``foam`` (:mod:`lab.rig.foam_family`).
-FAMILIES = ("random", "foam")
-#: What results on a member of each family are.
-FAMILY_LABELS = {"random": "emulated as-built robot", "foam": "emulated as-built robot (foam family)"}
-
-
-def parse_robot_seed(text: str, spec: str | None = None, family: str = "random") -> int:
-    """The robot seed of ``twin:FAMILY:SEED`` (a non-negative integer), or InputError."""
-    where = f"rig {spec!r}: " if spec else ""
-    if not re.fullmatch(r"[0-9]+", str(text)):
-        raise InputError(
-            f"{where}the robot seed must be a non-negative integer (--rig twin:{family}:SEED, e.g. twin:{family}:3), "
-            f"got {text!r}"
-        )
-    return int(text)
 
 
 @dataclass(frozen=True)
@@ -52,8 +36,8 @@ class RigSpec(Spec):
     ``kind``: one of :data:`RIG_KINDS` (``none`` only where :meth:`parse` was told it is
     allowed); ``defects_path``: a twin's defects file (None: the
     robot's shipped defects); ``family_seed``: a twin that is member SEED of the family
-    ``family`` (one of :data:`FAMILIES`: ``random``, :mod:`lab.rig.family`, or ``foam``,
-    :mod:`lab.rig.foam_family`); ``config_path``: a hardware rig's configuration file;
+    ``family`` (a name in :data:`lab.asbuilt.FAMILIES`: ``random`` or ``foam``);
+    ``config_path``: a hardware rig's configuration file;
     ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
     """
 
@@ -74,7 +58,9 @@ class RigSpec(Spec):
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
             raise InputError(f"--rig twin:random:SEED: the robot seed must be a non-negative integer, got {seed!r}")
         if self.family not in FAMILIES:
-            raise InputError(f"--rig twin:FAMILY:SEED: unknown family {self.family!r}, expected one of {FAMILIES}")
+            raise InputError(
+                f"--rig twin:FAMILY:SEED: unknown family {self.family!r}, expected one of {tuple(FAMILIES)}"
+            )
         if self.family != "random" and seed is None:
             raise InputError(f"--rig twin:{self.family}:SEED needs the robot's seed (e.g. twin:{self.family}:3)")
         given = {
@@ -164,7 +150,7 @@ class RigSpec(Spec):
         """What results on this rig are: "FEM", "emulated as-built robot" (with "(foam family)"
         on a ``twin:foam`` member), "hardware" or "model prediction" (no rig)."""
         if self.kind == "twin":
-            return FAMILY_LABELS[self.family]
+            return FAMILIES[self.family].label
         return {"sim": "FEM", "hardware": "hardware", "none": "model prediction"}[self.kind]
 
     @property

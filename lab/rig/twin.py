@@ -4,13 +4,14 @@
 emulators drive. From a command to the tip: motor goals rounded to encoder ticks and
 reached at the profile velocity; a Prandtl play of half-width ``h`` on each cable's
 contraction (hysteresis, erased by the capture protocol's reset); the as-built FEM solved
-once per command (:class:`~lab.rig.asbuilt.EquilibriumCache`), its equilibrium moving
+once per command (:class:`~lab.asbuilt.arm.EquilibriumCache`), its equilibrium moving
 linearly while the motors turn; the foam's lag, two first-order modes integrated
 exactly (three with the defects file's creep); and where the motion capture sees the tip
 (:meth:`AsBuiltBody.report`: the base's tilt, the mocap's frame error). ``TwinRig`` puts
 the body on a virtual clock advanced one motion-capture frame per ``next_frame()`` and
 observes the tip through ``MocapModel`` (Gaussian noise and occlusion bursts, NaN
-frames). Deterministic for a given seed. The model step by step: ``docs/design/rig.md``.
+frames). Deterministic for a given seed. :class:`FamilyTwinRig` is the twin on a member of a
+family of as-built robots (:class:`lab.asbuilt.Family`). The model step by step: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -19,9 +20,11 @@ import math
 
 import numpy as np
 
+from lab.asbuilt.arm import Defects, EquilibriumCache, as_built_fem, load_defects
+from lab.asbuilt.draw import check_seed
+from lab.asbuilt.family import RANDOM, Family
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.rig.asbuilt import Defects, EquilibriumCache, as_built_fem, load_defects
 from lab.rig.base import Body, MocapFrame, Rig, RigError
 
 
@@ -262,6 +265,44 @@ class TwinRig(Rig):
             "defects": {"path": d.path, "sha256": d.sha256, "values": d.source},
             "mesh": {"n_nodes": int(fem.mesh.n_nodes), "n_tets": int(len(fem.mesh.tets))},
         }
+
+
+class FamilyTwinRig(TwinRig):
+    """The twin rig on member ``robot_seed`` of a family (``--rig twin:random:SEED``, ``twin:foam:SEED``).
+
+    ``describe()`` records the family's label, the robot seed, the generator and its
+    version (:meth:`lab.asbuilt.Family.describe`), so that a dataset says which robot it
+    came from.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    robot_seed : int
+        The member of the family, an integer >= 0.
+    seed : int
+        The motion-capture noise seed, as for :class:`TwinRig`.
+    family : Family
+        The family (:data:`lab.asbuilt.RANDOM` or :data:`lab.asbuilt.FOAM`).
+    **mesh
+        ``n_rings``/``n_axial``: the emulator mesh, overriding the member's own.
+    """
+
+    def __init__(self, robot: RobotDescription, robot_seed: int, seed: int = 0, *, family: Family = RANDOM, **mesh):
+        self.robot_seed = check_seed(robot_seed)
+        self.family = family
+        body = AsBuiltBody(robot, family.defects(robot, self.robot_seed, **mesh))
+        super().__init__(robot, seed=seed, body=body)
+
+    def describe(self) -> dict:
+        """The twin's record (:meth:`TwinRig.describe`) with the family's (:meth:`lab.asbuilt.Family.describe`).
+
+        Returns
+        -------
+        dict
+            JSON-ready metadata of the rig.
+        """
+        return {**super().describe(), **self.family.describe(self.robot_seed)}
 
 
 def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 :func:`capture_rate_study` captures the same random allowed commands on each robot with
 the waiting protocol (the paper's, at several settle tolerances) and the predictive one
-(:mod:`lab.rig.predictive`, at several prediction tolerances), on the twin's virtual
+(:mod:`lab.capture.predictive`, at several prediction tolerances), on the twin's virtual
 clock, and compares every recorded tip with the robot's **noise-free settled tip** for
 that command (:meth:`~lab.rig.twin.AsBuiltBody.quasi_static_tip`): the truth a capture
 is after. Rates and errors count every sample (the predictive protocol's learning samples, captured by
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.capture.protocol import Protocol
+from lab.capture.session import capture
 from lab.description import RobotDescription
-from lab.rig.capture import capture
-from lab.rig.protocol import Protocol
 
 #: columns of the study's rows / CSV
 COLUMNS = (
@@ -55,12 +55,12 @@ def protocol_for(kind: str, tol_m: float, **settings) -> Protocol:
         The waiting protocol's settle tolerance, or the predictive one's tolerance on the
         prediction's 3-D std (m).
     **settings
-        Further :class:`~lab.rig.protocol.Protocol` fields.
+        Further :class:`~lab.capture.protocol.Protocol` fields.
 
     Returns
     -------
     Protocol
-        The protocol to pass to :func:`lab.rig.capture.capture`.
+        The protocol to pass to :func:`lab.capture.session.capture`.
     """
     if kind == "wait":
         return Protocol(settle_tol_m=tol_m, **settings)
@@ -136,6 +136,7 @@ def capture_rate_study(
     mesh: dict | None = None,
     progress=None,
 ) -> list[dict]:
+<<<<<<< HEAD
     """Samples per hour and accuracy of each protocol and tolerance, per robot.
 
     For each robot label, ``n_samples`` random allowed commands (seeded by ``seed``) are
@@ -146,7 +147,7 @@ def capture_rate_study(
     robot : RobotDescription
         The nominal robot.
     robots : sequence of str, optional
-        Robot labels: ``"shipped"`` or ``"random:SEED"`` (:func:`lab.rig.family.family_member`).
+        Robot labels: ``"shipped"`` or ``"random:SEED"`` (:func:`lab.asbuilt.family.family_member`).
     n_samples : int, optional
         Commands captured per run.
     wait_tols_m, predict_tols_m : sequence of float, optional
@@ -164,8 +165,14 @@ def capture_rate_study(
     list of dict
         Rows of :data:`COLUMNS`, robot by robot, the waiting runs before the predictive ones.
     """
+=======
+    """Rows of :data:`COLUMNS`: for each robot label (``"shipped"`` or ``"random:SEED"``,
+    :func:`lab.asbuilt.family.family_member`), ``n_samples`` random allowed commands (seeded by
+    ``seed``) captured with each tolerance of each protocol. ``mesh``: ``n_rings``/``n_axial``
+    of the emulator's FEM (coarse meshes for tests). ``progress(row)`` is called per row."""
+    from lab.asbuilt.family import family_member
+>>>>>>> wt-rig
     from lab.data.designs import random_commands
-    from lab.rig.family import family_member
     from lab.rig.twin import AsBuiltBody
 
     mesh = mesh or {}

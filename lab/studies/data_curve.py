@@ -54,8 +54,8 @@ class NominalBody:
     """
 
     def __init__(self, robot, *, n_rings: int | None = None, n_axial: int | None = None):
+        from lab.asbuilt.arm import EquilibriumCache
         from lab.fem.energy import ArmFEM
-        from lab.rig.asbuilt import EquilibriumCache
 
         self.robot = robot
         self.fem = ArmFEM(robot, n_rings=n_rings, n_axial=n_axial)

@@ -2,8 +2,8 @@
 
 :class:`TransferCurveSpec` holds its settings (robots, methods, numbers of real samples,
 design, test sizes, meshes, workers). :func:`transfer_curve_run` measures, per robot
-(members 0..K-1 of :func:`lab.rig.family.random_defects`, or with ``family_kind="foam"`` of
-:func:`lab.rig.foam_family.foam_defects`, and the shipped defects), method and N, the rows
+(members 0..K-1 of :data:`lab.asbuilt.RANDOM`, or with ``family_kind="foam"`` of
+:data:`lab.asbuilt.FOAM`, and the shipped defects), method and N, the rows
 of :func:`lab.studies.transfer_study.curve_rows`, one robot per worker.
 Rows are appended robot by robot (the CSV and its JSON sidecar are rewritten atomically
 each time), so an interrupted run resumes where it stopped; a robot whose rows are all
@@ -157,10 +157,10 @@ class TransferCurveSpec(Spec):
 
 def study_robot(spec: TransferCurveSpec, label: str, skip=frozenset()) -> list[dict]:
     """The rows of robot ``label`` but the (method, N) pairs in ``skip`` (runs in a worker process)."""
+    from lab.asbuilt.family import family_member
     from lab.data import design_commands
     from lab.description import load_robot
     from lab.learn.mlp import load_model
-    from lab.rig.family import family_member
     from lab.rig.twin import AsBuiltBody
     from lab.studies.transfer_study import curve_rows, make_methods, random_safe_commands
     from lab.workers import watch_parent

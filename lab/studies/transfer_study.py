@@ -366,11 +366,11 @@ def defect_variants(defects, robot) -> dict:
     Returns
     -------
     dict
-        ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> :class:`lab.rig.asbuilt.Defects`.
+        ``{"softer", "gradient", "eyelets", "slack", "all"}`` -> :class:`lab.asbuilt.arm.Defects`.
     """
     import copy
 
-    from lab.rig.asbuilt import parse_defects
+    from lab.asbuilt.arm import parse_defects
 
     def only(material=None, eyelets=False, slack=False):
         d = copy.deepcopy(defects.source)

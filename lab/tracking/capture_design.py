@@ -1,11 +1,11 @@
 """A capture run, end to end: a design's commands measured on a rig into a journal, as a dataset.
 
 :func:`capture_design` is ``python -m lab capture``: a fixed design (grid or space-filling)
-is captured in its shuffled order by :func:`lab.rig.capture.capture`; an active one
+is captured in its shuffled order by :func:`lab.capture.session.capture`; an active one
 (``--active N --batch B``) runs :func:`lab.learn.active_design.run_active` -- the loop
 ``simulate`` runs too -- with the rig's side, each batch's plan journaled, then captured,
 and a batch a kill interrupted finished from its plan, in
-:class:`lab.rig.active_capture.JournaledBatches`. It lives above both the rig and the
+:class:`lab.capture.active.JournaledBatches`. It lives above both the rig and the
 learned model, which a rig does not import. Killed or failed, the journal keeps every
 sample so far and the same spec continues from it; the rig is closed (torque off) either way.
 """
@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from lab.rig.capture_dataset import CapturedDataset, capture_header, captured_dataset, planned_commands
-from lab.rig.capture_spec import CaptureSpec
+from lab.capture.dataset import CapturedDataset, capture_header, captured_dataset, planned_commands
+from lab.capture.spec import CaptureSpec
 
 __all__ = ["capture_design"]
 
@@ -31,9 +31,9 @@ def capture_design(spec: CaptureSpec, *, file=None) -> CapturedDataset:
     before the rig moves (robot, dynamic model, design) or a journal of other settings,
     RigError when the rig fails; KeyboardInterrupt passes through after the rig is closed.
     """
+    from lab.capture.session import capture
     from lab.description import load_robot
     from lab.rig import make_rig
-    from lab.rig.capture import capture
 
     file = sys.stderr if file is None else file
     robot = load_robot(spec.robot)
@@ -71,11 +71,11 @@ def capture_design(spec: CaptureSpec, *, file=None) -> CapturedDataset:
 
 
 def _capture_active(spec: CaptureSpec, robot, rig, protocol, header: dict):
-    """Capture the active design on the open ``rig``: the :class:`lab.rig.capture.Capture`
+    """Capture the active design on the open ``rig``: the :class:`lab.capture.session.Capture`
     of every sample (capture order) and the sampler's metadata (settings, ``n_batches``,
     the per-batch ``log``)."""
+    from lab.capture.active import JournaledBatches
     from lab.learn.active_design import active_settings, run_active
-    from lab.rig.active_capture import JournaledBatches
 
     settings = active_settings(spec.design, robot)
     batches = JournaledBatches(

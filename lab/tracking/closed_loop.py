@@ -19,11 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.protocol import Protocol, Sample, measure
 from lab.control.command_set import CommandSet
 from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.rig.base import Rig
-from lab.rig.protocol import Protocol, Sample, measure
 from lab.specs import Spec, at_most, finite, option, positive, positive_int
 from lab.tracking.track import TRACK_PROTOCOL, TrackResult, run_info
 

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.capture.protocol import Protocol, measure
 from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.files import atomic_write_text, code_version
 from lab.rig.base import Rig
-from lab.rig.protocol import Protocol, measure
 
 #: How each trajectory point is recorded: the capture protocol without the reset.
 TRACK_PROTOCOL = Protocol(reset=False)
@@ -125,7 +125,7 @@ def run_trajectory(
     on_point=None,
 ) -> TrackResult:
     """IK for all ``targets_W`` (N, 3) m, then send each command to ``rig`` and record the
-    settled tip with ``protocol`` (:class:`lab.rig.protocol.Protocol`, default
+    settled tip with ``protocol`` (:class:`lab.capture.protocol.Protocol`, default
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
     ``progress(i, n)`` is called after each point, ``on_point(i, target_W, u_motor, sample)``
     with what was measured there (e.g. :meth:`lab.tracking.points.PointLog.append`, so an interrupted run keeps

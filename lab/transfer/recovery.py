@@ -1,6 +1,6 @@
 """Does calibration find the true as-built parameters? Recovered against true on a family.
 
-An emulated as-built robot knows its own defects (:class:`lab.rig.asbuilt.Defects`), so
+An emulated as-built robot knows its own defects (:class:`lab.asbuilt.arm.Defects`), so
 its true theta is known: softness, stiffness gradient (size times its direction's y, z),
 each cable's eyelet shift (y, z) and slack. :func:`recovery_rows` samples the robot's
 settled tips (the capture protocol's quasi-static map, with its motion-capture noise) at
@@ -117,7 +117,7 @@ def recovery_rows(
 
 
 def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m) -> list[dict]:
-    from lab.rig.family import family_member
+    from lab.asbuilt.family import family_member
     from lab.workers import watch_parent
 
     watch_parent()
@@ -137,7 +137,7 @@ def family_recovery(
     noise_m: float | None = None,
 ) -> list[dict]:
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
-    :func:`lab.rig.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
+    :func:`lab.asbuilt.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
     each), rows in the order of ``labels``; ``noise_m`` as there."""
     from joblib import Parallel, delayed
 

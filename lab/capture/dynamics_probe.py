@@ -7,7 +7,7 @@ rig is driven through a :class:`ProbePlan`: ``n_steps`` random allowed commands 
 (fast content that separates the modes), then a final hold. No reset in between: every
 command is its own pose with its own equilibrium. The plan is a pure function of the
 robot and the seed; :func:`run_probe` drives a rig through it with a
-:class:`~lab.rig.recorder.StreamRecorder` and returns the
+:class:`~lab.capture.recorder.StreamRecorder` and returns the
 :class:`~lab.dynamics.relaxation_fit.Stream` to fit. Why these holds: ``docs/design/rig.md``.
 """
 
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.recorder import StreamRecorder
 from lab.description import RobotDescription
 from lab.dynamics.relaxation_fit import Stream
 from lab.errors import InputError
 from lab.rig.base import Rig
-from lab.rig.recorder import StreamRecorder
 from lab.specs import Spec, at_most, non_negative_int, option, positive, positive_int
 
 __all__ = [

@@ -1,8 +1,8 @@
 """Writing a drawn family member as a commented defects file (the format of ``lab/rig/defects/``).
 
-A family (:mod:`lab.rig.family`, ``twin:random:SEED``; :mod:`lab.rig.foam_family`,
+A family (:mod:`lab.asbuilt.family`, ``twin:random:SEED``; :mod:`lab.asbuilt.foam`,
 ``twin:foam:SEED``) draws a member as the parsed TOML document ``data`` that
-:func:`lab.rig.asbuilt.parse_defects` validates. :func:`defects_toml` writes that document
+:func:`lab.asbuilt.arm.parse_defects` validates. :func:`defects_toml` writes that document
 back as text, one field a line with a comment saying the range it was drawn from
 (``U(lo, hi)`` uniform, ``logU(lo, hi)`` log-uniform) or how it was derived, table by table
 in the order of the shipped file. The optional fields outside the calibrator's model class
@@ -19,10 +19,10 @@ import tomllib
 
 import numpy as np
 
+from lab.asbuilt.arm import FORMAT_VERSION
 from lab.description import RobotDescription
-from lab.rig.asbuilt import FORMAT_VERSION
 
-__all__ = ["defects_toml", "fmt_float", "range_text", "write_member"]
+__all__ = ["defects_toml", "fmt_float", "range_text"]
 
 
 def fmt_float(x: float) -> str:
@@ -204,17 +204,5 @@ def defects_toml(robot: RobotDescription, data: dict, notes: dict, *, header: li
         out += ["# [emulator]          # optional: FEM mesh of the twin (default: the description's)", ""]
     text = "\n".join(out)
     if tomllib.loads(text) != data:  # the file must read back to exactly the drawn values
-        raise AssertionError("lab.rig.family_toml: the written defects file does not read back to the draw")
+        raise AssertionError("lab.asbuilt.writer: the written defects file does not read back to the draw")
     return text
-
-
-def write_member(path, robot: RobotDescription, seed: int, to_toml, draw, *, n_rings=None, n_axial=None, command=None):
-    """Write a family member's defects file to ``path`` atomically: the text of
-    ``to_toml(robot, seed, ...)``; returns ``draw(robot, seed, ...)``, the
-    :class:`~lab.rig.asbuilt.Defects` that :func:`lab.rig.asbuilt.load_defects` reads back."""
-    from lab.files import atomic_write_text
-
-    text = to_toml(robot, seed, n_rings=n_rings, n_axial=n_axial, command=command)
-    defects = draw(robot, seed, n_rings=n_rings, n_axial=n_axial)
-    atomic_write_text(path, text)
-    return defects

@@ -1,12 +1,12 @@
 """The predictive capture protocol: predict the settled tip from the start of its transient.
 
-The waiting protocol (:mod:`lab.rig.protocol`) waits out the foam's creep after every
+The waiting protocol (:mod:`lab.capture.protocol`) waits out the foam's creep after every
 command. The predictive one keeps its reset but stops early: the first ``n_learn``
 samples are measured by waiting while the whole stream is recorded
-(:class:`~lab.rig.recorder.StreamRecorder`) and a relaxation filter is fitted to it
+(:class:`~lab.capture.recorder.StreamRecorder`) and a relaxation filter is fitted to it
 (:func:`lab.dynamics.relaxation_fit.fit_stream`, written to the journal so a resumed run
 reuses it); every later sample is recorded as soon as the motors arrived and a Kalman
-filter (:class:`~lab.rig.tip_filter.TipFilter`) predicts its settled tip with a 3-D std
+filter (:class:`~lab.capture.tip_filter.TipFilter`) predicts its settled tip with a 3-D std
 below ``predict_tol_m`` (``settled = 0`` when not confident within ``settle_timeout_s``).
 A relaxation fitted by ``python -m lab fit-dynamics`` skips the learning. Occlusions and
 faults behave as in the waiting protocol. Details: ``docs/design/rig.md``.
@@ -16,18 +16,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.capture.protocol import Protocol, Sample, SettleDetector
+from lab.capture.recorder import StreamRecorder
+from lab.capture.tip_filter import TipFilter
 from lab.dynamics.relaxation import Relaxation
 from lab.dynamics.relaxation_fit import fit_stream
 from lab.rig.base import Rig, RigError
-from lab.rig.protocol import Protocol, Sample, SettleDetector
-from lab.rig.recorder import StreamRecorder
-from lab.rig.tip_filter import TipFilter
 
 
 class PredictiveSampler:
     """Measures samples with the predictive protocol, one call per command; keeps the
     filter's state from sample to sample. ``note(tag, info)``: where to journal the learned
-    relaxation (a :class:`~lab.rig.journal.Journal`'s ``note``)."""
+    relaxation (a :class:`~lab.capture.journal.Journal`'s ``note``)."""
 
     def __init__(self, rig: Rig, protocol: Protocol, relaxation: Relaxation | None = None, note=None):
         self.rig, self.protocol = rig, protocol

@@ -1,7 +1,7 @@
 """The batches of an active design captured on a rig: each planned in the journal, then measured.
 
 An active design picks its next batch from the samples so far, so its capture journal is
-open-ended (:func:`lab.rig.capture.capture`). :class:`JournaledBatches` gives the
+open-ended (:func:`lab.capture.session.capture`). :class:`JournaledBatches` gives the
 active-sampling loop its callables: :meth:`~JournaledBatches.on_pick` notes the batch's
 plan (its commands and log entry, in the ``active`` field of the session note) and
 :meth:`~JournaledBatches.measure` captures it. :meth:`~JournaledBatches.resume` reads a
@@ -16,9 +16,9 @@ import sys
 
 import numpy as np
 
+from lab.capture.protocol import Protocol
+from lab.capture.session import Capture, capture, journal_samples
 from lab.rig.base import Rig
-from lab.rig.capture import Capture, capture, journal_samples
-from lab.rig.protocol import Protocol
 
 __all__ = ["JournaledBatches", "planned_batches"]
 

@@ -1,15 +1,15 @@
 """The draws of a family member: :func:`draw_member`, the defects document of ``twin:random:SEED``.
 
-Member ``seed`` of the family of emulated as-built robots (:mod:`lab.rig.family`) is drawn
+Member ``seed`` of the family of emulated as-built robots (:mod:`lab.asbuilt.family`) is drawn
 here, uniformly and independently from :data:`RANGES` (:data:`FIXED`: hardware settings),
-as the parsed TOML document that :func:`lab.rig.asbuilt.parse_defects` validates. The
+as the parsed TOML document that :func:`lab.asbuilt.arm.parse_defects` validates. The
 global fields come from the random stream ``[seed, 0]``; cable ``i``'s slack and play from
 ``[seed, 1 + i, 0]``; its eyelet shift from ``[seed, 1 + j, 1]``, ``j`` the first cable
 through the same first eyelet (such cables share one shift), so a cable's draws do not
 depend on how many cables the robot has. A shift is shrunk along its direction where it
 would put an eyelet too near the surface (:data:`SURFACE_COVER_M`), outside the mesh's
 polygonal section (:data:`MESH_MARGIN_M`), near the base face or beyond the tip. The foam
-family (:mod:`lab.rig.foam_family`) starts from the same draw, so it lives in a module of
+family (:mod:`lab.asbuilt.foam`) starts from the same draw, so it lives in a module of
 its own that both families import. Every range and why: ``docs/design/rig.md``.
 """
 
@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
+from lab.asbuilt.arm import FORMAT_VERSION
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.rig.asbuilt import FORMAT_VERSION
 
 __all__ = ["RANGES", "FIXED", "SURFACE_COVER_M", "MESH_MARGIN_M", "check_seed", "rounded", "draw_member"]
 
@@ -135,7 +135,7 @@ def draw_member(robot: RobotDescription, seed: int, n_rings: int | None, n_axial
     """The drawn defects document of member ``seed`` of ``twin:random`` (what its TOML file
     holds; ``n_rings``/``n_axial``: the emulator mesh, written to ``[emulator]`` where
     given, whose section the eyelet shifts are kept inside) and the notes its comments
-    need (:func:`lab.rig.family_toml.defects_toml`)."""
+    need (:func:`lab.asbuilt.writer.defects_toml`)."""
     seed = check_seed(seed)
     rng = np.random.default_rng([seed, 0])
     softness, gradient, angle = (_u(rng, k) for k in ("softness", "gradient", "gradient_angle_deg"))

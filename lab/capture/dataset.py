@@ -4,7 +4,7 @@ and the rows, metadata and summary line written at the end.
 A fixed design is captured in a seeded shuffled order (``--order shuffled``) and written
 back in its own order; :func:`planned_commands` gives both. :func:`capture_header` is what
 a resumed journal must match besides the protocol and the commands. :func:`captured_dataset`
-turns the :class:`~lab.rig.capture.Capture` into what :func:`lab.data.dataset.write_dataset`
+turns the :class:`~lab.capture.session.Capture` into what :func:`lab.data.dataset.write_dataset`
 writes (rows, ``OUT.json`` metadata) and the line printed after it.
 """
 
@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.protocol import Protocol
+from lab.capture.session import Capture, repeat_check_line
+from lab.capture.spec import CaptureSpec
 from lab.description import RobotDescription
-from lab.rig.capture import Capture, repeat_check_line
-from lab.rig.capture_spec import CaptureSpec
-from lab.rig.protocol import Protocol
 
 __all__ = ["CapturedDataset", "captured_dataset", "capture_header", "planned_commands", "rig_identity"]
 

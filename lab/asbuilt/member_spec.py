@@ -1,7 +1,7 @@
 """Which emulated as-built robot of the family: :class:`FamilyMemberSpec`, the ``defects`` settings.
 
-A member of the family (:mod:`lab.rig.family`) is named by its seed (``--random SEED``, the
-same as ``--rig twin:random:SEED``), a member of the foam family (:mod:`lab.rig.foam_family`)
+A member of the family (:data:`lab.asbuilt.RANDOM`) is named by its seed (``--random SEED``, the
+same as ``--rig twin:random:SEED``), a member of the foam family (:data:`lab.asbuilt.FOAM`)
 by ``--foam SEED`` (``--rig twin:foam:SEED``; one of the two), and drawn for the emulator
 mesh it will run on (:class:`lab.fem.MeshSpec`, ``--n-rings``/``--n-axial``, written to the
 file's ``[emulator]`` table). :meth:`FamilyMemberSpec.write` writes its defects file.
@@ -60,15 +60,27 @@ class FamilyMemberSpec(Spec):
         return self.seed if self.foam is None else self.foam
 
     def write(self, path, robot, command: str | None = None):
-        """Write the member's commented defects file for ``robot`` to ``path`` (atomically);
-        returns its :class:`lab.rig.asbuilt.Defects`. A mesh that would not fit in memory
-        is refused here (InputError), not first by the command that runs the emulator."""
-        if self.foam is not None:
-            from lab.rig.foam_family import foam_mesh, write_foam_defects
+        """Write the member's commented defects file for ``robot`` to ``path`` (atomically).
 
-            MeshSpec(*foam_mesh(robot, self.mesh.n_rings, self.mesh.n_axial)).resolve(robot)
-            return write_foam_defects(path, robot, self.foam, **self.mesh.overrides(), command=command)
-        from lab.rig.family import write_random_defects
+        A mesh that would not fit in memory is refused here (InputError), not first by the
+        command that runs the emulator.
 
-        self.mesh.resolve(robot)
-        return write_random_defects(path, robot, self.seed, **self.mesh.overrides(), command=command)
+        Parameters
+        ----------
+        path : str or Path
+            The file to write.
+        robot : RobotDescription
+            The nominal robot the member is drawn for.
+        command : str or None
+            The command line recorded in the file's header (default: the equivalent one).
+
+        Returns
+        -------
+        Defects
+            The member (:meth:`lab.asbuilt.Family.write`).
+        """
+        from lab.asbuilt.family import FAMILIES
+
+        family = FAMILIES[self.family]
+        MeshSpec(*family.emulator_mesh(robot, self.mesh.n_rings, self.mesh.n_axial)).resolve(robot)
+        return family.write(path, robot, self.member_seed, **self.mesh.overrides(), command=command)

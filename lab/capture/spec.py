@@ -3,7 +3,7 @@
 
 Each field carries its ``capture`` flag (:func:`lab.specs.option`); the specs refuse a bad
 value or combination when they are built, naming the flag, before any file is touched or
-the rig moves. :meth:`ProtocolSpec.protocol` is the :class:`~lab.rig.protocol.Protocol`
+the rig moves. :meth:`ProtocolSpec.protocol` is the :class:`~lab.capture.protocol.Protocol`
 (SI units) the capture runs; :attr:`CaptureSpec.command` is the command that reproduces
 the run, recorded in the journal and the dataset.
 """
@@ -14,9 +14,9 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
+from lab.capture.protocol import PROTOCOLS, Protocol
 from lab.data.design_spec import DesignSpec
 from lab.errors import InputError
-from lab.rig.protocol import PROTOCOLS, Protocol
 from lab.rig.spec import RigSpec
 from lab.specs import Spec, non_negative, option, positive
 
@@ -40,7 +40,7 @@ class ProtocolSpec(Spec):
         choices=PROTOCOLS,
         help="wait: the paper's protocol, record once settled; predictive: learn the foam's relaxation from "
         "the first samples, then record as soon as the settled tip is predicted within --predict-tol-mm "
-        "(lab.rig.predictive)",
+        "(lab.capture.predictive)",
     )
     predict_tol_mm: float = option(
         0.15,

@@ -1,6 +1,6 @@
 """The fields of a defects file: :class:`Defects`, their allowed ranges and validators.
 
-A defects file (read by :func:`lab.rig.defects_parse.parse_defects`) says how an as-built
+A defects file (read by :func:`lab.asbuilt.parse.parse_defects`) says how an as-built
 arm differs from its description. The fields ``calibrate`` can fit (softness, gradient,
 eyelet shifts, slack) live beside optional ones outside that model class, each absent by
 default so that an older file means exactly what it meant before:
@@ -71,7 +71,7 @@ class CableDefects:
 
 @dataclass(frozen=True)
 class Defects:
-    """A validated defects file (see :mod:`lab.rig.asbuilt` and this module's docstring)."""
+    """A validated defects file (see :mod:`lab.asbuilt.arm` and this module's docstring)."""
 
     robot: str
     softness: float

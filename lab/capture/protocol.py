@@ -8,7 +8,7 @@ over ``reading_period_s`` -- is within ``settle_tol_m`` of the mean of the previ
 flagged ``settled = 0``) and **records** the reading as ``y`` (m, frame W). Occluded
 (NaN) frames are left out; a marker unseen for ``max_occlusion_s`` raises
 :class:`MocapError`. Without waiting (``wait=False``) it records the first valid reading
-``dwell_s`` after the motors arrive. :func:`lab.rig.capture.capture` runs it over a list
+``dwell_s`` after the motors arrive. :func:`lab.capture.session.capture` runs it over a list
 of commands with a journal. Defaults and their reasons: ``docs/design/rig.md``.
 """
 
@@ -37,7 +37,7 @@ class Protocol:
     motor_tol_rad: float = 0.01
     motion_timeout_s: float = 30.0
     max_occlusion_s: float = 2.0
-    #: "wait" (the paper's: settle, then record) or "predictive" (:mod:`lab.rig.predictive`)
+    #: "wait" (the paper's: settle, then record) or "predictive" (:mod:`lab.capture.predictive`)
     kind: str = "wait"
     #: predictive: record when the predicted tip's 3-D std is below this, m
     predict_tol_m: float = 1.5e-4

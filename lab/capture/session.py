@@ -1,6 +1,6 @@
-"""A capture run: the protocol (:mod:`lab.rig.protocol`) over a list of commands, resumable.
+"""A capture run: the protocol (:mod:`lab.capture.protocol`) over a list of commands, resumable.
 
-:func:`capture` runs a list of commands through an append-only :class:`~lab.rig.journal.Journal`,
+:func:`capture` runs a list of commands through an append-only :class:`~lab.capture.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. With ``repeat_check`` the first
 command is measured once more after the last (:func:`repeat_check_line`): a robot that creeps
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.journal import Journal
+from lab.capture.protocol import Protocol, measure
 from lab.errors import InputError
 from lab.rig.base import Rig
-from lab.rig.journal import Journal
-from lab.rig.protocol import Protocol, measure
 
 
 def journal_columns(n_motors: int, predictive: bool = False) -> list[str]:
@@ -125,7 +125,7 @@ def capture(
     passes the journaled commands followed by the new ones (:func:`journal_samples`
     reads what a journal holds).
 
-    ``protocol.kind == "predictive"`` (:mod:`lab.rig.predictive`): the relaxation is
+    ``protocol.kind == "predictive"`` (:mod:`lab.capture.predictive`): the relaxation is
     ``relaxation`` if given, else the one a resumed journal learned (its ``relaxation``
     note), else learned from the first ``protocol.n_learn`` samples of this session.
 
@@ -135,7 +135,7 @@ def capture(
     """
     from tqdm import tqdm
 
-    from lab.rig.journal import JournalError
+    from lab.capture.journal import JournalError
 
     commands = np.asarray(commands, dtype=float)
     m = rig.robot.n_cables
@@ -274,11 +274,11 @@ def repeat_check_line(capture: Capture) -> str:
 
 def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):
     """``u -> Sample`` for ``protocol``: the waiting protocol's :func:`measure`, or a
-    :class:`~lab.rig.predictive.PredictiveSampler` (with the relaxation a resumed journal learned)."""
+    :class:`~lab.capture.predictive.PredictiveSampler` (with the relaxation a resumed journal learned)."""
     if protocol.kind != "predictive":
         return lambda u: measure(rig, u, protocol)
+    from lab.capture.predictive import PredictiveSampler
     from lab.dynamics.relaxation import Relaxation
-    from lab.rig.predictive import PredictiveSampler
 
     learned = journal.notes_tagged("relaxation")
     if relaxation is None and learned:

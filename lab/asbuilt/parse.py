@@ -2,13 +2,13 @@
 
 :func:`parse_defects` checks every table against :data:`DEFECTS_FIELDS` (a misspelt field
 is refused with the closest valid name) and every value against its range, raising
-:class:`~lab.rig.defects_fields.DefectsError` naming the field (``load_defects`` in
-:mod:`lab.rig.asbuilt` adds the file). The required tables (``[material]``,
+:class:`~lab.asbuilt.fields.DefectsError` naming the field (``load_defects`` in
+:mod:`lab.asbuilt.arm` adds the file). The required tables (``[material]``,
 ``[[cables]]``, ``[lag]``, ``[motors]``, ``[mocap]``) are those ``calibrate`` and the twin
 always needed; the optional fields outside the calibrator's model class (``[mount]``, the
 mocap frame error, cable stiffness, creep, the hyperfoam law) come in pairs that must be
 given together, and absent they leave the robot exactly as before. The meaning and range
-of each field: :mod:`lab.rig.defects_fields` and ``lab/rig/defects/three-cable.toml``.
+of each field: :mod:`lab.asbuilt.fields` and ``lab/rig/defects/three-cable.toml``.
 """
 
 from __future__ import annotations
@@ -17,8 +17,7 @@ import math
 
 import numpy as np
 
-from lab.description import RobotDescription, check_fields
-from lab.rig.defects_fields import (
+from lab.asbuilt.fields import (
     CABLE_STIFFNESS_RANGE_N_PER_M,
     CREEP_TAU_LIMIT_S,
     FRAME_OFFSET_LIMIT_M,
@@ -34,6 +33,7 @@ from lab.rig.defects_fields import (
     ranged,
     vec3,
 )
+from lab.description import RobotDescription, check_fields
 
 FORMAT_VERSION = 1
 HYPERFOAM_FIELDS = ("hyperfoam_mu_pa", "hyperfoam_alpha", "hyperfoam_beta")

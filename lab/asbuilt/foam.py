@@ -1,7 +1,7 @@
-"""A second family of emulated as-built robots, with defects the calibrator cannot fit (``twin:foam:SEED``).
+"""The foam family's draw: defects the calibrator cannot fit (``twin:foam:SEED``, :data:`lab.asbuilt.FOAM`).
 
-Member ``seed`` of the ``twin:random`` family (:mod:`lab.rig.family`) differs from its
-description only in what ``calibrate`` has parameters for. :func:`foam_defects` draws
+Member ``seed`` of the ``twin:random`` family (:data:`lab.asbuilt.RANDOM`) differs from its
+description only in what ``calibrate`` has parameters for. :func:`draw_foam` draws
 member ``seed`` of the *foam* family: exactly the same in-class draws (softness, gradient,
 eyelet shifts, slack, play, lag, motors, mocap noise -- the same random streams, so the
 same values wherever the eyelet limits of the two meshes agree, as on both shipped
@@ -23,9 +23,9 @@ robots), plus, from independent streams (:data:`FOAM_RANGES`; ``docs/design/rig.
 * a finer emulator mesh than the description's (:func:`foam_mesh`: one more ring, 30 % more
   layers), so that the nominal FEM's discretisation is a modelling error too.
 
-Results on a member are an **emulated as-built robot (foam family)** (:data:`FOAM_LABEL`).
-:func:`foam_defects_toml` writes it as a commented defects file (``python -m lab defects
---foam SEED``), which read back with ``--rig twin:FILE`` is the same robot.
+Results on a member are an **emulated as-built robot (foam family)**;
+:meth:`lab.asbuilt.Family.toml` writes it as a commented defects file (``python -m lab
+defects --foam SEED``), which read back with ``--rig twin:FILE`` is the same robot.
 """
 
 from __future__ import annotations
@@ -34,27 +34,12 @@ import math
 
 import numpy as np
 
+from lab.asbuilt.draw import check_seed, draw_member, rounded
 from lab.description import RobotDescription
 from lab.fem.hyperfoam import hyperfoam_matching
-from lab.rig.asbuilt import Defects, as_built_robot, parse_defects
-from lab.rig.family_draw import RANGES, check_seed, draw_member, rounded
-from lab.rig.family_toml import defects_toml, write_member
-from lab.rig.spec import FAMILY_LABELS
 
-__all__ = [
-    "FOAM_FAMILY_VERSION",
-    "FOAM_LABEL",
-    "FOAM_RANGES",
-    "foam_mesh",
-    "foam_defects",
-    "foam_defects_toml",
-    "write_foam_defects",
-]
+__all__ = ["FOAM_RANGES", "foam_mesh", "draw_foam"]
 
-#: Version of the generator: a change of ranges or draws bumps it (same seed, other robot).
-FOAM_FAMILY_VERSION = 1
-#: What results on a member of the foam family are.
-FOAM_LABEL = FAMILY_LABELS["foam"]
 #: (low, high) of each out-of-class field, SI units (deg, m, N/m, s); the cable stiffness
 #: is drawn log-uniformly, the rest uniformly. See the module docstring for why.
 FOAM_RANGES = {
@@ -85,8 +70,24 @@ def _u(rng: np.random.Generator, key: str, size=None):
     return rng.uniform(lo, hi, size)
 
 
-def _draw_foam(robot: RobotDescription, seed: int, n_rings: int | None, n_axial: int | None) -> tuple[dict, dict]:
-    """The defects document of foam member ``seed`` and the notes its comments need."""
+def draw_foam(robot: RobotDescription, seed: int, n_rings: int | None, n_axial: int | None) -> tuple[dict, dict]:
+    """The drawn defects document of foam member ``seed`` and the notes its comments need.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    seed : int
+        The member, an integer >= 0.
+    n_rings, n_axial : int or None
+        The emulator mesh (None: :func:`foam_mesh`'s, finer than the description's).
+
+    Returns
+    -------
+    tuple of dict
+        The parsed TOML document (:func:`lab.asbuilt.parse.parse_defects` validates it) and
+        the notes :func:`lab.asbuilt.writer.defects_toml` writes as comments.
+    """
     seed = check_seed(seed)
     rings, layers = foam_mesh(robot, n_rings, n_axial)
     data, notes = draw_member(robot, seed, rings, layers)  # the in-class draws of twin:random:SEED
@@ -116,57 +117,3 @@ def _draw_foam(robot: RobotDescription, seed: int, n_rings: int | None, n_axial:
     a = math.radians(azimuth)
     data["mount"] = {"tilt_deg": rounded(tilt, 3), "tilt_axis": [rounded(math.cos(a), 4), rounded(math.sin(a), 4), 0.0]}
     return data, {**notes, "tilt_azimuth_deg": azimuth}
-
-
-def foam_defects(
-    robot: RobotDescription, seed: int, *, n_rings: int | None = None, n_axial: int | None = None
-) -> Defects:
-    """Member ``seed`` (an integer >= 0) of the foam family of as-built ``robot``s (see the
-    module docstring). ``n_rings``/``n_axial``: the emulator's FEM mesh, written to the
-    file's ``[emulator]`` (default: :func:`foam_mesh`, finer than the description's);
-    eyelet shifts are kept inside it."""
-    data, _ = _draw_foam(robot, seed, n_rings, n_axial)
-    defects = parse_defects(data, robot, f"foam:{int(seed)}")
-    as_built_robot(robot, defects)  # eyelets inside the body (guaranteed by the draw)
-    return defects
-
-
-def foam_defects_toml(
-    robot: RobotDescription,
-    seed: int,
-    *,
-    n_rings: int | None = None,
-    n_axial: int | None = None,
-    command: str | None = None,
-) -> str:
-    """The defects file (TOML text with comments) of foam member ``seed``: what
-    :func:`foam_defects` returns. ``command``: the command line that made it, recorded in
-    the header (default: the equivalent one)."""
-    data, notes = _draw_foam(robot, seed, n_rings, n_axial)
-    mesh = "".join(f" --{k.replace('_', '-')} {v}" for k, v in (("n_rings", n_rings), ("n_axial", n_axial)) if v)
-    command = command or f"python -m lab defects --foam {int(seed)} --robot {robot.name}{mesh} --out D.toml"
-    header = [
-        f"# As-built defects of {robot.name!r}: member {int(seed)} of the foam family of emulated",
-        f"# as-built robots (lab/rig/foam_family.py, generator version {FOAM_FAMILY_VERSION};",
-        f"# --rig twin:foam:{int(seed)}), made by",
-        f"#     {command}",
-        f"# The fields `calibrate` fits are those of --rig twin:random:{int(seed)}; the foam law,",
-        "# the cables' stiffness, creep, the mocap's frame error, [mount] and the finer",
-        "# [emulator] mesh are outside its model class. Each drawn value comes from the range",
-        "# in its comment (U uniform, logU log-uniform); lab/rig/foam_family.py says why.",
-        f"# Results on this robot are an {FOAM_LABEL}, not the real arm.",
-        "# Frame W as in the description (base at the origin, body along +x, gravity along",
-        "# -z); SI units. Every field is validated by lab/rig/asbuilt.py, which also",
-        "# documents the model.",
-    ]
-    return defects_toml(robot, data, notes, header=header, ranges={**RANGES, **FOAM_RANGES})
-
-
-def write_foam_defects(
-    path, robot: RobotDescription, seed: int, *, n_rings=None, n_axial=None, command=None
-) -> Defects:
-    """Write foam member ``seed``'s defects file to ``path`` atomically; returns its
-    :class:`Defects` (what :func:`lab.rig.asbuilt.load_defects` reads back from ``path``)."""
-    return write_member(
-        path, robot, seed, foam_defects_toml, foam_defects, n_rings=n_rings, n_axial=n_axial, command=command
-    )

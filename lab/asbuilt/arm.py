@@ -6,8 +6,8 @@ the hyperfoam law, ``[[cables]]`` eyelet shifts, slack, play and optionally stif
 an optional ``[mount]`` tilt) and how the emulated rig (``twin``) behaves in time
 (``[lag]`` with an optional creep mode, ``[motors]``, ``[mocap]`` with an optional frame
 registration error; ``[emulator]`` an optional FEM mesh). :func:`load_defects` validates
-every field (:mod:`lab.rig.defects_parse`; meanings and ranges in
-:mod:`lab.rig.defects_fields`) and raises :class:`DefectsError` naming the file and the
+every field (:mod:`lab.asbuilt.parse`; meanings and ranges in
+:mod:`lab.asbuilt.fields`) and raises :class:`DefectsError` naming the file and the
 bad field; the shipped default for a robot is ``lab/rig/defects/<robot>.toml``.
 :func:`as_built_fem` is the FEM of the as-built arm, solved in the body frame (gravity
 turned by the tilt; where the motion capture sees the tip is :class:`AsBuiltBody`'s
@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from lab.asbuilt.fields import CableDefects, Defects, DefectsError
+from lab.asbuilt.parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
 from lab.description import RobotDescription, read_toml
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.cables import route_hessian, series_stiffness, spring
@@ -32,8 +34,6 @@ from lab.fem.energy import ArmFEM
 from lab.fem.hyperfoam import HyperfoamMaterial
 from lab.fem.mesh import cylinder_mesh
 from lab.fem.statics import solve_static
-from lab.rig.defects_fields import CableDefects, Defects, DefectsError
-from lab.rig.defects_parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
 
 __all__ = [
     "FORMAT_VERSION",
@@ -53,7 +53,8 @@ __all__ = [
     "EquilibriumCache",
 ]
 
-DEFECTS_DIR = Path(__file__).with_name("defects")
+#: The shipped defects files (package data of ``lab.rig``, where the twin rig reads them by default).
+DEFECTS_DIR = Path(__file__).resolve().parent.parent / "rig" / "defects"
 
 
 def default_defects_path(robot: RobotDescription) -> Path:
