@@ -136,7 +136,6 @@ def capture_rate_study(
     mesh: dict | None = None,
     progress=None,
 ) -> list[dict]:
-<<<<<<< HEAD
     """Samples per hour and accuracy of each protocol and tolerance, per robot.
 
     For each robot label, ``n_samples`` random allowed commands (seeded by ``seed``) are
@@ -165,13 +164,7 @@ def capture_rate_study(
     list of dict
         Rows of :data:`COLUMNS`, robot by robot, the waiting runs before the predictive ones.
     """
-=======
-    """Rows of :data:`COLUMNS`: for each robot label (``"shipped"`` or ``"random:SEED"``,
-    :func:`lab.asbuilt.family.family_member`), ``n_samples`` random allowed commands (seeded by
-    ``seed``) captured with each tolerance of each protocol. ``mesh``: ``n_rings``/``n_axial``
-    of the emulator's FEM (coarse meshes for tests). ``progress(row)`` is called per row."""
     from lab.asbuilt.family import family_member
->>>>>>> wt-rig
     from lab.data.designs import random_commands
     from lab.rig.twin import AsBuiltBody
 
