@@ -52,8 +52,8 @@ from lab.learn.studies import (
     write_csv,
 )
 from lab.learn.train import TrainResult, data_sha256, train
-from lab.learn.training_data import TrainingData
 from lab.learn.train_spec import SplitsSpec, TrainSpec
+from lab.learn.training_data import TrainingData
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [

@@ -1,10 +1,11 @@
 """Active sampling: measure, batch after batch, the allowed commands where a model ensemble disagrees most.
 
 :func:`active_sampling`, with the settings of an :class:`ActiveSpec`, starts from a
-scrambled-Sobol design of ``n_initial`` safe commands, then until ``n_total`` samples are measured: fits an ensemble of ``k`` networks
-to all ``(u, y)`` so far; scores a fresh, seeded pool of ``pool_size`` safe Sobol
-candidates by the ensemble's spread (m) times their density in the pool
-(:func:`pool_density`: the spread alone crowds the picks on the safe set's boundary);
+scrambled-Sobol design of ``n_initial`` safe commands, then until ``n_total`` samples are
+measured: fits an ensemble of ``k`` networks to all ``(u, y)`` so far; scores a fresh,
+seeded pool of ``pool_size`` safe Sobol candidates by the ensemble's spread (m) times
+their density in the pool (:func:`pool_density`: the spread alone crowds the picks on the
+safe set's boundary);
 picks ``batch`` of them apart from each other and from the data (:func:`pick_apart`);
 measures them with the caller's ``measure(u_batch) -> y_batch`` (the simulator or a rig).
 Every random choice is seeded by ``(seed, number of samples so far)``, so a run killed

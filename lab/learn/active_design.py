@@ -16,7 +16,7 @@ import sys
 from lab.data.design_spec import ACTIVE_POOL, DesignSpec
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.learn.active import active_sampling, default_initial, default_radius
+from lab.learn.active import ActiveSpec, active_sampling, default_initial, default_radius
 from lab.learn.ensemble import member_ratios, train_ensemble
 from lab.learn.split import minimum_samples
 
@@ -114,11 +114,9 @@ def run_active(
             on_batch(u_b, y_b, entry)
         print_batch(entry, design.active, sys.stderr if file is None else file)
 
-    return active_sampling(
-        robot,
-        measure_batch,
-        design.active,
-        design.batch,
+    spec = ActiveSpec(
+        n_total=design.active,
+        batch=design.batch,
         n_initial=settings["n_initial"],
         pool_size=settings["pool_size"],
         radius=settings["radius"],
@@ -127,6 +125,11 @@ def run_active(
         k=design.ensemble_members,
         seed=design.seed,
         epochs=design.ensemble_epochs,
+    )
+    return active_sampling(
+        robot,
+        measure_batch,
+        spec,
         u_done=u_done,
         y_done=y_done,
         fit_ensemble=functools.partial(train_ensemble, n_jobs=n_jobs),

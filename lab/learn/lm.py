@@ -106,7 +106,7 @@ def _checked(options, cls):
     if options is None:
         return cls()
     if type(options) is not cls:
-        raise InputError(f"options must be a {cls.__name__}, got {type(options).__name__}")
+        raise InputError(f"options must be of type {cls.__name__}, got {type(options).__name__}")
     return options
 
 

@@ -190,10 +190,11 @@ def fit_forward_model(
         ratios = (0.9, 0.1, 0.0) if len(u) >= 10 else (1.0, 0.0, 0.0)
         return train(u, y, tuple(hidden), ratios=ratios, seed=seed, epochs=epochs).model
     try:
+        from lab.learn.model_specs import model_spec
         from lab.learn.models import fit_model
     except ImportError:
         raise InputError(f"model {name!r} by {algorithm!r} needs lab.learn.models, which is missing") from None
-    return fit_model(name, u, y, hidden=tuple(hidden), seed=seed, epochs=epochs, algorithm=algorithm)
+    return fit_model(model_spec(name, hidden=tuple(hidden), seed=seed, epochs=epochs, algorithm=algorithm), u, y)
 
 
 def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: float, seed: int, opts: dict):
@@ -212,19 +213,17 @@ def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: floa
 
     robot = body.robot
     if strategy == "active":
-        from lab.learn.active import active_sampling
+        from lab.learn.active import ActiveSpec, active_sampling
 
-        u, y, _ = active_sampling(
-            robot,
-            measure,
-            n,
-            min(int(opts["batch"]), n),
+        spec = ActiveSpec(
+            n_total=n,
+            batch=min(int(opts["batch"]), n),
             n_initial=None if opts.get("n_initial") is None else min(int(opts["n_initial"]), n),
             hidden=tuple(opts["hidden"]),
             seed=seed,
             epochs=opts["epochs"],
-            fit_ensemble=_ensemble_fitter(opts),
         )
+        u, y, _ = active_sampling(robot, measure, spec, fit_ensemble=_ensemble_fitter(opts))
         return np.asarray(u, float), np.asarray(y, float)
     u = grid_commands(robot, levels) if strategy == "grid" else design_commands(robot, n, strategy, seed)
     return u, measure(u)
