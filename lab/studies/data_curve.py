@@ -179,11 +179,35 @@ def _row_rng(seed: int, strategy: str, n: int) -> np.random.Generator:
 def fit_forward_model(
     name: str, u, y, *, hidden=(20, 20), seed: int = 0, epochs: int | None = None, algorithm: str = "lm"
 ):
-    """A forward model u (N, m) rad -> y (N, 3) m. ``"mlp"`` by ``"lm"``: ``lab``'s network
-    trained by LM with the paper's stopping rules on a 90/10 train/validation split (all for
-    training below 10 samples), as the transfer curve's ``real-only``; anything else goes to
-    :func:`lab.learn.models.fit_model` (e.g. ``algorithm="br"``: Bayesian regularisation,
-    no validation set; models ensemble, gpr, knn, sklearn-mlp)."""
+    """A forward model fitted to u (N, m) rad -> y (N, 3) m.
+
+    Parameters
+    ----------
+    name : str
+        ``"mlp"`` by ``"lm"``: ``lab``'s network trained by LM with the paper's stopping
+        rules on a 90/10 train/validation split (all for training below 10 samples), as the
+        transfer curve's ``real-only``; anything else is fitted by
+        :func:`lab.learn.models.fit_model` with :func:`lab.learn.model_specs.model_spec`
+        of these settings (e.g. ``algorithm="br"``: Bayesian regularisation, no validation
+        set; models ensemble, gpr, knn, sklearn-mlp).
+    u : array_like, shape (N, m)
+        Commands (rad).
+    y : array_like, shape (N, 3)
+        Tips (m).
+    hidden : tuple of int
+        Hidden widths of the networks.
+    seed : int
+        Seed of the fit.
+    epochs : int, optional
+        Maximum epochs of the networks (None: the trainer's default).
+    algorithm : str
+        The networks' training algorithm.
+
+    Returns
+    -------
+    model
+        The fitted forward model (``predict(u)`` -> y, m).
+    """
     if name == "mlp" and algorithm == "lm":
         from lab.learn.train import train
 

@@ -50,7 +50,24 @@ _TEXT, _INT = ("dataset", "model", "split"), ("history", "split_index", "seed", 
 
 
 def fit_named(name: str, u, y, seed: int):
-    """Fit comparison model ``name`` (:data:`RECIPES`) to inputs u (N, n_x) -> tips y (N, 3) m."""
+    """Fit a comparison model.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`RECIPES`.
+    u : array_like, shape (N, n_x)
+        Inputs (commands, rad, with their history where the model takes it).
+    y : array_like, shape (N, 3)
+        Tips (m).
+    seed : int
+        Seed of the fit.
+
+    Returns
+    -------
+    model
+        The fitted model (``predict(u)`` -> y, m).
+    """
     from lab.learn.model_specs import EnsembleSpec, NetworkSpec, model_spec
     from lab.learn.models import fit_model
     from lab.learn.peers import fit_gpr, fit_sklearn_mlp
