@@ -6,7 +6,8 @@
 ``sklearn-mlp`` (:mod:`lab.learn.peers`), and ``inverse-mlp``, the direct inverse u = g(y)
 (:mod:`lab.learn.inverse`): its held-out error is the command error ``|g(y) - u|`` (rad)
 and, given a forward model, the tip error ``|forward(g(y)) - y|`` (m) as ``mean_distance_m``
-(NaN without one). :func:`load_model` reads any model file by the ``kind`` in its metadata
+(NaN without one). :func:`fit_model` fits one spec of :mod:`lab.learn.model_specs` (one
+frozen dataclass per kind). :func:`load_model` reads any model file by the ``kind`` in its metadata
 through :data:`MODEL_KINDS`, a dict of loader functions imported here by name.
 :func:`evaluate_model_splits` is the paper's ten-split study for any model, on
 :func:`lab.learn.train.train`'s splits for the same seeds, so models compare split by split.
@@ -76,8 +77,8 @@ def fit_model(spec, u, y):
     Parameters
     ----------
     spec : NetworkSpec, EnsembleSpec, InverseSpec, GPRSpec, KNNSpec or SklearnMLPSpec
-        The model kind and its settings (:mod:`lab.learn.model_specs`; :func:`lab.learn.model_specs.model_spec`
-        builds one from a kind's name).
+        The model kind and its settings (:mod:`lab.learn.model_specs`;
+        :func:`lab.learn.model_specs.model_spec` builds one from a kind's name).
     u : array_like, shape (N, n_u)
         Commands (rad).
     y : array_like, shape (N, n_y)
