@@ -437,3 +437,19 @@ def test_ctrl_c_while_ensemble_workers_import_exits_130_without_tracebacks(tmp_p
         assert proc.returncode == 130, err
         assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
         assert "interrupted (Ctrl-C)" in err and not out.exists()
+
+
+def test_every_trainer_has_one_signature():
+    """model, one TrainingData, the algorithm's own options object; nothing else positional."""
+    import inspect
+
+    from lab.learn.bayes import train_br
+    from lab.learn.gradient import train_adam, train_lbfgs
+    from lab.learn.train import ALGORITHM_OPTIONS
+
+    for algorithm, fit in (("lm", train_lm), ("br", train_br), ("adam", train_adam), ("lbfgs", train_lbfgs)):
+        params = list(inspect.signature(fit).parameters.values())
+        assert [p.name for p in params[:3]] == ["model", "data", "options"], fit.__name__
+        assert params[1].annotation == "TrainingData"
+        assert params[2].annotation == f"{ALGORITHM_OPTIONS[algorithm].__name__} | None"
+        assert all(p.kind is not p.POSITIONAL_OR_KEYWORD for p in params[4:]), fit.__name__
