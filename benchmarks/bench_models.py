@@ -31,6 +31,7 @@ from lab.control.ik import IKSolver
 from lab.control.trajectories import builtin
 from lab.data.dataset import read_dataset
 from lab.description import load_robot
+from lab.learn.model_specs import model_spec
 from lab.learn.models import fit_model
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -65,7 +66,7 @@ print("-" * len(header))
 ref = {}
 for label, name, kw in MODELS:
     t0 = time.perf_counter()
-    model = fit_model(name, u, y, members=args.members, **kw)
+    model = fit_model(model_spec(name, members=args.members, **kw), u, y)
     train_s = time.perf_counter() - t0
     if name == "inverse-mlp":
         t_batch = best_of(lambda m=model: m.command(targets), 20) / len(targets) * 10_000

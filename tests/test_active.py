@@ -5,7 +5,7 @@ import pytest
 
 from lab.description import load_robot
 from lab.errors import InputError, LabRuntimeError
-from lab.learn.active import active_sampling, default_initial, pick_apart, pool_density
+from lab.learn.active import ActiveSpec, active_sampling, default_initial, pick_apart, pool_density
 
 
 @pytest.fixture(scope="module")
@@ -50,9 +50,8 @@ def test_picks_land_where_the_ensemble_disagrees(robot):
         measured.append(len(u_b))
         return tip(u_b)
 
-    u, y, log = active_sampling(
-        robot, measure, 45, 8, n_initial=16, k=3, hidden=(4,), epochs=7, seed=1, fit_ensemble=corner_fit(robot, calls)
-    )
+    spec = ActiveSpec(45, 8, n_initial=16, k=3, hidden=(4,), epochs=7, seed=1)
+    u, y, log = active_sampling(robot, measure, spec, fit_ensemble=corner_fit(robot, calls))
     assert u.shape == (45, 3) and y.shape == (45, 3) and np.array_equal(y, tip(u))
     assert measured == [16, 8, 8, 8, 5]  # initial design, full batches, the remainder
     assert np.all(robot.is_safe(u))
@@ -83,7 +82,7 @@ def test_a_batch_is_kept_apart(robot):
         return Peaked(robot, u, y, kw["seed"])
 
     def batch(radius):
-        u, _, _ = active_sampling(robot, tip, 18, 10, n_initial=8, seed=0, fit_ensemble=fit, radius=radius)
+        u, _, _ = active_sampling(robot, tip, ActiveSpec(18, 10, n_initial=8, seed=0, radius=radius), fit_ensemble=fit)
         x = u[8:] / robot.u_max_rad
         d = np.linalg.norm(x[:, None] - x[None], axis=2)
         np.fill_diagonal(d, np.inf)
@@ -110,7 +109,7 @@ def test_resume_gives_the_uninterrupted_run(robot):
 
         return E()
 
-    full_u, full_y, full_log = active_sampling(robot, tip, 42, 7, fit_ensemble=fit, **kw)
+    full_u, full_y, full_log = active_sampling(robot, tip, ActiveSpec(42, 7, **kw), fit_ensemble=fit)
 
     class Killed(Exception):
         pass
@@ -127,16 +126,16 @@ def test_resume_gives_the_uninterrupted_run(robot):
         saved_u.append(u_b), saved_y.append(y_b)
 
     with pytest.raises(Killed):
-        active_sampling(robot, dying, 42, 7, fit_ensemble=fit, on_batch=keep, **kw)
+        active_sampling(robot, dying, ActiveSpec(42, 7, **kw), fit_ensemble=fit, on_batch=keep)
     u_done, y_done = np.vstack(saved_u), np.vstack(saved_y)
     assert len(u_done) == 12 + 7 + 7
-    u, y, log = active_sampling(robot, tip, 42, 7, fit_ensemble=fit, u_done=u_done, y_done=y_done, **kw)
+    u, y, log = active_sampling(robot, tip, ActiveSpec(42, 7, **kw), fit_ensemble=fit, u_done=u_done, y_done=y_done)
     assert np.array_equal(u, full_u) and np.array_equal(y, full_y)
     strip = [{k: v for k, v in e.items() if k != "fit_s"} for e in full_log[3:]]
     assert [{k: v for k, v in e.items() if k != "fit_s"} for e in log] == strip
     assert [(e["batch"], e["n"]) for e in log] == [(3, 7), (4, 7), (5, 2)]  # 12 + 4 x 7 + 2 = 42
     # a different seed picks differently
-    other, _, _ = active_sampling(robot, tip, 42, 7, fit_ensemble=fit, **{**kw, "seed": 4})
+    other, _, _ = active_sampling(robot, tip, ActiveSpec(42, 7, **{**kw, "seed": 4}), fit_ensemble=fit)
     assert not np.array_equal(other, full_u)
 
 
@@ -154,7 +153,7 @@ def test_pick_apart():
 def test_defaults_and_bad_arguments(robot):
     assert default_initial(200) == 100 and default_initial(13) == 6 and default_initial(1) == 1
     calls = []
-    u, _, log = active_sampling(robot, tip, 61, 8, fit_ensemble=corner_fit(robot, calls))
+    u, _, log = active_sampling(robot, tip, ActiveSpec(61, 8), fit_ensemble=corner_fit(robot, calls))
     assert [e["n"] for e in log] == [30] + [8] * 3 + [7] and calls[0][1:5] == ((20, 20), 5, calls[0][3], None)
     fit = corner_fit(robot, [])
     for kwargs, words in [
@@ -166,13 +165,19 @@ def test_defaults_and_bad_arguments(robot):
         (dict(n_total=10, batch=2, pool_size=1), "pool_size >= 2"),
         (dict(n_total=10, batch=2, radius=0.0), "radius"),
         (dict(n_total=10, batch=2, density_radius=-1.0), "density_radius"),
-        (dict(n_total=10, batch=2, u_done=np.full((2, 3), 3.0), y_done=np.zeros((2, 3))), "safe commands"),
-        (dict(n_total=10, batch=2, u_done=np.zeros((2, 3)), y_done=np.zeros((1, 3))), "same number"),
     ]:
         with pytest.raises(InputError, match=words):
-            active_sampling(robot, tip, fit_ensemble=fit, **kwargs)
+            ActiveSpec(**kwargs)
+    for done, words in [
+        (dict(u_done=np.full((2, 3), 3.0), y_done=np.zeros((2, 3))), "safe commands"),
+        (dict(u_done=np.zeros((2, 3)), y_done=np.zeros((1, 3))), "same number"),
+    ]:
+        with pytest.raises(InputError, match=words):
+            active_sampling(robot, tip, ActiveSpec(10, 2), fit_ensemble=fit, **done)
+    with pytest.raises(InputError, match="ActiveSpec"):
+        active_sampling(robot, tip, 10, fit_ensemble=fit)
     with pytest.raises(LabRuntimeError, match="finite tips"):
-        active_sampling(robot, lambda u: tip(u)[:, :2], 10, 2, fit_ensemble=fit)
+        active_sampling(robot, lambda u: tip(u)[:, :2], ActiveSpec(10, 2), fit_ensemble=fit)
 
 
 def test_the_density_keeps_picks_off_the_boundary(robot):
@@ -191,11 +196,8 @@ def test_the_density_keeps_picks_off_the_boundary(robot):
         u, _, _ = active_sampling(
             robot,
             tip,
-            60,
-            10,
-            n_initial=10,
+            ActiveSpec(60, 10, n_initial=10, density_radius=density_radius),
             fit_ensemble=lambda u, y, **kw: Flat(robot, u, y, 0),
-            density_radius=density_radius,
         )
         return u[10:]
 

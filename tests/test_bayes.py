@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from lab.learn.bayes import _step, _systems, br_options, effective_parameters, train_br
+from lab.learn.bayes import BROptions, _step, _systems, effective_parameters, train_br
 from lab.learn.lm import LMOptions, train_lm
 from lab.learn.mlp import init_mlp
 from lab.learn.train import train
+from lab.learn.training_data import TrainingData
 
 
 def noisy_problem(n, noise, seed):
@@ -41,8 +42,8 @@ def test_br_beats_unregularised_lm_on_small_noisy_data_and_estimates_the_noise()
     u, y_clean, y = noisy_problem(60, noise, 0)
     u_test, y_test_clean, _ = noisy_problem(400, noise, 9)
     net = init_mlp(u, y, (10, 10), seed=1)  # 162 parameters for 120 residuals: LM interpolates the noise
-    lm, _ = train_lm(net, u, y, options=LMOptions(epochs=300, min_grad=0))
-    br, log = train_br(net, u, y, options=br_options(epochs=300))
+    lm, _ = train_lm(net, TrainingData(u, y), LMOptions(epochs=300, min_grad=0))
+    br, log = train_br(net, TrainingData(u, y), BROptions(epochs=300))
     err = lambda m: np.mean(np.linalg.norm(m.predict(u_test) - y_test_clean, axis=1))  # noqa: E731
     assert err(br) < 0.6 * err(lm)
     gamma = log.history["gamma"][-1]

@@ -14,7 +14,7 @@ import pytest
 
 from lab.course.ch03 import check_lm_step, check_lm_training, check_network_jacobian, lm_training_cases
 from lab.course.ch04 import check_gd_step, check_projection, check_tracking_error
-from lab.learn import LMOptions, lm_step, load_model, mse, train_lm
+from lab.learn import LMOptions, TrainingData, lm_step, load_model, mse, train_lm
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -73,7 +73,7 @@ def test_chapter_3_graders_pass_right_and_catch_wrong_answers():
 
 def test_chapter_3_training_cases_have_failed_trial_steps():
     for net, u, y, epochs in lm_training_cases():
-        _, log = train_lm(net, u, y, options=LMOptions(epochs=epochs, min_grad=0.0))
+        _, log = train_lm(net, TrainingData(u, y), LMOptions(epochs=epochs, min_grad=0.0))
         mu = log.history["mu"]
         assert np.any(mu[1:] >= mu[:-1]), "no trial step failed: a loop without retries would pass"
 

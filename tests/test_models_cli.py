@@ -11,6 +11,7 @@ from lab.data.dataset import write_dataset
 from lab.learn import load_model
 from lab.learn.ensemble import Ensemble
 from lab.learn.model_io import ModelFileError
+from lab.learn.model_specs import EnsembleSpec, GPRSpec, InverseSpec, KNNSpec, NetworkSpec, model_spec
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, outer_split
 from lab.learn.train import train
 
@@ -42,7 +43,7 @@ def test_outer_split_is_trains_split():
 @pytest.mark.parametrize("name", MODEL_CHOICES)
 def test_every_model_fits_saves_and_loads_by_kind(name, tmp_path):
     u, y = arm_like(50)
-    model = fit_model(name, u, y, hidden=(4,), seed=1, epochs=10, members=2)
+    model = fit_model(model_spec(name, hidden=(4,), seed=1, epochs=10, members=2), u, y)
     assert model.n_u == 3 and model.n_y == 3 and isinstance(model.metadata, dict)
     path = tmp_path / "m.npz"
     model.save(path)
@@ -57,7 +58,7 @@ def test_every_model_fits_saves_and_loads_by_kind(name, tmp_path):
 def test_unknown_kind_and_bad_name(tmp_path):
     u, y = arm_like(30)
     path = tmp_path / "m.npz"
-    fit_model("mlp", u, y, hidden=(3,), epochs=2).save(path)
+    fit_model(NetworkSpec(hidden=(3,), epochs=2), u, y).save(path)
     with np.load(path) as npz:
         arrays = {k: npz[k] for k in npz.files}
     arrays["metadata"] = np.array(json.dumps({**json.loads(str(arrays["metadata"])), "kind": "lab.banana"}))
@@ -65,22 +66,27 @@ def test_unknown_kind_and_bad_name(tmp_path):
     with pytest.raises(ModelFileError, match="kind 'lab.banana'"):
         load_model(tmp_path / "k.npz")
     with pytest.raises(ValueError, match="model must be one of"):
-        fit_model("forest", u, y)
+        model_spec("forest")
+    with pytest.raises(ValueError, match="no model takes"):
+        model_spec("mlp", banana=1)
+    with pytest.raises(ValueError, match="spec must be one of"):
+        fit_model("mlp", u, y)
+    assert model_spec("knn", hidden=(4,), seed=2, n_neighbors=3) == KNNSpec(n_neighbors=3)
 
 
 def test_model_splits_pair_with_mlp_splits_and_report_the_inverse_through_a_forward_model():
     u, y = arm_like(60)
-    mlp = evaluate_model_splits(u, y, "mlp", n_splits=2, seed=3, hidden=(4,), epochs=5)
-    knn = evaluate_model_splits(u, y, "knn", n_splits=2, seed=3)
+    mlp = evaluate_model_splits(u, y, NetworkSpec(hidden=(4,), epochs=5), n_splits=2, seed=3)
+    knn = evaluate_model_splits(u, y, KNNSpec(), n_splits=2, seed=3)
     assert [r["seed"] for r in mlp] == [r["seed"] for r in knn] and [r["model"] for r in knn] == ["knn", "knn"]
-    forward = fit_model("gpr", u, y)
-    inv = evaluate_model_splits(u, y, "inverse-mlp", n_splits=2, seed=3, hidden=(4,), epochs=5, forward=forward)
+    forward = fit_model(GPRSpec(), u, y)
+    inv = evaluate_model_splits(u, y, InverseSpec(hidden=(4,), epochs=5), n_splits=2, seed=3, forward=forward)
     for r, s in zip(inv, knn):
         split = outer_split(len(u), (0.9, 0, 0.1), s["seed"])
         assert r["test_n"] == len(split.test) == s["test_n"]
         assert r["test_mean_command_error_rad"] > 0 and np.isfinite(r["test_mean_distance_m"])
         # the tip error of forward(g(y)) on this split's test targets, recomputed
-        g = fit_model("inverse-mlp", u[split.train], y[split.train], hidden=(4,), seed=s["seed"], epochs=5)
+        g = fit_model(InverseSpec(hidden=(4,), seed=s["seed"], epochs=5), u[split.train], y[split.train])
         d = np.linalg.norm(forward.predict(g.command(y[split.test])) - y[split.test], axis=1)
         assert r["test_mean_distance_m"] == pytest.approx(d.mean(), rel=1e-9)
 
@@ -164,11 +170,11 @@ def test_cli_bad_model_arguments_exit_2(dataset, tmp_path, capsys):
 def test_ensemble_splits_fit_the_spread_scale_on_the_validation_set():
     u, y = arm_like(80)
     rows = evaluate_model_splits(
-        u, y, "ensemble", n_splits=2, ratios=(0.7, 0.15, 0.15), seed=1, hidden=(4,), epochs=5, members=2
+        u, y, EnsembleSpec(hidden=(4,), epochs=5, members=2), n_splits=2, ratios=(0.7, 0.15, 0.15), seed=1
     )
     for r in rows:
         split = outer_split(len(u), (0.7, 0.15, 0.15), r["seed"])
-        ens = fit_model("ensemble", u[split.train], y[split.train], hidden=(4,), seed=r["seed"], epochs=5, members=2)
+        ens = fit_model(EnsembleSpec(hidden=(4,), seed=r["seed"], epochs=5, members=2), u[split.train], y[split.train])
         assert r["test_mean_distance_m"] == pytest.approx(
             np.mean(np.linalg.norm(ens.predict(u[split.test]) - y[split.test], axis=1)), rel=1e-9
         )

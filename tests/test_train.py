@@ -11,12 +11,14 @@ from helpers import fd_parameter_jacobian
 
 from lab.cli import main
 from lab.data.dataset import read_dataset, write_dataset
+from lab.learn.gradient import AdamOptions, LBFGSOptions
 from lab.learn.lm import LMOptions, train_lm
 from lab.learn.metrics import mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, load_model
 from lab.learn.split import divide_random
 from lab.learn.studies import evaluate_splits, size_sweep, summarize
 from lab.learn.train import train
+from lab.learn.training_data import TrainingData
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "data" / "sim_three_cable.csv"
@@ -72,7 +74,7 @@ def test_first_lm_step_is_the_trainlm_formula_in_data_units(hidden):
     u, y = smooth_problem(n=20)
     y = 0.01 * y + 0.1  # metres-sized outputs: units matter
     model = init_mlp(u, y, hidden, seed=3)
-    net, log = train_lm(model, u, y, options=LMOptions(epochs=1, min_grad=0))
+    net, log = train_lm(model, TrainingData(u, y), LMOptions(epochs=1, min_grad=0))
     assert log.history["mu"][0] == 1e-3 and log.stop_reason == "max_epochs"
     n_e = y.size
     J = fd_parameter_jacobian(model, u)
@@ -90,7 +92,7 @@ def test_first_lm_step_is_the_trainlm_formula_in_data_units(hidden):
 def test_mu_schedule_times_ten_on_failure_tenth_on_success():
     u, y = smooth_problem()
     model = init_mlp(u, y, (8,), seed=1)
-    _, log = train_lm(model, u[:40], y[:40], u[40:50], y[40:50], u[50:], y[50:], LMOptions(min_grad=0))
+    _, log = train_lm(model, TrainingData(u[:40], y[:40], u[40:50], y[40:50], u[50:], y[50:]), LMOptions(min_grad=0))
     ratio = np.log10(log.history["mu"][1:] / log.history["mu"][:-1])
     # one accepted step per epoch: mu * 10^(rejected trials) * 0.1
     np.testing.assert_allclose(ratio, np.round(ratio), atol=1e-9)
@@ -102,10 +104,10 @@ def test_stops_at_mu_max_when_no_step_can_improve():
     # The least-squares optimum, exactly: y_hat = 2 everywhere, J^T e = 0, every step is 0.
     u, y = np.array([[-1.0], [-1.0], [1.0], [1.0]]), np.array([[0.0], [4.0], [4.0], [0.0]])
     model = MLP([np.zeros((1, 1))], [np.zeros(1)], [-1.0], [1.0], [0.0], [4.0])
-    _, log = train_lm(model, u, y, options=LMOptions(min_grad=-1.0))
+    _, log = train_lm(model, TrainingData(u, y), LMOptions(min_grad=-1.0))
     assert log.stop_reason == "mu_max" and log.epochs == 1
     assert log.history["mu"][1] == pytest.approx(1e-3 * 10**14)  # x10 until above mu_max = 1e10
-    _, log = train_lm(model, u, y)  # gradient 0 <= min_grad comes first
+    _, log = train_lm(model, TrainingData(u, y))  # gradient 0 <= min_grad comes first
     assert log.stop_reason == "min_grad" and log.epochs == 0
 
 
@@ -113,7 +115,7 @@ def test_validation_stop_returns_the_best_validation_weights():
     rng = np.random.default_rng(0)
     u, y = rng.uniform(0, 1, (40, 2)), rng.standard_normal((40, 1))  # pure noise: overfits at once
     model = init_mlp(u, y, (10,), seed=1)
-    net, log = train_lm(model, u[:30], y[:30], u[30:], y[30:], options=LMOptions(min_grad=0))
+    net, log = train_lm(model, TrainingData(u[:30], y[:30], u[30:], y[30:]), LMOptions(min_grad=0))
     h, best = log.history, log.best_epoch
     assert log.stop_reason == "validation"
     assert log.epochs == best + 6 and list(h["val_fail"][best:]) == list(range(7))
@@ -127,8 +129,8 @@ def test_kernel_form_and_chunked_primal_form_agree():
     u, y = smooth_problem(n=15)
     model = init_mlp(u, y, (12,), seed=2)  # 50 parameters > 30 residuals
     opts = dict(epochs=10, min_grad=0)
-    _, kern = train_lm(model, u, y, options=LMOptions(**opts))
-    net_c, chunk = train_lm(model, u, y, options=LMOptions(max_jacobian_mb=1e-3, **opts))  # 1-sample chunks
+    _, kern = train_lm(model, TrainingData(u, y), LMOptions(**opts))
+    net_c, chunk = train_lm(model, TrainingData(u, y), LMOptions(max_jacobian_mb=1e-3, **opts))  # 1-sample chunks
     assert kern.history["perf"][-1] < 1e-6 * kern.history["perf"][0]  # it does interpolate
     np.testing.assert_allclose(kern.history["perf"], chunk.history["perf"], rtol=1e-6)
     np.testing.assert_array_equal(kern.history["mu"], chunk.history["mu"])
@@ -159,7 +161,9 @@ def test_lm_fits_the_simulated_arm_to_sub_millimetre(sim_data):
     assert res.errors["train"]["mse_m2"] < 1e-7
 
 
-@pytest.mark.parametrize("algorithm,options", [("lbfgs", {}), ("adam", {"lr": 1e-2, "batch_size": 32})])
+@pytest.mark.parametrize(
+    "algorithm,options", [("lbfgs", LBFGSOptions()), ("adam", AdamOptions(lr=1e-2, batch_size=32))]
+)
 def test_adam_and_lbfgs_train(sim_data, algorithm, options):
     u, y = sim_data
     init = init_mlp(u, y, (10, 10), seed=np.random.default_rng(0))
@@ -170,6 +174,42 @@ def test_adam_and_lbfgs_train(sim_data, algorithm, options):
     assert res.model.metadata["training"]["algorithm"] == algorithm
     h = res.log.history
     assert h["vperf"][res.log.best_epoch] == np.nanmin(h["vperf"])
+
+
+def test_training_data_checks_shapes_and_fills_missing_sets():
+    from lab.errors import InputError
+
+    u, y = np.zeros((5, 3)), np.zeros((5, 2))
+    d = TrainingData(u, y)
+    assert d.u_val.shape == (0, 3) and d.y_test.shape == (0, 2) and not d.has_validation
+    assert TrainingData(u, y, u[:2], y[:2]).has_validation
+    for bad in (
+        dict(u_train=u, y_train=y[:4]),
+        dict(u_train=u[:, 0], y_train=y),
+        dict(u_train=u, y_train=y, u_val=u[:2, :2], y_val=y[:2]),
+        dict(u_train=u, y_train=y, u_test=u[:2]),
+    ):
+        with pytest.raises(InputError):
+            TrainingData(**bad)
+    with pytest.raises(InputError, match="TrainingData"):
+        train_lm(init_mlp(u + np.arange(3), y + 1, (2,), seed=0), (u, y))
+
+
+def test_train_refuses_another_algorithms_options():
+    from lab.errors import InputError
+    from lab.learn.bayes import BROptions
+
+    u, y = smooth_problem()
+    for algorithm, options in (
+        ("lm", BROptions()),
+        ("br", LMOptions()),
+        ("adam", {"lr": 1e-2}),
+        ("lbfgs", AdamOptions()),
+    ):
+        with pytest.raises(InputError, match="options of type"):
+            train(u, y, (3,), algorithm=algorithm, options=options, epochs=1)
+    with pytest.raises(InputError, match="must be of type LMOptions"):
+        train_lm(init_mlp(u, y, (2,), seed=0), TrainingData(u, y), BROptions())
 
 
 # ---- studies ----------------------------------------------------------------------------
@@ -299,7 +339,7 @@ def test_train_spec_refuses_bad_settings_naming_the_flag():
     from lab.errors import InputError
     from lab.learn.train_spec import TrainSpec
 
-    assert TrainSpec().fit_kwargs()["hidden"] == (20, 20)
+    assert TrainSpec().model_spec().hidden == (20, 20)
     for kwargs, words in (
         (dict(min_grad=float("nan")), "--min-grad"),
         (dict(min_grad=-1.0), "--min-grad"),
@@ -397,3 +437,19 @@ def test_ctrl_c_while_ensemble_workers_import_exits_130_without_tracebacks(tmp_p
         assert proc.returncode == 130, err
         assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
         assert "interrupted (Ctrl-C)" in err and not out.exists()
+
+
+def test_every_trainer_has_one_signature():
+    """model, one TrainingData, the algorithm's own options object; nothing else positional."""
+    import inspect
+
+    from lab.learn.bayes import train_br
+    from lab.learn.gradient import train_adam, train_lbfgs
+    from lab.learn.train import ALGORITHM_OPTIONS
+
+    for algorithm, fit in (("lm", train_lm), ("br", train_br), ("adam", train_adam), ("lbfgs", train_lbfgs)):
+        params = list(inspect.signature(fit).parameters.values())
+        assert [p.name for p in params[:3]] == ["model", "data", "options"], fit.__name__
+        assert params[1].annotation == "TrainingData"
+        assert params[2].annotation == f"{ALGORITHM_OPTIONS[algorithm].__name__} | None"
+        assert all(p.kind is not p.POSITIONAL_OR_KEYWORD for p in params[4:]), fit.__name__

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.course.grading import Grade, grade
-from lab.learn import LMOptions, init_mlp, lm_step, train_lm
+from lab.learn import LMOptions, TrainingData, init_mlp, lm_step, train_lm
 
 __all__ = ["check_network_jacobian", "check_lm_step", "check_lm_training", "lm_training_cases"]
 
@@ -91,7 +91,7 @@ def lm_training_cases() -> list[tuple]:
 
 def _trained_params(net, u, y, epochs: int) -> np.ndarray:
     """lab's trainlm for exactly ``epochs`` epochs on (u, y), no validation set, no gradient stop."""
-    trained, _ = train_lm(net, u, y, options=LMOptions(epochs=int(epochs), min_grad=0.0))
+    trained, _ = train_lm(net, TrainingData(u, y), LMOptions(epochs=int(epochs), min_grad=0.0))
     return trained.get_params()
 
 

@@ -3,7 +3,8 @@
 :class:`MLP` (:mod:`.mlp`) with the Appendix's analytic Jacobian, stored by
 :mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
-point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
+point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); every trainer
+takes one :class:`TrainingData` (:mod:`.training_data`) and its algorithm's options; error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
 A run's settings are one :class:`TrainSpec` (:mod:`.train_spec`; memory check in
 :mod:`.network_size`); :mod:`.runs` runs ``train`` and ``splits`` from dataset files
@@ -15,18 +16,27 @@ Active sampling (:mod:`.active`), run from a design's settings by :mod:`.active_
 The foam in time (the relaxation filter and its fits) is :mod:`lab.dynamics`.
 """
 
-from lab.learn.active import active_sampling, pick_apart
+from lab.learn.active import ActiveSpec, active_sampling, pick_apart
 from lab.learn.active_design import active_settings, check_active, run_active
-from lab.learn.bayes import br_options, effective_parameters, train_br
+from lab.learn.bayes import BROptions, effective_parameters, train_br
 from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
-from lab.learn.gradient import train_adam, train_lbfgs
+from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.history import MAX_HISTORY, at_rest, data_bounds, history_features, history_of, with_past
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, stop_message, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, init_mlp, minmax_gain
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
+from lab.learn.model_specs import (
+    EnsembleSpec,
+    GPRSpec,
+    InverseSpec,
+    KNNSpec,
+    NetworkSpec,
+    SklearnMLPSpec,
+    model_spec,
+)
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
 from lab.learn.network_size import check_network_size, n_parameters, training_bytes
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
@@ -43,10 +53,11 @@ from lab.learn.studies import (
 )
 from lab.learn.train import TrainResult, data_sha256, train
 from lab.learn.train_spec import SplitsSpec, TrainSpec
+from lab.learn.training_data import TrainingData
 from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
-    "br_options",
+    "BROptions",
     "effective_parameters",
     "train_br",
     "Ensemble",
@@ -56,6 +67,14 @@ __all__ = [
     "MODEL_CHOICES",
     "evaluate_model_splits",
     "fit_model",
+    "model_spec",
+    "NetworkSpec",
+    "EnsembleSpec",
+    "InverseSpec",
+    "GPRSpec",
+    "KNNSpec",
+    "SklearnMLPSpec",
+    "ActiveSpec",
     "active_sampling",
     "run_active",
     "active_settings",
@@ -107,6 +126,9 @@ __all__ = [
     "TrainLog",
     "train_lm",
     "lm_step",
+    "AdamOptions",
+    "LBFGSOptions",
+    "TrainingData",
     "train_adam",
     "train_lbfgs",
     "data_sha256",

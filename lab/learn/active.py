@@ -1,10 +1,11 @@
 """Active sampling: measure, batch after batch, the allowed commands where a model ensemble disagrees most.
 
-:func:`active_sampling` starts from a scrambled-Sobol design of ``n_initial`` safe
-commands, then until ``n_total`` samples are measured: fits an ensemble of ``k`` networks
-to all ``(u, y)`` so far; scores a fresh, seeded pool of ``pool_size`` safe Sobol
-candidates by the ensemble's spread (m) times their density in the pool
-(:func:`pool_density`: the spread alone crowds the picks on the safe set's boundary);
+:func:`active_sampling`, with the settings of an :class:`ActiveSpec`, starts from a
+scrambled-Sobol design of ``n_initial`` safe commands, then until ``n_total`` samples are
+measured: fits an ensemble of ``k`` networks to all ``(u, y)`` so far; scores a fresh,
+seeded pool of ``pool_size`` safe Sobol candidates by the ensemble's spread (m) times
+their density in the pool (:func:`pool_density`: the spread alone crowds the picks on the
+safe set's boundary);
 picks ``batch`` of them apart from each other and from the data (:func:`pick_apart`);
 measures them with the caller's ``measure(u_batch) -> y_batch`` (the simulator or a rig).
 Every random choice is seeded by ``(seed, number of samples so far)``, so a run killed
@@ -16,6 +17,7 @@ choices, with their measured effect: ``docs/design/sampling.md``.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -90,59 +92,121 @@ def _measured(measure, u_batch: np.ndarray) -> np.ndarray:
     return y
 
 
+@dataclass(frozen=True)
+class ActiveSpec:
+    """The settings of one active-sampling run (module docstring), checked.
+
+    Parameters
+    ----------
+    n_total : int
+        Samples to measure in all, >= 1.
+    batch : int
+        Samples per active batch (the last may be smaller), >= 1.
+    n_initial : int, optional
+        Size of the initial Sobol design, <= ``n_total`` (None: :func:`default_initial`, half).
+    pool_size : int
+        Safe Sobol candidates scored per batch, ``batch`` <= pool_size <= :data:`MAX_POOL`.
+    hidden : tuple of int
+        Hidden widths of the ensemble's members.
+    k : int
+        Ensemble members, >= 2.
+    seed : int
+        Seed of every random choice (with the number of samples so far), >= 0.
+    epochs : int, optional
+        The members' maximum epochs (None: the trainer's default).
+    radius : float, optional
+        :func:`pick_apart`'s radius in ``u / u_max`` (None: :func:`default_radius`).
+    density_radius : float, optional
+        :func:`pool_density`'s radius in ``u / u_max`` (None: score by spread alone).
+
+    Raises
+    ------
+    InputError
+        For a setting out of its range.
+    """
+
+    n_total: int
+    batch: int
+    n_initial: int | None = None
+    pool_size: int = 4096
+    hidden: tuple[int, ...] = (20, 20)
+    k: int = 5
+    seed: int = 0
+    epochs: int | None = None
+    radius: float | None = None
+    density_radius: float | None = 0.3
+
+    def __post_init__(self):
+        n_total, batch = _check_int("n_total", self.n_total, 1), _check_int("batch", self.batch, 1)
+        n_initial = default_initial(n_total) if self.n_initial is None else _check_int("n_initial", self.n_initial, 1)
+        if n_initial > n_total:
+            raise InputError(f"active sampling: n_initial = {n_initial} exceeds n_total = {n_total}")
+        pool_size, k = _check_int("pool_size", self.pool_size, batch), _check_int("k", self.k, 2)
+        if pool_size > MAX_POOL:
+            raise InputError(f"active sampling: pool_size = {pool_size} exceeds {MAX_POOL}")
+        seed = _check_int("seed", self.seed, 0)
+        radius, density_radius = self.radius, self.density_radius
+        if (radius is not None and not radius > 0) or (density_radius is not None and not density_radius > 0):
+            raise InputError(
+                f"active sampling: radius and density_radius must be positive, got {radius}, {density_radius}"
+            )
+        for name, value in (("n_total", n_total), ("batch", batch), ("n_initial", n_initial), ("pool_size", pool_size),
+                            ("k", k), ("seed", seed), ("hidden", tuple(self.hidden))):  # fmt: skip
+            object.__setattr__(self, name, value)
+
+
 def active_sampling(
     robot: RobotDescription,
     measure,
-    n_total: int,
-    batch: int,
+    spec: ActiveSpec,
     *,
-    n_initial: int | None = None,
-    pool_size: int = 4096,
-    hidden=(20, 20),
-    k: int = 5,
-    seed: int = 0,
-    epochs: int | None = None,
-    radius: float | None = None,
-    density_radius: float | None = 0.3,
     u_done=None,
     y_done=None,
     fit_ensemble=None,
     on_pick=None,
     on_batch=None,
 ) -> tuple[np.ndarray, np.ndarray, list[dict]]:
-    """Measure ``n_total`` safe commands chosen where an ensemble disagrees (module docstring).
+    """Measure ``spec.n_total`` safe commands chosen where an ensemble disagrees (module docstring).
 
-    ``measure(u_batch (B, m) rad) -> y (B, 3) m`` measures a batch. ``n_initial``: size of
-    the initial Sobol design (default :func:`default_initial`, half); ``batch``: samples per
-    active batch (the last may be smaller); ``pool_size`` candidates scored per batch;
-    ``hidden``, ``k``, ``epochs``: the ensemble (``k`` members of widths ``hidden``, at
-    most ``epochs`` epochs, None: the trainer's default); ``radius``: of :func:`pick_apart`
-    in ``u / u_max`` (default :func:`default_radius`); ``density_radius``: of
-    :func:`pool_density` in ``u / u_max`` (None: score by spread alone). ``fit_ensemble(u, y, hidden=, k=,
-    seed=, epochs=)`` returns an object with ``predict_with_std(u (P, m)) -> (mean (P, 3),
-    std (P, 3))`` m (default :func:`lab.learn.ensemble.train_ensemble`). ``u_done`` (N, m)
-    rad, ``y_done`` (N, 3) m: samples of an earlier run of the same settings to continue
-    from (none: start with the initial design). ``on_pick(u_batch, entry)`` is called before
-    each batch (the initial design included) is measured, e.g. to journal the plan, and
-    ``on_batch(u_batch, y_batch, entry)`` after, e.g. to save the batch.
+    Parameters
+    ----------
+    robot : RobotDescription
+        Its safe set and ``u_max_rad`` bound the commands.
+    measure : callable
+        ``measure(u_batch (B, m) rad) -> y (B, 3) m`` measures a batch.
+    spec : ActiveSpec
+        The run's settings.
+    u_done, y_done : array_like, shape (N, m) rad and (N, 3) m, optional
+        Samples of an earlier run of the same settings to continue from (none: start
+        with the initial design).
+    fit_ensemble : callable, optional
+        ``fit_ensemble(u, y, hidden=, k=, seed=, epochs=)`` returns an object with
+        ``predict_with_std(u (P, m)) -> (mean (P, 3), std (P, 3))`` m (default
+        :func:`lab.learn.ensemble.train_ensemble`).
+    on_pick : callable, optional
+        ``on_pick(u_batch, entry)``, called before each batch (the initial design
+        included) is measured, e.g. to journal the plan.
+    on_batch : callable, optional
+        ``on_batch(u_batch, y_batch, entry)``, called after, e.g. to save the batch.
 
-    Returns ``u`` (n_total, m) rad and ``y`` (n_total, 3) m (``u_done`` first, then each
-    batch in the order picked) and the log of the batches measured by this call: one dict
-    each with ``batch`` (0: the initial design), ``kind`` ("initial" or "active"), ``n_before``, ``n`` and, for active
-    batches, the seeds, the pool's and the picks' mean and max spread (m) and ``fit_s``.
+    Returns
+    -------
+    u : numpy.ndarray, shape (n_total, m)
+        Commands (rad): ``u_done`` first, then each batch in the order picked.
+    y : numpy.ndarray, shape (n_total, 3)
+        Their tips (m).
+    log : list of dict
+        The batches measured by this call: ``batch`` (0: the initial design), ``kind``
+        ("initial" or "active"), ``n_before``, ``n`` and, for active batches, the seeds,
+        the pool's and the picks' mean and max spread (m) and ``fit_s``.
     """
+    if not isinstance(spec, ActiveSpec):
+        raise InputError(f"spec must be an ActiveSpec, got {type(spec).__name__}")
     m = robot.n_cables
-    n_total, batch = _check_int("n_total", n_total, 1), _check_int("batch", batch, 1)
-    n_initial = default_initial(n_total) if n_initial is None else _check_int("n_initial", n_initial, 1)
-    if n_initial > n_total:
-        raise InputError(f"active sampling: n_initial = {n_initial} exceeds n_total = {n_total}")
-    pool_size, k = _check_int("pool_size", pool_size, batch), _check_int("k", k, 2)
-    if pool_size > MAX_POOL:
-        raise InputError(f"active sampling: pool_size = {pool_size} exceeds {MAX_POOL}")
-    seed = _check_int("seed", seed, 0)
-    radius = default_radius(n_total, m) if radius is None else float(radius)
-    if not radius > 0 or (density_radius is not None and not density_radius > 0):
-        raise InputError(f"active sampling: radius and density_radius must be positive, got {radius}, {density_radius}")
+    n_total, batch, pool_size, seed = spec.n_total, spec.batch, spec.pool_size, spec.seed
+    n_initial = default_initial(n_total) if spec.n_initial is None else spec.n_initial
+    hidden, k, epochs, density_radius = spec.hidden, spec.k, spec.epochs, spec.density_radius
+    radius = default_radius(n_total, m) if spec.radius is None else float(spec.radius)
     if fit_ensemble is None:
         from lab.learn.ensemble import train_ensemble as fit_ensemble
     u = np.empty((0, m)) if u_done is None else np.asarray(u_done, dtype=float).reshape(-1, m)

@@ -16,7 +16,7 @@ import sys
 from lab.data.design_spec import ACTIVE_POOL, DesignSpec
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.learn.active import active_sampling, default_initial, default_radius
+from lab.learn.active import ActiveSpec, active_sampling, default_initial, default_radius
 from lab.learn.ensemble import member_ratios, train_ensemble
 from lab.learn.split import minimum_samples
 
@@ -96,15 +96,37 @@ def run_active(
     file=None,
 ):
     """Measure ``design.active`` safe commands of ``robot``, batch by batch, where the
-    ensemble of ``design`` disagrees most; continue after ``u_done`` (N, m) rad /
-    ``y_done`` (N, 3) m of an earlier run of the same settings.
+    ensemble of ``design`` disagrees most (:func:`lab.learn.active.active_sampling` with
+    the :class:`lab.learn.active.ActiveSpec` of ``design``'s settings).
 
-    ``measure_batch(u (B, m) rad) -> y (B, 3) m`` measures a batch; ``on_pick(u, entry)``
-    is called before it (e.g. to journal the plan), ``on_batch(u, y, entry)`` after (e.g.
-    to save it), then the batch's line is printed on ``file`` (default stderr). The
-    ensemble's members train on ``n_jobs`` workers (the result does not depend on it).
-    Returns ``u`` (n, m) rad, ``y`` (n, 3) m and this call's log, as
-    :func:`lab.learn.active.active_sampling`.
+    Parameters
+    ----------
+    design : DesignSpec
+        The design's settings: ``active``, ``batch``, the ensemble's and the sampler's.
+    robot : RobotDescription
+        The robot measured.
+    measure_batch : callable
+        ``measure_batch(u (B, m) rad) -> y (B, 3) m`` measures a batch.
+    u_done, y_done : array_like, shape (N, m) rad and (N, 3) m, optional
+        Samples of an earlier run of the same settings to continue after.
+    n_jobs : int
+        Worker processes training the ensemble's members (the result does not depend on it).
+    on_pick : callable, optional
+        ``on_pick(u, entry)``, called before a batch is measured (e.g. to journal the plan).
+    on_batch : callable, optional
+        ``on_batch(u, y, entry)``, called after (e.g. to save it); then the batch's line
+        is printed on ``file``.
+    file : file-like, optional
+        Where the batch lines go (default stderr).
+
+    Returns
+    -------
+    u : numpy.ndarray, shape (n, m)
+        Commands (rad).
+    y : numpy.ndarray, shape (n, 3)
+        Tips (m).
+    log : list of dict
+        This call's batches, as :func:`lab.learn.active.active_sampling`'s.
     """
     check_active(design, robot)
     settings = active_settings(design, robot)
@@ -114,11 +136,9 @@ def run_active(
             on_batch(u_b, y_b, entry)
         print_batch(entry, design.active, sys.stderr if file is None else file)
 
-    return active_sampling(
-        robot,
-        measure_batch,
-        design.active,
-        design.batch,
+    spec = ActiveSpec(
+        n_total=design.active,
+        batch=design.batch,
         n_initial=settings["n_initial"],
         pool_size=settings["pool_size"],
         radius=settings["radius"],
@@ -127,6 +147,11 @@ def run_active(
         k=design.ensemble_members,
         seed=design.seed,
         epochs=design.ensemble_epochs,
+    )
+    return active_sampling(
+        robot,
+        measure_batch,
+        spec,
         u_done=u_done,
         y_done=y_done,
         fit_ensemble=functools.partial(train_ensemble, n_jobs=n_jobs),

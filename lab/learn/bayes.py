@@ -16,20 +16,33 @@ The step in lm's units and the deliberate differences from MATLAB: docs/design/l
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.linalg import eigvalsh
 
-from lab.learn.lm import LMOptions, TrainLog, _jacobian_products, _lm_step, mse
+from lab.learn.lm import LMOptions, TrainLog, _arrays, _checked, _jacobian_products, _lm_step, mse
 from lab.learn.mlp import MLP
+from lab.learn.training_data import TrainingData
 
-__all__ = ["br_options", "effective_parameters", "train_br", "br_summary"]
+__all__ = ["BROptions", "effective_parameters", "train_br", "br_summary"]
 
 
-def br_options(**changes) -> LMOptions:
-    """``trainbr``'s defaults (mu 0.005, min_grad 1e-7, 1000 epochs) with ``changes`` applied."""
-    return replace(LMOptions(mu=0.005, min_grad=1e-7), **changes)
+@dataclass(frozen=True)
+class BROptions(LMOptions):
+    """``trainbr``'s parameters: :class:`lab.learn.lm.LMOptions`' fields with ``trainbr``'s
+    defaults, ``mu = 0.005`` and ``min_grad = 1e-7`` (1000 epochs); ``max_fail`` is ignored
+    (the validation set never stops Bayesian regularisation).
+
+    Parameters
+    ----------
+    epochs, mu, mu_dec, mu_inc, mu_max, max_fail, min_grad, goal, max_jacobian_mb
+        As :class:`lab.learn.lm.LMOptions`; ``min_grad`` bounds the gradient of the
+        regularised objective.
+    """
+
+    mu: float = 0.005
+    min_grad: float = 1e-7
 
 
 def effective_parameters(system, ratio: float) -> float:
@@ -70,31 +83,34 @@ def _hyper(gamma: float, sse: float, ssw: float, n_e: int) -> tuple[float, float
     return alpha, beta
 
 
-def train_br(
-    model: MLP,
-    u_train,
-    y_train,
-    u_val=None,
-    y_val=None,
-    u_test=None,
-    y_test=None,
-    options: LMOptions | None = None,
-    progress=None,
-) -> tuple[MLP, TrainLog]:
-    """Bayesian-regularised Levenberg-Marquardt (``trainbr``); returns (network, log).
+def train_br(model: MLP, data: TrainingData, options: BROptions | None = None, progress=None) -> tuple[MLP, TrainLog]:
+    """Bayesian-regularised Levenberg-Marquardt (``trainbr``).
 
-    ``u_*`` (N, n_u) rad, ``y_*`` (N, n_y) m; validation and test sets may be None or
-    empty and are only recorded. ``options`` default to :func:`br_options` (``max_fail``
-    is ignored). The log's ``history`` has, per epoch, ``perf`` (training MSE, m^2),
-    ``vperf``, ``tperf``, ``mu``, ``gradient``, ``gamma``, ``alpha``, ``beta`` (1/m^2) and
-    ``ssw`` (E_W); :func:`br_summary` condenses it."""
-    opt = options or br_options()
+    Parameters
+    ----------
+    model : MLP
+        The initial network (not changed; a copy is trained).
+    data : TrainingData
+        Training set (N, n_u) rad -> (N, n_y) m; the validation and test sets are only
+        recorded.
+    options : BROptions, optional
+        Default ``BROptions()`` (``max_fail`` is ignored).
+    progress : callable, optional
+        ``progress(epoch, history_row)``, called once per epoch.
+
+    Returns
+    -------
+    MLP
+        The last network.
+    TrainLog
+        Per epoch ``perf`` (training MSE, m^2), ``vperf``, ``tperf``, ``mu``, ``gradient``,
+        ``gamma``, ``alpha``, ``beta`` (1/m^2) and ``ssw`` (E_W); :func:`br_summary`
+        condenses it.
+    """
+    opt = _checked(options, BROptions)
     t0 = time.perf_counter()
     net = model.copy()
-    u_train, y_train = np.asarray(u_train, float), np.asarray(y_train, float)
-    empty = (np.empty((0, net.n_u)), np.empty((0, net.n_y)))
-    u_val, y_val = (u_val, y_val) if u_val is not None and len(u_val) else empty
-    u_test, y_test = (u_test, y_test) if u_test is not None and len(u_test) else empty
+    u_train, y_train, u_val, y_val, u_test, y_test = _arrays(data)
     n_e, n_p = y_train.size, net.n_params
     theta = net.get_params()
     perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb)

@@ -16,11 +16,63 @@ weights are returned. Noisier than LM epochs, so ``max_fail`` defaults to 20 her
 from __future__ import annotations
 
 import time
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from lab.learn.lm import TrainLog, mse
+from lab.learn.lm import TrainLog, _arrays, _checked, mse
 from lab.learn.mlp import MLP
+from lab.learn.training_data import TrainingData
+
+__all__ = ["AdamOptions", "LBFGSOptions", "train_adam", "train_lbfgs"]
+
+
+@dataclass(frozen=True)
+class AdamOptions:
+    """Mini-batch Adam's parameters (Kingma & Ba's defaults; ``max_fail`` 20).
+
+    Parameters
+    ----------
+    epochs : int
+        Maximum number of epochs (passes over the shuffled training set).
+    lr : float
+        Step size (normalised output units per unit gradient).
+    batch_size : int
+        Samples per step.
+    beta1, beta2 : float
+        Decay rates of the first and second moment estimates.
+    eps : float
+        Added to the root of the second moment.
+    max_fail : int
+        Consecutive epochs of worse validation error that stop training.
+    """
+
+    epochs: int = 1000
+    lr: float = 1e-3
+    batch_size: int = 256
+    beta1: float = 0.9
+    beta2: float = 0.999
+    eps: float = 1e-8
+    max_fail: int = 20
+
+
+@dataclass(frozen=True)
+class LBFGSOptions:
+    """Full-batch L-BFGS's parameters.
+
+    Parameters
+    ----------
+    epochs : int
+        Maximum number of L-BFGS iterations.
+    max_fail : int
+        Consecutive iterations of worse validation error that stop training.
+    gtol : float
+        scipy's projected-gradient stop (normalised loss per unit weight).
+    """
+
+    epochs: int = 1000
+    max_fail: int = 20
+    gtol: float = 1e-10
 
 
 def _loss_grad(model: MLP, theta, u, y):
@@ -34,9 +86,9 @@ def _loss_grad(model: MLP, theta, u, y):
 class _Tracker:
     """Per-epoch record and best-validation bookkeeping shared by Adam and L-BFGS."""
 
-    def __init__(self, model, u_tr, y_tr, u_val, y_val, u_te, y_te, max_fail, progress):
-        self.model, self.data = model, (u_tr, y_tr, u_val, y_val, u_te, y_te)
-        self.has_val = u_val is not None and len(u_val) > 0
+    def __init__(self, model, data: TrainingData, max_fail, progress):
+        self.model, self.data = model, _arrays(data)
+        self.has_val = data.has_validation
         self.max_fail, self.progress = max_fail, progress
         self.rows, self.best, self.val_fail = [], None, 0
 
@@ -46,7 +98,7 @@ class _Tracker:
         self.model.set_params(theta)
         perf = mse(self.model, u_tr, y_tr)
         vperf = mse(self.model, u_val, y_val) if self.has_val else float("nan")
-        tperf = mse(self.model, u_te, y_te) if u_te is not None and len(u_te) else float("nan")
+        tperf = mse(self.model, u_te, y_te) if len(u_te) else float("nan")
         key = vperf if self.has_val else perf
         if self.best is None or key < self.best[0]:
             self.best, self.val_fail = (key, theta.copy(), epoch), 0
@@ -68,40 +120,46 @@ class _Tracker:
 
 def train_adam(
     model: MLP,
-    u_train,
-    y_train,
-    u_val=None,
-    y_val=None,
-    u_test=None,
-    y_test=None,
+    data: TrainingData,
+    options: AdamOptions | None = None,
     *,
-    epochs: int = 1000,
-    lr: float = 1e-3,
-    batch_size: int = 256,
-    beta1: float = 0.9,
-    beta2: float = 0.999,
-    eps: float = 1e-8,
-    max_fail: int = 20,
     seed: int | np.random.Generator = 0,
     progress=None,
 ) -> tuple[MLP, TrainLog]:
-    """Mini-batch Adam (Kingma & Ba) on the normalised MSE; shuffles each epoch with ``seed``."""
+    """Mini-batch Adam (Kingma & Ba) on the normalised MSE.
+
+    Parameters
+    ----------
+    model : MLP
+        The initial network (not changed; a copy is trained).
+    data : TrainingData
+        Training set (N, n_u) rad -> (N, n_y) m; the validation set stops training after
+        ``max_fail`` worse epochs, the test set is only recorded.
+    options : AdamOptions, optional
+        Default ``AdamOptions()``.
+    seed : int or numpy.random.Generator
+        The stream that shuffles the training set each epoch.
+    progress : callable, optional
+        ``progress(epoch, history_row)``, called once per epoch.
+
+    Returns
+    -------
+    MLP
+        The best-validation network (best training MSE without validation).
+    TrainLog
+        Per epoch ``epoch``, ``perf``, ``vperf``, ``tperf`` (MSE, m^2) and ``val_fail``.
+    """
+    opt = _checked(options, AdamOptions)
+    epochs, lr, batch_size, beta1, beta2, eps = opt.epochs, opt.lr, opt.batch_size, opt.beta1, opt.beta2, opt.eps
     t0 = time.perf_counter()
     net = model.copy()
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     theta = net.get_params()
     m, v, t = np.zeros_like(theta), np.zeros_like(theta), 0
-    track = _Tracker(net, u_train, y_train, u_val, y_val, u_test, y_test, max_fail, progress)
+    track = _Tracker(net, data, opt.max_fail, progress)
+    u_train, y_train = data.u_train, data.y_train
     stop = "max_epochs"
-    options = {
-        "epochs": epochs,
-        "lr": lr,
-        "batch_size": batch_size,
-        "beta1": beta1,
-        "beta2": beta2,
-        "eps": eps,
-        "max_fail": max_fail,
-    }
+    options = asdict(opt)
     if track.record(0, theta):
         stop = "validation"
     for epoch in range(1, epochs + 1):
@@ -121,27 +179,39 @@ def train_adam(
 
 
 def train_lbfgs(
-    model: MLP,
-    u_train,
-    y_train,
-    u_val=None,
-    y_val=None,
-    u_test=None,
-    y_test=None,
-    *,
-    epochs: int = 1000,
-    max_fail: int = 20,
-    gtol: float = 1e-10,
-    progress=None,
+    model: MLP, data: TrainingData, options: LBFGSOptions | None = None, *, progress=None
 ) -> tuple[MLP, TrainLog]:
     """Full-batch L-BFGS (``scipy.optimize.minimize``, method L-BFGS-B, analytic gradient);
-    one "epoch" is one L-BFGS iteration."""
+    one "epoch" is one L-BFGS iteration.
+
+    Parameters
+    ----------
+    model : MLP
+        The initial network (not changed; a copy is trained).
+    data : TrainingData
+        Training set (N, n_u) rad -> (N, n_y) m; the validation set stops training after
+        ``max_fail`` worse iterations, the test set is only recorded.
+    options : LBFGSOptions, optional
+        Default ``LBFGSOptions()``.
+    progress : callable, optional
+        ``progress(iteration, history_row)``, called once per iteration.
+
+    Returns
+    -------
+    MLP
+        The best-validation network (best training MSE without validation).
+    TrainLog
+        Per iteration ``epoch``, ``perf``, ``vperf``, ``tperf`` (MSE, m^2) and ``val_fail``.
+    """
     from scipy.optimize import minimize
 
+    opt = _checked(options, LBFGSOptions)
+    epochs, gtol = opt.epochs, opt.gtol
     t0 = time.perf_counter()
     net = model.copy()
-    track = _Tracker(net, u_train, y_train, u_val, y_val, u_test, y_test, max_fail, progress)
-    options = {"epochs": epochs, "max_fail": max_fail, "gtol": gtol}
+    track = _Tracker(net, data, opt.max_fail, progress)
+    u_train, y_train = data.u_train, data.y_train
+    options = asdict(opt)
     theta0 = net.get_params()
     track.record(0, theta0)
     state = {"it": 0, "stop": None}

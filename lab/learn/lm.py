@@ -23,8 +23,10 @@ import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.linalg.blas import dsyrk
 
+from lab.errors import InputError
 from lab.learn.metrics import mse_m2
 from lab.learn.mlp import MLP
+from lab.learn.training_data import TrainingData
 
 #: Why a run stopped, by ``TrainLog.stop_reason``: MATLAB's ``tr.stop`` texts as phrases that
 #: sit inside a sentence ("stopped: minimum gradient reached after 26 epochs"), without
@@ -54,10 +56,26 @@ def mse(model: MLP, u: np.ndarray, y: np.ndarray) -> float:
     return mse_m2(model.predict(u), y) if len(u) else float("nan")
 
 
-@dataclass
+@dataclass(frozen=True)
 class LMOptions:
-    """``trainlm`` parameters (see the module docstring); ``max_jacobian_mb`` bounds memory
-    by building J in chunks of samples (MATLAB's ``mem_reduc``)."""
+    """``trainlm``'s parameters, MATLAB's defaults but ``min_grad`` (the paper's).
+
+    Parameters
+    ----------
+    epochs : int
+        Maximum number of epochs.
+    mu, mu_dec, mu_inc, mu_max : float
+        Initial damping, its factor after an accepted step, after a rejected one, and the
+        damping that stops training (dimensionless, normalised performance per unit step).
+    max_fail : int
+        Consecutive epochs of worse validation error that stop training.
+    min_grad : float
+        Gradient norm 2 |J^T e| / N_e at or below which training stops (m^2 per unit weight).
+    goal : float
+        Training MSE at or below which training stops (m^2).
+    max_jacobian_mb : float
+        Memory bound for J, MB: J is built in chunks of samples (MATLAB's ``mem_reduc``).
+    """
 
     epochs: int = 1000
     mu: float = 1e-3
@@ -81,6 +99,22 @@ class TrainLog:
     history: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
     wall_s: float = 0.0
+
+
+def _checked(options, cls):
+    """``options``, or ``cls()`` for None; InputError for another type."""
+    if options is None:
+        return cls()
+    if type(options) is not cls:
+        raise InputError(f"options must be of type {cls.__name__}, got {type(options).__name__}")
+    return options
+
+
+def _arrays(data: TrainingData) -> tuple[np.ndarray, ...]:
+    """The six arrays of ``data``: (u, y) of the training, validation and test sets."""
+    if not isinstance(data, TrainingData):
+        raise InputError(f"data must be a TrainingData, got {type(data).__name__}")
+    return data.u_train, data.y_train, data.u_val, data.y_val, data.u_test, data.y_test
 
 
 def _jacobian_products(model, u, y, max_mb):
@@ -132,29 +166,34 @@ def lm_step(model: MLP, u: np.ndarray, y: np.ndarray, mu: float, max_jacobian_mb
     return _lm_step(system, JE, float(mu), y.size, np.empty_like(system[1]))
 
 
-def train_lm(
-    model: MLP,
-    u_train,
-    y_train,
-    u_val=None,
-    y_val=None,
-    u_test=None,
-    y_test=None,
-    options: LMOptions | None = None,
-    progress=None,
-) -> tuple[MLP, TrainLog]:
-    """Levenberg-Marquardt with ``trainlm`` semantics; returns (best network, log).
+def train_lm(model: MLP, data: TrainingData, options: LMOptions | None = None, progress=None) -> tuple[MLP, TrainLog]:
+    """Levenberg-Marquardt with ``trainlm`` semantics.
 
-    ``u_*`` (N, n_u), ``y_*`` (N, n_y) in the model's units; validation and test sets may
-    be None or empty (the test set is only recorded, never used for decisions).
-    ``progress(epoch, history_row)`` is called once per epoch if given."""
-    opt = options or LMOptions()
+    Parameters
+    ----------
+    model : MLP
+        The initial network (not changed; a copy is trained).
+    data : TrainingData
+        Training set (N, n_u) -> (N, n_y) in the model's units (rad -> m); the validation
+        set stops training after ``max_fail`` worse epochs, the test set is only recorded.
+    options : LMOptions, optional
+        Default ``LMOptions()``.
+    progress : callable, optional
+        ``progress(epoch, history_row)``, called once per epoch.
+
+    Returns
+    -------
+    MLP
+        The best network seen (lowest validation MSE, or training MSE without validation).
+    TrainLog
+        Per epoch ``epoch``, ``perf``, ``vperf``, ``tperf`` (MSE, m^2), ``mu``, ``gradient``
+        and ``val_fail``; the stop reason and the best epoch.
+    """
+    opt = _checked(options, LMOptions)
     t0 = time.perf_counter()
     net = model.copy()
-    empty = (np.empty((0, net.n_u)), np.empty((0, net.n_y)))
-    u_val, y_val = (u_val, y_val) if u_val is not None and len(u_val) else empty
-    u_test, y_test = (u_test, y_test) if u_test is not None and len(u_test) else empty
-    has_val, n_e = len(u_val) > 0, y_train.size
+    u_train, y_train, u_val, y_val, u_test, y_test = _arrays(data)
+    has_val, n_e = data.has_validation, y_train.size
     theta = net.get_params()
     perf, JE, system = _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb)
     buf = np.empty_like(system[1], order="F")

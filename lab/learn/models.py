@@ -6,7 +6,8 @@
 ``sklearn-mlp`` (:mod:`lab.learn.peers`), and ``inverse-mlp``, the direct inverse u = g(y)
 (:mod:`lab.learn.inverse`): its held-out error is the command error ``|g(y) - u|`` (rad)
 and, given a forward model, the tip error ``|forward(g(y)) - y|`` (m) as ``mean_distance_m``
-(NaN without one). :func:`load_model` reads any model file by the ``kind`` in its metadata
+(NaN without one). :func:`fit_model` fits one spec of :mod:`lab.learn.model_specs` (one
+frozen dataclass per kind). :func:`load_model` reads any model file by the ``kind`` in its metadata
 through :data:`MODEL_KINDS`, a dict of loader functions imported here by name.
 :func:`evaluate_model_splits` is the paper's ten-split study for any model, on
 :func:`lab.learn.train.train`'s splits for the same seeds, so models compare split by split.
@@ -15,15 +16,17 @@ through :data:`MODEL_KINDS`, a dict of loader functions imported here by name.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from lab.errors import InputError
-from lab.learn.ensemble import load_ensemble, member_ratios, train_ensemble
+from lab.learn.ensemble import load_ensemble, train_ensemble
 from lab.learn.inverse import fit_inverse, load_inverse
 from lab.learn.metrics import error_report
 from lab.learn.mlp import ACTIVATIONS, MLP
 from lab.learn.model_io import ModelFileError, file_metadata, read_model
+from lab.learn.model_specs import MODEL_SPECS, EnsembleSpec, GPRSpec, InverseSpec, KNNSpec, NetworkSpec
 from lab.learn.peers import fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import load_residual
 from lab.learn.train import train
@@ -39,7 +42,8 @@ __all__ = [
     "outer_split",
 ]
 
-MODEL_CHOICES = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp")
+#: the model kinds, ``--model``'s choices
+MODEL_CHOICES = tuple(MODEL_SPECS)
 
 
 def _load_mlp(path) -> MLP:
@@ -62,72 +66,70 @@ MODEL_KINDS = {
 }
 
 
-def _check_name(name: str) -> None:
-    if name not in MODEL_CHOICES:
-        raise InputError(f"model must be one of {MODEL_CHOICES}, got {name!r}")
+def _check_spec(spec) -> None:
+    if type(spec) not in MODEL_SPECS.values():
+        raise InputError(f"spec must be one of {[c.__name__ for c in MODEL_SPECS.values()]}, got {type(spec).__name__}")
 
 
-def fit_model(
-    name: str,
-    u,
-    y,
-    *,
-    hidden=(20, 20),
-    seed: int = 0,
-    algorithm: str = "lm",
-    epochs: int | None = None,
-    members: int = 5,
-    options=None,
-    ratios=None,
-    activation: str = "tanh",
-    n_neighbors: int = 5,
-    n_jobs: int = 1,
-):
-    """Fit model ``name`` (one of :data:`MODEL_CHOICES`) to all of u (N, n_u) rad -> y (N, n_y) m;
-    returns the model.
+def fit_model(spec, u, y):
+    """Fit the model ``spec`` describes to all of the data.
 
-    Networks (mlp, each ensemble member, inverse-mlp) are trained by
-    :func:`lab.learn.train.train` with ``algorithm``, ``epochs``, ``options``,
-    ``activation``, ``hidden`` and ``seed``, on the split ``ratios`` of these data
-    (default :func:`lab.learn.ensemble.member_ratios`: a 10 % validation set for early
-    stopping, none for ``algorithm="br"``). ``members`` is the ensemble's K, ``n_jobs``
-    its worker processes; ``n_neighbors`` is k-NN's k. The scikit-learn peers take
-    ``seed`` (gpr, sklearn-mlp) and ``hidden`` (sklearn-mlp) and ignore the rest."""
-    _check_name(name)
+    Parameters
+    ----------
+    spec : NetworkSpec, EnsembleSpec, InverseSpec, GPRSpec, KNNSpec or SklearnMLPSpec
+        The model kind and its settings (:mod:`lab.learn.model_specs`;
+        :func:`lab.learn.model_specs.model_spec` builds one from a kind's name).
+    u : array_like, shape (N, n_u)
+        Commands (rad).
+    y : array_like, shape (N, n_y)
+        Tip positions (m).
+
+    Returns
+    -------
+    MLP, Ensemble, InverseModel, GPRModel, KNNModel or SklearnMLPModel
+        The fitted model. Networks (mlp, each ensemble member, inverse-mlp) are trained by
+        :func:`lab.learn.train.train` on the spec's split ``ratios`` of these data.
+    """
+    _check_spec(spec)
     u, y = np.asarray(u, float), np.asarray(y, float)
-    hidden = tuple(int(h) for h in hidden)
-    net_kwargs = {
-        "algorithm": algorithm,
-        "epochs": epochs,
-        "options": options,
-        "activation": activation,
-        "ratios": tuple(ratios) if ratios is not None else member_ratios(algorithm),
-    }
-    if name == "mlp":
-        return train(u, y, hidden, seed=seed, **net_kwargs).model
-    if name == "ensemble":
-        return train_ensemble(u, y, hidden, k=members, seed=seed, n_jobs=n_jobs, **net_kwargs)
-    if name == "inverse-mlp":
-        return fit_inverse(u, y, hidden, seed=seed, **net_kwargs)
-    if name == "gpr":
-        return fit_gpr(u, y, seed=seed)
-    if name == "knn":
-        return fit_knn(u, y, n_neighbors=n_neighbors)
-    return fit_sklearn_mlp(u, y, hidden=hidden, seed=seed)
+    if isinstance(spec, NetworkSpec):
+        kwargs = spec.train_kwargs()
+        if isinstance(spec, EnsembleSpec):
+            return train_ensemble(u, y, spec.hidden, k=spec.members, seed=spec.seed, n_jobs=spec.n_jobs, **kwargs)
+        if isinstance(spec, InverseSpec):
+            return fit_inverse(u, y, spec.hidden, seed=spec.seed, **kwargs)
+        return train(u, y, spec.hidden, seed=spec.seed, **kwargs).model
+    if isinstance(spec, GPRSpec):
+        return fit_gpr(u, y, seed=spec.seed)
+    if isinstance(spec, KNNSpec):
+        return fit_knn(u, y, n_neighbors=spec.n_neighbors)
+    return fit_sklearn_mlp(u, y, hidden=spec.hidden, seed=spec.seed)
 
 
 def net_options(algorithm: str = "lm", min_grad: float | None = None):
-    """Options for :func:`lab.learn.train.train` with a gradient stop ``min_grad`` (None: the
-    algorithm's default): an :class:`lab.learn.lm.LMOptions` for "lm" (trainlm's) and "br"
-    (:func:`lab.learn.bayes.br_options`); None otherwise (Adam and L-BFGS have no such stop)."""
+    """Options for :func:`lab.learn.train.train` with a gradient stop.
+
+    Parameters
+    ----------
+    algorithm : str
+        One of :data:`lab.learn.train.ALGORITHMS`.
+    min_grad : float, optional
+        The gradient stop (None: the algorithm's default).
+
+    Returns
+    -------
+    LMOptions, BROptions or None
+        ``LMOptions(min_grad=...)`` for "lm", ``BROptions(min_grad=...)`` for "br"; None
+        otherwise (Adam and L-BFGS have no such stop) or without ``min_grad``.
+    """
     if min_grad is None or algorithm not in ("lm", "br"):
         return None
     if min_grad < 0:
         raise InputError(f"min_grad must be >= 0, got {min_grad}")
-    from lab.learn.bayes import br_options
+    from lab.learn.bayes import BROptions
     from lab.learn.lm import LMOptions
 
-    return LMOptions(min_grad=min_grad) if algorithm == "lm" else br_options(min_grad=min_grad)
+    return LMOptions(min_grad=min_grad) if algorithm == "lm" else BROptions(min_grad=min_grad)
 
 
 def load_model(path):
@@ -166,17 +168,19 @@ def held_out_errors(model, u, y, forward=None) -> dict:
     return {"mse_m2": float(np.mean(d * d) / y.shape[1]), "mean_distance_m": float(np.mean(d)), **out}
 
 
-def _one_split(u, y, name, ratios, seed, fit_kwargs, forward, groups=None) -> dict:
+def _one_split(u, y, spec, ratios, seed, forward, groups=None) -> dict:
     from lab.workers import watch_parent
 
     watch_parent()
+    name = spec.kind
     split = outer_split(len(u), ratios, seed, groups)
     t0 = time.perf_counter()
-    model = fit_model(name, u[split.train], y[split.train], seed=seed, **fit_kwargs)
+    seeded = replace(spec, seed=seed) if hasattr(spec, "seed") else spec
+    model = fit_model(seeded, u[split.train], y[split.train])
     wall_s = time.perf_counter() - t0
     row = {"model": name, "seed": seed, "wall_s": wall_s}
-    if name in ("mlp", "ensemble", "sklearn-mlp", "inverse-mlp"):
-        row["hidden"] = "-".join(map(str, fit_kwargs.get("hidden", (20, 20))))
+    if hasattr(spec, "hidden"):
+        row["hidden"] = "-".join(map(str, spec.hidden))
     sets = {"train": split.train, "validation": split.validation, "test": split.test}
     if name == "ensemble" and len(split.validation):  # the post-hoc spread scale
         model.fit_spread_scale(u[split.validation], y[split.validation])
@@ -200,7 +204,7 @@ def _one_split(u, y, name, ratios, seed, fit_kwargs, forward, groups=None) -> di
 def evaluate_model_splits(
     u,
     y,
-    name: str = "mlp",
+    spec,
     *,
     n_splits: int = 10,
     ratios=(0.9, 0.0, 0.1),
@@ -208,35 +212,65 @@ def evaluate_model_splits(
     n_jobs: int = 1,
     forward=None,
     groups=None,
-    **fit_kwargs,
 ) -> list[dict]:
-    """The ten-split study for model ``name``: on each of ``n_splits`` random splits
-    (:func:`lab.learn.studies.run_seeds` seeds, :func:`outer_split` indices), fit on the
-    training part and report errors. ``mlp`` rows are :func:`lab.learn.studies.evaluate_splits`'s
-    (its own training-set split, ``fit_kwargs`` to :func:`lab.learn.train.train`); other
-    models' rows have ``model``, ``seed``, ``split``, ``wall_s`` (fit time, s) and per set
-    ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m`` (NaN where empty); ensembles
-    and GPs add the test calibration (``test_within_1sigma``, ``test_within_2sigma``,
-    ``test_radius_within_68``, :func:`lab.learn.ensemble.calibration`; an ensemble's spread
-    scale is fitted on the validation set when there is one, ``spread_scale``, and
-    ``test_raw_*`` are the same before it); the inverse adds
-    ``{set}_mean_command_error_rad`` and judges tips by ``forward``. ``groups`` (N,): split
-    whole groups (measurement sequences) instead of rows (:func:`lab.learn.split.divide_groups`)."""
+    """The ten-split study for any model: fit on the training part of each of ``n_splits``
+    random splits and report errors.
+
+    Parameters
+    ----------
+    u : array_like, shape (N, n_u)
+        Commands (rad).
+    y : array_like, shape (N, n_y)
+        Tip positions (m).
+    spec : NetworkSpec, EnsembleSpec, InverseSpec, GPRSpec, KNNSpec or SklearnMLPSpec
+        The model (:func:`lab.learn.model_specs.model_spec`); its ``seed`` is replaced by each split's.
+    n_splits : int
+        Number of splits (:func:`lab.learn.studies.run_seeds` seeds, :func:`outer_split` indices).
+    ratios : tuple of float
+        (train, validation, test) ratios of every split.
+    seed : int
+        Seed of the split seeds.
+    n_jobs : int
+        Worker processes, one split each.
+    forward : forward model, optional
+        Judges a direct inverse's commands by their tips (NaN without one).
+    groups : array_like, shape (N,), optional
+        Split whole groups (measurement sequences) instead of rows
+        (:func:`lab.learn.split.divide_groups`).
+
+    Returns
+    -------
+    list of dict
+        One row per split. A :class:`NetworkSpec`'s rows are
+        :func:`lab.learn.studies.evaluate_splits`' (its own training-set split). Other
+        models' rows have ``model``, ``seed``, ``split``, ``wall_s`` (fit time, s) and per
+        set ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m`` (NaN where empty);
+        ensembles and GPs add the test calibration (``test_within_1sigma``,
+        ``test_within_2sigma``, ``test_radius_within_68``,
+        :func:`lab.learn.ensemble.calibration`; an ensemble's spread scale is fitted on the
+        validation set when there is one, ``spread_scale``, and ``test_raw_*`` are the same
+        before it); the inverse adds ``{set}_mean_command_error_rad``.
+    """
     from lab.learn.split import check_enough_data
     from lab.learn.studies import evaluate_splits, run_seeds
 
-    _check_name(name)
+    _check_spec(spec)
+    name = spec.kind
     u, y = np.asarray(u, float), np.asarray(y, float)
-    if name == "mlp":
+    if type(spec) is NetworkSpec:
         kwargs = {
-            k: v for k, v in fit_kwargs.items() if k in ("hidden", "algorithm", "epochs", "options", "activation")
+            "hidden": spec.hidden,
+            "algorithm": spec.algorithm,
+            "epochs": spec.epochs,
+            "options": spec.options,
+            "activation": spec.activation,
         }
         if groups is not None:
             kwargs["groups"] = groups
         rows = evaluate_splits(u, y, n_splits=n_splits, ratios=ratios, seed=seed, n_jobs=n_jobs, **kwargs)
         return [{"model": name, **r} for r in rows]
     check_enough_data(u, ratios)
-    jobs = [(u, y, name, tuple(ratios), s, fit_kwargs, forward, groups) for s in run_seeds(seed, n_splits)]
+    jobs = [(u, y, spec, tuple(ratios), s, forward, groups) for s in run_seeds(seed, n_splits)]
     if n_jobs == 1:
         rows = [_one_split(*job) for job in jobs]
     else:

@@ -25,7 +25,7 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.learn.metrics import workspace_size_m
-from lab.learn.models import evaluate_model_splits, fit_model, held_out_errors, load_model, outer_split
+from lab.learn.models import evaluate_model_splits, fit_model, held_out_errors, load_model, net_options, outer_split
 from lab.learn.run_inputs import inputs_and_groups, read_all, record_trained
 from lab.learn.split import check_enough_data
 from lab.learn.train import data_sha256, train
@@ -111,7 +111,7 @@ def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
     check_enough_data(u, spec.ratios)
     split = outer_split(len(u), spec.ratios, spec.seed, groups)
     t0 = time.perf_counter()
-    model = fit_model(spec.model, u[split.train], y[split.train], seed=spec.seed, n_jobs=spec.jobs, **spec.fit_kwargs())
+    model = fit_model(spec.model_spec(), u[split.train], y[split.train])
     wall_s = time.perf_counter() - t0
     sets = {"train": split.train, "validation": split.validation, "test": split.test}
     cal = None
@@ -176,7 +176,7 @@ def train_run(
         )
     cal = None
     if spec.model == "mlp":
-        options = spec.fit_kwargs()["options"]
+        options = net_options(spec.algorithm, spec.min_grad)
         res = train(x, y, spec.hidden, activation=spec.activation, algorithm=spec.algorithm, ratios=spec.ratios,
                     seed=spec.seed, epochs=spec.epochs, options=options, init=init_model, groups=groups)  # fmt: skip
         model, errors, wall_s, train_idx = res.model, res.errors, res.log.wall_s, res.split.train
@@ -216,9 +216,9 @@ def splits_run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, comma
             f"{data}: {len(u)} samples; {splits.n_splits} {spec.split} splits {list(spec.ratios)} of a "
             f"{what.get(spec.model, spec.model)}{past}, seed {spec.seed}, {spec.jobs} worker(s)"
         )
-    rows = evaluate_model_splits(x, y, spec.model, n_splits=splits.n_splits, ratios=tuple(spec.ratios), seed=spec.seed,
-                                 n_jobs=spec.jobs, forward=forward_model, groups=groups,
-                                 **spec.fit_kwargs())  # fmt: skip
+    rows = evaluate_model_splits(x, y, spec.replace(jobs=1).model_spec(), n_splits=splits.n_splits,
+                                 ratios=tuple(spec.ratios), seed=spec.seed, n_jobs=spec.jobs, forward=forward_model,
+                                 groups=groups)  # fmt: skip
     for r in rows:
         r.update(split_info, command=command)
     return rows, workspace_size_m(y)

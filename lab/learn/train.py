@@ -10,18 +10,50 @@ records what is needed to reproduce the run in the model's metadata.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from lab.errors import InputError
+from lab.learn.bayes import BROptions, br_summary, train_br
+from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP, init_mlp
 from lab.learn.network_size import check_network_size
 from lab.learn.split import Split, check_enough_data, divide
+from lab.learn.training_data import TrainingData
 
 ALGORITHMS = ("lm", "adam", "lbfgs", "br")
+
+#: algorithm -> the type of its options
+ALGORITHM_OPTIONS = {"lm": LMOptions, "adam": AdamOptions, "lbfgs": LBFGSOptions, "br": BROptions}
+
+
+def check_options(algorithm: str, options) -> None:
+    """Refuse options that are not ``algorithm``'s options type.
+
+    Parameters
+    ----------
+    algorithm : str
+        One of :data:`ALGORITHMS`.
+    options : LMOptions, BROptions, AdamOptions, LBFGSOptions or None
+        None (the algorithm's defaults) or an object of :data:`ALGORITHM_OPTIONS` ``[algorithm]``.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    InputError
+        For an unknown algorithm or options of another type.
+    """
+    if algorithm not in ALGORITHMS:
+        raise InputError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
+    want = ALGORITHM_OPTIONS[algorithm]
+    if options is not None and type(options) is not want:
+        raise InputError(f"algorithm {algorithm!r} takes options of type {want.__name__}, got {type(options).__name__}")
 
 
 def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
@@ -60,24 +92,51 @@ def train(
 ) -> TrainResult:
     """Split (``dividerand``), initialise (Nguyen-Widrow) and train a u -> y network.
 
-    ``u`` (N, n_u), ``y`` (N, n_y); ``ratios`` (train, validation, test); one random stream
-    seeded by ``seed`` draws the split, then the initial weights. ``algorithm``: "lm"
-    (:func:`train_lm`, ``options`` an :class:`LMOptions`), "br" (Bayesian regularisation,
-    :func:`lab.learn.bayes.train_br`, ``options`` an :class:`LMOptions`, default
-    :func:`lab.learn.bayes.br_options`; alpha, beta, gamma go to
-    ``metadata["training"]["bayesian_regularisation"]``), "adam" or "lbfgs"
-    (:mod:`lab.learn.gradient`, ``options`` a dict of keyword arguments). ``epochs``
-    overrides the maximum number of epochs. The model's ``metadata["training"]`` records
-    everything needed to reproduce the run. ``init``: an :class:`MLP` of the same input and
-    output sizes to continue from instead of Nguyen-Widrow weights (a copy is trained; the
-    split is drawn as without it), e.g. to extend a long run by more epochs. ``groups`` (N,):
-    hold out whole groups (measurement sequences) instead, :func:`lab.learn.split.divide_groups`.
+    One random stream seeded by ``seed`` draws the split, then the initial weights (then,
+    for Adam, the shuffles). The model's ``metadata["training"]`` records everything needed
+    to reproduce the run; for "br" also alpha, beta and gamma
+    (``metadata["training"]["bayesian_regularisation"]``).
+
+    Parameters
+    ----------
+    u : array_like, shape (N, n_u)
+        Inputs (commands, rad).
+    y : array_like, shape (N, n_y)
+        Targets (tip positions, m).
+    hidden : tuple of int
+        Hidden layer widths.
+    activation : str
+        Hidden activation, one of :data:`lab.learn.mlp.ACTIVATIONS`.
+    algorithm : str
+        "lm" (:func:`lab.learn.lm.train_lm`), "br" (Bayesian regularisation,
+        :func:`lab.learn.bayes.train_br`), "adam" or "lbfgs" (:mod:`lab.learn.gradient`).
+    ratios : tuple of float
+        (train, validation, test) split ratios.
+    seed : int
+        Seed of the random stream.
+    epochs : int, optional
+        Overrides the options' maximum number of epochs.
+    options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
+        The algorithm's options (:data:`ALGORITHM_OPTIONS`); None: its defaults. Another
+        type is an InputError.
+    progress : callable, optional
+        ``progress(epoch, history_row)``, called once per epoch.
+    init : MLP, optional
+        A network of the same input and output sizes to continue from instead of
+        Nguyen-Widrow weights (a copy is trained; the split is drawn as without it).
+    groups : array_like, shape (N,), optional
+        Hold out whole groups (measurement sequences) instead,
+        :func:`lab.learn.split.divide_groups`.
+
+    Returns
+    -------
+    TrainResult
+        The network, its split, the training log and its errors per set.
     """
     u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
     if u.ndim != 2 or y.ndim != 2 or len(u) != len(y):
         raise InputError(f"expected u (N, n_u) and y (N, n_y) with the same N, got {u.shape} and {y.shape}")
-    if algorithm not in ALGORITHMS:
-        raise InputError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
+    check_options(algorithm, options)
     if epochs is not None and epochs < 1:
         raise InputError(f"epochs must be positive, got {epochs}")
     check_enough_data(u, ratios)
@@ -92,28 +151,16 @@ def train(
                 f"init maps {init.n_u} inputs to {init.n_y} outputs; the data have {u.shape[1]} and {y.shape[1]}"
             )
         model = init.copy()
-    sets = {
-        name: (u[idx], y[idx])
-        for name, idx in (("train", split.train), ("validation", split.validation), ("test", split.test))
-    }
-    args = (*sets["train"], *sets["validation"], *sets["test"])
-    if algorithm in ("lm", "br"):
-        from lab.learn.bayes import br_options, train_br
-
-        opt = options or (LMOptions() if algorithm == "lm" else br_options())
-        if epochs is not None:
-            opt = LMOptions(**{**asdict(opt), "epochs": epochs})
-        model, log = (train_lm if algorithm == "lm" else train_br)(model, *args, options=opt, progress=progress)
+    data = TrainingData.of_split(u, y, split)
+    sets = data.sets()
+    opt = options if options is not None else ALGORITHM_OPTIONS[algorithm]()
+    if epochs is not None:
+        opt = replace(opt, epochs=epochs)
+    if algorithm == "adam":
+        model, log = train_adam(model, data, opt, seed=rng, progress=progress)
     else:
-        from lab.learn.gradient import train_adam, train_lbfgs
-
-        kwargs = dict(options or {})
-        if epochs is not None:
-            kwargs["epochs"] = epochs
-        fit = train_adam if algorithm == "adam" else train_lbfgs
-        if algorithm == "adam":
-            kwargs.setdefault("seed", rng)
-        model, log = fit(model, *args, progress=progress, **kwargs)
+        fit = {"lm": train_lm, "br": train_br, "lbfgs": train_lbfgs}[algorithm]
+        model, log = fit(model, data, opt, progress=progress)
     errors = {name: error_report(model, *sets[name]) for name in sets}
     model.metadata["training"] = {
         "algorithm": log.algorithm,
@@ -140,8 +187,6 @@ def train(
         "wall_s": log.wall_s,
     }
     if algorithm == "br":  # the evidence's hyperparameters, alpha, beta, gamma
-        from lab.learn.bayes import br_summary
-
         model.metadata["training"]["bayesian_regularisation"] = br_summary(log, model.n_params)
     model.metadata["units"] = {"u": "rad", "y": "m"}
     return TrainResult(model, split, log, errors)

@@ -21,6 +21,7 @@ from numbers import Integral
 from lab.errors import InputError
 from lab.learn.history import MAX_HISTORY
 from lab.learn.mlp import ACTIVATIONS
+from lab.learn.model_specs import model_spec
 from lab.learn.models import MODEL_CHOICES, net_options
 from lab.learn.network_size import check_network_size
 from lab.learn.split import SPLIT_KINDS
@@ -140,17 +141,28 @@ class TrainSpec(Spec):
                 "--history applies to forward models; --model inverse-mlp maps a tip to a command and takes no past"
             )
 
-    def fit_kwargs(self) -> dict:
-        """The keyword arguments of :func:`lab.learn.models.fit_model` (and of
-        :func:`lab.learn.models.evaluate_model_splits`) this spec gives."""
-        return {
-            "hidden": tuple(self.hidden),
-            "algorithm": self.algorithm,
-            "epochs": self.epochs,
-            "options": net_options(self.algorithm, self.min_grad),
-            "activation": self.activation,
-            "members": self.members,
-        }
+    def model_spec(self):
+        """The model this spec fits, for :func:`lab.learn.models.fit_model` and
+        :func:`lab.learn.models.evaluate_model_splits`.
+
+        Returns
+        -------
+        NetworkSpec, EnsembleSpec, InverseSpec, GPRSpec, KNNSpec or SklearnMLPSpec
+            :func:`lab.learn.model_specs.model_spec` of ``model`` with this spec's hidden
+            widths, algorithm, epochs, gradient stop, activation, members, seed and
+            ``jobs`` (the ensemble's workers).
+        """
+        return model_spec(
+            self.model,
+            hidden=tuple(self.hidden),
+            algorithm=self.algorithm,
+            epochs=self.epochs,
+            options=net_options(self.algorithm, self.min_grad),
+            activation=self.activation,
+            members=self.members,
+            seed=self.seed,
+            n_jobs=self.jobs,
+        )
 
     def n_train(self, n_samples: int) -> int:
         """Samples in the training part of ``n_samples`` split by ``ratios`` (dividerand)."""

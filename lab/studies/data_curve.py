@@ -223,21 +223,46 @@ def _row_rng(seed: int, strategy: str, n: int) -> np.random.Generator:
 def fit_forward_model(
     name: str, u, y, *, hidden=(20, 20), seed: int = 0, epochs: int | None = None, algorithm: str = "lm"
 ):
-    """A forward model u (N, m) rad -> y (N, 3) m. ``"mlp"`` by ``"lm"``: ``lab``'s network
-    trained by LM with the paper's stopping rules on a 90/10 train/validation split (all for
-    training below 10 samples), as the transfer curve's ``real-only``; anything else goes to
-    :func:`lab.learn.models.fit_model` (e.g. ``algorithm="br"``: Bayesian regularisation,
-    no validation set; models ensemble, gpr, knn, sklearn-mlp)."""
+    """A forward model fitted to u (N, m) rad -> y (N, 3) m.
+
+    Parameters
+    ----------
+    name : str
+        ``"mlp"`` by ``"lm"``: ``lab``'s network trained by LM with the paper's stopping
+        rules on a 90/10 train/validation split (all for training below 10 samples), as the
+        transfer curve's ``real-only``; anything else is fitted by
+        :func:`lab.learn.models.fit_model` with :func:`lab.learn.model_specs.model_spec`
+        of these settings (e.g. ``algorithm="br"``: Bayesian regularisation, no validation
+        set; models ensemble, gpr, knn, sklearn-mlp).
+    u : array_like, shape (N, m)
+        Commands (rad).
+    y : array_like, shape (N, 3)
+        Tips (m).
+    hidden : tuple of int
+        Hidden widths of the networks.
+    seed : int
+        Seed of the fit.
+    epochs : int, optional
+        Maximum epochs of the networks (None: the trainer's default).
+    algorithm : str
+        The networks' training algorithm.
+
+    Returns
+    -------
+    model
+        The fitted forward model (``predict(u)`` -> y, m).
+    """
     if name == "mlp" and algorithm == "lm":
         from lab.learn.train import train
 
         ratios = (0.9, 0.1, 0.0) if len(u) >= 10 else (1.0, 0.0, 0.0)
         return train(u, y, tuple(hidden), ratios=ratios, seed=seed, epochs=epochs).model
     try:
+        from lab.learn.model_specs import model_spec
         from lab.learn.models import fit_model
     except ImportError:
         raise InputError(f"model {name!r} by {algorithm!r} needs lab.learn.models, which is missing") from None
-    return fit_model(name, u, y, hidden=tuple(hidden), seed=seed, epochs=epochs, algorithm=algorithm)
+    return fit_model(model_spec(name, hidden=tuple(hidden), seed=seed, epochs=epochs, algorithm=algorithm), u, y)
 
 
 def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: float, seed: int, opts: dict):
@@ -256,19 +281,17 @@ def draw_and_measure(body, strategy: str, n: int, levels, *, noise_sigma_m: floa
 
     robot = body.robot
     if strategy == "active":
-        from lab.learn.active import active_sampling
+        from lab.learn.active import ActiveSpec, active_sampling
 
-        u, y, _ = active_sampling(
-            robot,
-            measure,
-            n,
-            min(int(opts["batch"]), n),
+        spec = ActiveSpec(
+            n_total=n,
+            batch=min(int(opts["batch"]), n),
             n_initial=None if opts.get("n_initial") is None else min(int(opts["n_initial"]), n),
             hidden=tuple(opts["hidden"]),
             seed=seed,
             epochs=opts["epochs"],
-            fit_ensemble=_ensemble_fitter(opts),
         )
+        u, y, _ = active_sampling(robot, measure, spec, fit_ensemble=_ensemble_fitter(opts))
         return np.asarray(u, float), np.asarray(y, float)
     u = grid_commands(robot, levels) if strategy == "grid" else design_commands(robot, n, strategy, seed)
     return u, measure(u)

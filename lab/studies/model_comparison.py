@@ -50,7 +50,25 @@ _TEXT, _INT = ("dataset", "model", "split"), ("history", "split_index", "seed", 
 
 
 def fit_named(name: str, u, y, seed: int):
-    """Fit comparison model ``name`` (:data:`RECIPES`) to inputs u (N, n_x) -> tips y (N, 3) m."""
+    """Fit a comparison model.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`RECIPES`.
+    u : array_like, shape (N, n_x)
+        Inputs (commands, rad, with their history where the model takes it).
+    y : array_like, shape (N, 3)
+        Tips (m).
+    seed : int
+        Seed of the fit.
+
+    Returns
+    -------
+    model
+        The fitted model (``predict(u)`` -> y, m).
+    """
+    from lab.learn.model_specs import EnsembleSpec, NetworkSpec, model_spec
     from lab.learn.models import fit_model
     from lab.learn.peers import fit_gpr, fit_sklearn_mlp
     from lab.studies.baselines import fit_poly
@@ -62,10 +80,9 @@ def fit_named(name: str, u, y, seed: int):
     if name == "sklearn-mlp":
         return fit_sklearn_mlp(u, y, hidden=(20, 20), seed=seed, max_iter=SKLEARN_MLP_ITER)
     if name in ("knn", "mlp"):
-        return fit_model(name, u, y, seed=seed)
-    members = {"members": 5} if name == "ensemble" else {}
-    kind = "ensemble" if name == "ensemble" else "mlp"
-    return fit_model(kind, u, y, hidden=(10, 10), algorithm="br", epochs=BR_EPOCHS, seed=seed, **members)
+        return fit_model(model_spec(name, seed=seed), u, y)
+    br = {"hidden": (10, 10), "algorithm": "br", "epochs": BR_EPOCHS, "seed": seed}
+    return fit_model(EnsembleSpec(members=5, **br) if name == "ensemble" else NetworkSpec(**br), u, y)
 
 
 def split_rows(kind: str, index: int, seed: int, n: int, seq_ids, fraction: float):
