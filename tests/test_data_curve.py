@@ -12,16 +12,8 @@ from lab.cli import main
 from lab.data.designs import DESIGNS, grid_commands
 from lab.description import load_robot
 from lab.rig.twin import quasi_static_tips
-from lab.studies.data_curve import (
-    PAPER_GRID_N,
-    draw_and_measure,
-    grid_levels_for,
-    heldout_set,
-    hours_saved,
-    make_body,
-    plan_rows,
-    smallest_n,
-)
+from lab.studies.data_curve import draw_and_measure, heldout_set, make_body
+from lab.studies.data_curve_plan import PAPER_GRID_N, grid_levels_for, hours_saved, plan_rows, smallest_n
 from lab.studies.data_curve_run import COLUMNS, read_data_curve
 
 COARSE = ["--n-rings", "1", "--n-axial", "4"]

@@ -22,15 +22,8 @@ from lab.studies.capture_rate import (
 )
 from lab.studies.closed_loop_table import GOALS_M, final_pass_by_limit, model_label, pass_rows
 from lab.studies.comparison_spec import CompareSpec
-from lab.studies.data_curve import (
-    STRATEGIES,
-    NominalBody,
-    data_curve_row,
-    heldout_set,
-    hours_saved,
-    make_body,
-    plan_rows,
-)
+from lab.studies.data_curve import NominalBody, data_curve_row, heldout_set, make_body
+from lab.studies.data_curve_plan import STRATEGIES, hours_saved, plan_rows
 from lab.studies.data_curve_run import run_data_curve
 from lab.studies.data_curve_spec import DataCurveSpec
 from lab.studies.model_comparison import read_comparison, run_comparison

@@ -2,15 +2,15 @@
 
 For one robot -- the nominal FEM (:class:`NominalBody`) or an emulated as-built robot
 (:class:`lab.rig.twin.AsBuiltBody`) -- :func:`data_curve_row` draws N commands by one
-sampling strategy (:data:`STRATEGIES`), measures the settled tips through the fast path
+sampling strategy (:data:`lab.studies.data_curve_plan.STRATEGIES`), measures the settled tips through the fast path
 (:func:`lab.rig.twin.quasi_static_tips`, plus the robot's motion-capture noise), fits a
 forward model and records ``model_error_m`` (mean distance in m on a common held-out set of
 random allowed commands, noise-free), the Table I tracking error per shape and their mean
 (m; :func:`lab.studies.transfer_study.evaluate_model`, optional), ``fit_s`` (s) and
 ``capture_h`` (N over the measured samples per hour). Each row depends only on (strategy,
-N, seed) and the settings, so a study resumes row by row. :func:`smallest_n` reads off how
-sparse each strategy can go, :func:`hours_saved` what that saves against the paper's 7^3
-grid (308 samples). The design and its measurements: ``docs/design/studies.md``.
+N, seed) and the settings, so a study resumes row by row. Planning the rows and reading them
+off: :mod:`lab.studies.data_curve_plan`. The design and its measurements:
+``docs/design/studies.md``.
 """
 
 from __future__ import annotations
@@ -25,21 +25,7 @@ from lab.errors import InputError
 from lab.rig.twin import quasi_static_tips
 from lab.studies.transfer_study import SHAPES, evaluate_model, random_safe_commands
 
-__all__ = [
-    "STRATEGIES", "PAPER_GRID_N", "NominalBody", "make_body", "check_strategies", "check_model", "MODELS",
-    "grid_levels_for", "plan_rows", "heldout_set", "fit_forward_model", "draw_and_measure", "data_curve_row",
-    "smallest_n", "hours_saved"
-]  # fmt: skip
-
-#: Sampling strategies: a grid of L levels per motor (safe points), scrambled Sobol, Latin
-#: hypercube, greedy maximin, independent uniform draws, and active sampling (batches where a
-#: deep ensemble disagrees most; :func:`lab.learn.active.active_sampling`).
-STRATEGIES = ("grid", "sobol", "lhs", "maximin", "random", "active")
-#: The paper's training set: the safe points of the 7^3 grid of the three-cable arm.
-PAPER_GRID_N = 308
-#: Forward models a row can fit (:func:`fit_forward_model`; not the direct inverse, which
-#: predicts no tip).
-MODELS = ("mlp", "ensemble", "gpr", "knn", "sklearn-mlp")
+__all__ = ["NominalBody", "make_body", "heldout_set", "fit_forward_model", "draw_and_measure", "data_curve_row"]
 
 
 class NominalBody:
@@ -109,89 +95,6 @@ def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | Non
         f"rig {rig!r}: the data curve measures through a body's quasi-static map; "
         "expected sim, twin, twin:DEFECTS.toml, twin:random:SEED or twin:foam:SEED"
     )
-
-
-def check_strategies(strategies) -> list[str]:
-    """The strategies, checked: known (:data:`STRATEGIES`) and available in this install
-    (``lhs`` needs it in :data:`lab.data.designs.DESIGNS`, ``active`` needs
-    :mod:`lab.learn.active`); InputError naming the problem otherwise."""
-    from lab.data.designs import DESIGNS
-
-    out = list(dict.fromkeys(strategies))
-    unknown = [s for s in out if s not in STRATEGIES]
-    if unknown or not out:
-        raise InputError(f"unknown sampling strategy {unknown or '(none)'}: expected some of {', '.join(STRATEGIES)}")
-    if "lhs" in out and "lhs" not in DESIGNS:
-        raise InputError("strategy 'lhs' is not available: lab.data.designs has no Latin hypercube design")
-    if "active" in out:
-        try:
-            from lab.learn.active import active_sampling  # noqa: F401
-            from lab.learn.ensemble import train_ensemble  # noqa: F401
-        except ImportError as err:
-            raise InputError(f"strategy 'active' is not available in this install ({err})") from None
-    return out
-
-
-def check_model(name: str) -> str:
-    """``name`` if it is one of :data:`MODELS` and this install can fit it, else InputError."""
-    if name not in MODELS:
-        raise InputError(f"unknown model {name!r}: expected one of {', '.join(MODELS)}")
-    if name != "mlp":
-        try:
-            from lab.learn.models import fit_model  # noqa: F401
-        except ImportError:
-            raise InputError(f"model {name!r} is not available (lab.learn.models is missing); use mlp") from None
-    return name
-
-
-def grid_levels_for(robot, ns, levels=None) -> dict[int, int]:
-    """``{levels: safe count}`` of the grids to measure: the given ``levels``, else for each
-    N of ``ns`` the number of levels per motor whose safe count is nearest N (ties: fewer
-    levels). The safe count is the N a grid row records."""
-    from lab.data.designs import grid_commands
-
-    if levels:
-        bad = [lv for lv in levels if int(lv) < 2]
-        if bad:
-            raise InputError(f"a grid needs at least 2 levels per motor, got {bad}")
-        return {int(lv): len(grid_commands(robot, int(lv))) for lv in sorted(set(levels))}
-    counts, lv = {}, 2
-    while True:  # counts grow with the levels; stop once past the largest N
-        counts[lv] = len(grid_commands(robot, lv))
-        if counts[lv] >= max(ns) or lv > 64:
-            break
-        lv += 1
-    picked = {min(counts, key=lambda k: (abs(counts[k] - n), k)) for n in ns}
-    return {k: counts[k] for k in sorted(picked)}
-
-
-def plan_rows(robot, strategies, ns, grid_levels=None) -> list[tuple[str, int, int | None]]:
-    """The rows of a study in the order they are measured: strategy by strategy, N increasing.
-
-    Parameters
-    ----------
-    robot : RobotDescription
-        The robot (its grids' safe counts).
-    strategies, ns : sequence of str, sequence of int
-        Sampling strategies (:data:`STRATEGIES`) and sample counts N (each >= 1).
-    grid_levels : sequence of int, optional
-        Grid levels per motor (None: those nearest each N, :func:`grid_levels_for`).
-
-    Returns
-    -------
-    list of tuple
-        ``(strategy, n, levels)``, ``levels`` None but for grids.
-    """
-    ns = sorted({int(n) for n in ns})
-    if not ns or ns[0] < 1:
-        raise InputError(f"every N must be >= 1, got {ns}")
-    rows = []
-    for s in strategies:
-        if s == "grid":
-            rows += [("grid", n, lv) for lv, n in grid_levels_for(robot, ns, grid_levels).items()]
-        else:
-            rows += [(s, n, None) for n in ns]
-    return rows
 
 
 def heldout_set(body, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, str]:
@@ -333,12 +236,13 @@ def data_curve_row(
     body : NominalBody or AsBuiltBody
         The body measured (:func:`make_body`).
     strategy, n, levels : str, int, int or None
-        Sampling strategy (:data:`STRATEGIES`); number of samples; a grid's levels per motor
+        Sampling strategy (:data:`lab.studies.data_curve_plan.STRATEGIES`); number of samples; a grid's levels per motor
         (whose safe count ``n`` is; None for the other strategies).
     heldout : tuple
         ``(u (H, m) rad, settled tips (H, 3) m, fingerprint)`` (:func:`heldout_set`).
     model, algorithm : str, optional
-        Forward model (:data:`MODELS`) and the rule that trains it (and the active sampler's ensemble).
+        Forward model (:data:`lab.studies.data_curve_plan.MODELS`) and the rule that trains it
+        (and the active sampler's ensemble).
     noise_sigma_m, seed : float, int, optional
         Measurement noise per axis (m); seed of the draw, the noise and the fit.
     hidden, epochs : tuple of int, int, optional
@@ -388,36 +292,3 @@ def data_curve_row(
         "capture_h": n / samples_per_hour,
         "heldout_id": fingerprint,
     }
-
-
-def smallest_n(rows, metric: str, threshold: float) -> dict:
-    """Per strategy, the smallest N whose ``metric`` (e.g. ``model_error_m`` <= 0.5e-3, or
-    ``tracking_mean_m`` <= 1.5e-3) is at most ``threshold``, with that value: ``(n, value)``,
-    or None if no N reaches it. Rows of several robots or seeds are averaged per N."""
-    out = {}
-    for s in dict.fromkeys(r["strategy"] for r in rows):
-        per_n: dict[int, list] = {}
-        for r in rows:
-            if r["strategy"] == s and np.isfinite(float(r[metric])):
-                per_n.setdefault(int(r["n"]), []).append(float(r[metric]))
-        hit = [(n, float(np.mean(v))) for n, v in sorted(per_n.items()) if np.mean(v) <= threshold]
-        out[s] = hit[0] if hit else None
-    return out
-
-
-def hours_saved(n: int, samples_per_hour: float, reference_n: int = PAPER_GRID_N) -> float:
-    """Capture hours saved by capturing ``n`` samples instead of ``reference_n``.
-
-    Parameters
-    ----------
-    n, reference_n : int
-        Samples captured; the reference count (default: the paper's 7^3 grid).
-    samples_per_hour : float
-        Capture rate.
-
-    Returns
-    -------
-    float
-        Hours saved (h; negative: it costs more).
-    """
-    return (reference_n - n) / samples_per_hour

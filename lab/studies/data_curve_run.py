@@ -161,7 +161,8 @@ def run_data_curve(spec: DataCurveSpec, out, *, jobs: int = 1, command: str = ""
         columns :data:`COLUMNS` (errors in m, times in s, ``capture_h`` in h).
     """
     from lab.description import load_robot
-    from lab.studies.data_curve import heldout_set, plan_rows
+    from lab.studies.data_curve import heldout_set
+    from lab.studies.data_curve_plan import plan_rows
 
     log = log or (lambda line: None)
     if positive_int(jobs):

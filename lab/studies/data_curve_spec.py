@@ -23,7 +23,7 @@ from lab.fem.mesh_spec import MeshSpec
 from lab.learn.train import ALGORITHMS
 from lab.rig.spec import RigSpec
 from lab.specs import Spec, at_most, non_negative_int, option, positive, positive_int
-from lab.studies.data_curve import check_model, check_strategies
+from lab.studies.data_curve_plan import check_model, check_strategies
 
 __all__ = ["DataCurveSpec", "DEFAULT_NS", "DEFAULT_RATE_FROM", "FALLBACK_SAMPLES_PER_HOUR", "MAX_ROWS", "MAX_SEEDS"]
 

@@ -1,0 +1,71 @@
+"""The public surface is what other code uses: every exported name has a user outside its module.
+
+A name in a subpackage's ``__all__`` must be referenced in another module of ``lab``, a
+chapter, a script, a benchmark or an example -- tests do not count, they import from the
+defining module. The few names exported for users alone (an exception a caller catches, an
+entry point the docs name) are listed in :data:`EXPORT_EXCEPTIONS` with the reason.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import pkgutil
+import re
+from pathlib import Path
+
+import lab
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: Exported names with no user in the repository, and why they are public all the same.
+EXPORT_EXCEPTIONS: dict[str, str] = {}
+
+
+def _texts() -> dict[Path, str]:
+    out = {}
+    for pattern in ("lab/**/*.py", "notebooks/*.ipynb", "scripts/*", "benchmarks/*.py", "examples/**/*.py"):
+        for p in ROOT.glob(pattern):
+            if not p.is_file() or "__pycache__" in p.parts:
+                continue
+            text = p.read_text(errors="ignore")
+            if p.suffix == ".ipynb":
+                text = "\n".join("".join(c["source"]) for c in json.loads(text)["cells"])
+            out[p.resolve()] = text
+    return out
+
+
+def unused_exports() -> list[str]:
+    """``lab.pkg.Name`` for every exported name no other file references (by whole word)."""
+    texts = _texts()
+    unused = []
+    for info in pkgutil.walk_packages(lab.__path__, "lab."):
+        if not info.ispkg:
+            continue
+        package = importlib.import_module(info.name)
+        for name in getattr(package, "__all__", ()):
+            obj = getattr(package, name)
+            home = {Path(package.__file__).resolve()}
+            module = getattr(obj, "__module__", None)
+            if isinstance(module, str) and module.startswith("lab"):
+                home.add(Path(importlib.import_module(module).__file__).resolve())
+            word = re.compile(rf"\b{re.escape(name)}\b")
+            if not any(word.search(t) for p, t in texts.items() if p not in home):
+                unused.append(f"{info.name}.{name}")
+    return unused
+
+
+def test_every_export_is_used_outside_its_module():
+    unused = [n for n in unused_exports() if n not in EXPORT_EXCEPTIONS]
+    assert not unused, "exported but used nowhere else (un-export, or justify in EXPORT_EXCEPTIONS):\n" + "\n".join(
+        unused
+    )
+
+
+def test_exceptions_are_still_exported():
+    stale = []
+    for qual in EXPORT_EXCEPTIONS:
+        package, _, name = qual.rpartition(".")
+        if name not in getattr(importlib.import_module(package), "__all__", ()):
+            stale.append(qual)
+    assert not stale, f"EXPORT_EXCEPTIONS lists names no longer exported: {stale}"
