@@ -33,8 +33,8 @@ import numpy as np
 
 from lab.data.designs import design_commands
 from lab.description import load_robot
-from lab.fem.hyperfoam import hyperfoam_matching
-from lab.fem.parameters import ParametrisedFEM
+from lab.fem.materials.hyperfoam import hyperfoam_matching
+from lab.fem.solve.parameters import ParametrisedFEM
 from lab.rig.defects_parse import parse_defects
 from lab.rig.family import random_defects
 from lab.rig.twin import AsBuiltBody, quasi_static_tips

@@ -17,8 +17,8 @@ import pytest
 from helpers import fd_jacobian
 
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.rig.asbuilt import DefectsError, SeriesCableFEM, as_built_fem, default_defects_path, load_defects
 from lab.rig.defects_fields import rotation
 from lab.rig.defects_parse import parse_defects
@@ -201,7 +201,7 @@ def test_creep_keeps_the_tip_moving_over_its_time_constant(three_cable, clean):
 
 # ------------------------------------------------------------------ the hyperfoam law
 def test_hyperfoam_law_reaches_the_fem_scaled_per_tet(three_cable, shipped):
-    from lab.fem.hyperfoam import Hyperfoam, hyperfoam_matching
+    from lab.fem.materials.hyperfoam import Hyperfoam, hyperfoam_matching
 
     neo = as_built_fem(three_cable, parse_defects(shipped, three_cable))
     mu, beta = hyperfoam_matching(three_cable.youngs_modulus_pa, three_cable.poisson_ratio, 8.0)

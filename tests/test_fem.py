@@ -5,9 +5,9 @@ import pytest
 import torch
 from helpers import fd_derivative, fd_jacobian
 
-from lab.fem.cables import spring
-from lab.fem.elasticity import NeoHookean, project_psd
-from lab.fem.mesh import cylinder_mesh
+from lab.fem.actuators.cable_routes import spring
+from lab.fem.materials.neo_hookean import NeoHookean, project_psd
+from lab.fem.bodies.mesh import cylinder_mesh
 
 
 @pytest.fixture

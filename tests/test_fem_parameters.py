@@ -1,4 +1,4 @@
-"""The parametrised FEM (lab.fem.parameters): theta -> FEM, and dx/dtheta against finite
+"""The parametrised FEM (lab.fem.solve.parameters): theta -> FEM, and dx/dtheta against finite
 differences, block by block, on a coarse mesh; the nominal and the as-built FEM reproduced."""
 
 import dataclasses
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from helpers import fd_jacobian
 
-from lab.fem.energy import ArmFEM
-from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM
-from lab.fem.statics import sensitivities, solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.parameters import ParameterError, ParameterLayout, ParametrisedFEM
+from lab.fem.solve.statics import sensitivities, solve_static
 from lab.rig.asbuilt import as_built_fem, load_defects
 
 MESH = dict(n_rings=1, n_axial=6)

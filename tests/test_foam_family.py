@@ -15,7 +15,7 @@ from lab.cli import main
 from lab.description import ROBOTS_DIR, load_robot
 from lab.errors import InputError
 from lab.fem import MeshSpec
-from lab.fem.hyperfoam import hyperfoam_matching
+from lab.fem.materials.hyperfoam import hyperfoam_matching
 from lab.rig import FoamTwinRig, RigSpec, as_built_body, make_rig
 from lab.rig.asbuilt import SeriesCableFEM, load_defects
 from lab.rig.family import family_member, random_defects, random_defects_toml

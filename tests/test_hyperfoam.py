@@ -1,4 +1,4 @@
-"""The hyperfoam law (lab.fem.hyperfoam): derivatives against central differences and torch
+"""The hyperfoam law (lab.fem.materials.hyperfoam): derivatives against central differences and torch
 autograd (also at and around repeated principal stretches), its small-strain limit, a
 closed-form uniaxial test, and the arm's statics with it against the neo-Hookean law."""
 
@@ -13,9 +13,9 @@ from scipy.spatial.transform import Rotation
 
 from lab.errors import InputError
 from lab.fem import ArmFEM, solve_static
-from lab.fem.elasticity import InvertedElementError, lame
-from lab.fem.hyperfoam import REPEATED_LOG_GAP, Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
-from lab.fem.mesh import cylinder_mesh
+from lab.fem.materials.neo_hookean import InvertedElementError, lame
+from lab.fem.materials.hyperfoam import REPEATED_LOG_GAP, Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
+from lab.fem.bodies.mesh import cylinder_mesh
 
 MU = 1.5e4
 R1, R2 = Rotation.from_rotvec([0.3, -0.5, 0.8]).as_matrix(), Rotation.from_rotvec([-0.7, 0.2, 0.4]).as_matrix()

@@ -172,12 +172,12 @@ def test_cycle_finder_finds_a_cycle():
 
 def test_import_reader_resolves_relative_and_function_level_imports(tmp_path, monkeypatch):
     src = (
-        "from .energy import ArmFEM\nfrom ..description import load_robot\n"
+        "from .model import ArmFEM\nfrom ..description import load_robot\n"
         "def f():\n    from lab.learn import mlp\n    import lab.data.dataset\n"
     )
     f = tmp_path / "x.py"
     f.write_text(src)
-    assert lab_imports(f, "lab.fem.x") == {"lab.fem.energy", "lab.description", "lab.learn.mlp", "lab.data.dataset"}
+    assert lab_imports(f, "lab.fem.x") == {"lab.fem.model", "lab.description", "lab.learn.mlp", "lab.data.dataset"}
 
 
 @pytest.mark.parametrize("package", SUBPACKAGES)

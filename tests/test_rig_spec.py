@@ -4,7 +4,7 @@ import pytest
 
 from lab.errors import InputError
 from lab.fem import MeshSpec
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 from lab.rig import FamilyTwinRig, RigSpec, SimRig, TwinRig, as_built_body, make_rig
 from lab.rig.family import random_defects
 

@@ -11,7 +11,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from lab.fem.statics import solve_static
+from lab.fem.solve.statics import solve_static
 from lab.rig import make_rig
 from lab.rig.asbuilt import (
     DefectsError,

@@ -8,7 +8,7 @@ same values wherever the eyelet limits of the two meshes agree, as on both shipp
 robots), plus, from independent streams (:data:`FOAM_RANGES`; ``docs/design/rig.md``):
 
 * the compressible foam law (``law = "hyperfoam"``): mu, beta from
-  :func:`lab.fem.hyperfoam.hyperfoam_matching` of the description's E and nu (the same
+  :func:`lab.fem.materials.hyperfoam.hyperfoam_matching` of the description's E and nu (the same
   small-strain stiffness, scaled per tet by softness and gradient), alpha U(4, 20): one-term
   hyperfoam (Storakers 1986, J. Mech. Phys. Solids 34:125) fits of open-cell flexible
   polyurethane foams give alpha of several to ~20 (Mills, Polymer Foams Handbook, 2007;
@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from lab.description import RobotDescription
-from lab.fem.hyperfoam import hyperfoam_matching
+from lab.fem.materials.hyperfoam import hyperfoam_matching
 from lab.rig.asbuilt import Defects, as_built_robot, parse_defects
 from lab.rig.family_draw import RANGES, check_seed, draw_member, rounded
 from lab.rig.family_toml import defects_toml, write_member

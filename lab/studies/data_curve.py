@@ -61,7 +61,7 @@ class NominalBody:
     the description's mesh."""
 
     def __init__(self, robot, *, n_rings: int | None = None, n_axial: int | None = None):
-        from lab.fem.energy import ArmFEM
+        from lab.fem.model import ArmFEM
         from lab.rig.asbuilt import EquilibriumCache
 
         self.robot = robot
@@ -78,7 +78,7 @@ def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | Non
     "FEM", no noise), ``twin`` / ``twin:DEFECTS.toml`` / ``twin:random:SEED`` / ``twin:foam:SEED`` (an as-built
     body, label "emulated as-built robot", its defects' motion-capture noise in m per axis).
     The fast path needs a body: ``hardware:`` rigs are refused (InputError)."""
-    from lab.fem.mesh_spec import MeshSpec
+    from lab.fem.bodies.mesh_spec import MeshSpec
     from lab.rig import RigSpec, as_built_body
 
     spec = RigSpec.parse(rig)

@@ -45,7 +45,7 @@ class ArmGeometry:
 
 
 def arm_geometry(fem, q=None) -> ArmGeometry:
-    """Geometry of ``fem`` (an :class:`lab.fem.energy.ArmFEM`) at free coordinates ``q``
+    """Geometry of ``fem`` (an :class:`lab.fem.model.ArmFEM`) at free coordinates ``q``
     (n_free,) in metres; ``q=None`` is the rest shape."""
     x = fem.X_W.copy() if q is None else fem.to_nodes(np.asarray(q, float))
     return ArmGeometry(x, fem.mesh.surface_triangles(), [c.points(x) for c in fem.cables], fem.tip(x))

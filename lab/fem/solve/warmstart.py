@@ -8,7 +8,7 @@ and either of those corrected by the error the same prediction made one row back
 :meth:`WalkPredictor.ranked` orders them by energy E(q, u), lowest first, except that those
 where a cable changes state although its motor did not move come last. The Hermite and
 corrected predictions need dq/du refined along the walk (``refine_du`` of
-:func:`lab.fem.statics.solve_static`). Everything depends only on the walk, so a walk gives
+:func:`lab.fem.solve.statics.solve_static`). Everything depends only on the walk, so a walk gives
 the same numbers wherever it runs.
 
 Each prediction, its accuracy on the grid and the ranking rule: docs/design/fem.md.
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import StaticSolution
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import StaticSolution
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class _Solved:
     u: np.ndarray  # (m,) rad
     q: np.ndarray  # (n_free,) m
     dq_du: np.ndarray  # (n_free, m) m/rad
-    taut: tuple  # which cables pull (tension > 0)
+    taut: tuple  # which inputs' actuators are engaged (a cable pulls, tension > 0)
 
 
 def _key(u) -> tuple:
@@ -56,8 +56,8 @@ class WalkPredictor:
         self._solved[_key(sol.u_motor)] = self.last
 
     def _taut(self, q, u) -> tuple:
-        """Which cables pull (tension > 0) at ``q`` for motor angles ``u``."""
-        return tuple(bool(t > 0) for t in self.fem.cable_tensions(self.fem.to_nodes(q), u))
+        """Which inputs' actuators are engaged (cables: pull, tension > 0) at ``q`` for inputs ``u``."""
+        return self.fem.input_states(q, u)
 
     def _get(self, u) -> _Solved | None:
         return self._solved.get(_key(u))
