@@ -89,7 +89,10 @@ phases = {  # name: the functions timed, as (owner, attribute) where the solver 
     "solves": [(lab.fem.solve.linsolve._Pardiso, "solve"), (lab.fem.solve.linsolve._SuperLU, "solve")],
     "gradients (incl. dq/du refinement)": [(lab.fem.ArmFEM, "gradient")],
     "energies (incl. with gradient)": [(lab.fem.ArmFEM, "energy")],
-    "cable-condensed step algebra": [(lab.fem.solve.steps, "condensed_step"), (lab.fem.solve.statics, "condensed_step")],
+    "cable-condensed step algebra": [
+        (lab.fem.solve.steps, "condensed_step"),
+        (lab.fem.solve.statics, "condensed_step"),
+    ],
     "sensitivity algebra": [(lab.fem.solve.statics, "reused_sensitivity")],
     "predictions (candidates)": [(lab.fem.solve.warmstart.WalkPredictor, "candidates")],
     "rest (Python, NumPy glue)": [(lab.data.simulation, "solve_chunk")],

@@ -6,8 +6,8 @@ import torch
 from helpers import fd_derivative, fd_jacobian
 
 from lab.fem.actuators.cable_routes import spring
-from lab.fem.materials.neo_hookean import NeoHookean, project_psd
 from lab.fem.bodies.mesh import cylinder_mesh
+from lab.fem.materials.neo_hookean import NeoHookean, project_psd
 
 
 @pytest.fixture

@@ -28,9 +28,9 @@ import scipy.sparse as sp
 from lab.description import RobotDescription, read_toml
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.actuators.cable_routes import route_hessian, series_stiffness, spring
-from lab.fem.model import ArmFEM
-from lab.fem.materials.hyperfoam import HyperfoamMaterial
 from lab.fem.bodies.mesh import cylinder_mesh
+from lab.fem.materials.hyperfoam import HyperfoamMaterial
+from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import solve_static
 from lab.rig.defects_fields import CableDefects, Defects, DefectsError
 from lab.rig.defects_parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
