@@ -213,7 +213,7 @@ def reused_sensitivity(fem: ArmFEM, fac: Factorised, q, u, condensation, refine_
         D_all = np.zeros((len(q), n_u))
         if condensation is not None:
             D_all[:, cols] = D
-        D_all[:, other] = -precondition(B)
+        D_all[:, other] = -np.column_stack([precondition(b) for b in B.T])
         D = D_all
 
     def forcing(du):  # d2E/dq du du
