@@ -71,10 +71,13 @@ class Condensation:
 
 class Actuator(ABC):
     """One kind of actuation, built on a body (see :meth:`build`). Subclasses set
-    ``input_names`` (tuple of str), ``input_unit`` (str) and ``free``
-    (:class:`~lab.fem.bodies.base.FreeCoordinates`)."""
+    ``input_names`` (tuple of str) and ``input_unit`` (str), and ``condenses = True`` if
+    :meth:`gradient` returns a :class:`Condensation`; the model sets ``inputs``, the slice
+    of its inputs u this actuator owns."""
 
     kind: str = ""
+    condenses: bool = False
+    inputs: slice = slice(0, 0)
     input_names: tuple[str, ...] = ()
     input_unit: str = ""
 

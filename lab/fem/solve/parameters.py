@@ -171,7 +171,25 @@ class ParametrisedFEM:
         return solve_static(self.fem(theta), u_motor, q0, **kwargs)
 
     def force_derivative(self, theta, q: np.ndarray, u_motor) -> np.ndarray:
-        """dg/dtheta (n_free, p) in N per unit of each parameter, at free coordinates q."""
+        """How the forces change with theta.
+
+        The material part scales each tet's elastic force; the cables' slack and eyelet
+        shifts come from :meth:`lab.fem.actuators.CableActuator.geometry_force_derivative`.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters.
+        q : ndarray, shape (n_free,)
+            Free coordinates, m.
+        u_motor : array_like, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (n_free, p)
+            dg/dtheta in N per unit of each parameter.
+        """
         fem, lay = self.fem(theta), self.layout
         theta = np.asarray(theta, float)
         x = fem.to_nodes(q)

@@ -64,8 +64,8 @@ class StaticSolveError(LabRuntimeError):
 
 @dataclass
 class StaticSolution:
-    """Equilibrium for motor angles ``u_motor`` (m,) rad: free coordinates ``q``
-    (n_free,), tip ``p_tip_W`` (3,) m, and how Newton got there."""
+    """Equilibrium for inputs ``u_motor`` (n_inputs,) (the cables' motor angles in rad):
+    free coordinates ``q`` (n_free,) m, tip ``p_tip_W`` (3,) m, and how Newton got there."""
 
     u_motor: np.ndarray
     q: np.ndarray
@@ -121,6 +121,35 @@ def solve_static(
     factorisation; a shifted one counts once more).
     Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
     which case the returned solution has ``converged=False`` and a ``status`` saying why.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model.
+    u_motor : array_like, shape (n_inputs,)
+        The inputs of all its actuators (the cables' motor angles in rad, first).
+    q0 : ndarray, shape (n_free,), optional
+        Where to start, m; default rest.
+    tol_step_m, tol_force_n : float
+        Step (m) and residual force (N) tolerances (above).
+    max_iter : int
+        Most steps.
+    sensitivity : bool or str
+        False, True/``"exact"`` or ``"reuse"`` (above).
+    raise_on_failure : bool
+        Raise :class:`StaticSolveError` if it does not converge.
+    check_command : bool
+        Check the inputs with the actuators (:meth:`ArmFEM.check_input`) first.
+    refine_du : array_like, shape (k, n_inputs), optional
+        Input steps along which a reused dq/du is refined.
+    stop_if_indefinite : bool
+        Return at once where the exact Hessian at ``q0`` is indefinite.
+
+    Returns
+    -------
+    StaticSolution
+        The equilibrium (or the last iterate), with ``dq_du`` (n_free, n_inputs) and
+        ``J_tip_u`` (3, n_inputs) if asked.
     """
     t0 = time.perf_counter()
     u = fem.check_input(u_motor) if check_command else np.asarray(u_motor, float)
@@ -243,7 +272,24 @@ def solve_static(
 
 
 def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
-    """dq/du (n_free, m) and the tip Jacobian J_tip_u = dp_tip/du (3, m) at an equilibrium."""
+    """dq/du and the tip Jacobian at an equilibrium, from a fresh factorisation.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model.
+    q : ndarray, shape (n_free,)
+        An equilibrium, m.
+    u_motor : array_like, shape (n_inputs,)
+        Its inputs.
+
+    Returns
+    -------
+    dq_du : ndarray, shape (n_free, n_inputs)
+        m per unit of each input (m/rad for the cables).
+    J_tip_u : ndarray, shape (3, n_inputs)
+        The tip marker's Jacobian dp_tip/du.
+    """
     lu = factorize(fem.hessian(q, u_motor))
     dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
     return dq_du, fem.tip_matrix() @ dq_du
