@@ -20,7 +20,6 @@ import scipy.sparse as sp
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.actuators.cable_routes import spring
 from lab.fem.bodies import CylinderBody, FreeCoordinates
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials import NeoHookeanMaterial, project_psd
@@ -283,7 +282,7 @@ class ArmFEM(ActuatedModel):
         """
         x = self.to_nodes(q)
         cols = [act.mixed_derivative(x, u_a) for act, u_a in self._split(u)]
-        return cols[0] if len(cols) == 1 else np.hstack(cols)
+        return cols[0] if len(cols) == 1 else np.hstack([np.zeros((self.n_free, 0)), *cols])
 
     # ---------------------------------------------------------------- assembly pattern
     def _block_dofs(self) -> list[np.ndarray]:
@@ -306,20 +305,3 @@ class ArmFEM(ActuatedModel):
         r = unique // self.n_free
         self._indices = (unique % self.n_free).astype(np.int32)
         self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)
-
-    def cable_springs(self, stretch_m):
-        """The cables' spring law: energy (J), tension (N) and stiffness (N/m) of each cable
-        (m,) at stretches d = L - L* (m,) m; the description's one-sided spring (a subclass
-        may change it, e.g. cables that stretch themselves).
-
-        Parameters
-        ----------
-        stretch_m : array_like, shape (m,) or scalar
-            Stretches, m.
-
-        Returns
-        -------
-        energy, tension, stiffness : ndarray
-            Shaped as ``stretch_m``.
-        """
-        return spring(stretch_m, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)

@@ -12,6 +12,7 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.fem.actuators import ACTUATORS
+from lab.fem.actuators.cable_routes import spring
 
 
 class ActuatedModel:
@@ -117,3 +118,20 @@ class ActuatedModel:
     def cable_tensions(self, x_W, u_motor) -> np.ndarray:
         """Tension of each cable (m,) in N at node positions ``x_W`` (N, 3) m."""
         return self.actuator("cables").tensions(x_W, u_motor)
+
+    def cable_springs(self, stretch_m):
+        """The cables' spring law: energy (J), tension (N) and stiffness (N/m) of each cable
+        (m,) at stretches d = L - L* (m,) m; the description's one-sided spring (a subclass
+        may change it, e.g. cables that stretch themselves).
+
+        Parameters
+        ----------
+        stretch_m : array_like, shape (m,) or scalar
+            Stretches, m.
+
+        Returns
+        -------
+        energy, tension, stiffness : ndarray
+            Shaped as ``stretch_m``.
+        """
+        return spring(stretch_m, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
