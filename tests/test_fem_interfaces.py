@@ -21,10 +21,12 @@ from lab.fem import (
     ArmFEM,
     CylinderBody,
     HyperfoamMaterial,
+    Marker,
     MaterialLaw,
     NeoHookeanMaterial,
     WalkPredictor,
     register_actuator,
+    register_body,
     sensitivities,
     solve_static,
 )
@@ -59,6 +61,15 @@ class PointForce(Actuator):
 
     def mixed_derivative(self, x_W, u):
         return -self.column[:, None]
+
+
+@register_body("cylinder_with_mid_marker")
+class MidMarkedCylinder(CylinderBody):
+    """The description's cylinder with a second marker on its axis at mid-length."""
+
+    def markers(self):
+        nodes, weights = self.embed([self.robot.length_m / 2, 0.0, 0.0], "the mid marker")
+        return super().markers() | {"mid": Marker(nodes[0], weights[0])}
 
 
 @pytest.fixture(scope="module")
@@ -159,3 +170,17 @@ def test_walk_with_both_actuators(both):
         predictor.add(sol)
     cold = solve_static(both, walk[-1])
     assert np.abs(sol.q - cold.q).max() < 1e-8
+
+
+def test_a_new_body_with_a_second_marker(three_cable, both):
+    body = MidMarkedCylinder(three_cable, **MESH)
+    assert BODIES["cylinder_with_mid_marker"] is MidMarkedCylinder
+    fem = ArmFEM(three_cable, body=body, actuators=["cables", ("point_force", {"marker": "mid"})])
+    assert set(fem.markers) == {"tip", "mid"}
+    assert np.array_equal(fem.tip_matrix().toarray(), both.tip_matrix().toarray())
+    mid = fem.markers["mid"]
+    sag, up = solve_static(fem, [0.0, 0.0, 0.0, 0.0]), solve_static(fem, [0.0, 0.0, 0.0, 0.05])
+    x0, x1 = fem.to_nodes(sag.q), fem.to_nodes(up.q)
+    assert mid.position(x1)[2] - mid.position(x0)[2] > 1e-4  # pushed up at mid-length
+    with pytest.raises(InputError):
+        ArmFEM(three_cable, body=body, n_rings=2)
