@@ -113,26 +113,71 @@ class ArmFEM(ActuatedModel):
         return self.mesh.X_W
 
     def to_nodes(self, q: np.ndarray) -> np.ndarray:
-        """Node positions x_W (N, 3) m of the free coordinates ``q`` (n_free,) m."""
+        """Node positions of free coordinates (the clamped nodes at rest).
+
+        Parameters
+        ----------
+        q : ndarray, shape (n_free,)
+            Free coordinates, m.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Node positions x_W, m.
+        """
         x = self.mesh.X_W.ravel().copy()
         x[self.free_dofs] = q
         return x.reshape(-1, 3)
 
     def to_free(self, x_W: np.ndarray) -> np.ndarray:
-        """Free coordinates q (n_free,) m of node positions ``x_W`` (N, 3) m."""
+        """Free coordinates of node positions.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+
+        Returns
+        -------
+        ndarray, shape (n_free,)
+            Free coordinates q, m.
+        """
         return np.asarray(x_W).ravel()[self.free_dofs].copy()
 
     def rest_q(self) -> np.ndarray:
-        """Free coordinates at rest (n_free,), m."""
+        """Free coordinates at rest.
+
+        Returns
+        -------
+        ndarray, shape (n_free,)
+            q at the rest mesh, m.
+        """
         return self.to_free(self.mesh.X_W)
 
     # ---------------------------------------------------------------- markers
     def tip(self, x_W: np.ndarray) -> np.ndarray:
-        """Tip marker position p_tip_W (3,) in metres, for node positions ``x_W`` (N, 3) m."""
+        """The tip marker's position.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            p_tip_W, m.
+        """
         return self.tip_weights @ x_W[self.tip_nodes]
 
     def tip_matrix(self) -> sp.csr_matrix:
-        """S (3, n_free) with p_tip = S q + const (the marker is embedded, so linear)."""
+        """The tip marker as a linear map of the free coordinates (it is embedded).
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix, shape (3, n_free)
+            S with p_tip = S q + const.
+        """
         return self._S_tip
 
     # ---------------------------------------------------------------- energy

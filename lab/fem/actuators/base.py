@@ -139,7 +139,20 @@ class Actuator(ABC):
 
     @abstractmethod
     def energy(self, x_W: np.ndarray, u: np.ndarray) -> float:
-        """The actuator's energy in J at node positions ``x_W`` (N, 3) m for inputs ``u``."""
+        """The actuator's energy.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
+
+        Returns
+        -------
+        float
+            Energy, J.
+        """
 
     @abstractmethod
     def gradient(self, x_W: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, Condensation | None]:
@@ -204,7 +217,20 @@ class Actuator(ABC):
 
     @abstractmethod
     def mixed_derivative(self, x_W: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """d2E/dq du (n_free, n_inputs): how each input changes the forces (N per unit)."""
+        """How each input changes the forces.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
+
+        Returns
+        -------
+        ndarray, shape (n_free, n_inputs)
+            d2E/dq du, N per unit of each input.
+        """
 
     def input_states(self, x_W: np.ndarray, u: np.ndarray) -> tuple[bool, ...]:
         """Whether each input's actuation is engaged (a cable taut); a warm start that
