@@ -18,8 +18,8 @@ from timing import best_of
 from lab.asbuilt.arm import as_built_fem, load_defects
 from lab.data.designs import sobol_commands
 from lab.description import load_robot
-from lab.fem.parameters import ParametrisedFEM
-from lab.fem.statics import sensitivities, solve_static
+from lab.fem.solve.parameters import ParametrisedFEM
+from lab.fem.solve.statics import sensitivities, solve_static
 from lab.transfer import calibrate, prior_std
 
 ap = argparse.ArgumentParser()

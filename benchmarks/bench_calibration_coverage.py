@@ -35,8 +35,8 @@ from lab.asbuilt import RANDOM
 from lab.asbuilt.parse import parse_defects
 from lab.data.designs import design_commands
 from lab.description import load_robot
-from lab.fem.hyperfoam import hyperfoam_matching
-from lab.fem.parameters import ParametrisedFEM
+from lab.fem.materials.hyperfoam import hyperfoam_matching
+from lab.fem.solve.parameters import ParametrisedFEM
 from lab.rig.twin import AsBuiltBody, quasi_static_tips
 from lab.transfer import calibrate
 from lab.transfer.recovery import recovery_rows, summary_table, true_theta

@@ -17,17 +17,17 @@ import numpy as np
 from timing import best_of
 
 import lab.data.simulation
-import lab.fem.energy
-import lab.fem.linsolve
-import lab.fem.statics
-import lab.fem.steps
-import lab.fem.warmstart
+import lab.fem.model
+import lab.fem.solve.linsolve
+import lab.fem.solve.statics
+import lab.fem.solve.steps
+import lab.fem.solve.warmstart
 from lab.data.designs import grid_chunks, grid_commands
 from lab.data.simulation import default_jobs, simulate
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.linsolve import _available, factorize
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.linsolve import _available, factorize
+from lab.fem.solve.statics import solve_static
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--six-full", action="store_true", help="simulate the full six-cable 5-level grid")
@@ -53,7 +53,7 @@ for name in _available():
     t_fact[name] = best_of(lambda name=name: factorize(H, name))
     print(f"  factorisation [{name}]: {1e3 * t_fact[name]:.2f} ms")
 if "pardiso" in t_fact:
-    from lab.fem.linsolve import _Pardiso
+    from lab.fem.solve.linsolve import _Pardiso
 
     def analyse_and_factorize():
         _Pardiso._pattern = None  # forget the symbolic analysis: phase 12, not 22
@@ -85,13 +85,16 @@ print(f"  ratio time per sample / (assembly + factorisation) = {t_sample / unit:
 # the phases it calls; the timers themselves add a little).
 phases = {  # name: the functions timed, as (owner, attribute) where the solver looks them up
     "Hessian assembly": [(lab.fem.ArmFEM, "hessian")],
-    "factorisation": [(lab.fem.steps, "factorize"), (lab.fem.statics, "factorize")],
-    "solves": [(lab.fem.linsolve._Pardiso, "solve"), (lab.fem.linsolve._SuperLU, "solve")],
+    "factorisation": [(lab.fem.solve.steps, "factorize"), (lab.fem.solve.statics, "factorize")],
+    "solves": [(lab.fem.solve.linsolve._Pardiso, "solve"), (lab.fem.solve.linsolve._SuperLU, "solve")],
     "gradients (incl. dq/du refinement)": [(lab.fem.ArmFEM, "gradient")],
     "energies (incl. with gradient)": [(lab.fem.ArmFEM, "energy")],
-    "cable-condensed step algebra": [(lab.fem.steps, "condensed_step"), (lab.fem.statics, "condensed_step")],
-    "sensitivity algebra": [(lab.fem.statics, "reused_sensitivity")],
-    "predictions (candidates)": [(lab.fem.warmstart.WalkPredictor, "candidates")],
+    "cable-condensed step algebra": [
+        (lab.fem.solve.steps, "condensed_step"),
+        (lab.fem.solve.statics, "condensed_step"),
+    ],
+    "sensitivity algebra": [(lab.fem.solve.statics, "reused_sensitivity")],
+    "predictions (candidates)": [(lab.fem.solve.warmstart.WalkPredictor, "candidates")],
     "rest (Python, NumPy glue)": [(lab.data.simulation, "solve_chunk")],
 }
 spent, calls, stack, originals = {}, {}, [], []

@@ -22,7 +22,7 @@ from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import BUILTIN, load_trajectory
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 from lab.learn.mlp import load_model
 
 ap = argparse.ArgumentParser()

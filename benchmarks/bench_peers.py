@@ -50,8 +50,8 @@ from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.trajectories import circle
 from lab.data.designs import sobol_commands
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import sensitivities, solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import sensitivities, solve_static
 from lab.learn.mlp import load_model
 from lab.peers import SkfemArm, lab_loaded_arm, lab_tip_load_gradient, mujoco_arm
 

@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 
 TOL_M = 2e-3  # 1 % of the 20 cm arm; the paper's sim tracking error is 0.5 mm, its real one 1.5 mm
 MESHES = [(1, 10), (1, 20), (2, 10), (2, 20), (2, 40), (3, 20), (3, 30), (3, 40), (4, 60)]

@@ -7,7 +7,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import pytest  # noqa: E402
 
 from lab.description import load_robot  # noqa: E402
-from lab.fem.energy import ArmFEM  # noqa: E402
+from lab.fem.model import ArmFEM  # noqa: E402
 
 
 @pytest.fixture(scope="session")

@@ -8,8 +8,8 @@ from helpers import DevToolsPage
 from test_viz import _pixel_counts, devtools_command, require_chromium
 
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.viz import animation as A
 from lab.viz import arm as viz
 

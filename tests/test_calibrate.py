@@ -16,9 +16,9 @@ from lab.cli import main
 from lab.data.dataset import read_dataset, write_dataset
 from lab.data.designs import sobol_commands
 from lab.description import DescriptionError, load_robot, parse_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.parameters import ParametrisedFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.parameters import ParametrisedFEM
+from lab.fem.solve.statics import solve_static
 from lab.transfer import calibrate, calibrated_robot, prior_std, robot_toml, write_calibrated_robot
 
 MESH = dict(n_rings=1, n_axial=6)

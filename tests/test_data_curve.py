@@ -208,7 +208,7 @@ def test_any_robot_six_cables_model_error_only(tmp_path):
 
 def test_flags_keep_their_names_and_defaults():
     from lab.cli import build_parser
-    from lab.fem.mesh_spec import MeshSpec
+    from lab.fem.bodies.mesh_spec import MeshSpec
     from lab.studies.data_curve_spec import DEFAULT_NS, DEFAULT_RATE_FROM, DataCurveSpec, default_strategies
 
     (sub,) = [a for a in build_parser()._actions if a.dest == "command"]

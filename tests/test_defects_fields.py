@@ -21,8 +21,8 @@ from lab.asbuilt.fields import rotation
 from lab.asbuilt.parse import parse_defects
 from lab.capture.protocol import measure
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.rig.twin import AsBuiltBody, TwinRig, quasi_static_tips
 
 COARSE = dict(n_rings=1, n_axial=6)
@@ -201,7 +201,7 @@ def test_creep_keeps_the_tip_moving_over_its_time_constant(three_cable, clean):
 
 # ------------------------------------------------------------------ the hyperfoam law
 def test_hyperfoam_law_reaches_the_fem_scaled_per_tet(three_cable, shipped):
-    from lab.fem.hyperfoam import Hyperfoam, hyperfoam_matching
+    from lab.fem.materials.hyperfoam import Hyperfoam, hyperfoam_matching
 
     neo = as_built_fem(three_cable, parse_defects(shipped, three_cable))
     mu, beta = hyperfoam_matching(three_cable.youngs_modulus_pa, three_cable.poisson_ratio, 8.0)

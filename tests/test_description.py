@@ -6,8 +6,8 @@ import pytest
 
 from lab.data.designs import grid_commands
 from lab.description import ROBOTS_DIR, DescriptionError, load_robot, parse_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 
 
 def _data(name="three-cable"):

@@ -1,4 +1,4 @@
-"""The parametrised FEM (lab.fem.parameters): theta -> FEM, and dx/dtheta against finite
+"""The parametrised FEM (lab.fem.solve.parameters): theta -> FEM, and dx/dtheta against finite
 differences, block by block, on a coarse mesh; the nominal and the as-built FEM reproduced."""
 
 import dataclasses
@@ -8,9 +8,9 @@ import pytest
 from helpers import fd_jacobian
 
 from lab.asbuilt.arm import as_built_fem, load_defects
-from lab.fem.energy import ArmFEM
-from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM
-from lab.fem.statics import sensitivities, solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.parameters import ParameterError, ParameterLayout, ParametrisedFEM
+from lab.fem.solve.statics import sensitivities, solve_static
 
 MESH = dict(n_rings=1, n_axial=6)
 U = np.array([1.5, 0.8, 0.3])

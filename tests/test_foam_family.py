@@ -18,7 +18,7 @@ from lab.cli import main
 from lab.description import ROBOTS_DIR, load_robot
 from lab.errors import InputError
 from lab.fem import MeshSpec
-from lab.fem.hyperfoam import hyperfoam_matching
+from lab.fem.materials.hyperfoam import hyperfoam_matching
 from lab.rig import FamilyTwinRig, RigSpec, as_built_body, make_rig
 
 COARSE = dict(n_rings=1, n_axial=6)

@@ -12,7 +12,7 @@ from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import circle
 from lab.data.dataset import read_dataset
 from lab.description import load_robot
-from lab.fem.statics import solve_static
+from lab.fem.solve.statics import solve_static
 
 
 @pytest.fixture(scope="module")

@@ -56,7 +56,7 @@ def test_wheel_contents(wheel):
         "lab/rig/defects/three-cable.toml",
         "lab/rigs/hardware-example.toml",
         "lab/cli/__init__.py",
-        "lab/fem/energy.py",
+        "lab/fem/model.py",
     ):
         assert data in names, f"{data} missing from the wheel"
     assert not any(n.startswith(("tests/", "notebooks/", "data/")) for n in names)

@@ -48,6 +48,10 @@ LAYERS = [
 ]
 SUBPACKAGES = [
     "fem",
+    "fem.bodies",
+    "fem.materials",
+    "fem.actuators",
+    "fem.solve",
     "data",
     "learn",
     "dynamics",
@@ -218,12 +222,12 @@ def test_cycle_finder_finds_a_cycle():
 
 def test_import_reader_resolves_relative_and_function_level_imports(tmp_path, monkeypatch):
     src = (
-        "from .energy import ArmFEM\nfrom ..description import load_robot\n"
+        "from .model import ArmFEM\nfrom ..description import load_robot\n"
         "def f():\n    from lab.learn import mlp\n    import lab.data.dataset\n"
     )
     f = tmp_path / "x.py"
     f.write_text(src)
-    assert lab_imports(f, "lab.fem.x") == {"lab.fem.energy", "lab.description", "lab.learn.mlp", "lab.data.dataset"}
+    assert lab_imports(f, "lab.fem.x") == {"lab.fem.model", "lab.description", "lab.learn.mlp", "lab.data.dataset"}
 
 
 @pytest.mark.parametrize("package", SUBPACKAGES)
@@ -313,6 +317,55 @@ def test_command_run_is_short():
         if (n := runs[0].end_lineno - runs[0].lineno + 1) > RUN_MAX_LINES:
             long[module] = n
     assert not long, f"run() over {RUN_MAX_LINES} lines: {long}"
+
+
+# --- the FEM's solve works through the body, material and actuator interfaces -------------
+
+#: The solve modules: they see the assembled model (lab.fem.model) and the actuators'
+#: interface (lab.fem.actuators.base), never one kind of actuator.
+FEM_SOLVE = ["lab.fem.solve.statics", "lab.fem.solve.steps", "lab.fem.solve.warmstart"]
+
+
+def code_names(path: Path) -> set[str]:
+    """Every identifier in the code of ``path`` (names, attributes, arguments; not docstrings)."""
+    tree = ast.parse(path.read_text())
+    out = set()
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Name):
+            out.add(n.id)
+        elif isinstance(n, ast.Attribute):
+            out.add(n.attr)
+        elif isinstance(n, ast.arg):
+            out.add(n.arg)
+        elif isinstance(n, ast.alias):
+            out.add(n.name)
+    return out
+
+
+@pytest.mark.parametrize("module", FEM_SOLVE)
+def test_fem_solve_knows_no_actuator_kind(module):
+    deps = graph()[module]
+    kinds = sorted(d for d in deps if d.startswith("lab.fem.actuators") and d != "lab.fem.actuators.base")
+    assert not kinds, f"{module} imports a kind of actuator: {kinds}"
+    path = LAB.parent / Path(*module.split(".")).with_suffix(".py")
+    specific = sorted(n for n in code_names(path) if re.search("cable|spring|motor_angle|spool|robot", n, re.I))
+    assert not specific, f"{module} names cable-specific things in its code: {specific}"
+
+
+def test_a_toy_actuator_plugs_in_without_solver_edits():
+    """tests/test_fem_interfaces.py registers its own actuator and solves with it, patching
+    nothing in lab.fem."""
+    path = LAB.parent / "tests" / "test_fem_interfaces.py"
+    tree = ast.parse(path.read_text())
+    registered = [
+        c.name
+        for c in ast.walk(tree)
+        if isinstance(c, ast.ClassDef) and any("register_actuator" in ast.unparse(d) for d in c.decorator_list)
+    ]
+    assert registered, "the interface test registers no actuator of its own"
+    assert not ({"monkeypatch", "setattr"} & code_names(path)), "the interface test patches the package"
+    tests = {f.name for f in tree.body if isinstance(f, ast.FunctionDef) and f.name.startswith("test_")}
+    assert {"test_point_force_sensitivity_matches_central_differences", "test_two_kinds_of_actuator_at_once"} <= tests
 
 
 # --- the --rig grammar is read in lab/rig only ------------------------------------------

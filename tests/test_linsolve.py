@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import lab.fem.linsolve as linsolve
+import lab.fem.solve.linsolve as linsolve
 from lab.fem import solve_static
 
 U = np.array([0.6, 0.2, 0.0])

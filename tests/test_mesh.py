@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from lab.fem.mesh import barycentric, cylinder_mesh, load_mesh, save_mesh
+from lab.fem.bodies.mesh import barycentric, cylinder_mesh, load_mesh, save_mesh
 
 
 @pytest.mark.parametrize("n_rings, n_axial", [(1, 3), (2, 5), (3, 4)])

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.peers import mujoco_arm
 
 #: Settled MuJoCo tip vs our rest tip on the (2, 10) mesh, m. Both use the same mesh, the same

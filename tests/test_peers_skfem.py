@@ -16,8 +16,8 @@ from helpers import fd_jacobian
 
 from lab.description import load_robot
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.peers.skfem_arm import SkfemArm, lab_loaded_arm, lab_tip_load_gradient, tip_load_node
 
 

@@ -5,7 +5,7 @@ import pytest
 from lab.asbuilt import RANDOM
 from lab.errors import InputError
 from lab.fem import MeshSpec
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 from lab.rig import FamilyTwinRig, RigSpec, SimRig, TwinRig, as_built_body, make_rig
 
 TWIN_MESH = MeshSpec(n_rings=2, n_axial=4)

@@ -8,8 +8,8 @@ import pytest
 from lab.data.dataset import DatasetError, read_dataset, write_dataset
 from lab.data.designs import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
 from lab.data.simulation import simulate
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 
 
 def test_serpentine_walk_moves_one_step_at_a_time():
@@ -272,7 +272,7 @@ def test_cli_simulate_stops_its_workers_on_sigterm(tmp_path):
 
 
 def test_walk_predictor_hermite_and_row_corrections(three_cable, coarse_fem):
-    from lab.fem.warmstart import WalkPredictor
+    from lab.fem.solve.warmstart import WalkPredictor
 
     fem = coarse_fem
     pred = WalkPredictor(fem)
@@ -325,7 +325,7 @@ def test_warm_walks_need_few_factorisations(three_cable):
 
 
 def test_walk_predictor_ranks_implausible_cable_states_last(coarse_fem, monkeypatch):
-    from lab.fem.warmstart import WalkPredictor, _Solved
+    from lab.fem.solve.warmstart import WalkPredictor, _Solved
 
     fem = coarse_fem
     u, ref_u = np.array([0, 1.0, 1.0]), np.array([0, 1.0, 0.5])

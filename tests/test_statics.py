@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from helpers import fd_jacobian
 
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import StaticSolveError, sensitivities, solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import StaticSolveError, sensitivities, solve_static
 
 
 def test_sensitivity_matches_finite_differences(default_fem):
@@ -18,7 +18,7 @@ def test_sensitivity_matches_finite_differences(default_fem):
     dq_fd = fd_jacobian(lambda v: solve_static(fem, np.array([v[0], *u[1:]]), sol.q).q, u[:1], h)[:, 0]
     assert np.abs(sol.dq_du[:, 0] - dq_fd).max() < 1e-6 * np.abs(dq_fd).max()
     # A projected (PSD) Hessian is *not* good enough for sensitivities:
-    from lab.fem.linsolve import factorize
+    from lab.fem.solve.linsolve import factorize
 
     dq_proj = -factorize(fem.hessian(sol.q, u, project=True)).solve(fem.mixed_derivative(sol.q, u))
     J_proj = fem.tip_matrix() @ dq_proj
@@ -129,16 +129,16 @@ def equilibrium(default_fem):
 
 
 def test_condensed_step_resolves_the_smoothed_cable_spring(default_fem, equilibrium):
-    from lab.fem.linsolve import factorize
-    from lab.fem.steps import newton_step
+    from lab.fem.solve.linsolve import factorize
+    from lab.fem.solve.steps import newton_step
 
     fem, (u, ref, D) = default_fem, equilibrium
     stretch = fem.cable_lengths(fem.to_nodes(ref.q)) - fem.cable_targets(u)
     assert 0 < stretch[0] < fem.robot.slack_smoothing_m  # stiffness k d / eps: varies fast
     q0 = ref.q + 1e-3 * D[:, 0]  # ~40 um off, mostly in cable 0's stretch
-    g, d, A = fem.gradient(q0, u, with_cables=True)
+    g, cond = fem.gradient(q0, u, with_condensation=True)
     H = fem.hessian(q0, u)
-    dq, fac = newton_step(fem, H, g, d, A)
+    dq, fac = newton_step(H, g, cond)
     plain = -factorize(H).solve(g)
     err, err_plain = np.abs(q0 + dq - ref.q).max(), np.abs(q0 + plain - ref.q).max()
     assert err < 0.4 * err_plain
@@ -181,7 +181,7 @@ def test_indefinite_start_is_reported_or_shifted(default_fem):
 def test_shifted_step():
     import scipy.sparse as sp
 
-    from lab.fem.steps import SHIFTS, shifted_step
+    from lab.fem.solve.steps import SHIFTS, shifted_step
 
     n = 50
     rng = np.random.default_rng(5)
@@ -198,7 +198,7 @@ def test_shifted_step():
 
 
 def test_pardiso_solves_without_refinement_when_no_pivot_was_perturbed(default_fem, equilibrium):
-    from lab.fem.linsolve import _available, factorize
+    from lab.fem.solve.linsolve import _available, factorize
 
     if "pardiso" not in _available():
         pytest.skip("pypardiso not installed")

@@ -11,7 +11,7 @@ from lab.control.ik import IKSolver
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import circle, write_trajectory_csv
 from lab.data.dataset import read_dataset
-from lab.fem.statics import solve_static
+from lab.fem.solve.statics import solve_static
 from lab.rig.base import MocapFrame, Rig, RigError
 from lab.rig.sim import SimRig
 from lab.studies import table1

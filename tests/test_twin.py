@@ -19,7 +19,7 @@ from lab.asbuilt.arm import (
     load_defects,
     parse_defects,
 )
-from lab.fem.statics import solve_static
+from lab.fem.solve.statics import solve_static
 from lab.rig import make_rig
 from lab.rig.base import RigError
 from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig

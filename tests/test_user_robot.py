@@ -18,7 +18,7 @@ from lab.control.ik import IKConfig, IKSolver
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.trajectories import circle, write_trajectory_csv
 from lab.description import load_robot, shipped_robots
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 
 ROBOT = Path(__file__).resolve().parents[1] / "examples" / "robots" / "four-cable.toml"
 MESH = ["--n-rings", "1", "--n-axial", "8"]

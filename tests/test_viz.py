@@ -13,8 +13,8 @@ import pytest
 from PIL import Image
 
 from lab.description import load_robot
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.viz import arm as viz
 
 matplotlib.use("Agg")

@@ -45,10 +45,12 @@ def public_names(module: types.ModuleType) -> list[str]:
 
 
 def submodules(module: types.ModuleType) -> list[str]:
-    """The modules of package ``module`` (none for a plain module), by name."""
+    """The modules of package ``module`` (none for a plain module), by name, those of its
+    subpackages included."""
     if not hasattr(module, "__path__"):
         return []
-    return sorted(f"{module.__name__}.{m.name}" for m in pkgutil.iter_modules(module.__path__) if m.name != "__main__")
+    found = pkgutil.walk_packages(module.__path__, f"{module.__name__}.")
+    return sorted(m.name for m in found if m.name.rsplit(".", 1)[1] != "__main__")
 
 
 def _attr_doc(module: types.ModuleType, name: str) -> list[str]:
@@ -116,6 +118,9 @@ def api_lines(modname: str) -> list[str]:
                         own.append(n)
                 elif obj is not None and not inspect.ismodule(obj) and getattr(module, n, None) is not obj:
                     own.append(n)
+            # (a subpackage's modules come after it: what it documents, they do not repeat)
+            exported |= {id(getattr(submodule, n)) for n in own if inspect.isclass(getattr(submodule, n))}
+            exported |= {id(getattr(submodule, n)) for n in own if inspect.isfunction(getattr(submodule, n))}
             lines += [f".. rubric:: ``{sub}``", "", f".. automodule:: {sub}"]
             # (a module named like a function its package exports, lab.learn.train: that
             # name is the function's, so the module gets no target of its own)

@@ -29,11 +29,11 @@ from lab.asbuilt.fields import CableDefects, Defects, DefectsError
 from lab.asbuilt.parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
 from lab.description import RobotDescription, read_toml
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.cables import route_hessian, series_stiffness, spring
-from lab.fem.energy import ArmFEM
-from lab.fem.hyperfoam import HyperfoamMaterial
-from lab.fem.mesh import cylinder_mesh
-from lab.fem.statics import solve_static
+from lab.fem.actuators.cable_routes import route_hessian, series_stiffness, spring
+from lab.fem.bodies.mesh import cylinder_mesh
+from lab.fem.materials.hyperfoam import HyperfoamMaterial
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 
 __all__ = [
     "FORMAT_VERSION",
@@ -131,7 +131,7 @@ def as_built_fem(
     robot: RobotDescription, defects: Defects, *, n_rings: int | None = None, n_axial: int | None = None
 ) -> ArmFEM:
     """The FEM of the as-built arm (moved eyelets, softer graded foam -- neo-Hookean, or the
-    hyperfoam law of :mod:`lab.fem.hyperfoam` --, slack cables; gravity ``R_tilt^T g`` in the
+    hyperfoam law of :mod:`lab.fem.materials.hyperfoam` --, slack cables; gravity ``R_tilt^T g`` in the
     body frame of a tilted base; stretching cables in series).
 
     Mesh resolution: the arguments, else the defects file's ``[emulator]``, else the
@@ -157,10 +157,10 @@ def as_built_fem(
 
 
 class SeriesCableFEM(ArmFEM):
-    """:class:`~lab.fem.energy.ArmFEM` whose cables stretch: cable c's own stiffness
+    """:class:`~lab.fem.model.ArmFEM` whose cables stretch: cable c's own stiffness
     ``cable_own_stiffness_n_per_m[c]`` (N/m; ``inf``: inextensible) in series with the
     description's spring, so it pulls with ``cable_k_n_per_m[c]`` (m,) N/m =
-    :func:`~lab.fem.cables.series_stiffness`. Every derivative stays exact: the springs'
+    :func:`~lab.fem.actuators.cable_routes.series_stiffness`. Every derivative stays exact: the springs'
     tensions and stiffnesses scale with k, and :meth:`hessian` adds ``(k_eff - k)`` times
     each cable's unit-stiffness block to ArmFEM's (which loops over the cables one stretch
     at a time, at the description's k)."""

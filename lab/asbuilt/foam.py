@@ -8,7 +8,7 @@ same values wherever the eyelet limits of the two meshes agree, as on both shipp
 robots), plus, from independent streams (:data:`FOAM_RANGES`; ``docs/design/rig.md``):
 
 * the compressible foam law (``law = "hyperfoam"``): mu, beta from
-  :func:`lab.fem.hyperfoam.hyperfoam_matching` of the description's E and nu (the same
+  :func:`lab.fem.materials.hyperfoam.hyperfoam_matching` of the description's E and nu (the same
   small-strain stiffness, scaled per tet by softness and gradient), alpha U(4, 20): one-term
   hyperfoam (Storakers 1986, J. Mech. Phys. Solids 34:125) fits of open-cell flexible
   polyurethane foams give alpha of several to ~20 (Mills, Polymer Foams Handbook, 2007;
@@ -36,7 +36,7 @@ import numpy as np
 
 from lab.asbuilt.draw import check_seed, draw_member, rounded
 from lab.description import RobotDescription
-from lab.fem.hyperfoam import hyperfoam_matching
+from lab.fem.materials.hyperfoam import hyperfoam_matching
 
 __all__ = ["FOAM_RANGES", "foam_mesh", "draw_foam"]
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec, non_negative_int, option
 
 __all__ = ["FamilyMemberSpec"]

@@ -19,7 +19,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.transfer.calibration_run import CalibrationSpec
 
 MESH_HELP = {"n_rings": "mesh rings of the FEM fitted", "n_axial": "mesh layers of the FEM fitted"}

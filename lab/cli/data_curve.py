@@ -19,7 +19,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing, output_lock
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.studies.data_curve_spec import DataCurveSpec
 from lab.workers import default_jobs
 

@@ -24,7 +24,7 @@ import sys
 from lab.asbuilt.member_spec import FamilyMemberSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 
 MESH_HELP = {
     "n_rings": "FEM mesh rings of the emulator, written to [emulator]",

@@ -21,7 +21,7 @@ from lab.capture.dynamics_probe import ProbeSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:

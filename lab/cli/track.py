@@ -21,7 +21,7 @@ from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing, output_lock
 from lab.control.ik import IKConfig
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.rig import RigSpec
 from lab.specs import positive
 from lab.tracking.closed_loop import Correction

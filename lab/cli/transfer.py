@@ -18,7 +18,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.train_spec import TrainSpec
 from lab.transfer.transfer_run import TransferSpec
 

@@ -1,7 +1,7 @@
 """Soft IK (Section II-B): inverse kinematics with the FEM in the loop.
 
 :class:`FEMForwardMap` puts the FEM behind the ``predict_and_jacobian`` interface of the IK:
-``y(u)`` is the tip of the static equilibrium (:func:`lab.fem.statics.solve_static`) and
+``y(u)`` is the tip of the static equilibrium (:func:`lab.fem.solve.statics.solve_static`) and
 ``dy/du`` comes from sensitivity analysis, so Soft IK is
 ``IKSolver(FEMForwardMap(fem), commands)``. Each evaluation is warm-started from the last
 equilibrium with a first-order predictor. A slack cable has an exactly zero Jacobian
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import StaticSolveError, solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import StaticSolveError, solve_static
 
 
 class FEMForwardMap:

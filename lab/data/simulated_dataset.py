@@ -21,7 +21,7 @@ from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
 from lab.data.designs import grid_chunks, nearest_neighbour_chunks
 from lab.description import RobotDescription
-from lab.fem.mesh import cylinder_mesh
+from lab.fem.bodies.mesh import cylinder_mesh
 
 __all__ = ["simulate_fixed", "solve_batch", "write_simulated", "announce"]
 
@@ -117,7 +117,7 @@ def write_simulated(
     """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) rad and the
     solver's result ``res``, then remove the ``checkpoint`` it now holds; returns the
     metadata written. Prints where resumed samples came from and what was written."""
-    from lab.fem.linsolve import default_backend
+    from lab.fem.solve.linsolve import default_backend
 
     file = sys.stderr if file is None else file
     if res["resumed_samples"]:

@@ -4,7 +4,7 @@
 that depend only on the commands (never on the number of workers); each chunk walks
 its commands in an order where neighbours are close and warm-starts every solve from
 a prediction built from the equilibria already solved in that walk
-(:mod:`lab.fem.warmstart`). Chunks run on joblib worker processes, and since each chunk's
+(:mod:`lab.fem.solve.warmstart`). Chunks run on joblib worker processes, and since each chunk's
 computation is the same wherever it runs, a parallel run gives exactly the serial
 run's numbers.
 """
@@ -18,9 +18,9 @@ import numpy as np
 
 from lab.data.designs import Chunk
 from lab.description import RobotDescription
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
-from lab.fem.warmstart import WalkPredictor
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
+from lab.fem.solve.warmstart import WalkPredictor
 from lab.workers import default_jobs, kill_local_workers, watch_parent  # noqa: F401  (default_jobs: re-exported)
 
 #: How many predictions (best first) a solve may start from before it accepts one where
@@ -40,7 +40,7 @@ def _fem(robot: RobotDescription, n_rings: int, n_axial: int) -> ArmFEM:
 def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray) -> dict:
     """Solve a walk of commands (K, m) with warm starts; returns tips (K, 3) and stats.
 
-    Each solve starts from the best prediction of :class:`lab.fem.warmstart.WalkPredictor`
+    Each solve starts from the best prediction of :class:`lab.fem.solve.warmstart.WalkPredictor`
     where the exact Hessian is positive definite, if one of the first ``START_TRIES`` is
     (starting where it is not costs several extra factorisations; the best prediction
     was such a start at 2 of the 308 grid points), and refines dq/du along

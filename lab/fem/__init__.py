@@ -1,42 +1,93 @@
-"""Stage 2-4 of the pipeline: mesh -> energy -> static solve.
+"""Stage 2-4 of the pipeline: body and material -> energy with actuators -> static solve.
 
-A tetrahedral mesh of the arm (:mod:`.mesh`), the neo-Hookean elastic energy
-(:mod:`.elasticity`, or the compressible foam law of :mod:`.hyperfoam`) and the one-sided
-cable springs through via points (:mod:`.cables`) add up to the total energy ``E(x, u)``
-of :class:`ArmFEM` (:mod:`.energy`). Its static equilibrium ``x(u) = argmin_x E(x, u)``
-and the sensitivity ``dx/du`` come from :func:`solve_static` / :func:`sensitivities`
-(:mod:`.statics`, Newton steps in :mod:`.steps`, sparse factorisations in
-:mod:`.linsolve`); :class:`WalkPredictor`
-(:mod:`.warmstart`) warm-starts a walk of neighbouring solves. :class:`ParametrisedFEM`
-(:mod:`.parameters`) is the FEM as a function of as-built parameters theta (softness,
-stiffness gradient, eyelet shifts, slack), with dx/dtheta from the same exact Hessian.
+The concepts, one folder each, so a new one has an obvious home:
+
+- :mod:`.bodies`: the body the FEM deforms (:class:`Body`: tet mesh, clamped nodes,
+  markers); the description's structured cylinder is :class:`CylinderBody`.
+- :mod:`.materials`: the material law (:class:`MaterialLaw`), neo-Hookean
+  (:class:`NeoHookean`) or compressible foam (:class:`Hyperfoam`).
+- :mod:`.actuators`: what drives the body (:class:`Actuator`), e.g. the description's
+  angle-controlled cables (:class:`CableActuator`); an actuator may ask the statics for a
+  :class:`Condensation`.
+- :mod:`.model`: :class:`ArmFEM`, the assembled energy E(x, u) of body, material, gravity
+  and actuators, with its exact derivatives.
+- :mod:`.solve`: the equilibrium x(u) = argmin_x E(x, u) and dx/du (:func:`solve_static`,
+  :func:`sensitivities`), warm-started walks (:class:`WalkPredictor`) and the FEM of
+  as-built parameters theta with dx/dtheta (:class:`ParametrisedFEM`).
+
+A new body, law or actuator is one module in its folder plus its registration
+(:func:`register_body`, :func:`register_material`, :func:`register_actuator`).
 """
 
-from lab.fem.cables import CableRoute, CableSet, spring
-from lab.fem.elasticity import InvertedElementError, NeoHookean, lame, project_psd
-from lab.fem.energy import ArmFEM
-from lab.fem.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
-from lab.fem.linsolve import SingularMatrixError, default_backend, factorize
-from lab.fem.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, robot_mesh, save_mesh
-from lab.fem.mesh_spec import MeshSpec
-from lab.fem.parameters import ParameterError, ParameterLayout, ParametrisedFEM, as_built_description
-from lab.fem.statics import (
+from lab.fem.actuators import (
+    ACTUATORS,
+    Actuator,
+    CableActuator,
+    CableRoute,
+    CableSet,
+    Condensation,
+    register_actuator,
+    spring,
+)
+from lab.fem.bodies import (
+    BODIES,
+    Body,
+    CylinderBody,
+    FreeCoordinates,
+    Marker,
+    MeshSpec,
+    TetMesh,
+    barycentric,
+    cylinder_mesh,
+    load_mesh,
+    register_body,
+    robot_mesh,
+    save_mesh,
+)
+from lab.fem.materials import (
+    MATERIALS,
+    Hyperfoam,
+    HyperfoamMaterial,
+    InvertedElementError,
+    Material,
+    MaterialLaw,
+    NeoHookean,
+    NeoHookeanMaterial,
+    hyperfoam_law,
+    hyperfoam_matching,
+    lame,
+    project_psd,
+    register_material,
+)
+from lab.fem.model import ArmFEM
+from lab.fem.solve import (
+    Factorised,
+    ParameterError,
+    ParameterLayout,
+    ParametrisedFEM,
+    SingularMatrixError,
     StaticSolution,
     StaticSolveError,
-    sensitivities,
-    solve_static,
-)
-from lab.fem.steps import (
-    Factorised,
+    WalkPredictor,
+    as_built_description,
     condensed_step,
+    default_backend,
+    factorize,
     newton_step,
     reused_sensitivity,
     secant_step,
+    sensitivities,
     shifted_step,
+    solve_static,
 )
-from lab.fem.warmstart import WalkPredictor
 
 __all__ = [
+    "Body",
+    "CylinderBody",
+    "FreeCoordinates",
+    "Marker",
+    "BODIES",
+    "register_body",
     "TetMesh",
     "MeshSpec",
     "cylinder_mesh",
@@ -44,14 +95,24 @@ __all__ = [
     "load_mesh",
     "save_mesh",
     "barycentric",
+    "MaterialLaw",
+    "Material",
+    "MATERIALS",
+    "register_material",
     "lame",
     "NeoHookean",
+    "NeoHookeanMaterial",
     "InvertedElementError",
     "project_psd",
     "Hyperfoam",
     "HyperfoamMaterial",
     "hyperfoam_law",
     "hyperfoam_matching",
+    "Actuator",
+    "Condensation",
+    "ACTUATORS",
+    "register_actuator",
+    "CableActuator",
     "CableRoute",
     "spring",
     "CableSet",

@@ -5,14 +5,14 @@ Levenberg-Marquardt (and Bayesian regularisation) solves an ``m x m`` system per
 fits in its memory budget (:func:`lab.learn.lm._jacobian_products`) -- so a network of
 100,000 hidden neurons would ask for terabytes. :func:`check_network_size` estimates the
 bytes a training run needs and refuses one that cannot fit in the memory available now,
-like :func:`lab.fem.mesh.check_mesh_size` for meshes; :func:`lab.learn.train.train`
+like :func:`lab.fem.bodies.mesh.check_mesh_size` for meshes; :func:`lab.learn.train.train`
 calls it before initialising the weights.
 """
 
 from __future__ import annotations
 
 from lab.errors import InputError
-from lab.fem.mesh import available_memory_bytes
+from lab.fem.bodies.mesh import available_memory_bytes
 from lab.files import format_bytes
 
 __all__ = ["n_parameters", "training_bytes", "check_network_size"]

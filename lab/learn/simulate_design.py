@@ -21,7 +21,7 @@ from lab.data.design_spec import DesignSpec
 from lab.data.simulated_dataset import announce, simulate_fixed, solve_batch, write_simulated
 from lab.description import RobotDescription
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.active_design import active_settings, check_active, run_active
 
 __all__ = ["simulate_design"]

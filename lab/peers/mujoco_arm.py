@@ -1,7 +1,7 @@
 """The cable-driven arm in MuJoCo: the same tet mesh as a 3D flex, cables as spatial tendons.
 
 What users would pick instead of our FEM. :func:`mujoco_arm` builds an MJCF model from an
-:class:`lab.fem.energy.ArmFEM`: one body per free node at its rest position (m), with three
+:class:`lab.fem.model.ArmFEM`: one body per free node at its rest position (m), with three
 slide joints and the node's lumped mass, the clamped base nodes on the world body; one
 ``<flex dim="3">`` over our tetrahedra with our Young's modulus and Poisson ratio (equal to
 our neo-Hookean law at small strain only), no contacts; each cable a spatial tendon from its
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 
 
 def _mujoco():

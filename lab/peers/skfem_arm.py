@@ -2,7 +2,7 @@
 
 What a user would pick instead of our FEM for the material alone (torch-fem, the first
 candidate, does not fit the pinned environment: docs/results-peers.md). :class:`SkfemArm`
-builds, from an :class:`lab.fem.energy.ArmFEM`: ``MeshTet`` on our nodes and tets with a
+builds, from an :class:`lab.fem.model.ArmFEM`: ``MeshTet`` on our nodes and tets with a
 vector P1 basis; our compressible neo-Hookean law with our per-tet mu, lam as scikit-fem
 forms (residual and tangent; P1 gradients are constant per tet, so the one-point rule is
 exact and the body force integrates to our lumped gravity); the base nodes (x at its
@@ -23,7 +23,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.energy import ArmFEM
+from lab.fem.model import ArmFEM
 
 
 def _skfem():
@@ -55,7 +55,7 @@ def lab_tip_load_gradient(arm: ArmFEM, q: np.ndarray, direction=(0.0, 0.0, -1.0)
     """d p_tip / d F (3,) in m/N at our equilibrium ``q`` of :func:`lab_loaded_arm`: the
     equilibrium dE/dq (q, F) = 0 with dE/dq = grad E_el - f_ext(F) gives H dq/dF = df/dF,
     one solve with our exact Hessian (our ``dx/du`` machinery with the load as parameter)."""
-    from lab.fem.linsolve import factorize
+    from lab.fem.solve.linsolve import factorize
 
     f_dir = np.zeros((arm.mesh.n_nodes, 3))
     f_dir[tip_load_node(arm)] = _unit(direction)

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.fem.model import ArmFEM
 from lab.rig.base import Rig
 from lab.rig.spec import RigSpec
 

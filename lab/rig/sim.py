@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from lab.description import RobotDescription
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import solve_static
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import solve_static
 from lab.rig.base import MocapFrame, Rig
 
 

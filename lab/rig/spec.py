@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from lab.asbuilt.family import FAMILIES, parse_robot_seed
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec
 
 __all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS"]

@@ -41,7 +41,7 @@ class NominalBody:
 
     def __init__(self, robot, *, n_rings: int | None = None, n_axial: int | None = None):
         from lab.asbuilt.arm import EquilibriumCache
-        from lab.fem.energy import ArmFEM
+        from lab.fem.model import ArmFEM
 
         self.robot = robot
         self.fem = ArmFEM(robot, n_rings=n_rings, n_axial=n_axial)
@@ -82,7 +82,7 @@ def make_body(robot, rig: str, *, n_rings: int | None = None, n_axial: int | Non
         ``(body, label, noise_sigma_m)``: ``sim``: a :class:`NominalBody`, "FEM", 0; ``twin...``: an
         as-built body, "emulated as-built robot", its motion-capture noise (m per axis).
     """
-    from lab.fem.mesh_spec import MeshSpec
+    from lab.fem.bodies.mesh_spec import MeshSpec
     from lab.rig import RigSpec, as_built_body
 
     spec = RigSpec.parse(rig)

@@ -19,7 +19,7 @@ from pathlib import Path
 from lab.data.design_spec import ACTIVE_POOL, MAX_GRID_CANDIDATES
 from lab.data.designs import DESIGNS, MAX_DESIGN_N, MAX_MAXIMIN_N
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.train import ALGORITHMS
 from lab.rig.spec import RigSpec
 from lab.specs import Spec, at_most, non_negative_int, option, positive, positive_int

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lab.errors import InputError
-from lab.fem.mesh import check_mesh_size
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh import check_mesh_size
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.files import read_resumable_rows
 from lab.specs import Spec, non_negative_int, option, positive_int
 

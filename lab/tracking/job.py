@@ -22,8 +22,8 @@ from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
 from lab.description import load_robot
 from lab.dynamics.relaxation import load_relaxation
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.fem.model import ArmFEM
 from lab.learn.models import load_model
 from lab.rig import RigSpec, make_rig
 from lab.specs import Spec, at_most, option, positive_int

@@ -1,7 +1,7 @@
 """Closing the sim-to-real gap with the physics: calibrate the FEM to a few real samples.
 
 :func:`calibrate` (:mod:`.calibrate`) identifies the as-built parameters of the FEM
-(softness, stiffness gradient, eyelet shifts, slack per cable; :mod:`lab.fem.parameters`)
+(softness, stiffness gradient, eyelet shifts, slack per cable; :mod:`lab.fem.solve.parameters`)
 from N real (u, y) samples by Levenberg-Marquardt with exact parameter sensitivities and a
 prior towards the nominal description; :func:`calibrated_robot` /
 :func:`write_calibrated_robot` (:mod:`.robot_toml`) turn the result into a robot

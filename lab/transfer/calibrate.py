@@ -1,6 +1,6 @@
 """Calibrated physics: identify the as-built parameters theta of the FEM from N real samples.
 
-theta is :mod:`lab.fem.parameters`' vector (log softness, stiffness gradient (y, z), eyelet
+theta is :mod:`lab.fem.solve.parameters`' vector (log softness, stiffness gradient (y, z), eyelet
 shifts (m), slack per cable (m)). :func:`calibrate` minimises the whitened tip misfit plus a
 prior towards the nominal description, theta0:
 
@@ -27,7 +27,7 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.parameters import ParameterLayout, ParametrisedFEM
+from lab.fem.solve.parameters import ParameterLayout, ParametrisedFEM
 from lab.transfer.samples import Samples
 
 __all__ = ["DEFAULT_PRIOR_STD", "DISCREPANCY_QUANTILE", "CalibrationResult", "calibrate", "model_check", "prior_std"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec, option, positive, positive_int
 
 __all__ = ["CalibrationSpec", "calibration_run", "calibration_summary", "discrepancy_line", "misfit_limit_m"]

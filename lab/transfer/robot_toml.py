@@ -23,7 +23,7 @@ import numpy as np
 
 from lab.description import RobotDescription, load_robot, parse_robot
 from lab.errors import LabRuntimeError
-from lab.fem.parameters import as_built_description
+from lab.fem.solve.parameters import as_built_description
 from lab.files import atomic_write_text
 
 __all__ = ["robot_toml", "calibrated_toml", "calibrated_robot", "write_calibrated_robot"]

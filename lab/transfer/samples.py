@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.parameters import ParameterError, ParametrisedFEM
-from lab.fem.statics import solve_static
+from lab.fem.solve.parameters import ParameterError, ParametrisedFEM
+from lab.fem.solve.statics import solve_static
 
 
 def _walk(u: np.ndarray) -> list[int]:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lab.errors import InputError
-from lab.fem.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.train_spec import TrainSpec
 from lab.learn.transfer import DATA_METHODS
 from lab.specs import Spec, option, positive_int

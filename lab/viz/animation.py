@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.errors import InputError
-from lab.fem.mesh import barycentric
+from lab.fem.bodies.mesh import barycentric
 from lab.viz.arm import (
     FOAM_RGB,
     TIP_RGB,

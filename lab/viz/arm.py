@@ -50,7 +50,7 @@ def arm_geometry(fem, q=None) -> ArmGeometry:
     Parameters
     ----------
     fem : ArmFEM
-        The arm's FEM (:class:`lab.fem.energy.ArmFEM`).
+        The arm's FEM (:class:`lab.fem.model.ArmFEM`).
     q : array_like, shape (n_free,), optional
         Free coordinates (m); None is the rest shape.
 

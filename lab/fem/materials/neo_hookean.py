@@ -3,7 +3,7 @@
 Energy density (Bonet & Wood):  psi(F) = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2.
 
 F is linear in the node positions (m): one sparse matrix B (9M, 3N) (:class:`TetElements`,
-shared with the foam law of :mod:`lab.fem.hyperfoam`) maps them to every
+shared with the foam law of :mod:`lab.fem.materials.hyperfoam`) maps them to every
 element's F, kept as (3, 3, M), and B^T scatters the stresses back to the nodes,
 dE/dx = B^T vec(V P), with the first Piola-Kirchhoff stress P = mu F - (mu - lam ln J) F^-T.
 The element Hessian is exact, in closed form; it is indefinite under strong compression,
@@ -22,7 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from lab.errors import LabRuntimeError
-from lab.fem.mesh import TetMesh
+from lab.fem.bodies.mesh import TetMesh
+from lab.fem.materials.base import register_material
 
 
 def lame(youngs_modulus_pa, poisson_ratio):
@@ -81,6 +82,32 @@ class TetElements:
     def deformation_gradient(self, x_W: np.ndarray) -> np.ndarray:
         """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
         return np.ascontiguousarray(self._F(x_W).transpose(2, 0, 1))
+
+
+@register_material("neo-hookean")
+@dataclass(frozen=True)
+class NeoHookeanMaterial:
+    """The neo-Hookean law's parameters, mesh-free: ``youngs_modulus_pa`` (Pa, scalar or
+    one per tet (M,)) and ``poisson_ratio``; what :class:`lab.fem.model.ArmFEM` builds from
+    the description unless given another ``material``."""
+
+    youngs_modulus_pa: float | np.ndarray
+    poisson_ratio: float
+
+    def on_mesh(self, mesh: TetMesh) -> NeoHookean:
+        """The law on ``mesh``'s elements.
+
+        Parameters
+        ----------
+        mesh : TetMesh
+            The rest mesh.
+
+        Returns
+        -------
+        NeoHookean
+            The law with per-tet Lamé parameters.
+        """
+        return NeoHookean.from_mesh(mesh, self.youngs_modulus_pa, self.poisson_ratio)
 
 
 @dataclass(frozen=True)

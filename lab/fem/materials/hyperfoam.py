@@ -5,7 +5,7 @@
 lam_i the principal stretches, J = lam1 lam2 lam3; initial shear modulus mu, bulk modulus
 K0 = 2 mu (1/3 + beta), and in uniaxial stress a lateral stretch lam1^-nu exactly, with
 nu = beta / (1 + 2 beta) (beta = 0: no Poisson effect). A real foam arm is compressible,
-which the neo-Hookean law of :mod:`lab.fem.elasticity` only matches at small strain.
+which the neo-Hookean law of :mod:`lab.fem.materials.neo_hookean` only matches at small strain.
 
 sum lam_i^alpha = tr C^(alpha/2), C = F^T F, needs the eigenvalues c_i of C for a real
 alpha: Jacobi rotations vectorised over the tets (``_eigh3``) give them. The Hessian is the
@@ -13,7 +13,7 @@ Daleckii-Krein formula, whose divided differences of c^(alpha/2 - 1) are evaluat
 form without cancellation, and by their limit where two c_i coincide (``REPEATED_LOG_GAP``),
 so that energy, gradient and Hessian are exact and smooth through repeated stretches
 (F = I, uniaxial states). :class:`Hyperfoam` has the interface of
-:class:`lab.fem.elasticity.NeoHookean`; :class:`HyperfoamMaterial` is what ``ArmFEM``'s
+:class:`lab.fem.materials.neo_hookean.NeoHookean`; :class:`HyperfoamMaterial` is what ``ArmFEM``'s
 ``material`` takes. Derivation and measurements: docs/design/fem.md.
 """
 
@@ -24,8 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.errors import InputError
-from lab.fem.elasticity import InvertedElementError, TetElements, _det3, _inv3
-from lab.fem.mesh import TetMesh
+from lab.fem.bodies.mesh import TetMesh
+from lab.fem.materials.base import register_material
+from lab.fem.materials.neo_hookean import InvertedElementError, TetElements, _det3, _inv3
 
 #: Two principal values c_p, c_q of C count as repeated when |ln c_p - ln c_q| is below
 #: this: their divided difference is then the two-term Taylor limit (error ~1e-24 there).
@@ -48,7 +49,7 @@ def _check_law(mu_pa, alpha, beta) -> None:
 def hyperfoam_matching(youngs_modulus_pa, poisson_ratio, alpha):
     """``(mu_pa, beta)`` of the hyperfoam law with the small-strain stiffness of Young's
     modulus ``youngs_modulus_pa`` (Pa, scalar or (M,)) and Poisson ratio in [0, 0.5):
-    mu = E / (2 (1 + nu)) (as :func:`lab.fem.elasticity.lame`), beta = nu / (1 - 2 nu).
+    mu = E / (2 (1 + nu)) (as :func:`lab.fem.materials.neo_hookean.lame`), beta = nu / (1 - 2 nu).
     For N = 1 the match does not depend on ``alpha`` (nonzero, checked), which sets how
     the foam stiffens at large strain."""
     E, nu = np.asarray(youngs_modulus_pa, float), float(poisson_ratio)
@@ -61,11 +62,12 @@ def hyperfoam_matching(youngs_modulus_pa, poisson_ratio, alpha):
     return (float(mu) if mu.ndim == 0 else mu), beta
 
 
+@register_material("hyperfoam")
 @dataclass(frozen=True)
 class HyperfoamMaterial:
     """The law's parameters, mesh-free: ``mu_pa`` (Pa, scalar or one per tet (M,): the
     as-built softness and gradient scale it per tet), ``alpha`` != 0, ``beta`` >= 0.
-    What :class:`lab.fem.energy.ArmFEM` takes as ``material``."""
+    What :class:`lab.fem.model.ArmFEM` takes as ``material``."""
 
     mu_pa: float | np.ndarray
     alpha: float
@@ -79,6 +81,18 @@ class HyperfoamMaterial:
         return self.beta / (1 + 2 * self.beta)
 
     def on_mesh(self, mesh: TetMesh) -> Hyperfoam:
+        """The law on ``mesh``'s elements.
+
+        Parameters
+        ----------
+        mesh : TetMesh
+            The rest mesh.
+
+        Returns
+        -------
+        Hyperfoam
+            The law with per-tet parameters.
+        """
         return Hyperfoam.from_mesh(mesh, self.mu_pa, self.alpha, self.beta)
 
 
@@ -173,7 +187,7 @@ def hyperfoam_law(F: np.ndarray, mu_pa, alpha: float, beta: float, order: int = 
 @dataclass(frozen=True)
 class Hyperfoam(TetElements):
     """The hyperfoam law on a mesh's elements (:class:`TetElements`): ``mu`` (M,) in Pa,
-    ``alpha``, ``beta``. The interface of :class:`lab.fem.elasticity.NeoHookean`."""
+    ``alpha``, ``beta``. The interface of :class:`lab.fem.materials.neo_hookean.NeoHookean`."""
 
     mu: np.ndarray
     alpha: float

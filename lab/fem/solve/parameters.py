@@ -9,7 +9,7 @@ The nominal theta (:attr:`ParametrisedFEM.nominal`) gives exactly the FEM of ``A
 
 Sensitivities: at an equilibrium dE/dq = 0, so dq/dtheta = -H^-1 dg/dtheta and
 J_tip_theta = S dq/dtheta, with the exact Hessian H factorised once for dq/du and dq/dtheta
-together (as :func:`lab.fem.statics.sensitivities`) and the mixed derivative dg/dtheta analytic.
+together (as :func:`lab.fem.solve.statics.sensitivities`) and the mixed derivative dg/dtheta analytic.
 
 Each parameter, why (y, z) shifts by default (measured), and the derivatives: docs/design/fem.md.
 """
@@ -23,10 +23,10 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.energy import ArmFEM
-from lab.fem.linsolve import factorize
-from lab.fem.mesh import TetMesh, robot_mesh
-from lab.fem.statics import StaticSolution, solve_static
+from lab.fem.bodies.mesh import TetMesh, robot_mesh
+from lab.fem.model import ArmFEM
+from lab.fem.solve.linsolve import factorize
+from lab.fem.solve.statics import StaticSolution, solve_static
 
 #: The axes (of frame W) of each eyelet-shift option.
 AXES = {"yz": (1, 2), "xyz": (0, 1, 2)}
@@ -167,11 +167,29 @@ class ParametrisedFEM:
         return self._cached[1]
 
     def solve(self, theta, u_motor, q0=None, **kwargs) -> StaticSolution:
-        """:func:`lab.fem.statics.solve_static` of the FEM at theta."""
+        """:func:`lab.fem.solve.statics.solve_static` of the FEM at theta."""
         return solve_static(self.fem(theta), u_motor, q0, **kwargs)
 
     def force_derivative(self, theta, q: np.ndarray, u_motor) -> np.ndarray:
-        """dg/dtheta (n_free, p) in N per unit of each parameter, at free coordinates q."""
+        """How the forces change with theta.
+
+        The material part scales each tet's elastic force; the cables' slack and eyelet
+        shifts come from :meth:`lab.fem.actuators.CableActuator.geometry_force_derivative`.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters.
+        q : ndarray, shape (n_free,)
+            Free coordinates, m.
+        u_motor : array_like, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (n_free, p)
+            dg/dtheta in N per unit of each parameter.
+        """
         fem, lay = self.fem(theta), self.layout
         theta = np.asarray(theta, float)
         x = fem.to_nodes(q)
@@ -184,26 +202,12 @@ class ParametrisedFEM:
             f = np.bincount(dofs, weights=(el * scale[:, j, None, None]).ravel(), minlength=3 * self.mesh.n_nodes)
             out[:, j] = f[fem.free_dofs]
         # Cables: slack shortens the stretch; shifts move eyelets, weights and rest length.
-        _, stretch, A = fem.gradient(q, u_motor, with_cables=True)
-        _, tension, stiffness = fem.cable_springs(stretch)
-        out[:, lay.slack] = -A * stiffness
-        dof_to_free = np.full(3 * self.mesh.n_nodes, -1)
-        dof_to_free[fem.free_dofs] = np.arange(fem.n_free)
-        P = np.eye(3)[:, AXES[lay.axes]]  # (3, a)
-        for c, route in enumerate(fem.cables):
-            grad_w = _weight_gradients(self.mesh, route.nodes) @ P  # (K, 4, a)
-            F = np.einsum("kji,kjd->kid", x[route.nodes], _weight_gradients(self.mesh, route.nodes))
-            dp = F @ P  # (K, 3, a)
-            _, dL, HL = route.length_derivatives(x)
-            _, dL0 = route.length_gradient(self.mesh.X_W)
-            dd = np.einsum("ki,kia->a", dL, dp) - dL0.sum(axis=0) @ P
-            K = len(route.nodes)
-            blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))  # (12K, a)
-            blk += np.einsum("ki,kja->kjia", dL, grad_w).reshape(12 * K, -1)
-            free = dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
-            col = np.zeros((fem.n_free, P.shape[1]))
-            np.add.at(col, free[free >= 0], tension[c] * blk[free >= 0])
-            out[:, lay.shift(c)] = col + stiffness[c] * np.outer(A[:, c], dd)
+        d_slack, d_shift = fem.actuator("cables").geometry_force_derivative(
+            x, np.asarray(u_motor, float), np.eye(3)[:, AXES[lay.axes]]
+        )
+        out[:, lay.slack] = d_slack
+        for c, col in enumerate(d_shift):
+            out[:, lay.shift(c)] = col
         return out
 
     def sensitivities(self, theta, q: np.ndarray, u_motor):
@@ -237,10 +241,3 @@ def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta
 def robot_slack(robot: RobotDescription) -> np.ndarray:
     """The cables' ``slack_m`` (m,) in m."""
     return np.array([c.slack_m for c in robot.cables])
-
-
-def _weight_gradients(mesh: TetMesh, nodes: np.ndarray) -> np.ndarray:
-    """d w / d p (K, 4, 3): gradients of the barycentric weights of points in the tets with
-    ``nodes`` (K, 4) (constant in each tet: w = T^-1 [1; p], T = [1 1 1 1; X^T])."""
-    T = np.concatenate([np.ones((len(nodes), 1, 4)), mesh.X_W[nodes].transpose(0, 2, 1)], axis=1)
-    return np.linalg.inv(T)[:, :, 1:]

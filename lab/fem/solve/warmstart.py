@@ -8,7 +8,7 @@ and either of those corrected by the error the same prediction made one row back
 :meth:`WalkPredictor.ranked` orders them by energy E(q, u), lowest first, except that those
 where a cable changes state although its motor did not move come last. The Hermite and
 corrected predictions need dq/du refined along the walk (``refine_du`` of
-:func:`lab.fem.statics.solve_static`). Everything depends only on the walk, so a walk gives
+:func:`lab.fem.solve.statics.solve_static`). Everything depends only on the walk, so a walk gives
 the same numbers wherever it runs.
 
 Each prediction, its accuracy on the grid and the ranking rule: docs/design/fem.md.
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lab.fem.energy import ArmFEM
-from lab.fem.statics import StaticSolution
+from lab.fem.model import ArmFEM
+from lab.fem.solve.statics import StaticSolution
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class _Solved:
     u: np.ndarray  # (m,) rad
     q: np.ndarray  # (n_free,) m
     dq_du: np.ndarray  # (n_free, m) m/rad
-    taut: tuple  # which cables pull (tension > 0)
+    taut: tuple  # which inputs' actuators are engaged (a cable pulls, tension > 0)
 
 
 def _key(u) -> tuple:
@@ -43,7 +43,14 @@ def _hermite(p0, p1, m0, m1):
 
 
 class WalkPredictor:
-    """Solved equilibria of one walk on ``fem`` and predictions from them."""
+    """Solved equilibria of one walk on ``fem`` and predictions from them.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model the walk solves (its energy ranks the predictions, its
+        :meth:`~lab.fem.model.ArmFEM.input_states` tell which actuators are engaged).
+    """
 
     def __init__(self, fem: ArmFEM):
         self.fem = fem
@@ -51,13 +58,23 @@ class WalkPredictor:
         self.last: _Solved | None = None
 
     def add(self, sol: StaticSolution) -> None:
-        """Keep a converged solution (with ``dq_du``) for later predictions."""
+        """Keep a converged solution for later predictions.
+
+        Parameters
+        ----------
+        sol : StaticSolution
+            A converged solution with ``dq_du``.
+
+        Returns
+        -------
+        None
+        """
         self.last = _Solved(np.asarray(sol.u_motor, float), sol.q, sol.dq_du, self._taut(sol.q, sol.u_motor))
         self._solved[_key(sol.u_motor)] = self.last
 
     def _taut(self, q, u) -> tuple:
-        """Which cables pull (tension > 0) at ``q`` for motor angles ``u``."""
-        return tuple(bool(t > 0) for t in self.fem.cable_tensions(self.fem.to_nodes(q), u))
+        """Which inputs' actuators are engaged (cables: pull, tension > 0) at ``q`` for inputs ``u``."""
+        return self.fem.input_states(q, u)
 
     def _get(self, u) -> _Solved | None:
         return self._solved.get(_key(u))
@@ -77,8 +94,19 @@ class WalkPredictor:
         return _hermite(p0.q, p1.q, p0.dq_du @ step, p1.dq_du @ step), [p0, p1]
 
     def candidates(self, u_motor) -> list[tuple[str, np.ndarray, list]]:
-        """Named predictions q0 (n_free,) for ``u_motor`` from its nearest solved
-        neighbours, each with the solved points its cable states should carry over from."""
+        """Named predictions for ``u_motor`` from its nearest solved neighbours.
+
+        Parameters
+        ----------
+        u_motor : array_like, shape (n_inputs,)
+            The next inputs.
+
+        Returns
+        -------
+        list of (str, ndarray, list)
+            Each prediction's name, q0 (n_free,) m, and the solved points whose actuator
+            states (cables taut or slack) it should carry over.
+        """
         u = np.asarray(u_motor, float)
         if not self._solved:
             return []
@@ -118,9 +146,21 @@ class WalkPredictor:
 
     def ranked(self, u_motor) -> list[tuple[str, np.ndarray]]:
         """The candidates without inverted elements, plausible ones first, each group by
-        energy, lowest first. Implausible: a cable whose motor angle is the same as at
-        a point the prediction comes from is taut there and slack in the prediction or
-        the reverse (such predictions were where the exact Hessian is indefinite)."""
+        energy, lowest first. Implausible: an input that is the same as at a point the
+        prediction comes from has its actuator engaged there and not in the prediction or
+        the reverse (a cable taut and slack: such predictions were where the exact
+        Hessian is indefinite).
+
+        Parameters
+        ----------
+        u_motor : array_like, shape (n_inputs,)
+            The next inputs.
+
+        Returns
+        -------
+        list of (str, ndarray)
+            Each prediction's name and q0 (n_free,) m, best first.
+        """
         u = np.asarray(u_motor, float)
         cands = self.candidates(u)
         energies = np.array([self.fem.energy(q, u) for _, q, _ in cands])

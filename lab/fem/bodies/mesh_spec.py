@@ -3,14 +3,14 @@
 :class:`MeshSpec` is the one setting behind every ``--n-rings``/``--n-axial`` flag. Unset
 fields keep the description's resolution; :meth:`MeshSpec.resolve` fills them in and
 refuses, before any work, a mesh that is not positive or would not fit in memory
-(:func:`lab.fem.mesh.check_mesh_size`).
+(:func:`lab.fem.bodies.mesh.check_mesh_size`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lab.fem.mesh import TetMesh, check_mesh_size, cylinder_mesh
+from lab.fem.bodies.mesh import TetMesh, check_mesh_size, cylinder_mesh
 from lab.specs import Spec, option, positive_int
 
 __all__ = ["MeshSpec"]

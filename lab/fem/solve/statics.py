@@ -1,6 +1,7 @@
 """Static equilibrium x(u) = argmin_x E(x, u) by Newton's method, and its sensitivity.
 
-Newton uses the exact Hessian in cable-condensed steps (:mod:`lab.fem.steps`); where it is
+Newton uses the exact Hessian in condensed steps (:mod:`lab.fem.solve.steps`: the actuators'
+:class:`~lab.fem.actuators.Condensation`, e.g. the cables' stretches); where it is
 indefinite, a diagonally shifted one; only if that gives no descent direction either is the
 elastic part projected to PSD element by element (always descends, but slow and expensive).
 A backtracking line search treats inverted elements as infinite energy, with an Armijo slack
@@ -23,9 +24,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.energy import ArmFEM
-from lab.fem.linsolve import factorize
-from lab.fem.steps import (
+from lab.fem.model import ArmFEM
+from lab.fem.solve.linsolve import factorize
+from lab.fem.solve.steps import (
     condensed_step,
     newton_step,
     reused_sensitivity,
@@ -35,7 +36,7 @@ from lab.fem.steps import (
 
 #: A step may reuse the last factorisation (a "chord" step: one solve instead of an
 #: assembly and a factorisation, BFGS-updated with the secant pairs of the steps taken
-#: since, :func:`lab.fem.steps.secant_step`) when the previous step was within CHORD_WINDOW
+#: since, :func:`lab.fem.solve.steps.secant_step`) when the previous step was within CHORD_WINDOW
 #: tolerances (1e-3 m by default); it is kept only if it is at most CHORD_CONTRACTION
 #: of the previous step and passes the line search at full length, otherwise the
 #: Hessian is reassembled and refactorised where the chord step started. (Chord steps
@@ -63,8 +64,8 @@ class StaticSolveError(LabRuntimeError):
 
 @dataclass
 class StaticSolution:
-    """Equilibrium for motor angles ``u_motor`` (m,) rad: free coordinates ``q``
-    (n_free,), tip ``p_tip_W`` (3,) m, and how Newton got there."""
+    """Equilibrium for inputs ``u_motor`` (n_inputs,) (the cables' motor angles in rad):
+    free coordinates ``q`` (n_free,) m, tip ``p_tip_W`` (3,) m, and how Newton got there."""
 
     u_motor: np.ndarray
     q: np.ndarray
@@ -96,15 +97,15 @@ def solve_static(
 ) -> StaticSolution:
     """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
 
-    Converged when the (cable-condensed) Newton step with the exact Hessian, or a chord
+    Converged when the (condensed) Newton step with the exact Hessian, or a chord
     step that contracts well (see ``CHORD_FINAL``), moves no coordinate more than
     ``tol_step_m`` (m); that step is taken and ends the solve. Newton converges
     quadratically there, so the error left after that step is orders of magnitude
     below it. This test is independent of the load scale (a force tolerance is not:
     nodal gravity forces are ~1e-5 N on the default mesh). It also stops when the
     largest residual force is below ``tol_force_n`` (default 1e-5 of the largest nodal
-    weight, at least 1e-11 N), where rounding can keep a nearly singular cable
-    direction from settling; not after a chord step, whose error that force bound does
+    weight, at least 1e-11 N), where rounding can keep a nearly singular condensed
+    direction (a cable's) from settling; not after a chord step, whose error that force bound does
     not bound well enough along the soft bending mode (~1e-8 m on a coarse mesh).
     ``sensitivity``: ``True``/``"exact"`` also computes ``dq_du`` (n_free, m) and
     ``J_tip_u`` (3, m) in m/rad with a fresh factorisation at the equilibrium;
@@ -120,11 +121,40 @@ def solve_static(
     factorisation; a shifted one counts once more).
     Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
     which case the returned solution has ``converged=False`` and a ``status`` saying why.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model.
+    u_motor : array_like, shape (n_inputs,)
+        The inputs of all its actuators (the cables' motor angles in rad, first).
+    q0 : ndarray, shape (n_free,), optional
+        Where to start, m; default rest.
+    tol_step_m, tol_force_n : float
+        Step (m) and residual force (N) tolerances (above).
+    max_iter : int
+        Most steps.
+    sensitivity : bool or str
+        False, True/``"exact"`` or ``"reuse"`` (above).
+    raise_on_failure : bool
+        Raise :class:`StaticSolveError` if it does not converge.
+    check_command : bool
+        Check the inputs with the actuators (:meth:`ArmFEM.check_input`) first.
+    refine_du : array_like, shape (k, n_inputs), optional
+        Input steps along which a reused dq/du is refined.
+    stop_if_indefinite : bool
+        Return at once where the exact Hessian at ``q0`` is indefinite.
+
+    Returns
+    -------
+    StaticSolution
+        The equilibrium (or the last iterate), with ``dq_du`` (n_free, n_inputs) and
+        ``J_tip_u`` (3, n_inputs) if asked.
     """
     t0 = time.perf_counter()
-    u = fem.robot.check_command(u_motor) if check_command else np.asarray(u_motor, float)
+    u = fem.check_input(u_motor) if check_command else np.asarray(u_motor, float)
     q = fem.rest_q() if q0 is None else np.array(q0, dtype=float)
-    E, g, stretch, A = fem.energy(q, u, with_gradient=True)
+    E, g, cond = fem.energy(q, u, with_gradient=True)
     if not np.isfinite(E):
         raise InputError("initial state has inverted elements; start from rest (q0=None)")
     if tol_force_n is None:
@@ -146,14 +176,14 @@ def solve_static(
             if pairs:
                 d = secant_step(fac.lu, pairs, g)
             else:
-                d = condensed_step(fem, fac, -fac.lu.solve(g), stretch)
+                d = condensed_step(fac, -fac.lu.solve(g), cond)
             step = np.max(np.abs(d))
             chord = bool(np.isfinite(step) and g @ d < 0 and step <= CHORD_CONTRACTION * step_prev)
             d = d if chord else None
         if d is None:
             n_fact += 1
             H = fem.hessian(q, u)
-            d, fac = newton_step(fem, H, g, stretch, A)
+            d, fac = newton_step(H, g, cond)
             pairs = []
             exact = d is not None
             if not exact and stop_if_indefinite and it == 1:
@@ -180,7 +210,7 @@ def solve_static(
             # Converged: take the step without a line search, whose energy test cannot
             # resolve such small decreases (gravity sums terms ~1e-2 J) and would stall.
             q = q + d
-            g, stretch, A = fem.gradient(q, u, with_cables=True)
+            g, cond = fem.gradient(q, u, with_condensation=True)
             status = "converged"
             break
         slope = g @ d
@@ -188,7 +218,7 @@ def solve_static(
         for _ in range(1 if chord else 40):
             q_try = q + alpha * d
             if alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
-                E_try, g_try, stretch_try, A_try = fem.energy(q_try, u, with_gradient=True)
+                E_try, g_try, cond_try = fem.energy(q_try, u, with_gradient=True)
             else:
                 E_try = fem.energy(q_try, u)
             if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
@@ -204,9 +234,9 @@ def solve_static(
         q_old, g_old = q, g
         q, E, step_prev = q_try, E_try, alpha * step
         if alpha == 1.0:
-            g, stretch, A = g_try, stretch_try, A_try
+            g, cond = g_try, cond_try
         else:
-            g, stretch, A = fem.gradient(q, u, with_cables=True)
+            g, cond = fem.gradient(q, u, with_condensation=True)
         if fac is not None and (q - q_old) @ (g - g_old) > 0:  # secant pair for chord steps
             pairs.append((q - q_old, g - g_old, 1.0 / ((q - q_old) @ (g - g_old))))
     else:
@@ -227,7 +257,7 @@ def solve_static(
     )
     if sensitivity and sol.converged:
         if sensitivity == "reuse" and fac is not None:
-            sol.dq_du = reused_sensitivity(fem, fac, q, u, stretch, A, refine_du)
+            sol.dq_du = reused_sensitivity(fem, fac, q, u, cond, refine_du)
             sol.J_tip_u = fem.tip_matrix() @ sol.dq_du
         else:
             sol.dq_du, sol.J_tip_u = sensitivities(fem, q, u)
@@ -242,7 +272,24 @@ def solve_static(
 
 
 def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
-    """dq/du (n_free, m) and the tip Jacobian J_tip_u = dp_tip/du (3, m) at an equilibrium."""
+    """dq/du and the tip Jacobian at an equilibrium, from a fresh factorisation.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model.
+    q : ndarray, shape (n_free,)
+        An equilibrium, m.
+    u_motor : array_like, shape (n_inputs,)
+        Its inputs.
+
+    Returns
+    -------
+    dq_du : ndarray, shape (n_free, n_inputs)
+        m per unit of each input (m/rad for the cables).
+    J_tip_u : ndarray, shape (3, n_inputs)
+        The tip marker's Jacobian dp_tip/du.
+    """
     lu = factorize(fem.hessian(q, u_motor))
     dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
     return dq_du, fem.tip_matrix() @ dq_du

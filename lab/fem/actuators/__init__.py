@@ -1,0 +1,23 @@
+"""Actuators: what drives the body, each as energy in the free coordinates and its inputs.
+
+:class:`Actuator` is the interface and :class:`Condensation` what an actuator may ask of the
+statics (:mod:`.base`); :class:`CableActuator` is the description's angle-controlled cables
+(:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`). A new actuator is one module
+with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imported once
+(then :class:`lab.fem.ArmFEM` builds it by name).
+"""
+
+from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
+from lab.fem.actuators.cable_routes import CableRoute, CableSet, spring
+from lab.fem.actuators.cables import CableActuator
+
+__all__ = [
+    "ACTUATORS",
+    "Actuator",
+    "Condensation",
+    "register_actuator",
+    "CableActuator",
+    "CableRoute",
+    "CableSet",
+    "spring",
+]

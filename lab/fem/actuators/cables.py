@@ -1,0 +1,236 @@
+"""Angle-controlled cables: the description's cables, each pulled in by a motor on a spool.
+
+Motor angle u_c (rad) on a spool of radius r sets cable c's free length
+L*_c = L0_c + slack_c - r u_c; the cable is a one-sided spring on its stretch
+d_c = L_c(x) - L*_c (:mod:`lab.fem.actuators.cable_routes`), so its energy is
+sum_c E_spring(d_c), its gradient A tau with A = dL/dq (n_free, m), and d2E/dq du = r A K
+(dd/du = +r: pulling shortens L*, stretching the cable). The springs' law is stiff and
+kinked near taut, so the statics keep it exact along the m stretches
+(:class:`~lab.fem.actuators.base.Condensation`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.fem.actuators.base import Actuator, Condensation, register_actuator
+from lab.fem.actuators.cable_routes import CableRoute, CableSet, spring
+
+
+@register_actuator("cables")
+class CableActuator(Actuator):
+    """The cables of a description, inputs the motor angles (rad, one per cable).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Its cables, ``spool_radius_m``, ``u_max_rad``, safety rules, spring stiffness and
+        smoothing.
+    routes : list of CableRoute
+        Each cable embedded in the body.
+    free : FreeCoordinates
+        The body's free coordinates.
+    mesh : TetMesh
+        The body's rest mesh (for the eyelets' weight gradients).
+    law : callable, optional
+        Stretch (m,) m -> (energy J, tension N, stiffness N/m), each (m,); default the
+        description's one-sided spring (:func:`spring`).
+    """
+
+    input_unit = "rad"
+    condenses = True
+
+    def __init__(self, robot, routes: list[CableRoute], free, mesh, law=None):
+        self.robot, self.routes, self.free, self.mesh = robot, routes, free, mesh
+        self.input_names = tuple(f"u_motor[{c.name}]" for c in robot.cables)
+        self.law = self.springs if law is None else law
+        self.set = CableSet(routes, free.dof_to_free, free.n_free)
+
+    @classmethod
+    def build(cls, robot, body, free, *, slack_m=None, law=None) -> CableActuator:
+        """The description's cables embedded in ``body``.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            The description.
+        body : Body
+            The body the eyelets are embedded in.
+        free : FreeCoordinates
+            Its free coordinates.
+        slack_m : array_like, shape (m,), optional
+            Extra free length per cable, m; default the cables' ``slack_m``.
+        law : callable, optional
+            The springs' law (see the class).
+
+        Returns
+        -------
+        CableActuator
+            The cables, each with its rest length L0 at the rest mesh.
+        """
+        slack = [c.slack_m for c in robot.cables] if slack_m is None else np.asarray(slack_m, float)
+        routes = []
+        for cable, s in zip(robot.cables, slack):
+            nodes, weights = body.embed(cable.via_points_m, f"cable '{cable.name}' via point")
+            route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
+            routes.append(CableRoute(cable.anchor_m, nodes, weights, route.length(body.mesh.X_W), float(s)))
+        return cls(robot, routes, free, body.mesh, law)
+
+    def springs(self, stretch_m):
+        """The description's one-sided springs.
+
+        Parameters
+        ----------
+        stretch_m : array_like, shape (m,) or scalar
+            Stretches d = L - L*, m.
+
+        Returns
+        -------
+        energy, tension, stiffness : ndarray
+            In J, N and N/m, shaped as ``stretch_m``.
+        """
+        return spring(stretch_m, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
+
+    def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """[0, u_max] rad per motor (the safety rules are checked by :meth:`check_input`).
+
+        Returns
+        -------
+        low, high : ndarray, shape (m,)
+            Bounds in rad.
+        """
+        m = len(self.routes)
+        return np.zeros(m), np.full(m, self.robot.u_max_rad)
+
+    def check_input(self, u) -> np.ndarray:
+        """The description's check of motor angles (range and safety rules).
+
+        Parameters
+        ----------
+        u : array_like, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The angles as floats (InputError if refused).
+        """
+        return self.robot.check_command(u)
+
+    def targets(self, u) -> np.ndarray:
+        """Free lengths L* = L0 + slack - r u (m,) in m for motor angles ``u`` (m,) rad."""
+        return np.array([c.L0_m + c.slack_m for c in self.routes]) - self.robot.spool_radius_m * np.asarray(u)
+
+    def lengths(self, x_W) -> np.ndarray:
+        """Cable lengths L (m,) in m at node positions ``x_W`` (N, 3) m."""
+        return self.set.lengths(x_W)
+
+    def tensions(self, x_W, u) -> np.ndarray:
+        """Cable tensions (m,) in N at node positions ``x_W`` (N, 3) m and angles ``u`` rad."""
+        return self.law(self.lengths(x_W) - self.targets(u))[1]
+
+    def energy(self, x_W, u) -> float:
+        """Spring energy in J (see :meth:`Actuator.energy`)."""
+        return float(np.sum(self.law(self.lengths(x_W) - self.targets(u))[0]))
+
+    def energy_and_gradient(self, x_W, u):
+        """Energy (J), gradient A tau (n_free,) N and the stretches' :class:`Condensation`."""
+        L, A, _ = self.set.jacobian(x_W)
+        d = L - self.targets(u)
+        e, tension, _ = self.law(d)
+        return float(np.sum(e)), A @ tension, self._condensation(A, d)
+
+    def gradient(self, x_W, u):
+        """Gradient A tau (n_free,) N and the stretches' :class:`Condensation`."""
+        L, A, _ = self.set.jacobian(x_W)
+        d = L - self.targets(u)
+        return A @ self.law(d)[1], self._condensation(A, d)
+
+    def _condensation(self, A, stretch) -> Condensation:
+        return Condensation(
+            A, stretch, self.law, self.robot.slack_smoothing_m, slice(0, len(self.routes)), self.robot.spool_radius_m
+        )
+
+    def block_dofs(self) -> list[np.ndarray]:
+        """One dense block per cable over the dofs of its eyelets' tets (1, 12K)."""
+        return [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in self.routes]
+
+    def hessian_blocks(self, x_W, u) -> list[np.ndarray]:
+        """W^T (E'' g g^T + E' d2L/dp2) W per cable, g = dL/dp, ravelled."""
+        blocks = []
+        for c, L_star in zip(self.routes, self.targets(u)):
+            L, dL_dp, d2L_dp2 = c.length_derivatives(x_W)
+            _, dE, d2E = self.law(L - L_star)
+            W = c.embedding_matrix()
+            g_p = dL_dp.ravel()
+            blocks.append((W.T @ (d2E * np.outer(g_p, g_p) + dE * d2L_dp2) @ W).ravel())
+        return blocks
+
+    def hessian_product(self, x_W, u):
+        """Springs along dL/dq, plus the taut cables turning: tension (d2L/dp2) dp."""
+        cables = self.set
+        L, A, segments = cables.jacobian(x_W)
+        _, tension, stiffness = self.law(L - self.targets(u))
+        t_via = tension[cables.cable][:, None]
+
+        def apply(acc, v, dx_W):
+            turn = t_via * cables.gradient_change(segments, cables.via_points(dx_W))
+            return acc + A @ (stiffness * (A.T @ v)) + cables.to_free(turn, False)
+
+        return apply
+
+    def mixed_derivative(self, x_W, u) -> np.ndarray:
+        """d2E/dq du = r A K (n_free, m) in N/rad."""
+        L, A, _ = self.set.jacobian(x_W)
+        stiffness = self.law(L - self.targets(u))[2]
+        return A * (stiffness * self.robot.spool_radius_m)
+
+    def input_states(self, x_W, u) -> tuple[bool, ...]:
+        """Which cables pull (tension > 0)."""
+        return tuple(bool(t > 0) for t in self.tensions(x_W, u))
+
+    def geometry_force_derivative(self, x_W, u, P: np.ndarray):
+        """How the forces change with each cable's slack and eyelet shifts (as-built defects).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+        P : ndarray, shape (3, a)
+            The shift axes (columns of the identity).
+
+        Returns
+        -------
+        d_slack : ndarray, shape (n_free, m)
+            dg/d slack_c in N/m.
+        d_shift : list of ndarray, shape (n_free, a)
+            dg/d shift_c of each cable's eyelets (all together), N/m.
+        """
+        L, A, _ = self.set.jacobian(x_W)
+        stretch = L - self.targets(u)
+        _, tension, stiffness = self.law(stretch)
+        d_shift = []
+        for c, route in enumerate(self.routes):
+            grad_w = weight_gradients(self.mesh, route.nodes)
+            F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
+            dp = F @ P  # (K, 3, a)
+            _, dL, HL = route.length_derivatives(x_W)
+            _, dL0 = route.length_gradient(self.mesh.X_W)
+            dd = np.einsum("ki,kia->a", dL, dp) - dL0.sum(axis=0) @ P
+            K = len(route.nodes)
+            blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))  # (12K, a)
+            blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
+            free = self.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
+            col = np.zeros((self.free.n_free, P.shape[1]))
+            np.add.at(col, free[free >= 0], tension[c] * blk[free >= 0])
+            d_shift.append(col + stiffness[c] * np.outer(A[:, c], dd))
+        return -A * stiffness, d_shift
+
+
+def weight_gradients(mesh, nodes: np.ndarray) -> np.ndarray:
+    """d w / d p (K, 4, 3): gradients of the barycentric weights of points in the tets with
+    ``nodes`` (K, 4) (constant in each tet: w = T^-1 [1; p], T = [1 1 1 1; X^T])."""
+    T = np.concatenate([np.ones((len(nodes), 1, 4)), mesh.X_W[nodes].transpose(0, 2, 1)], axis=1)
+    return np.linalg.inv(T)[:, :, 1:]

@@ -1,0 +1,33 @@
+"""Material laws: the elastic energy of the body's elements.
+
+:class:`MaterialLaw` and :class:`Material` are the one interface (:mod:`.base`); the
+compressible neo-Hookean law (:mod:`.neo_hookean`) and the Storåkers/Ogden foam law
+(:mod:`.hyperfoam`) implement it. A new law is one module with a material class decorated
+with :func:`register_material`.
+"""
+
+from lab.fem.materials.base import MATERIALS, Material, MaterialLaw, register_material
+from lab.fem.materials.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
+from lab.fem.materials.neo_hookean import (
+    InvertedElementError,
+    NeoHookean,
+    NeoHookeanMaterial,
+    lame,
+    project_psd,
+)
+
+__all__ = [
+    "MATERIALS",
+    "Material",
+    "MaterialLaw",
+    "register_material",
+    "Hyperfoam",
+    "HyperfoamMaterial",
+    "hyperfoam_law",
+    "hyperfoam_matching",
+    "InvertedElementError",
+    "NeoHookean",
+    "NeoHookeanMaterial",
+    "lame",
+    "project_psd",
+]
