@@ -13,7 +13,6 @@ dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspe
 
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.dataset import (
-    DatasetError,
     columns,
     read_dataset,
     sidecar_path,
@@ -23,13 +22,11 @@ from lab.data.design_spec import DesignSpec
 from lab.data.designs import (
     DESIGNS,
     Chunk,
-    axis_ranges,
     design_commands,
     empty_strata,
     greedy_maximin,
     grid_chunks,
     grid_commands,
-    lhs_commands,
     maximin_commands,
     min_distance,
     nearest_neighbour_chunks,
@@ -38,7 +35,7 @@ from lab.data.designs import (
 )
 from lab.data.diagnostics import InspectSpec, drift, inspect_dataset, inspect_file, outliers
 from lab.data.import_spec import ImportSpec
-from lab.data.importing import ImportResult, Measurements, import_dataset, read_measurements
+from lab.data.importing import Measurements, import_dataset, read_measurements
 from lab.data.repeatability import (
     hysteresis,
     local_residuals,
@@ -61,8 +58,6 @@ __all__ = [
     "DESIGNS",
     "design_commands",
     "random_commands",
-    "lhs_commands",
-    "axis_ranges",
     "empty_strata",
     "maximin_commands",
     "greedy_maximin",
@@ -75,7 +70,6 @@ __all__ = [
     "CheckpointError",
     "fingerprint",
     "ChunkStore",
-    "DatasetError",
     "columns",
     "write_dataset",
     "sidecar_path",
@@ -95,7 +89,6 @@ __all__ = [
     "hysteresis",
     "ImportSpec",
     "Measurements",
-    "ImportResult",
     "read_measurements",
     "import_dataset",
 ]
