@@ -168,9 +168,25 @@ def mujoco_arm(
     integrator: str = "discrete",
 ) -> MujocoArm:
     """Build the MuJoCo model of ``fem``'s arm (mesh, material, gravity, cables; see the
-    module docstring): ``timestep_s`` (s), ``flex_damping_s`` (s, Rayleigh stiffness
-    damping of the flex) and MuJoCo's ``integrator`` ("discrete" or "Euler"). The tendons
-    start at motors 0 (:meth:`MujocoArm.set_command` changes them)."""
+    module docstring). The tendons start at motors 0 (:meth:`MujocoArm.set_command` changes them).
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        Our FEM of the arm, whose mesh, material, gravity and cables are copied; its
+        description's ``stiffness_gradient`` must be 0 (a flex has one Young's modulus).
+    timestep_s : float
+        MuJoCo's time step (s), > 0.
+    flex_damping_s : float
+        Rayleigh stiffness damping of the flex (s), >= 0.
+    integrator : str
+        MuJoCo's integrator, "discrete" or "Euler".
+
+    Returns
+    -------
+    MujocoArm
+        The compiled model with its XML and the free nodes (F,) in qpos order.
+    """
     if not np.isfinite(timestep_s) or timestep_s <= 0:
         raise InputError(f"timestep_s must be positive, got {timestep_s}")
     if not np.isfinite(flex_damping_s) or flex_damping_s < 0:
