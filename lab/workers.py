@@ -108,5 +108,11 @@ def kill_local_workers(wait: bool = True) -> None:
 
 
 def default_jobs() -> int:
-    """Worker processes to use by default: the cores this process may run on."""
+    """Worker processes to use by default.
+
+    Returns
+    -------
+    int
+        The cores this process may run on (at least 1).
+    """
     return max(1, len(os.sched_getaffinity(0))) if hasattr(os, "sched_getaffinity") else max(1, os.cpu_count() or 1)
