@@ -22,7 +22,8 @@ import lab.fem.linsolve
 import lab.fem.statics
 import lab.fem.steps
 import lab.fem.warmstart
-from lab.data.designs import grid_chunks, grid_commands
+from lab.data.chunks import grid_chunks
+from lab.data.designs import grid_commands
 from lab.data.simulation import default_jobs, simulate
 from lab.description import load_robot
 from lab.fem.energy import ArmFEM

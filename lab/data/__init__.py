@@ -1,16 +1,17 @@
 """Stage 5: (u, y) data -- which commands to sample, simulating them, and dataset files.
 
-:mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and cuts
-them into walks; :mod:`.simulation` solves them with the FEM on joblib workers or a Dask
-cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV +
-JSON-sidecar format that simulated and captured data share. The sampling flags are one
-:class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a simulated
-fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
+:mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and
+:mod:`.chunks` cuts them into walks; :mod:`.simulation` solves them with the FEM on joblib
+workers or a Dask cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and
+writes the CSV + JSON-sidecar format that simulated and captured data share. The sampling
+flags are one :class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a
+simulated fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
 :mod:`.repeatability` and :mod:`.diagnostics` measure what a static model can reach on a
 dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspect``).
 :mod:`.importing` reads external measurements (:class:`ImportSpec`) into a dataset.
 """
 
+from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.dataset import (
     columns,
@@ -21,15 +22,12 @@ from lab.data.dataset import (
 from lab.data.design_spec import DesignSpec
 from lab.data.designs import (
     DESIGNS,
-    Chunk,
     design_commands,
     empty_strata,
     greedy_maximin,
-    grid_chunks,
     grid_commands,
     maximin_commands,
     min_distance,
-    nearest_neighbour_chunks,
     random_commands,
     sobol_commands,
 )

@@ -16,10 +16,10 @@ import sys
 import numpy as np
 
 from lab.data import simulation
+from lab.data.chunks import grid_chunks, nearest_neighbour_chunks
 from lab.data.chunkstore import remove_checkpoint
 from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
-from lab.data.designs import grid_chunks, nearest_neighbour_chunks
 from lab.description import RobotDescription
 from lab.fem.mesh import cylinder_mesh
 

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from lab.data.designs import Chunk
+from lab.data.chunks import Chunk
 from lab.description import RobotDescription
 from lab.fem.energy import ArmFEM
 from lab.fem.statics import solve_static
