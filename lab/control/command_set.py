@@ -138,7 +138,7 @@ class CommandSet:
         x0 : array_like, optional
             A feasible starting point (m,), rad; default ``lo``.
         max_iter : int, optional
-            Most iterations; default ``20 (k + 2m + m)``.
+            Most iterations; default ``20 (k + 3m)`` (k limit rows, m motors).
 
         Returns
         -------
