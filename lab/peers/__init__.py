@@ -10,10 +10,12 @@ same mesh (:mod:`.skfem_arm`): gravity sag, a tip load and the adjoint gradient 
 respect to that load, against ours. ``skfem`` too is imported when an arm is built.
 """
 
-from lab.peers.mujoco_arm import mujoco_arm
+from lab.peers.mujoco_arm import MujocoArm, SettleResult, mujoco_arm
 from lab.peers.skfem_arm import SkfemArm, lab_loaded_arm, lab_tip_load_gradient
 
 __all__ = [
+    "MujocoArm",
+    "SettleResult",
     "SkfemArm",
     "lab_loaded_arm",
     "lab_tip_load_gradient",
