@@ -22,7 +22,8 @@ import lab.fem.solve.linsolve
 import lab.fem.solve.statics
 import lab.fem.solve.steps
 import lab.fem.solve.warmstart
-from lab.data.designs import grid_chunks, grid_commands
+from lab.data.chunks import grid_chunks
+from lab.data.designs import grid_commands
 from lab.data.simulation import default_jobs, simulate
 from lab.description import load_robot
 from lab.fem.model import ArmFEM

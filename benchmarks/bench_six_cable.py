@@ -32,7 +32,8 @@ from pathlib import Path
 
 from lab.control.trajectories import SIX_CABLE
 from lab.data import simulate
-from lab.data.designs import nearest_neighbour_chunks, random_commands
+from lab.data.chunks import nearest_neighbour_chunks
+from lab.data.designs import random_commands
 from lab.description import load_robot
 from lab.files import atomic_write_text, code_version
 from lab.learn import load_model

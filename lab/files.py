@@ -29,8 +29,21 @@ __all__ = [
 
 @contextlib.contextmanager
 def atomic_open(path: str | Path, mode: str = "w"):
-    """Open a temporary file next to ``path`` for writing (``mode`` "w" or "wb"); on a clean
-    exit it is flushed, fsynced and renamed to ``path``, on an exception it is removed."""
+    """Open a temporary file next to ``path`` for writing; on a clean exit it is flushed,
+    fsynced and renamed to ``path``, on an exception it is removed.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write (its folder is created).
+    mode : str
+        "w" (text, no newline translation) or "wb".
+
+    Yields
+    ------
+    file object
+        The open temporary file.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
@@ -46,7 +59,15 @@ def atomic_open(path: str | Path, mode: str = "w"):
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (see :func:`atomic_open`)."""
+    """Write text to a file atomically (see :func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    text : str
+        Its whole content.
+    """
     with atomic_open(path) as fh:
         fh.write(text)
 
@@ -55,8 +76,14 @@ def atomic_write_group(files: dict) -> None:
     """Write several files that belong together (a dataset and its sidecar) all or none:
     every one is written to a temporary file first and only when all of them are complete
     are they renamed over their targets, in the order given (put the primary file last).
-    ``files``: {path: str or bytes}. On any failure (a full disk, say) the temporaries are
-    removed and every target is left as it was."""
+    On any failure (a full disk, say) the temporaries are removed and every target is left
+    as it was.
+
+    Parameters
+    ----------
+    files : dict
+        {path: str or bytes}, in the order to rename.
+    """
     tmps = []
     try:
         for path, content in files.items():
@@ -77,7 +104,18 @@ def atomic_write_group(files: dict) -> None:
 
 
 def json_default(obj):
-    """``json.dumps(..., default=json_default)``: NumPy arrays and scalars as lists and numbers."""
+    """``json.dumps(..., default=json_default)``: NumPy arrays and scalars as lists and numbers.
+
+    Parameters
+    ----------
+    obj : object
+        What ``json`` cannot serialise itself.
+
+    Returns
+    -------
+    list or int or float or bool
+        ``obj`` as JSON-able Python; TypeError for anything but NumPy arrays and scalars.
+    """
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):
@@ -86,7 +124,13 @@ def json_default(obj):
 
 
 def code_version() -> str:
-    """Package version plus the git commit it runs from, when known."""
+    """Package version plus the git commit it runs from, when known.
+
+    Returns
+    -------
+    str
+        E.g. ``"1.2.0+git.abc1234-dirty"``, or the version alone outside a git checkout.
+    """
     from lab import __version__
 
     try:
@@ -157,6 +201,11 @@ def remove_and_release(lock) -> None:
     The other order -- release, then unlink -- would be a race: a writer could take the
     lock in between and lose its file, and a third would then lock a new file beside it.
     Other locks (Windows, the soft fallback) are left as filelock leaves them.
+
+    Parameters
+    ----------
+    lock : filelock.BaseFileLock
+        A lock this process holds.
     """
     from filelock import UnixFileLock
 
@@ -170,7 +219,20 @@ def remove_and_release(lock) -> None:
 def exclusive_lock(lock_file: str | Path, busy: str):
     """Hold ``lock_file`` while one writer works; a second is refused at once with
     ``InputError(busy)`` instead of waiting or colliding. The file is removed when done
-    (see :func:`remove_and_release`)."""
+    (see :func:`remove_and_release`).
+
+    Parameters
+    ----------
+    lock_file : str or pathlib.Path
+        The lock's file.
+    busy : str
+        The message of the error a second writer gets.
+
+    Yields
+    ------
+    None
+        While the lock is held.
+    """
     from filelock import FileLock, Timeout
 
     from lab.errors import InputError
@@ -187,7 +249,18 @@ def exclusive_lock(lock_file: str | Path, busy: str):
 
 
 def format_bytes(n: float) -> str:
-    """``n`` bytes in words, in decimal units (e.g. "3.6 TB"), for memory refusals."""
+    """A number of bytes in words, in decimal units, for memory refusals.
+
+    Parameters
+    ----------
+    n : float
+        Bytes.
+
+    Returns
+    -------
+    str
+        E.g. "3.6 TB".
+    """
     for unit in ("B", "kB", "MB", "GB", "TB"):
         if n < 1000:
             return f"{n:.1f} {unit}"

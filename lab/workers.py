@@ -29,7 +29,15 @@ def watch_parent(interval_s: float = WATCH_INTERVAL_S, parent_pid: int | None = 
     ``parent_pid``: the run's process id, when the caller knows it (the workers' initializer
     passes it, so a run killed while its workers were still starting is noticed too); default
     the parent now. The worker also ignores SIGINT from then on: Ctrl-C reaches the whole
-    process group, and the run stops its workers itself."""
+    process group, and the run stops its workers itself.
+
+    Parameters
+    ----------
+    interval_s : float
+        How often the thread checks the parent (s).
+    parent_pid : int, optional
+        The run's process id; default the parent now.
+    """
     global _watched_parent
     if _watched_parent is not None or multiprocessing.current_process().name == "MainProcess":
         return
@@ -83,7 +91,13 @@ def worker_config():
     a run killed (``kill -9``) while its workers are still starting leaves no worker -- and so
     no resource tracker, which lives until the last worker holding its pipe is gone -- behind.
     Workers start with SIGINT blocked: Ctrl-C reaches the whole process group, the run stops
-    its workers itself, and a worker still importing would only print a traceback."""
+    its workers itself, and a worker still importing would only print a traceback.
+
+    Returns
+    -------
+    joblib.parallel_config
+        The context manager to run ``joblib.Parallel`` in.
+    """
     from joblib import parallel_config
     from joblib.parallel import LokyBackend
 
@@ -97,7 +111,13 @@ def kill_local_workers(wait: bool = True) -> None:
 
     With ``wait`` (the default) it also waits until the executor has shut down, about a
     second at most: a process that leaves before then makes loky's resource tracker warn
-    about leaked semaphores."""
+    about leaked semaphores.
+
+    Parameters
+    ----------
+    wait : bool
+        Wait until the executor has shut down.
+    """
     from joblib.externals.loky import reusable_executor
 
     executor = getattr(reusable_executor, "_executor", None)  # loky's singleton (joblib 1.6)
@@ -108,5 +128,11 @@ def kill_local_workers(wait: bool = True) -> None:
 
 
 def default_jobs() -> int:
-    """Worker processes to use by default: the cores this process may run on."""
+    """Worker processes to use by default.
+
+    Returns
+    -------
+    int
+        The cores this process may run on (at least 1).
+    """
     return max(1, len(os.sched_getaffinity(0))) if hasattr(os, "sched_getaffinity") else max(1, os.cpu_count() or 1)

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 from helpers import subprocess_env
 
-from lab.control import circle, write_trajectory_csv
+from lab.control import circle
+from lab.control.trajectories import write_trajectory_csv
 from lab.data import read_dataset, write_dataset
 
 ROOT = Path(__file__).resolve().parent.parent

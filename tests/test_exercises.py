@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from helpers import NOTEBOOK_TEST_TIMEOUT_S, execute_notebook, output_text
 
-from lab.course import NOT_IMPLEMENTED, grade, stub_source, student_edition
+from lab.course import NOT_IMPLEMENTED, grade, stub_source
+from lab.course.edition import student_edition
 
 ROOT = Path(__file__).resolve().parent.parent
 WITH_EXERCISES = [

@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from lab.data import DESIGNS, axis_ranges, design_commands, empty_strata, lhs_commands, random_commands
+from lab.data import DESIGNS, design_commands, empty_strata, random_commands
+from lab.data.designs import axis_ranges, lhs_commands
 from lab.description import load_robot, shipped_robots
 
 

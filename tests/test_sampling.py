@@ -5,8 +5,9 @@ import sys
 import numpy as np
 import pytest
 
+from lab.data.chunks import _serpentine, grid_chunks, nearest_neighbour_chunks
 from lab.data.dataset import DatasetError, read_dataset, write_dataset
-from lab.data.designs import _serpentine, grid_chunks, grid_commands, nearest_neighbour_chunks, sobol_commands
+from lab.data.designs import grid_commands, sobol_commands
 from lab.data.simulation import simulate
 from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import solve_static

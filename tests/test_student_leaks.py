@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from lab.course import GRADER_TAG, SOLUTION_TAG, student_edition
+from lab.course import GRADER_TAG, SOLUTION_TAG
+from lab.course.edition import student_edition
 
 ROOT = Path(__file__).resolve().parent.parent
 WITH_EXERCISES = [

@@ -14,7 +14,8 @@ import pytest
 from helpers import fd_jacobian
 
 from lab.cli import main
-from lab.control import CommandSet, IKSolver, command_set, predicted_spread_m, write_trajectory_csv
+from lab.control import CommandSet, IKSolver, command_set, predicted_spread_m
+from lab.control.trajectories import write_trajectory_csv
 from lab.data import write_dataset
 from lab.description import load_robot
 from lab.errors import InputError

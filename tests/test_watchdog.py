@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 from helpers import subprocess_env, wait_on_rig, wait_until
 
-from lab.control import circle, write_trajectory_csv
+from lab.control import circle
+from lab.control.trajectories import write_trajectory_csv
 from lab.rig.emulators import EmulatedBench
 from lab.rig.emulators import protocol2 as p2
 from lab.rig.emulators.xm430_servo import ADDR, EmulatedServo, ServoSpec

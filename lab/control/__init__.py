@@ -14,7 +14,7 @@ makes the paper's target paths and reads/writes trajectory CSVs. Nothing here im
 
 from lab.control.command_set import CommandSet
 from lab.control.dfo import dfo_solve
-from lab.control.follow import AUTO_WEIGHT_REL, SLACK_COLUMN_REL, auto_weight, follow_trajectory, slack_motors
+from lab.control.follow import AUTO_WEIGHT_REL, SLACK_COLUMN_REL, follow_trajectory
 from lab.control.ik import (
     ARMIJO,
     METHODS,
@@ -38,17 +38,13 @@ from lab.control.trajectories import (
     MAX_ABS_COORD_M,
     SIX_CABLE,
     SIX_CABLE_AXIS_W,
-    TrajectoryError,
     builtin,
     circle,
-    conical_spiral,
     helix,
     load_trajectory,
-    read_trajectory_csv,
     rose,
     saddle,
     square,
-    write_trajectory_csv,
 )
 
 __all__ = [
@@ -65,8 +61,6 @@ __all__ = [
     "IKSolver",
     "projected_gradient_step",
     "follow_trajectory",
-    "auto_weight",
-    "slack_motors",
     "AUTO_WEIGHT_REL",
     "SLACK_COLUMN_REL",
     "dfo_solve",
@@ -84,15 +78,11 @@ __all__ = [
     "SIX_CABLE_AXIS_W",
     "DEFAULT_POINTS",
     "MAX_ABS_COORD_M",
-    "TrajectoryError",
     "circle",
     "square",
     "rose",
     "helix",
     "saddle",
-    "conical_spiral",
     "builtin",
     "load_trajectory",
-    "read_trajectory_csv",
-    "write_trajectory_csv",
 ]

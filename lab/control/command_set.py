@@ -19,9 +19,20 @@ from lab.errors import InputError, LabRuntimeError
 class CommandSet:
     """Polyhedron ``{lo <= u <= hi, A u <= b}`` of allowed commands (rad).
 
-    ``lo``, ``hi`` (m,); ``A`` (k, m), ``b`` (k,) (k may be 0). The lower corner ``lo``
-    must be feasible (it is the start of the active-set method); ValueError otherwise.
-    ``tol`` (rad) is the slack used by :meth:`contains` and the active-set tests.
+    The lower corner ``lo`` must be feasible (it is the start of the active-set method);
+    ValueError otherwise.
+
+    Parameters
+    ----------
+    lo, hi : array_like
+        Lower and upper bounds (m,), rad, finite, ``lo < hi``.
+    A : array_like, optional
+        Rows (k, m) of the linear limits (k may be 0); default none.
+    b : array_like, optional
+        Their right-hand sides (k,), rad.
+    tol : float
+        Slack used by :meth:`contains` and the active-set tests, relative to the largest
+        motor range (so ``self.tol`` is in rad).
     """
 
     def __init__(self, lo, hi, A=None, b=None, tol: float = 1e-12):
@@ -45,7 +56,18 @@ class CommandSet:
 
     @classmethod
     def from_robot(cls, robot: RobotDescription) -> CommandSet:
-        """``[0, u_max]^m`` intersected with the robot's linear safety limits."""
+        """``[0, u_max]^m`` intersected with the robot's linear safety limits.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            Gives the number of motors m, ``u_max_rad`` and the safety limits.
+
+        Returns
+        -------
+        CommandSet
+            The robot's allowed commands.
+        """
         m = robot.n_cables
         A = np.zeros((len(robot.safety_limits), m))
         b = np.zeros(len(robot.safety_limits))
@@ -60,16 +82,40 @@ class CommandSet:
         return len(self.lo)
 
     def contains(self, u, tol: float | None = None) -> bool:
-        """Whether ``u`` (m,) lies in the set, up to ``tol`` rad (default: the set's slack)."""
+        """Whether ``u`` lies in the set.
+
+        Parameters
+        ----------
+        u : array_like
+            A command (m,), rad.
+        tol : float, optional
+            Slack (rad); default the set's ``tol``.
+
+        Returns
+        -------
+        bool
+            True when every limit holds up to ``tol`` (False for NaN or inf).
+        """
         tol = self.tol if tol is None else tol
         # NaN or inf in u gives NaN or inf in G u (G bounds every motor from both sides), and
         # the comparison is then False: no separate finiteness test (this runs per IK step).
         return bool((self.G @ np.asarray(u, dtype=float) <= self.h + tol).all())
 
     def project(self, v, x0=None) -> np.ndarray:
-        """Euclidean projection of ``v`` (m,) onto the set (exact, see the module docstring).
+        """Euclidean projection of ``v`` onto the set (exact, see the module docstring).
 
-        ``x0``: an optional feasible starting point (e.g. the previous iterate)."""
+        Parameters
+        ----------
+        v : array_like
+            A finite command (m,), rad.
+        x0 : array_like, optional
+            A feasible starting point (m,), rad (e.g. the previous iterate).
+
+        Returns
+        -------
+        numpy.ndarray
+            The nearest allowed command (m,), rad.
+        """
         v = np.asarray(v, dtype=float)
         if v.shape != (self.n,) or not np.isfinite(v).all():
             raise InputError(f"cannot project {v!r}: need a finite vector of {self.n} angles")
@@ -81,9 +127,24 @@ class CommandSet:
         return self.solve_qp(np.eye(self.n), -v, x0)
 
     def solve_qp(self, H, c, x0=None, max_iter: int | None = None) -> np.ndarray:
-        """``argmin_{x in C} 1/2 x^T H x + c^T x`` for symmetric positive-definite ``H`` (m, m).
+        """``argmin_{x in C} 1/2 x^T H x + c^T x``, by a primal active-set method, exact to rounding.
 
-        Primal active-set from the feasible ``x0`` (default ``lo``); exact to rounding."""
+        Parameters
+        ----------
+        H : array_like
+            Symmetric positive-definite (m, m).
+        c : array_like
+            Linear term (m,).
+        x0 : array_like, optional
+            A feasible starting point (m,), rad; default ``lo``.
+        max_iter : int, optional
+            Most iterations; default ``20 (k + 3m)`` (k limit rows, m motors).
+
+        Returns
+        -------
+        numpy.ndarray
+            The minimiser (m,), rad.
+        """
         H, c = np.asarray(H, dtype=float), np.asarray(c, dtype=float)
         m = self.n
         x = self.lo.copy() if x0 is None else np.array(x0, dtype=float)

@@ -60,10 +60,31 @@ def _secant_points(commands, u, h) -> np.ndarray:
 
 
 def dfo_solve(forward, commands: CommandSet, config: IKConfig, target, u, u_ref, reg_weight: float) -> IKResult:
-    """Derivative-free solve for ``target`` (3,) m through ``forward`` (batched ``predict``)
-    from the allowed ``u`` (m,) rad, pulled to ``u_ref`` (m,) rad with ``reg_weight``
-    (m^2/rad^2); ``config``: the solver's settings (``max_iter`` filled in). ``time_s`` of the
-    result is filled in by :meth:`lab.control.ik.IKSolver.solve`."""
+    """Derivative-free solve for one target through a forward map's batched ``predict``.
+
+    Parameters
+    ----------
+    forward : object
+        The forward map: ``predict(U (P, m) rad) -> (P, 3) m``; its ensemble members when
+        ``config.spread_weight > 0``.
+    commands : CommandSet
+        The allowed commands.
+    config : IKConfig
+        The solver's settings (``max_iter`` filled in).
+    target : numpy.ndarray
+        The tip target (3,), m, frame W.
+    u : numpy.ndarray
+        The allowed start (m,), rad.
+    u_ref : numpy.ndarray
+        The command (m,), rad, the regularisation pulls toward.
+    reg_weight : float
+        Weight of that pull (m^2/rad^2).
+
+    Returns
+    -------
+    IKResult
+        The solution; its ``time_s`` is filled in by :meth:`lab.control.ik.IKSolver.solve`.
+    """
     cs, w, s_w = commands, reg_weight, config.spread_weight
     R0 = _residuals(forward, s_w, target, u[None])
     r, obj = R0[0], float(_objective(w, R0, u[None], u_ref)[0])

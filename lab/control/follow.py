@@ -59,8 +59,18 @@ def _jacobian_scale(solver) -> np.ndarray:
 
 
 def auto_weight(solver) -> float:
-    """The automatic regularisation weight (m^2/rad^2) of ``solver``:
-    ``AUTO_WEIGHT_REL |J|_F^2 / m`` with ``J`` the Jacobian near the posture (m/rad)."""
+    """The automatic regularisation weight of ``solver``.
+
+    Parameters
+    ----------
+    solver : lab.control.ik.IKSolver
+        The solver whose forward map and posture give the Jacobian.
+
+    Returns
+    -------
+    float
+        ``AUTO_WEIGHT_REL |J|_F^2 / m`` (m^2/rad^2), ``J`` the Jacobian near the posture (m/rad).
+    """
     J = _jacobian_scale(solver)
     return float(AUTO_WEIGHT_REL * np.sum(J * J) / J.shape[1])
 
@@ -89,8 +99,21 @@ def follow_weights(solver) -> tuple[float, float, float, bool, str]:
 
 
 def slack_motors(solver, u_motor) -> np.ndarray:
-    """Indices of the motors whose Jacobian column at ``u_motor`` is below
-    :data:`SLACK_COLUMN_REL` of the largest (a slack cable); empty for a model without a Jacobian."""
+    """The motors of slack cables at a command.
+
+    Parameters
+    ----------
+    solver : lab.control.ik.IKSolver
+        The solver whose forward map gives the Jacobian.
+    u_motor : array_like
+        The command (m,), rad.
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices (int) of the motors whose Jacobian column is below :data:`SLACK_COLUMN_REL`
+        of the largest; empty for a model without a Jacobian.
+    """
     if not getattr(solver.forward, "has_jacobian", True):
         return np.zeros(0, dtype=int)
     J = np.asarray(solver.forward.predict_and_jacobian(np.asarray(u_motor, dtype=float))[1], dtype=float)
@@ -142,10 +165,25 @@ def _recover(solver, target, first, start, w_restart, to_posture, stats):
 
 
 def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
-    """IK through ``solver`` (:class:`lab.control.ik.IKSolver`) for the targets (N, 3) m in
-    order, warm-started from the previous answer (the first from ``u0`` (m,) rad or a cold
-    start); weights, polish and restarts as in docs/design/ik.md. ``TrajectoryIK.info``
-    says what was applied (the weights used, why, and the restart counts)."""
+    """IK for a sequence of targets in order, each warm-started from the previous answer.
+
+    Weights, polish and restarts as in docs/design/ik.md.
+
+    Parameters
+    ----------
+    solver : lab.control.ik.IKSolver
+        The solver (forward map, allowed commands, settings).
+    targets_W : array_like
+        Tip targets (N, 3), m, frame W.
+    u0 : array_like, optional
+        The first point's start (m,), rad; default a cold start.
+
+    Returns
+    -------
+    TrajectoryIK
+        Per point: commands, predicted tips, residuals, reachability; its ``info`` says
+        what was applied (the weights used, why, and the restart counts).
+    """
     targets = np.atleast_2d(check_targets(targets_W))
     w_c, w_p, w_restart, to_posture, how = follow_weights(solver)
     w = w_c + w_p

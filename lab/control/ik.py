@@ -44,8 +44,24 @@ _METHOD_RUN = {"lm": lm_solve, "gd": gd_solve, "dfo": dfo_solve}
 
 
 def grid_seeds(forward, commands: CommandSet, levels: int = 7) -> tuple[np.ndarray, np.ndarray]:
-    """Cold-start seeds: the allowed points of a ``levels``^m grid and their predicted tips
-    (u (S, m) rad, y (S, 3) m). Needs a batched ``forward.predict`` (e.g. the network)."""
+    """Cold-start seeds: the allowed points of a grid of ``levels`` per motor, and their predicted tips.
+
+    Parameters
+    ----------
+    forward : object
+        A forward map with a batched ``predict(U (S, m) rad) -> (S, 3) m`` (e.g. the network).
+    commands : CommandSet
+        The allowed commands; grid points outside the linear limits are dropped.
+    levels : int
+        Grid levels per motor.
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The seeds (S, m), rad.
+    y : numpy.ndarray
+        Their predicted tips (S, 3), m, frame W.
+    """
     axes = [np.linspace(lo, hi, levels) for lo, hi in zip(commands.lo, commands.hi)]
     u = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, commands.n)
     u = u[np.all(u @ commands.A.T <= commands.b + commands.tol, axis=1)]
@@ -53,8 +69,15 @@ def grid_seeds(forward, commands: CommandSet, levels: int = 7) -> tuple[np.ndarr
 
 
 def check_forward(model) -> None:
-    """InputError unless ``model`` is a forward map: a direct inverse model ``u = g(y)`` (a
-    ``command`` method) has none to solve the IK through."""
+    """InputError unless ``model`` is a forward map.
+
+    A direct inverse model ``u = g(y)`` (a ``command`` method) has none to solve the IK through.
+
+    Parameters
+    ----------
+    model : object
+        The model to check.
+    """
     if callable(getattr(model, "command", None)):
         raise InputError(
             "this is a direct inverse model u = g(y): it has no forward map to solve the IK through; "
@@ -63,9 +86,20 @@ def check_forward(model) -> None:
 
 
 def command_set(robot=None, bounds=None) -> CommandSet:
-    """The allowed commands of ``robot`` (a :class:`~lab.description.RobotDescription`),
-    of the box ``bounds`` = (lo (m,), hi (m,)) rad, or of both (the robot's set cut to the
-    box). InputError for bounds that are not two finite vectors with lo < hi."""
+    """The allowed commands of a robot, of a box, or of both (the robot's set cut to the box).
+
+    Parameters
+    ----------
+    robot : ~lab.description.RobotDescription, optional
+        Gives ``[0, u_max]^m`` and the safety limits.
+    bounds : tuple of array_like, optional
+        The box ``(lo (m,), hi (m,))``, rad: two finite vectors with lo < hi (else InputError).
+
+    Returns
+    -------
+    CommandSet
+        The allowed commands.
+    """
     if bounds is None:
         return CommandSet.from_robot(robot)
     try:
@@ -89,15 +123,27 @@ def command_set(robot=None, bounds=None) -> CommandSet:
 
 
 class IKSolver:
-    """IK for one ``forward`` map and ``commands`` set with the settings ``config``.
+    """IK for one forward map and set of allowed commands. A solver does not change once made.
 
-    ``seeds``: (u (S, m) rad, y (S, 3) m) for cold starts (the start is the seed whose tip
-    is nearest the target; without seeds the centre of the allowed set); ``notes``: choices
-    made for this solver, in words (e.g. :meth:`for_model`'s). A solver does not change
-    once made. Attributes: ``forward``, ``commands``, ``seeds``, ``notes`` (tuple),
-    ``config`` (the settings with ``method``, ``max_iter``, ``max_spread_m`` and
-    ``u_posture`` filled in), ``u_posture`` and ``centre`` (m,) rad arrays, ``n_tip``,
-    ``redundant`` (more motors than tip coordinates), ``has_spread``.
+    Attributes: ``forward``, ``commands``, ``seeds``, ``notes`` (tuple), ``config`` (the
+    settings with ``method``, ``max_iter``, ``max_spread_m`` and ``u_posture`` filled in),
+    ``u_posture`` and ``centre`` (m,) rad arrays, ``n_tip``, ``redundant`` (more motors than
+    tip coordinates), ``has_spread``.
+
+    Parameters
+    ----------
+    forward : object
+        The forward map: ``predict`` (batched, (P, m) rad -> (P, 3) m) and, unless
+        ``has_jacobian = False``, ``predict_and_jacobian(u) -> ((3,) m, (3, m) m/rad)``.
+    commands : CommandSet
+        The allowed commands.
+    config : IKConfig
+        The solver's settings.
+    seeds : tuple of array_like, optional
+        ``(u (S, m) rad, y (S, 3) m)`` for cold starts (the start is the seed whose tip is
+        nearest the target); without seeds the centre of the allowed set.
+    notes : iterable of str
+        Choices made for this solver, in words (e.g. :meth:`for_model`'s).
     """
 
     def __init__(self, forward, commands: CommandSet, config: IKConfig = IKConfig(), *, seeds=None, notes=()):
@@ -133,19 +179,36 @@ class IKSolver:
 
     @classmethod
     def for_model(cls, model, robot=None, config: IKConfig | None = None, *, fem=None, bounds=None) -> IKSolver:
-        """The IK solver through ``model`` (``predict_and_jacobian`` and a batched ``predict``;
-        cold starts from a grid of ``config.seed_levels`` levels per motor, default 7 up to
-        three motors and 4 beyond) or, when ``model`` is None, Soft IK through the FEM ``fem``
-        of ``robot`` (cold starts at the centre; no spread flag).
+        """The IK solver through a model, or Soft IK through the FEM.
 
-        The allowed commands are ``robot``'s (``[0, u_max]`` and its safety limits); without a
-        robot description, the box ``bounds`` = (lo (m,), hi (m,)) rad, the range of the
-        model's training data (``lab.learn.data_bounds(model)``: this stage does not read
-        model files); with both, their intersection. ``config`` defaults to
-        :meth:`IKConfig.automatic`. A ``method`` of None picks "lm", or the derivative-free
-        "dfo" for a model with ``has_jacobian = False`` (``notes`` say so). InputError for
-        "lm"/"gd" on such a model, a direct inverse model, a model of another shape than the
-        commands and a 3-D tip (naming both), or bad bounds."""
+        Cold starts from a grid of ``config.seed_levels`` levels per motor (default 7 up to
+        three motors and 4 beyond); Soft IK starts at the centre and has no spread flag.
+        A ``method`` of None picks "lm", or the derivative-free "dfo" for a model with
+        ``has_jacobian = False`` (``notes`` say so). InputError for "lm"/"gd" on such a model,
+        a direct inverse model, a model of another shape than the commands and a 3-D tip
+        (naming both), or bad bounds.
+
+        Parameters
+        ----------
+        model : object or None
+            The forward model (``predict_and_jacobian`` and a batched ``predict``); None for
+            Soft IK through ``fem``.
+        robot : ~lab.description.RobotDescription, optional
+            Its allowed commands (``[0, u_max]`` and its safety limits).
+        config : IKConfig, optional
+            The settings; default :meth:`IKConfig.automatic`.
+        fem : ArmFEM, optional
+            The FEM of ``robot``, for Soft IK.
+        bounds : tuple of array_like, optional
+            Without a robot description, the box ``(lo (m,), hi (m,))`` rad, the range of the
+            model's training data (``lab.learn.data_bounds(model)``: this stage does not read
+            model files); with both, their intersection.
+
+        Returns
+        -------
+        IKSolver
+            The solver, its choices in ``notes``.
+        """
         config = IKConfig.automatic() if config is None else config
         if robot is None and (model is None or bounds is None):
             raise InputError(
@@ -189,17 +252,43 @@ class IKSolver:
         return cls(model, commands, config.replace(method=method), seeds=seeds, notes=notes)
 
     def initial_guess(self, target_W) -> np.ndarray:
-        """Cold start for ``target_W`` (3,) m: nearest seed (projected into C) or the centre."""
+        """Cold start for one target: the nearest seed (projected into C) or the centre.
+
+        Parameters
+        ----------
+        target_W : array_like
+            The tip target (3,), m, frame W.
+
+        Returns
+        -------
+        numpy.ndarray
+            The start command (m,), rad.
+        """
         if self.seeds is None:
             return self.centre.copy()
         u_s, y_s = self.seeds
         return self.commands.project(u_s[int(np.argmin(np.sum((y_s - target_W) ** 2, axis=1)))])
 
     def solve(self, target_W, u0=None, u_ref=None, reg_weight: float | None = None) -> IKResult:
-        """Solve for one target (3,) m from ``u0`` (m,) rad (default :meth:`initial_guess`),
-        regularised towards ``u_ref`` (default ``u0``) with weight ``reg_weight`` (m^2/rad^2;
-        default the config's, an automatic ``None`` meaning 0 here). Changes nothing in the
-        solver."""
+        """Solve for one target. Changes nothing in the solver.
+
+        Parameters
+        ----------
+        target_W : array_like
+            The tip target (3,), m, frame W.
+        u0 : array_like, optional
+            The start (m,), rad; default :meth:`initial_guess`.
+        u_ref : array_like, optional
+            The command (m,), rad, to regularise towards; default ``u0``.
+        reg_weight : float, optional
+            Weight of the regularisation (m^2/rad^2); default the config's (an automatic
+            ``None`` meaning 0 here).
+
+        Returns
+        -------
+        IKResult
+            The command, the predicted tip, the residual and how the solve went.
+        """
         target = check_targets(target_W)
         if target.ndim != 1:
             raise InputError(f"solve takes one target (3,), got {target.shape}; use follow() for many")
@@ -221,8 +310,21 @@ class IKSolver:
         return res
 
     def follow(self, targets_W, u0=None) -> TrajectoryIK:
-        """IK for each of the targets (N, 3) m in order, warm-starting every point from the
-        previous solution (the first from ``u0`` (m,) rad or a cold start), regularised and
-        polished on a redundant arm, with restarts where a point misses:
-        :func:`lab.control.follow.follow_trajectory`."""
+        """IK for each target in order: :func:`lab.control.follow.follow_trajectory`.
+
+        Every point is warm-started from the previous solution, regularised and polished on
+        a redundant arm, with restarts where a point misses.
+
+        Parameters
+        ----------
+        targets_W : array_like
+            Tip targets (N, 3), m, frame W.
+        u0 : array_like, optional
+            The first point's start (m,), rad; default a cold start.
+
+        Returns
+        -------
+        TrajectoryIK
+            Per point: commands, predicted tips, residuals, reachability, and ``info``.
+        """
         return follow_trajectory(self, targets_W, u0)

@@ -34,7 +34,33 @@ class IKConfig(Spec):
     Levenberg-Marquardt, no regulariser. :meth:`automatic` gives those of ``python -m lab
     track`` and :meth:`lab.control.ik.IKSolver.for_model`: the method picked for the model
     and automatic weights. ``None`` fields are filled in by the solver
-    (``IKSolver.config`` holds the filled-in copy)."""
+    (``IKSolver.config`` holds the filled-in copy).
+
+    Attributes
+    ----------
+    method : str or None
+        "lm", "gd" or "dfo" (:data:`METHODS`); None: picked for the model.
+    reg_weight, posture_weight : float or None
+        Regularisers towards the previous command and towards the posture (m^2/rad^2);
+        None: automatic.
+    spread_weight : float
+        Weight (dimensionless, m^2 per m^2 of tip error) on the ensemble's spread.
+    max_spread_m : float or None
+        Spread (m) above which an answer is flagged uncertain.
+    tol_m, reach_tol_m : float
+        Tip residual (m) to stop at, and up to which a target counts as reached.
+    tol_stationary : float
+        Relative stationarity tolerance (dimensionless).
+    max_iter : int or None
+        Iteration limit; None: :data:`DEFAULT_MAX_ITER` of the method.
+    u_posture : tuple of float or None
+        Posture (m,) rad of the posture weight; None: the centre of the allowed set.
+    polish, retry_cold, record_history : bool
+        Solve a regularised answer again unregularised; solve a missed point again from
+        other starts; keep every iterate's tip residual.
+    seed_levels : int or None
+        Cold-start grid levels of ``for_model`` (None: 7, or 4 beyond 3 motors).
+    """
 
     method: str | None = option(
         "lm",
@@ -114,7 +140,17 @@ class IKConfig(Spec):
 
     @classmethod
     def automatic(cls, **changes) -> IKConfig:
-        """The defaults of ``python -m lab track`` and ``IKSolver.for_model``: the method picked
-        for the model (lm, or dfo without a Jacobian) and automatic weights (docs/design/ik.md),
-        with ``changes``."""
+        """The defaults of ``python -m lab track`` and ``IKSolver.for_model``.
+
+        Parameters
+        ----------
+        **changes
+            Fields to set otherwise.
+
+        Returns
+        -------
+        IKConfig
+            The method picked for the model (lm, or dfo without a Jacobian) and automatic
+            weights (docs/design/ik.md), with ``changes``.
+        """
         return cls(**{"method": None, "reg_weight": None, "posture_weight": None, **changes})

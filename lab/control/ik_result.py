@@ -12,10 +12,33 @@ from lab.errors import InputError
 
 @dataclass
 class IKResult:
-    """One IK solve: command ``u_motor`` (m,) rad, predicted tip ``p_pred_W`` (3,) m, tip
-    residual ``residual_m`` = |y(u) - y'| m, objective ``objective_m2``, how it stopped; the
-    model's predicted spread ``spread_m`` (m, NaN without one) and whether it is ``uncertain``
-    (spread above the solver's ``max_spread_m``)."""
+    """One IK solve.
+
+    Attributes
+    ----------
+    u_motor : numpy.ndarray
+        The command (m,), rad.
+    p_pred_W : numpy.ndarray
+        The predicted tip (3,), m, frame W.
+    residual_m : float
+        Tip residual ``|y(u) - y'|`` (m).
+    objective_m2 : float
+        The objective at ``u_motor`` (m^2).
+    reachable : bool
+        Whether the residual is within the solver's ``reach_tol_m``.
+    status : str
+        How it stopped (e.g. "converged", "stationary", "max_iter").
+    iterations, evaluations : int
+        Iterations and forward-map evaluations spent.
+    time_s : float
+        Wall time (s).
+    history_m : list of float
+        The residual (m) after each iteration (when recorded).
+    spread_m : float
+        The model's predicted spread (m); NaN without one.
+    uncertain : bool
+        Whether the spread is above the solver's ``max_spread_m``.
+    """
 
     u_motor: np.ndarray
     p_pred_W: np.ndarray
@@ -33,8 +56,33 @@ class IKResult:
 
 @dataclass
 class TrajectoryIK:
-    """IK along a trajectory of N targets: per-point arrays, the per-point results, and
-    ``info``: the regularisation applied and the recovery counts (:mod:`lab.control.follow`)."""
+    """IK along a trajectory of N targets.
+
+    Attributes
+    ----------
+    targets_W : numpy.ndarray
+        Targets (N, 3), m, frame W.
+    u_motor : numpy.ndarray
+        Commands (N, m), rad.
+    p_pred_W : numpy.ndarray
+        Forward map at ``u_motor`` (N, 3), m, frame W.
+    residual_m : numpy.ndarray
+        Tip residuals (N,), m.
+    reachable : numpy.ndarray
+        (N,) bool.
+    iterations : numpy.ndarray
+        (N,) int.
+    time_s : numpy.ndarray
+        Wall time per target (N,), s.
+    results : list of IKResult
+        The per-point results.
+    uncertain : numpy.ndarray or None
+        (N,) bool: predicted spread above ``max_spread_m``.
+    spread_m : numpy.ndarray or None
+        Predicted spread (N,), m; NaN without one.
+    info : dict
+        The regularisation applied and the recovery counts (:mod:`lab.control.follow`).
+    """
 
     targets_W: np.ndarray  # (N, 3) m
     u_motor: np.ndarray  # (N, m) rad
@@ -50,7 +98,18 @@ class TrajectoryIK:
 
 
 def check_targets(targets) -> np.ndarray:
-    """Targets as a float array (3,) or (N, 3) m; ValueError naming the problem otherwise."""
+    """Targets as a float array; ValueError naming the problem otherwise.
+
+    Parameters
+    ----------
+    targets : array_like
+        One target (3,) or N targets (N, 3), m, frame W; finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        The targets, (3,) or (N, 3), float.
+    """
     t = np.asarray(targets, dtype=float)
     if t.shape[-1:] != (3,) or t.ndim not in (1, 2) or t.size == 0:
         raise InputError(f"targets must be (3,) or (N, 3) positions in metres, got shape {t.shape}")

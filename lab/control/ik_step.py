@@ -25,11 +25,25 @@ def projected_gradient_step(forward, u_motor, target_W, step: float, commands: C
     """One projected gradient-descent step of Eq. (1) from ``u_motor`` (m,) rad towards the
     tip target ``target_W`` (3,) m, frame W.
 
-    ``forward``: anything with ``predict_and_jacobian(u) -> (y (3,) m, J (3, m) m/rad)``
-    (the learned network, or :class:`lab.control.soft_ik.FEMForwardMap`); ``step``: the
-    step length ``alpha`` in rad^2/m^2 (the gradient is in m^2/rad); ``commands``: the
-    allowed set ``C`` (a box ``CommandSet(lo, hi)`` gives the paper's clip).
-    Returns ``P_C(u - alpha J^T (y(u) - y'))`` (m,) rad."""
+    Parameters
+    ----------
+    forward : object
+        Anything with ``predict_and_jacobian(u) -> (y (3,) m, J (3, m) m/rad)`` (the
+        learned network, or :class:`lab.control.soft_ik.FEMForwardMap`).
+    u_motor : array_like
+        The current command (m,), rad, finite.
+    target_W : array_like
+        The tip target (3,), m, frame W.
+    step : float
+        The step length ``alpha`` (rad^2/m^2; the gradient is in m^2/rad), >= 0.
+    commands : CommandSet
+        The allowed set ``C`` (a box ``CommandSet(lo, hi)`` gives the paper's clip).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``P_C(u - alpha J^T (y(u) - y'))`` (m,), rad.
+    """
     u = np.asarray(u_motor, dtype=float)
     if u.shape != (commands.n,) or not np.all(np.isfinite(u)):
         raise InputError(f"u_motor must be {commands.n} finite angles in rad, got {u_motor!r}")

@@ -31,11 +31,18 @@ def _check_free(free, m: int) -> np.ndarray:
 class FrozenMotors:
     """Forward map of the ``free`` motors (k,) of ``forward`` with the others fixed.
 
-    ``forward`` has ``predict(u)`` for (m,) or (N, m) rad and ``predict_and_jacobian(u)``
-    returning ``y`` (3,) m and ``J`` (3, m) m/rad (e.g. :class:`lab.learn.mlp.MLP`);
-    ``u_frozen`` (m,) rad gives the angles of the frozen motors (its entries at the free
-    indices are ignored). This object takes (k,) or (N, k) and returns ``y`` and the
-    (3, k) Jacobian: the columns of the free motors.
+    This object takes (k,) or (N, k) and returns ``y`` and the (3, k) Jacobian: the
+    columns of the free motors.
+
+    Parameters
+    ----------
+    forward : object
+        Has ``predict(u)`` for (m,) or (N, m) rad and ``predict_and_jacobian(u)`` returning
+        ``y`` (3,) m and ``J`` (3, m) m/rad (e.g. :class:`lab.learn.mlp.MLP`).
+    free : array_like
+        Indices (k,) of the free motors, distinct, in ``[0, m)``.
+    u_frozen : array_like
+        Angles (m,), rad, of the frozen motors (its entries at the free indices are ignored).
     """
 
     def __init__(self, forward, free, u_frozen):
@@ -46,7 +53,18 @@ class FrozenMotors:
         self.free = _check_free(free, len(self.u_frozen))
 
     def full(self, u_free) -> np.ndarray:
-        """The full command(s) (m,) or (N, m) rad for free-motor angles (k,) or (N, k)."""
+        """The full command(s) for free-motor angles.
+
+        Parameters
+        ----------
+        u_free : array_like
+            Free-motor angles (k,) or (N, k), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            The full command(s) (m,) or (N, m), rad.
+        """
         u_free = np.asarray(u_free, dtype=float)
         if u_free.shape[-1:] != (len(self.free),):
             raise InputError(f"expected {len(self.free)} free motor angles, got shape {u_free.shape}")
@@ -55,17 +73,59 @@ class FrozenMotors:
         return u
 
     def predict(self, u_free) -> np.ndarray:
+        """The tip(s) at free-motor angles.
+
+        Parameters
+        ----------
+        u_free : array_like
+            Free-motor angles (k,) or (N, k), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            The forward map's tip(s) (3,) or (N, 3), m.
+        """
         return self.forward.predict(self.full(u_free))
 
     def predict_and_jacobian(self, u_free):
+        """The tip and its Jacobian in the free motors.
+
+        Parameters
+        ----------
+        u_free : array_like
+            Free-motor angles (k,), rad.
+
+        Returns
+        -------
+        y : numpy.ndarray
+            The tip (3,), m.
+        J : numpy.ndarray
+            The Jacobian (3, k), m/rad: the free motors' columns.
+        """
         y, J = self.forward.predict_and_jacobian(self.full(u_free))
         return y, np.asarray(J)[..., self.free]
 
 
 def frozen_commands(commands: CommandSet, free, u_frozen) -> CommandSet:
-    """The allowed set of the ``free`` motors when the others sit at ``u_frozen`` (m,) rad:
-    their box, and each safety row ``a.u <= b`` with the frozen motors' share moved to
-    the right-hand side. ValueError if the frozen angles are themselves not allowed."""
+    """The allowed set of the free motors when the others sit at fixed angles.
+
+    ValueError if the frozen angles are themselves not allowed.
+
+    Parameters
+    ----------
+    commands : CommandSet
+        The allowed set of all m motors.
+    free : array_like
+        Indices (k,) of the free motors.
+    u_frozen : array_like
+        Angles (m,), rad, of the frozen motors (entries at ``free`` ignored).
+
+    Returns
+    -------
+    CommandSet
+        The free motors' box, and each safety row ``a.u <= b`` with the frozen motors'
+        share moved to the right-hand side.
+    """
     u_frozen = np.asarray(u_frozen, dtype=float)
     free = _check_free(free, commands.n)
     if u_frozen.shape != (commands.n,):
@@ -82,10 +142,21 @@ def frozen_commands(commands: CommandSet, free, u_frozen) -> CommandSet:
 
 
 def motor_path_stats(u_path) -> dict:
-    """Smoothness of a motor trajectory ``u_path`` (N, m) rad, N >= 2: ``max_step_rad``
-    (largest change of any motor between consecutive targets), ``mean_step_rad`` (mean
-    over steps of the largest change), ``travel_rad`` (total motor travel, the sum of
-    |du| over motors and steps) and ``max_step_index`` (where the largest jump happens)."""
+    """Smoothness of a motor trajectory.
+
+    Parameters
+    ----------
+    u_path : array_like
+        Commands (N, m), rad, N >= 2, finite.
+
+    Returns
+    -------
+    dict
+        ``max_step_rad`` (largest change of any motor between consecutive targets),
+        ``mean_step_rad`` (mean over steps of the largest change), ``travel_rad`` (total
+        motor travel, the sum of ``|du|`` over motors and steps) and ``max_step_index``
+        (where the largest jump happens).
+    """
     u = np.asarray(u_path, dtype=float)
     if u.ndim != 2 or len(u) < 2 or not np.all(np.isfinite(u)):
         raise InputError(f"u_path must be finite (N >= 2, m) motor angles, got shape {u.shape}")

@@ -21,9 +21,15 @@ from lab.fem.solve.statics import StaticSolveError, solve_static
 class FEMForwardMap:
     """``u`` (m,) rad -> tip ``p_tip_W`` (3,) m and ``J_tip_u`` (3, m) m/rad by the FEM.
 
-    ``tol_step_m`` is the Newton tolerance passed to :func:`solve_static`. Counters:
-    ``n_solves`` (equilibria computed), ``solve_time_s`` (their total time). A static
-    solve that fails returns a NaN tip (the IK solvers treat it as a rejected step).
+    Counters: ``n_solves`` (equilibria computed), ``solve_time_s`` (their total time). A
+    static solve that fails returns a NaN tip (the IK solvers treat it as a rejected step).
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm's FEM.
+    tol_step_m : float
+        The Newton tolerance (m) passed to :func:`solve_static`.
     """
 
     def __init__(self, fem: ArmFEM, tol_step_m: float = 1e-9):
@@ -42,7 +48,20 @@ class FEMForwardMap:
         self._last = None
 
     def predict_and_jacobian(self, u_motor) -> tuple[np.ndarray, np.ndarray]:
-        """Tip (3,) m and its Jacobian (3, m) m/rad at the equilibrium for ``u_motor``."""
+        """The tip and its Jacobian at the equilibrium for a command (warm-started).
+
+        Parameters
+        ----------
+        u_motor : array_like
+            The command (m,), rad.
+
+        Returns
+        -------
+        p_tip_W : numpy.ndarray
+            The tip (3,), m, frame W; NaN if the static solve failed.
+        J_tip_u : numpy.ndarray
+            Its Jacobian (3, m), m/rad; NaN if the static solve failed.
+        """
         u = np.asarray(u_motor, dtype=float)
         if u.shape != (self.n_u,):
             raise InputError(f"expected {self.n_u} motor angles, got shape {u.shape}")
@@ -60,7 +79,18 @@ class FEMForwardMap:
         return sol.p_tip_W.copy(), sol.J_tip_u.copy()
 
     def predict(self, u_motor) -> np.ndarray:
-        """Tip (3,) m (or (N, 3) for (N, m) commands, solved in order with warm starts)."""
+        """The tip at the equilibrium for one or N commands (solved in order with warm starts).
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Command(s) (m,) or (N, m), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Tip(s) (3,) or (N, 3), m, frame W.
+        """
         u = np.asarray(u_motor, dtype=float)
         if u.ndim == 2:
             return np.array([self.predict_and_jacobian(row)[0] for row in u])

@@ -31,12 +31,36 @@ def members_of(model) -> list | None:
 
 
 def has_spread(model) -> bool:
-    """Whether ``model`` predicts a spread (``predict_with_std`` or ensemble ``members``)."""
+    """Whether a model predicts a spread.
+
+    Parameters
+    ----------
+    model : object
+        A forward model.
+
+    Returns
+    -------
+    bool
+        True if it has ``predict_with_std`` or at least two ensemble ``members``.
+    """
     return callable(getattr(model, "predict_with_std", None)) or members_of(model) is not None
 
 
 def predicted_spread_m(model, u_motor) -> float:
-    """Predicted spread |std| (m) of ``model`` at ``u_motor`` (m,) rad; NaN without a spread."""
+    """Predicted spread ``|std|`` of a model at a command.
+
+    Parameters
+    ----------
+    model : object
+        A forward model with ``predict_with_std`` or ensemble ``members``.
+    u_motor : array_like
+        The command (m,), rad.
+
+    Returns
+    -------
+    float
+        The spread (m); NaN without a spread.
+    """
     u = np.asarray(u_motor, dtype=float)
     if callable(getattr(model, "predict_with_std", None)):
         _, std = model.predict_with_std(u)
@@ -49,9 +73,26 @@ def predicted_spread_m(model, u_motor) -> float:
 
 
 def spread_rows(model, u_motor, weight: float) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares rows ``r_s`` (3K,) m and their Jacobian ``J_s`` (3K, m) m/rad of the
-    penalty ``weight/2 S(u)`` at ``u_motor`` (m,) rad (module docstring). InputError if the
-    model has no ensemble ``members``."""
+    """Least-squares rows of the penalty ``weight/2 S(u)`` (module docstring) and their Jacobian.
+
+    InputError if the model has no ensemble ``members``.
+
+    Parameters
+    ----------
+    model : object
+        An ensemble with K ``members``, each with ``predict_and_jacobian``.
+    u_motor : array_like
+        The command (m,), rad.
+    weight : float
+        The penalty's weight (dimensionless).
+
+    Returns
+    -------
+    r_s : numpy.ndarray
+        Rows (3K,), m.
+    J_s : numpy.ndarray
+        Their Jacobian (3K, m), m/rad.
+    """
     members = members_of(model)
     if members is None:
         raise InputError("a spread penalty needs a model with ensemble members (e.g. a deep ensemble)")

@@ -55,15 +55,46 @@ def _check_n(n_points: int, minimum: int = 2) -> int:
 
 
 def circle(n_points: int = 100, radius_m: float = 0.035, centre_W=CENTRE_W) -> np.ndarray:
-    """``n_points`` equally spaced points (N, 3) m on a circle in the plane x = centre x."""
+    """Equally spaced points on a circle in the plane x = centre x.
+
+    Parameters
+    ----------
+    n_points : int
+        N, >= 3.
+    radius_m : float
+        Radius (m).
+    centre_W : array_like
+        Centre (3,), m, frame W.
+
+    Returns
+    -------
+    numpy.ndarray
+        Points (N, 3), m, frame W.
+    """
     t = 2 * np.pi * np.arange(_check_n(n_points, 3)) / n_points
     return _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
 
 
 def square(n_points: int = 100, side_m: float = 0.06, centre_W=CENTRE_W) -> np.ndarray:
-    """``n_points`` points (N, 3) m equally spaced along the perimeter of an axis-aligned
-    square, starting at the (+y, -z) corner, counter-clockwise; corners are hit exactly
-    when ``n_points`` is a multiple of 4."""
+    """Points equally spaced along the perimeter of an axis-aligned square in the plane x = centre x.
+
+    Starts at the (+y, -z) corner, counter-clockwise; corners are hit exactly when
+    ``n_points`` is a multiple of 4.
+
+    Parameters
+    ----------
+    n_points : int
+        N, >= 4.
+    side_m : float
+        Side length (m).
+    centre_W : array_like
+        Centre (3,), m, frame W.
+
+    Returns
+    -------
+    numpy.ndarray
+        Points (N, 3), m, frame W.
+    """
     s = 4.0 * np.arange(_check_n(n_points, 4)) / n_points  # perimeter parameter in [0, 4)
     side, f = np.floor(s).astype(int), s - np.floor(s)
     h = 0.5 * side_m
@@ -73,8 +104,24 @@ def square(n_points: int = 100, side_m: float = 0.06, centre_W=CENTRE_W) -> np.n
 
 
 def rose(n_points: int = 200, radius_m: float = 0.035, k: int = 2, centre_W=CENTRE_W) -> np.ndarray:
-    """Rhodonea ``r = radius cos(k t)`` (N, 3) m: 2k petals for even k, k for odd k, each
-    traced once; equally spaced in t."""
+    """Rhodonea ``r = radius cos(k t)``: 2k petals for even k, k for odd k, each traced once.
+
+    Parameters
+    ----------
+    n_points : int
+        N, >= 4, equally spaced in t.
+    radius_m : float
+        Petal length (m).
+    k : int
+        Petal parameter, >= 1.
+    centre_W : array_like
+        Centre (3,), m, frame W.
+
+    Returns
+    -------
+    numpy.ndarray
+        Points (N, 3), m, frame W.
+    """
     if int(k) != k or k < 1:
         raise TrajectoryError(f"rose k must be a positive integer, got {k!r}")
     period = 2 * np.pi if k % 2 == 0 else np.pi
@@ -91,8 +138,26 @@ def helix(
     x_end_m: float = 0.180,
     centre_W=CENTRE_W,
 ) -> np.ndarray:
-    """Helix (N, 3) m about the line through ``centre_W`` along x: ``turns`` turns of radius
-    ``radius_m`` while x goes linearly from ``x_start_m`` to ``x_end_m`` (both ends included)."""
+    """Helix about the line through ``centre_W`` along x.
+
+    Parameters
+    ----------
+    n_points : int
+        N, >= 2 (both ends included).
+    radius_m : float
+        Radius (m).
+    turns : float
+        Number of turns.
+    x_start_m, x_end_m : float
+        x (m, frame W) at the start and the end; linear in between.
+    centre_W : array_like
+        A point (3,) of the axis, m, frame W.
+
+    Returns
+    -------
+    numpy.ndarray
+        Points (N, 3), m, frame W.
+    """
     s = np.linspace(0.0, 1.0, _check_n(n_points))
     t = 2 * np.pi * turns * s
     p = _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
@@ -108,8 +173,26 @@ def saddle(
     waves: int = 2,
     centre_W=SIX_CABLE_AXIS_W,
 ) -> np.ndarray:
-    """A circle of ``radius_m`` about the x axis through ``centre_W`` whose x goes
-    ``x_mid_m + dx_m cos(waves t)``: a closed 3-D curve (N, 3) m, equally spaced in t."""
+    """A circle about the x axis through ``centre_W`` whose x goes ``x_mid_m + dx_m cos(waves t)``.
+
+    Parameters
+    ----------
+    n_points : int
+        N, >= 4, equally spaced in t.
+    radius_m : float
+        Radius (m).
+    x_mid_m, dx_m : float
+        Mean x and amplitude of x (m, frame W).
+    waves : int
+        Waves of x per turn.
+    centre_W : array_like
+        A point (3,) of the axis, m, frame W.
+
+    Returns
+    -------
+    numpy.ndarray
+        A closed 3-D curve (N, 3), m, frame W.
+    """
     t = 2 * np.pi * np.arange(_check_n(n_points, 4)) / n_points
     p = _in_plane(radius_m * np.cos(t), radius_m * np.sin(t), centre_W)
     p[:, 0] = x_mid_m + dx_m * np.cos(waves * t)
@@ -139,8 +222,20 @@ def _six(x_m: float, radius_m: float):
 
 
 def builtin(name: str, n_points: int | None = None) -> np.ndarray:
-    """A built-in trajectory by name (see :data:`BUILTIN` and :data:`SIX_CABLE`), default
-    sizes and placement."""
+    """A built-in trajectory by name, with default sizes and placement.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`BUILTIN` or :data:`SIX_CABLE`.
+    n_points : int, optional
+        N; default :data:`DEFAULT_POINTS` of the name.
+
+    Returns
+    -------
+    numpy.ndarray
+        Targets (N, 3), m, frame W.
+    """
     makers = {
         "circle": circle,
         "square": square,
@@ -160,7 +255,20 @@ def builtin(name: str, n_points: int | None = None) -> np.ndarray:
 
 
 def load_trajectory(name_or_csv: str | Path, n_points: int | None = None) -> np.ndarray:
-    """Targets (N, 3) m: a built-in name, or a CSV path (``n_points`` must then be None)."""
+    """Targets from a built-in name or a CSV file.
+
+    Parameters
+    ----------
+    name_or_csv : str or pathlib.Path
+        A built-in name (:func:`builtin`), or a CSV path (:func:`read_trajectory_csv`).
+    n_points : int, optional
+        N for a built-in name; must be None for a CSV.
+
+    Returns
+    -------
+    numpy.ndarray
+        Targets (N, 3), m, frame W.
+    """
     text = str(name_or_csv)
     if text in BUILTIN + SIX_CABLE:
         return builtin(text, n_points)
@@ -208,7 +316,15 @@ def read_trajectory_csv(path: str | Path) -> np.ndarray:
 
 
 def write_trajectory_csv(path: str | Path, points_W) -> None:
-    """Write targets (N, 3) m as a CSV with header x,y,z (atomic)."""
+    """Write targets as a CSV with header x,y,z (atomic).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    points_W : array_like
+        Finite targets (N, 3), m, frame W.
+    """
     pts = np.asarray(points_W, dtype=float)
     if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
         raise TrajectoryError(f"points must be a finite (N, 3) array, got shape {pts.shape}")

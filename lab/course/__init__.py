@@ -5,13 +5,13 @@
   elsewhere);
 - :mod:`lab.course.statements`: :func:`say` shows a sentence formatted from the run's own
   values, so a chapter's text holds in quick and in full mode;
-- :mod:`lab.course.edition`: :func:`student_edition`, the chapter with the solutions removed;
+- :mod:`lab.course.edition`: :func:`~lab.course.edition.student_edition`, the chapter with the solutions removed;
   :func:`build_student_edition`, the whole course in ``build/student/``, keeping the student's work;
 - :mod:`lab.course.syllabus`, :mod:`lab.course.times`: chapter 00's syllabus and the measured
   time per chapter (``python -m lab.course``, :mod:`lab.course.commands`, for the scripts).
 """
 
-from lab.course.edition import GRADER_TAG, SOLUTION_TAG, build_student_edition, stub_source, student_edition
+from lab.course.edition import GRADER_TAG, SOLUTION_TAG, build_student_edition, stub_source
 from lab.course.grading import NOT_IMPLEMENTED, Grade, grade
 from lab.course.statements import say, than
 from lab.course.syllabus import syllabus_markdown
@@ -22,7 +22,6 @@ __all__ = [
     "Grade",
     "say",
     "than",
-    "student_edition",
     "build_student_edition",
     "syllabus_markdown",
     "times_markdown",

@@ -45,8 +45,19 @@ CHAPTER_NAME = re.compile(r"\d\d_[\w-]+\.ipynb")
 
 
 def stub_source(source: str) -> str:
-    """The student's version of a solution cell: each top-level function keeps its
-    signature and docstring, its body becomes ``raise NotImplementedError``."""
+    """The student's version of a solution cell.
+
+    Parameters
+    ----------
+    source : str
+        The solution cell's Python source.
+
+    Returns
+    -------
+    str
+        Each top-level function with its signature and docstring, its body
+        ``raise NotImplementedError``; everything else dropped.
+    """
     tree = ast.parse(source)
     lines = source.splitlines()
     out = []
@@ -178,19 +189,31 @@ def _plan(chapters: list[Path], out: Path, up: str, manifest: dict):
 
 def build_student_edition(notebooks: str | Path, out: str | Path, up: str = "../") -> list[str]:
     """Write the student edition of every chapter ``notebooks/NN_*.ipynb`` into ``out``,
-    keeping the student's work; returns what happened, one line per kept notebook and a
-    summary line last.
-
-    Parameters
-    ----------
-    notebooks : the folder of the source chapters.
-    out : the edition's folder (created); must not be ``notebooks``.
-    up : see :func:`student_edition` ("../" for ``build/student`` beside ``notebooks``).
+    keeping the student's work.
 
     A notebook in ``out`` whose SHA-256 is one the manifest recorded as written is
     refreshed; any other is the student's and is never overwritten (see the module's
-    docstring). :class:`~lab.errors.InputError` when another build holds the lock, for a
-    source that is not a notebook, or when ``out`` is the source folder.
+    docstring).
+
+    Parameters
+    ----------
+    notebooks : str or pathlib.Path
+        The folder of the source chapters.
+    out : str or pathlib.Path
+        The edition's folder (created); must not be ``notebooks``.
+    up : str
+        See :func:`student_edition` ("../" for ``build/student`` beside ``notebooks``).
+
+    Returns
+    -------
+    list of str
+        What happened: one line per kept notebook and a summary line last.
+
+    Raises
+    ------
+    InputError
+        When another build holds the lock, for a source that is not a notebook, or when
+        ``out`` is the source folder.
     """
     notebooks, out = Path(notebooks), Path(out)
     chapters = sorted(p for p in notebooks.glob("[0-9][0-9]_*.ipynb") if CHAPTER_NAME.fullmatch(p.name))

@@ -25,8 +25,17 @@ _COLOURS = {"passed": "#1a7f37", "failed": "#cf222e", "todo": "#9a6700"}
 
 
 class Grade(str):
-    """One grader's result: the plain line (the ``str`` itself) plus ``status`` ("passed",
-    "failed" or "todo") and ``details`` (the failing case's inputs, or "")."""
+    """One grader's result: the plain line (the ``str`` itself) plus its status and details.
+
+    Parameters
+    ----------
+    line : str
+        The plain-text result.
+    status : str
+        "passed", "failed" or "todo".
+    details : str
+        The failing case's inputs, or "".
+    """
 
     status: str
     details: str
@@ -137,17 +146,24 @@ def grade(
 
     Parameters
     ----------
-    name : the exercise's title, as the chapter gives it.
-    student, reference : the two functions, called with the same arguments.
-    cases : tuples of arguments.
-    rtol, atol : tolerance of every compared number: ``|got - want| <= atol + rtol |want|``.
-    hint : shown after a wrong result (not after an exception): the idea, never the answer.
-    show : show the result (once); off for a caller that collects results.
+    name : str
+        The exercise's title, as the chapter gives it.
+    student, reference : callable
+        The two functions, called with the same arguments.
+    cases : iterable of tuple
+        Tuples of arguments.
+    rtol, atol : float
+        Tolerance of every compared number: ``|got - want| <= atol + rtol |want|``.
+    hint : str
+        Shown after a wrong result (not after an exception): the idea, never the answer.
+    show : bool
+        Show the result (once); off for a caller that collects results.
 
     Returns
     -------
-    The :class:`Grade`: "passed", "FAILED ..." (which case, what differs, its inputs) or
-    "not implemented yet". Never raises.
+    Grade
+        "passed", "FAILED ..." (which case, what differs, its inputs) or
+        "not implemented yet". Never raises.
     """
     cases = list(cases)
     names = _arg_names(student)

@@ -17,8 +17,22 @@ STATEMENT_KEY = "lab_statement"
 
 
 def than(value: float, reference: float, lower: str = "below", higher: str = "above", same: str | None = None) -> str:
-    """The word comparing ``value`` with ``reference``: ``lower``, ``higher``, or ``same``
-    when given and they are equal to 3 significant digits."""
+    """The word comparing ``value`` with ``reference``.
+
+    Parameters
+    ----------
+    value, reference : float
+        The two numbers, in the same unit.
+    lower, higher : str
+        The word when ``value`` is below, or not below, ``reference``.
+    same : str, optional
+        The word when they are equal to 3 significant digits; default: no such word.
+
+    Returns
+    -------
+    str
+        ``lower``, ``higher`` or ``same``.
+    """
     if same is not None and f"{value:.3g}" == f"{reference:.3g}":
         return same
     return lower if value < reference else higher
@@ -33,8 +47,18 @@ class Statement(str):
 
 
 def say(text: str) -> Statement:
-    """Show ``text`` (Markdown, already formatted from the run's values) as the cell's
-    output, once, marked as a computed statement; printed outside IPython. Returns it."""
+    """Show ``text`` as the cell's output, once, marked as a computed statement.
+
+    Parameters
+    ----------
+    text : str
+        Markdown, already formatted from the run's values; printed outside IPython.
+
+    Returns
+    -------
+    Statement
+        ``text``, which IPython does not show a second time.
+    """
     try:
         from IPython import get_ipython
         from IPython.display import display

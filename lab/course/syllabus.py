@@ -163,9 +163,19 @@ def _title(cells: list[dict], name: str) -> str:
 
 
 def syllabus_markdown(notebooks: str | Path) -> str:
-    """The syllabus as Markdown: per chapter of :data:`SYLLABUS` after chapter 00 (those
-    present in the folder ``notebooks``) its title, linked, the paper's section, the
-    prerequisites, the goals and the exercises (number, title, the functions to write)."""
+    """The syllabus as Markdown.
+
+    Parameters
+    ----------
+    notebooks : str or pathlib.Path
+        The folder of the chapters; chapters of :data:`SYLLABUS` absent from it are skipped.
+
+    Returns
+    -------
+    str
+        Per chapter after chapter 00: its title, linked, the paper's section, the
+        prerequisites, the goals and the exercises (number, title, the functions to write).
+    """
     notebooks, parts = Path(notebooks), []
     for ch in SYLLABUS[1:]:
         path = notebooks / ch.name

@@ -123,8 +123,20 @@ def _conditions(rows: list[dict], mode: str) -> str:
 
 
 def times_markdown(notebooks: str | Path, times: str | Path) -> str:
-    """The time per chapter (every ``NN_name.ipynb`` in ``notebooks``) in quick and full mode
-    from the CSV ``times``, as a Markdown table and a sentence per mode on how it was measured."""
+    """The time per chapter in quick and full mode, as Markdown.
+
+    Parameters
+    ----------
+    notebooks : str or pathlib.Path
+        The folder of the chapters (every ``NN_name.ipynb`` in it gets a row).
+    times : str or pathlib.Path
+        The CSV of measured times (s).
+
+    Returns
+    -------
+    str
+        A Markdown table and a sentence per mode on how it was measured.
+    """
     from lab.course.edition import CHAPTER_NAME
 
     rows = read_times(times)

@@ -1,19 +1,19 @@
 """Stage 5: (u, y) data -- which commands to sample, simulating them, and dataset files.
 
-:mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and cuts
-them into walks; :mod:`.simulation` solves them with the FEM on joblib workers or a Dask
-cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV +
-JSON-sidecar format that simulated and captured data share. The sampling flags are one
-:class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a simulated
-fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
+:mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and
+:mod:`.chunks` cuts them into walks; :mod:`.simulation` solves them with the FEM on joblib
+workers or a Dask cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and
+writes the CSV + JSON-sidecar format that simulated and captured data share. The sampling
+flags are one :class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a
+simulated fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
 :mod:`.repeatability` and :mod:`.diagnostics` measure what a static model can reach on a
 dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspect``).
 :mod:`.importing` reads external measurements (:class:`ImportSpec`) into a dataset.
 """
 
+from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.dataset import (
-    DatasetError,
     columns,
     read_dataset,
     sidecar_path,
@@ -22,23 +22,18 @@ from lab.data.dataset import (
 from lab.data.design_spec import DesignSpec
 from lab.data.designs import (
     DESIGNS,
-    Chunk,
-    axis_ranges,
     design_commands,
     empty_strata,
     greedy_maximin,
-    grid_chunks,
     grid_commands,
-    lhs_commands,
     maximin_commands,
     min_distance,
-    nearest_neighbour_chunks,
     random_commands,
     sobol_commands,
 )
 from lab.data.diagnostics import InspectSpec, drift, inspect_dataset, inspect_file, outliers
 from lab.data.import_spec import ImportSpec
-from lab.data.importing import ImportResult, Measurements, import_dataset, read_measurements
+from lab.data.importing import Measurements, import_dataset, read_measurements
 from lab.data.repeatability import (
     hysteresis,
     local_residuals,
@@ -61,8 +56,6 @@ __all__ = [
     "DESIGNS",
     "design_commands",
     "random_commands",
-    "lhs_commands",
-    "axis_ranges",
     "empty_strata",
     "maximin_commands",
     "greedy_maximin",
@@ -75,7 +68,6 @@ __all__ = [
     "CheckpointError",
     "fingerprint",
     "ChunkStore",
-    "DatasetError",
     "columns",
     "write_dataset",
     "sidecar_path",
@@ -95,7 +87,6 @@ __all__ = [
     "hysteresis",
     "ImportSpec",
     "Measurements",
-    "ImportResult",
     "read_measurements",
     "import_dataset",
 ]

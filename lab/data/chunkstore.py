@@ -38,7 +38,24 @@ class CheckpointError(InputError):
 
 
 def fingerprint(robot_sha256: str, n_rings: int, n_axial: int, u_motor: np.ndarray, orders: list) -> dict:
-    """What must match for a checkpoint to be resumed: robot, mesh, commands, chunking."""
+    """What must match for a checkpoint to be resumed: robot, mesh, commands, chunking.
+
+    Parameters
+    ----------
+    robot_sha256 : str
+        SHA-256 of the robot description.
+    n_rings, n_axial : int
+        The mesh's resolution.
+    u_motor : numpy.ndarray
+        All commands (N, m), rad.
+    orders : list of array_like
+        Each chunk's indices into ``u_motor``, in solve order.
+
+    Returns
+    -------
+    dict
+        The fingerprint (JSON-able), stored as the checkpoint's manifest.
+    """
     h = hashlib.sha256(np.ascontiguousarray(u_motor, dtype=float).tobytes())
     for order in orders:
         h.update(np.asarray(order, dtype=np.int64).tobytes())
@@ -102,7 +119,15 @@ def check_checkpoint(directory: str | Path, what: str = "--checkpoint") -> None:
 
 
 class ChunkStore:
-    """Chunk results under ``directory`` for the run identified by ``fingerprint``."""
+    """Chunk results under ``directory`` for the run identified by ``fingerprint``.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        The checkpoint directory (created at the first save).
+    fp : dict
+        The run's :func:`fingerprint`; must match an existing manifest (else CheckpointError).
+    """
 
     def __init__(self, directory: str | Path, fp: dict):
         self.directory = Path(directory)
@@ -137,7 +162,15 @@ class ChunkStore:
             atomic_write_text(self.directory / MANIFEST, json.dumps(self.fingerprint, indent=2) + "\n")
 
     def save(self, i: int, result: dict) -> None:
-        """Store chunk ``i``'s result (keys ``order``, ``u_motor``, ``p_tip_W``, ...)."""
+        """Store one chunk's result atomically.
+
+        Parameters
+        ----------
+        i : int
+            The chunk's index.
+        result : dict
+            Its arrays (keys ``order``, ``u_motor`` rad, ``p_tip_W`` m, ...).
+        """
         self._ensure()
         tmp = self.directory / f".chunk_{i:05d}.tmp{os.getpid()}.npz"
         try:
@@ -153,7 +186,20 @@ class ChunkStore:
     def load(self, orders: list, u_motor: np.ndarray) -> dict[int, dict]:
         """Results of the chunks already finished, checked against the expected commands.
 
-        A chunk file that cannot be read is dropped (and will be solved again)."""
+        A chunk file that cannot be read is dropped (and will be solved again).
+
+        Parameters
+        ----------
+        orders : list of array_like
+            Each chunk's indices into ``u_motor``.
+        u_motor : numpy.ndarray
+            All commands (N, m), rad.
+
+        Returns
+        -------
+        dict
+            Chunk index -> its stored arrays, for the chunks found.
+        """
         done = {}
         for i, order in enumerate(orders):
             path = self._path(i)

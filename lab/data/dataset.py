@@ -29,11 +29,35 @@ class DatasetError(InputError):
 
 
 def columns(n_motors: int) -> list[str]:
+    """The dataset CSV's header.
+
+    Parameters
+    ----------
+    n_motors : int
+        Number of motors m.
+
+    Returns
+    -------
+    list of str
+        ``u0, ..., u{m-1}, x, y, z``.
+    """
     return [f"u{i}" for i in range(n_motors)] + ["x", "y", "z"]
 
 
 def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, metadata: dict) -> None:
-    """Write ``u_motor`` (N, m) rad and ``p_tip_W`` (N, 3) m as CSV + ``.json`` sidecar."""
+    """Write a dataset as CSV + ``.json`` sidecar, both atomically.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file; the sidecar is :func:`sidecar_path` of it.
+    u_motor : numpy.ndarray
+        Commands (N, m), rad.
+    p_tip_W : numpy.ndarray
+        Tips (N, 3), m, frame W.
+    metadata : dict
+        JSON-able fields added to the sidecar.
+    """
     u_motor, p_tip_W = np.asarray(u_motor, float), np.asarray(p_tip_W, float)
     if u_motor.ndim != 2 or p_tip_W.shape != (len(u_motor), 3):
         raise InputError(f"expected u (N, m) and y (N, 3), got {u_motor.shape} and {p_tip_W.shape}")
@@ -59,16 +83,46 @@ def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, me
 
 
 def sidecar_path(path: str | Path) -> Path:
+    """The metadata sidecar of a dataset CSV.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` with ``.json`` appended.
+    """
     return Path(f"{path}.json")
 
 
 def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Load a dataset: ``u_motor`` (N, m) rad, ``p_tip_W`` (N, 3) m, metadata dict.
+    """Load a dataset.
 
-    Raises :class:`DatasetError` naming the problem for a missing file, a bad header,
-    a non-numeric or non-finite value, a sidecar from a newer format, or a file cut short
-    (one that does not match its sidecar's hash, or without one, whose last line lacks
-    the newline every written row ends with)."""
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file (its sidecar is read when present).
+
+    Returns
+    -------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad.
+    p_tip_W : numpy.ndarray
+        Tips (N, 3), m, frame W.
+    metadata : dict
+        The sidecar's fields ({} without one).
+
+    Raises
+    ------
+    DatasetError
+        Naming the problem for a missing file, a bad header, a non-numeric or non-finite
+        value, a sidecar from a newer format, or a file cut short (one that does not match
+        its sidecar's hash, or without one, whose last line lacks the newline every written
+        row ends with).
+    """
     path = Path(path)
     if not path.exists():
         raise DatasetError(f"dataset not found: {path}")

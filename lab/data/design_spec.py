@@ -45,8 +45,32 @@ def _grid_levels(v) -> str | None:
 
 @dataclass(frozen=True)
 class DesignSpec(Spec):
-    """One sampling design; unset, it is the 7-level grid. ``seed`` seeds a design or
-    ``--active``'s picks and ensembles (the command's own ``--seed``)."""
+    """One sampling design; unset, it is the 7-level grid. At most one of ``grid``,
+    ``sobol``, ``lhs``, ``design`` and ``active`` is given.
+
+    Attributes
+    ----------
+    grid : int or None
+        Grid levels per motor (>= 2; default 7).
+    sobol, lhs : int or None
+        N scrambled-Sobol, or Latin-hypercube, safe commands instead of a grid.
+    design : str or None
+        A space-filling design of :data:`~lab.data.designs.DESIGNS`, of ``n`` commands.
+    active : int or None
+        N commands picked in batches of ``batch`` where an ensemble disagrees most.
+    n : int or None
+        Number of commands of ``design``.
+    batch : int or None
+        Samples per batch of ``active``.
+    ensemble_members : int
+        Networks of ``active``'s ensemble (>= 2).
+    ensemble_hidden : tuple of int
+        Hidden layer widths of ``active``'s networks.
+    ensemble_epochs : int or None
+        Most training epochs per network (None: train's).
+    seed : int
+        Seeds a design or ``active``'s picks and ensembles (the command's own seed), >= 0.
+    """
 
     grid: int | None = option(help="grid levels per motor (default 7)", type=int, metavar="LEVELS", check=_grid_levels)
     sobol: int | None = option(
@@ -154,7 +178,13 @@ class DesignSpec(Spec):
         return next((v for v in (self.sobol, self.lhs, self.n) if v is not None), None)
 
     def words(self) -> list[str]:
-        """The flags that reproduce this design (``--sobol N`` as ``--design sobol --n N``)."""
+        """The flags that reproduce this design.
+
+        Returns
+        -------
+        list of str
+            The command-line words (``--sobol N`` as ``--design sobol --n N``).
+        """
         if self.kind == "active":
             words = ["--active", str(self.active), "--batch", str(self.batch)]
             words += ["--ensemble-members", str(self.ensemble_members)]
@@ -168,7 +198,13 @@ class DesignSpec(Spec):
 
     def check(self, robot: RobotDescription) -> None:
         """Refuse (InputError) what does not fit ``robot``: a grid over
-        :data:`MAX_GRID_CANDIDATES` candidate commands."""
+        :data:`MAX_GRID_CANDIDATES` candidate commands.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            Gives the number of motors m.
+        """
         if self.kind == "grid":
             n = self.levels**robot.n_cables
             if n > MAX_GRID_CANDIDATES:
@@ -178,8 +214,20 @@ class DesignSpec(Spec):
                 )
 
     def commands(self, robot: RobotDescription) -> tuple[np.ndarray, dict]:
-        """The safe commands (N, m) rad of a grid or space-filling design, in design order,
-        and the sampler's metadata (JSON-able). Not for ``--active``."""
+        """The safe commands of a grid or space-filling design, in design order. Not for ``active``.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            Gives ``u_max`` and the safety limits.
+
+        Returns
+        -------
+        u_motor : numpy.ndarray
+            The commands (N, m), rad.
+        sampler : dict
+            The sampler's metadata (JSON-able).
+        """
         if self.kind == "active":
             raise InputError("an --active design is picked as it is measured: it has no fixed commands")
         self.check(robot)

@@ -1,4 +1,4 @@
-"""Which motor commands to sample, and the walks (chunks) they are solved in.
+"""Which motor commands to sample.
 
 Samplers give safe motor commands (N, m) in radians: :func:`grid_commands` (``levels``
 equally spaced angles per motor in [0, u_max], the paper's 7x7x7 grid, minus what the
@@ -8,16 +8,12 @@ safety rule forbids), :func:`sobol_commands` (a scrambled Sobol sequence, seeded
 ``"lhs"`` design over the safe set, for capturing a few real samples); :func:`min_distance`
 scores a design (its smallest pairwise distance), :func:`empty_strata` its stratification.
 
-Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands into
-walks whose neighbours are close, so that :func:`lab.data.simulation.simulate` can
-warm-start each solve from the last; they depend only on the commands, never on the
-number of workers.
+The walks (chunks) the commands are solved in: :mod:`lab.data.chunks`.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,15 +21,21 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 
 
-@dataclass
-class Chunk:
-    """Indices into the command array, in the order they are to be solved."""
-
-    order: np.ndarray
-
-
 def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
-    """Safe points of the ``levels**m`` grid over [0, u_max]^m, lexicographic order (N, m)."""
+    """Safe points of the ``levels**m`` grid over [0, u_max]^m, in lexicographic order.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    levels : int
+        Angles per motor, >= 2.
+
+    Returns
+    -------
+    numpy.ndarray
+        The commands (N, m), rad.
+    """
     if levels < 2:
         raise InputError("a grid needs at least 2 levels per motor")
     axis = np.linspace(0.0, robot.u_max_rad, levels)
@@ -42,7 +44,20 @@ def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
 
 
 def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` safe commands from a scrambled Sobol sequence over [0, u_max]^m (n, m)."""
+    """Safe commands from a scrambled Sobol sequence over [0, u_max]^m.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    n, seed : int
+        Number of commands, and the scrambling's seed.
+
+    Returns
+    -------
+    numpy.ndarray
+        The commands (n, m), rad.
+    """
     from scipy.stats import qmc
 
     sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
@@ -91,10 +106,24 @@ def _levels(n_samples: int) -> np.ndarray:
 
 
 def empty_strata(robot: RobotDescription, u_motor: np.ndarray) -> np.ndarray:
-    """Per motor (m,), how many of ``N`` strata hold none of the ``N`` commands (N, m) rad.
+    """Per motor, how many of ``N`` strata hold none of the ``N`` commands.
+
     The strata of a motor are equally likely under uniform sampling of the safe set (equal
     slices of its marginal distribution). 0 for every motor is a Latin hypercube of the
-    safe set; N independent uniform draws leave about N/e empty."""
+    safe set; N independent uniform draws leave about N/e empty.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    u_motor : numpy.ndarray
+        The commands (N, m), rad.
+
+    Returns
+    -------
+    numpy.ndarray
+        Empty strata per motor (m,), int.
+    """
     u = np.asarray(u_motor, dtype=float)
     marg, n = _safe_marginals(robot), len(u)
     out = []
@@ -205,7 +234,20 @@ def _thin_by_strata(x: np.ndarray, n: int) -> np.ndarray:
 
 
 def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` independent uniform commands (n, m) rad over the safe part of [0, u_max]^m."""
+    """Independent uniform commands over the safe part of [0, u_max]^m.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    n, seed : int
+        Number of commands, and the generator's seed.
+
+    Returns
+    -------
+    numpy.ndarray
+        The commands (n, m), rad.
+    """
     rng = np.random.default_rng(seed)
     out = np.empty((0, robot.n_cables))
     for _ in range(1000):
@@ -217,8 +259,20 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
 
 
 def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
-    """Smallest distance between two of the commands (N, m) rad, in normalised command
-    space ``u / u_max`` (inf for fewer than two)."""
+    """Smallest distance between two of the commands, in normalised command space ``u / u_max``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives ``u_max_rad``.
+    u_motor : numpy.ndarray
+        The commands (N, m), rad.
+
+    Returns
+    -------
+    float
+        The distance (dimensionless); inf for fewer than two commands.
+    """
     from scipy.spatial.distance import pdist
 
     u = np.asarray(u_motor, dtype=float) / robot.u_max_rad
@@ -226,11 +280,25 @@ def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
 
 
 def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` safe commands (n, m) rad picked greedily from a pool of safe scrambled-Sobol
-    candidates (``max(4096, 32 n)``, at most 131,072; seeded): first the candidate
+    """Safe commands picked greedily from a pool of safe scrambled-Sobol candidates.
+
+    The pool holds ``max(4096, 32 n)`` candidates, at most 131,072; first the candidate
     farthest from the pool's centroid, then always the one farthest from those already
-    picked, distances in normalised command space ``u / u_max``. Order: the order picked.
-    Like every maximin design it puts its first points on the boundary of the safe set."""
+    picked, distances in normalised command space ``u / u_max``. Like every maximin
+    design it puts its first points on the boundary of the safe set.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    n, seed : int
+        Number of commands, and the pool's seed.
+
+    Returns
+    -------
+    numpy.ndarray
+        The commands (n, m), rad, in the order picked.
+    """
     pool = sobol_commands(robot, min(max(4096, 32 * n), 131_072), seed=seed)
     x = pool / robot.u_max_rad
     first = int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))
@@ -238,8 +306,22 @@ def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarr
 
 
 def greedy_maximin(points: np.ndarray, first: int, n: int) -> list[int]:
-    """Indices of ``n`` of ``points`` (P, d), starting at ``first``: each next one the point
-    whose distance to its nearest already-picked point is largest (ties: the lowest index)."""
+    """Greedy maximin selection: each next point the one farthest from those already picked.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        Candidates (P, d), any unit.
+    first : int
+        Index of the first pick.
+    n : int
+        How many to pick.
+
+    Returns
+    -------
+    list of int
+        The indices picked, in order (ties: the lowest index).
+    """
     picked = [int(first)]
     d_min = np.linalg.norm(points - points[first], axis=1)
     for _ in range(n - 1):
@@ -250,12 +332,27 @@ def greedy_maximin(points: np.ndarray, first: int, n: int) -> list[int]:
 
 
 def design_commands(robot: RobotDescription, n: int, method: str = "maximin", seed: int = 0) -> np.ndarray:
-    """``n`` safe commands (n, m) rad of a space-filling design over the allowed set (in
-    ``[0, u_max]^m`` and passing the robot's safety rule): ``method`` ``"random"``
-    (independent uniform draws), ``"sobol"`` (scrambled Sobol points, :func:`sobol_commands`),
-    ``"maximin"`` (:func:`maximin_commands`) or ``"lhs"`` (a Latin hypercube,
-    :func:`lhs_commands`). Deterministic for a given ``seed`` (>= 0). Raises InputError for
-    an unknown method, ``n < 1``, ``n`` above the method's limit or a bad seed."""
+    """Safe commands of a space-filling design over the allowed set (in ``[0, u_max]^m``
+    and passing the robot's safety rule). Raises InputError for an unknown method,
+    ``n < 1``, ``n`` above the method's limit or a bad seed.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives m, ``u_max_rad`` and the safety rule.
+    n : int
+        Number of commands, >= 1.
+    method : str
+        ``"random"`` (independent uniform draws), ``"sobol"`` (:func:`sobol_commands`),
+        ``"maximin"`` (:func:`maximin_commands`) or ``"lhs"`` (:func:`lhs_commands`).
+    seed : int
+        >= 0; the design is deterministic for a given seed.
+
+    Returns
+    -------
+    numpy.ndarray
+        The commands (n, m), rad.
+    """
     if method not in DESIGNS:
         raise InputError(f"unknown design {method!r}: expected one of {', '.join(DESIGNS)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -276,53 +373,3 @@ def design_commands(robot: RobotDescription, n: int, method: str = "maximin", se
         u = maximin_commands(robot, n, seed)
     assert len(u) == n and np.all(robot.is_safe(u))
     return u
-
-
-def _serpentine(keys: np.ndarray) -> np.ndarray:
-    """Order integer grid keys (N, d) boustrophedon-style: coordinate j runs backwards
-    when the coordinates before it sum to an odd number, so on a full grid consecutive
-    points differ by one step in one coordinate."""
-    sort_keys = keys.copy()
-    for j in range(1, keys.shape[1]):
-        odd = keys[:, :j].sum(axis=1) % 2 == 1
-        sort_keys[:, j] = np.where(odd, -keys[:, j], keys[:, j])
-    return np.lexsort(sort_keys.T[::-1])
-
-
-def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int = 64) -> list[Chunk]:
-    """Chunks of grid commands: grouped by their leading grid indices, ~``target_size``
-    commands each, each walked serpentine so successive commands differ by one step."""
-    levels = np.unique(u_motor)
-    spacing = np.min(np.diff(levels)) if len(levels) > 1 else robot.u_max_rad
-    keys = np.rint(u_motor / spacing).astype(int)
-    n_levels = keys.max() + 1
-    lead = 0
-    while lead < robot.n_cables - 1 and n_levels ** (robot.n_cables - lead) > target_size:
-        lead += 1
-    groups: dict[tuple, list[int]] = {}
-    for i, k in enumerate(keys):
-        groups.setdefault(tuple(k[:lead]), []).append(i)
-    chunks = []
-    for _, idx in sorted(groups.items()):
-        idx = np.asarray(idx)
-        # Serpentine over the trailing indices only, so every chunk starts near rest.
-        chunks.append(Chunk(idx[_serpentine(keys[idx][:, lead:])]))
-    return chunks
-
-
-def nearest_neighbour_chunks(u_motor: np.ndarray, size: int = 64) -> list[Chunk]:
-    """Chunks of consecutive commands, each ordered by a greedy nearest-neighbour walk
-    starting from the command closest to rest (for scattered samples such as Sobol)."""
-    chunks = []
-    for start in range(0, len(u_motor), size):
-        idx = np.arange(start, min(start + size, len(u_motor)))
-        left = list(idx)
-        cur = min(left, key=lambda i: np.linalg.norm(u_motor[i]))
-        order = []
-        while left:
-            left.remove(cur)
-            order.append(cur)
-            if left:
-                cur = min(left, key=lambda i: np.linalg.norm(u_motor[i] - u_motor[cur]))
-        chunks.append(Chunk(np.asarray(order)))
-    return chunks

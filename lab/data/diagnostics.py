@@ -46,7 +46,21 @@ MAD_TO_SIGMA = 1.4826
 
 @dataclass(frozen=True)
 class InspectSpec(Spec):
-    """The settings of :func:`inspect_dataset` (flags of ``python -m lab inspect``)."""
+    """The settings of :func:`inspect_dataset` (flags of ``python -m lab inspect``).
+
+    Attributes
+    ----------
+    neighbours : int
+        Nearest rows in scaled command space per row: the near pairs and the local fit.
+    bootstrap : int
+        Resamples for each 95-percent interval (and permutations of the hysteresis test).
+    outlier_mads : float
+        Outlier threshold: median + K robust sigmas (1.4826 MAD) of the local-fit residual.
+    block_rows : int
+        Drift: sequences are cut into blocks of at most this many rows.
+    seed : int
+        Random seed of the bootstrap, >= 0.
+    """
 
     neighbours: int = option(
         5, type=int, check=at_most(MAX_NEIGHBOURS, positive_int), metavar="K",
@@ -91,15 +105,33 @@ def drift(
     The residual ``r`` of a local fit from rows outside the row's block (:func:`local_residuals`)
     holds ``v (t - t_fit)`` for a drift ``v`` (m per row), ``t`` the row index and ``t_fit``
     the mean row index of the rows the fit used; ``r`` is regressed on ``t - t_fit`` within
-    each sequence (both minus their sequence mean) for the slope ``v`` (3,). Returns
-    ``rate_m_per_1000_rows`` = 1000 |v| with a 95 % ``interval`` (bootstrap over blocks),
-    ``velocity_m_per_1000_rows`` (3,);
-    ``row_index_r2_from_command``: how much of the row index the commands explain linearly
-    within sequences (near 1: drift and command order cannot be told apart);
-    ``offset_rms_m``: RMS 3-D mean residual of the sequences (between-session offsets);
-    ``pairs_gap_m2_per_1000_rows``: the rise of the squared tip difference of ``pairs``
-    (P, 2) in one sequence per 1000 rows between them (a fit with ``d^2``), with interval;
-    ``blocks`` and ``sample`` for a figure."""
+    each sequence (both minus their sequence mean) for the slope ``v`` (3,).
+
+    Parameters
+    ----------
+    u_motor : array_like
+        Commands (N, m), rad.
+    p_tip_W : array_like
+        Tips (N, 3), m, frame W.
+    seq_ids : array_like
+        Sequence number (N,) of each row, ascending.
+    pairs : numpy.ndarray
+        Near pairs (P, 2) of row indices (:func:`neighbour_pairs`).
+    neighbours, block_rows, bootstrap, seed : int
+        As in :class:`InspectSpec`.
+
+    Returns
+    -------
+    dict
+        ``rate_m_per_1000_rows`` = ``1000 |v|`` with a 95 % ``interval`` (bootstrap over
+        blocks), ``velocity_m_per_1000_rows`` (3,);
+        ``row_index_r2_from_command``: how much of the row index the commands explain
+        linearly within sequences (near 1: drift and command order cannot be told apart);
+        ``offset_rms_m``: RMS 3-D mean residual of the sequences (between-session offsets);
+        ``pairs_gap_m2_per_1000_rows``: the rise of the squared tip difference of ``pairs``
+        in one sequence per 1000 rows between them (a fit with ``d^2``), with interval;
+        ``blocks`` and ``sample`` for a figure.
+    """
     u, y, seq = np.asarray(u_motor, float), np.asarray(p_tip_W, float), np.asarray(seq_ids)
     n, rng = len(y), np.random.default_rng(seed)
     block = _blocks(seq, block_rows)
@@ -170,9 +202,26 @@ def _pair_gaps(u, y, seq, pairs, bootstrap, rng) -> dict:
 
 def outliers(u_motor, p_tip_W, *, neighbours: int = 5, outlier_mads: float = 5.0) -> dict:
     """Rows whose leave-one-out local-fit residual (3-D norm, m) exceeds median + k * 1.4826 MAD.
-    Returns ``count``, ``rows`` (0-based indices), ``residual_m`` (theirs), ``threshold_m``,
-    ``median_m``, ``robust_sigma_m``, and ``residual_rms_m``: the RMS 3-D residual of that
-    local fit over all rows (what a simple local model reaches, an upper reference for the floor)."""
+
+    Parameters
+    ----------
+    u_motor : array_like
+        Commands (N, m), rad.
+    p_tip_W : array_like
+        Tips (N, 3), m, frame W.
+    neighbours : int
+        Rows of each local fit.
+    outlier_mads : float
+        k, in robust sigmas.
+
+    Returns
+    -------
+    dict
+        ``count``, ``rows`` (0-based indices), ``residual_m`` (theirs), ``threshold_m``,
+        ``median_m``, ``robust_sigma_m``, and ``residual_rms_m``: the RMS 3-D residual of
+        that local fit over all rows (what a simple local model reaches, an upper
+        reference for the floor).
+    """
     r = np.linalg.norm(local_residuals(u_motor, p_tip_W, neighbours), axis=1)
     ok = np.isfinite(r)
     med = float(np.median(r[ok])) if ok.any() else 0.0
@@ -191,11 +240,27 @@ def outliers(u_motor, p_tip_W, *, neighbours: int = 5, outlier_mads: float = 5.0
 
 
 def inspect_dataset(u_motor, p_tip_W, seq_ids=None, spec: InspectSpec | None = None) -> dict:
-    """All diagnostics of a dataset: ``u_motor`` (N, m), ``p_tip_W`` (N, 3) m, ``seq_ids``
-    (N,) int ascending in row order (None: one sequence). Returns the report: a JSON-ready
-    dict with ``format_version``, ``kind``, sizes, the ``spec``, and the sections ``floor``,
-    ``hysteresis``, ``drift``, ``outliers`` (lengths in m); ``floor["cautions"]``: sentences
-    on how far the floor was extrapolated and whether a local fit contradicts it."""
+    """All diagnostics of a dataset.
+
+    Parameters
+    ----------
+    u_motor : array_like
+        Commands (N, m), rad.
+    p_tip_W : array_like
+        Tips (N, 3), m, frame W.
+    seq_ids : array_like, optional
+        Sequence numbers (N,) int, ascending in row order from 0; None: one sequence.
+    spec : InspectSpec, optional
+        The settings; default ``InspectSpec()``.
+
+    Returns
+    -------
+    dict
+        The report, JSON-ready: ``format_version``, ``kind``, sizes, the ``spec``, and the
+        sections ``floor``, ``hysteresis``, ``drift``, ``outliers`` (lengths in m);
+        ``floor["cautions"]``: sentences on how far the floor was extrapolated and whether
+        a local fit contradicts it.
+    """
     spec = spec or InspectSpec()
     u, y = np.asarray(u_motor, float), np.asarray(p_tip_W, float)
     if u.ndim != 2 or y.shape != (len(u), 3):
@@ -248,8 +313,24 @@ def _cautions(floor: dict, out: dict, neighbours: int) -> list[str]:
 
 
 def inspect_file(path, out, spec: InspectSpec | None = None, *, command: str | None = None) -> dict:
-    """Read the dataset ``path`` (CSV + sidecar; sequences from its ``sequence_starts``),
-    inspect it and write the report as JSON to ``out`` (atomically). Returns the report."""
+    """Read a dataset, inspect it and write the report as JSON (atomically).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset CSV (+ sidecar; sequences from its ``sequence_starts``).
+    out : str or pathlib.Path
+        The report file to write.
+    spec : InspectSpec, optional
+        The settings; default ``InspectSpec()``.
+    command : str, optional
+        The command line that made the report, recorded in it.
+
+    Returns
+    -------
+    dict
+        The report (:func:`inspect_dataset`).
+    """
     from lab.data.dataset import read_dataset
     from lab.data.sequences import sequence_ids
     from lab.files import atomic_write_text

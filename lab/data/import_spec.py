@@ -44,7 +44,29 @@ def _text(v) -> str | None:
 
 @dataclass(frozen=True)
 class ImportSpec(Spec):
-    """How to read external measurement files into (u, y) rows; see the module docstring."""
+    """How to read external measurement files into (u, y) rows; see the module docstring.
+
+    Attributes
+    ----------
+    u : tuple of str
+        The input columns, in order (they become u0, u1, ...).
+    y : tuple of str
+        The tip's x, y, z columns (exactly 3).
+    u_unit : str
+        The inputs' unit, free text kept in the sidecar (e.g. effort, mm, rad).
+    y_unit : str
+        The positions' unit (a key of ``Y_UNITS``); converted to metres.
+    group : str or None
+        A column whose value changes where a new measurement sequence starts.
+    id : str or None
+        With observation files: pair input and observation rows on this column.
+    drop_bad_rows : bool
+        Drop (and count) rows with a NaN, empty or non-numeric value instead of an error.
+    licence, source : str or None
+        The data's licence, and where the data come from; kept in the sidecar.
+    name : str or None
+        The robot's name in the sidecar (default: the output file's stem).
+    """
 
     u: tuple[str, ...] | None = option(
         help="the input columns, comma-separated, in order (they become u0, u1, ...), e.g. u1,u2,u3,u4,u5,u6",

@@ -32,9 +32,21 @@ __all__ = ["Measurements", "ImportResult", "read_measurements", "import_dataset"
 
 @dataclass(frozen=True)
 class Measurements:
-    """Imported rows: ``u`` (N, m) in the ``--u-unit``, ``y_m`` (N, d) metres,
-    ``sequence_starts`` (first row of each sequence, from 0), ``row_groups`` (one dict per
-    file or pair: start, stop, sources, dropped, join) and ``notes`` (rules applied)."""
+    """Imported rows.
+
+    Attributes
+    ----------
+    u : numpy.ndarray
+        Inputs (N, m), in the spec's ``u_unit``.
+    y_m : numpy.ndarray
+        Positions (N, d), m.
+    sequence_starts : list of int
+        First row of each sequence, from 0.
+    row_groups : list of dict
+        One per file or pair: start, stop, sources, dropped, join.
+    notes : list of str
+        The rules applied.
+    """
 
     u: np.ndarray
     y_m: np.ndarray
@@ -43,7 +55,13 @@ class Measurements:
     notes: list[str]
 
     def dropped(self) -> dict:
-        """Rows dropped over all groups, per reason."""
+        """Rows dropped over all groups, per reason.
+
+        Returns
+        -------
+        dict
+            Reason (``nan``, ``non_numeric``, ``unmatched_id``) -> number of rows.
+        """
         return _total_dropped(self.row_groups)
 
 
@@ -57,7 +75,19 @@ def _total_dropped(row_groups) -> dict:
 
 @dataclass(frozen=True)
 class ImportResult:
-    """What :func:`import_dataset` wrote: the rows, sequences and groups, drops and notes."""
+    """What :func:`import_dataset` wrote: the rows, sequences and groups, drops and notes.
+
+    Attributes
+    ----------
+    out : str
+        The dataset written.
+    n_rows, n_sequences, n_groups : int
+        Its rows, measurement sequences and row groups (files or pairs).
+    dropped : dict
+        Rows dropped, per reason.
+    notes : list of str
+        The rules applied.
+    """
 
     out: str
     n_rows: int
@@ -179,10 +209,24 @@ def read_measurements(spec: ImportSpec, files, observations=()) -> Measurements:
     """Read ``files`` (each with the ``--u`` and ``--y`` columns), or ``files[i]`` (the
     ``--u`` columns) paired with ``observations[i]`` (the ``--y`` columns), as ``spec`` says.
 
-    Returns :class:`Measurements`: inputs (N, m), positions (N, d) in metres for any number
-    d of ``--y`` columns, sequence starts and per-group provenance. InputError for bad input
-    (naming the file, line and column), unequal numbers of files and observation files,
-    ``--id`` without observation files, or no rows left."""
+    InputError for bad input (naming the file, line and column), unequal numbers of files
+    and observation files, ``--id`` without observation files, or no rows left.
+
+    Parameters
+    ----------
+    spec : ImportSpec
+        Which columns, units, groups and IDs.
+    files : iterable of str or pathlib.Path
+        The input CSV files.
+    observations : iterable of str or pathlib.Path
+        Observation files, one per input file, or none.
+
+    Returns
+    -------
+    Measurements
+        Inputs (N, m), positions (N, d) in metres for any number d of ``--y`` columns,
+        sequence starts and per-group provenance.
+    """
     files, observations = list(files), list(observations)
     if not files:
         raise InputError("no input FILE given")
@@ -216,7 +260,26 @@ def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: st
     the lab dataset ``out`` (u (N, m) in ``--u-unit``, tip (N, 3) metres) with its sidecar:
     ``sequence_starts``, ``robot`` (kind "measured", input limits from the data), ``units``,
     ``licence``, ``source``, ``row_groups``, ``notes``, ``import`` and ``command``. A lab
-    dataset holds the tip position, so ``--y`` must name exactly 3 columns."""
+    dataset holds the tip position, so ``--y`` must name exactly 3 columns.
+
+    Parameters
+    ----------
+    spec : ImportSpec
+        Which columns, units, groups and IDs.
+    files : iterable of str or pathlib.Path
+        The input CSV files.
+    out : str or pathlib.Path
+        The dataset CSV to write.
+    observations : iterable of str or pathlib.Path
+        Observation files, one per input file, or none.
+    command : str, optional
+        The command line, recorded in the sidecar.
+
+    Returns
+    -------
+    ImportResult
+        What was written.
+    """
     if len(spec.y) != 3:
         raise InputError(
             f"--y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip position, give "

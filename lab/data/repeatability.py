@@ -34,7 +34,18 @@ SAMPLE_PAIRS = 1500
 
 
 def scaled_commands(u_motor: np.ndarray) -> np.ndarray:
-    """``u_motor`` (N, m) mapped per motor to [0, 1] by the data's range (a constant motor: 0)."""
+    """Commands mapped per motor to [0, 1] by the data's range (a constant motor: 0).
+
+    Parameters
+    ----------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad (or the data's input unit).
+
+    Returns
+    -------
+    numpy.ndarray
+        Scaled commands (N, m), dimensionless.
+    """
     u = np.asarray(u_motor, float)
     span = u.max(0) - u.min(0)
     return (u - u.min(0)) / np.where(span > 0, span, 1.0)
@@ -45,8 +56,22 @@ def neighbour_pairs(u_motor: np.ndarray, neighbours: int) -> tuple[np.ndarray, n
     rows in scaled command space, plus every pair of exact revisits (commands equal to 1e-9
     of each motor's range).
 
-    Returns ``pairs`` (P, 2) int with ``i < j``, each pair once; ``distance`` (P,) their
-    scaled command distance (dimensionless, a motor's whole range is 1); ``exact`` (P,) bool."""
+    Parameters
+    ----------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad (or the data's input unit).
+    neighbours : int
+        Nearest rows per row.
+
+    Returns
+    -------
+    pairs : numpy.ndarray
+        (P, 2) int with ``i < j``, each pair once.
+    distance : numpy.ndarray
+        (P,) their scaled command distance (dimensionless, a motor's whole range is 1).
+    exact : numpy.ndarray
+        (P,) bool: an exact revisit.
+    """
     from scipy.spatial import cKDTree
 
     z = scaled_commands(u_motor)
@@ -83,9 +108,24 @@ def revisit_floor(u_motor: np.ndarray, p_tip_W: np.ndarray) -> float | None:
 
 
 def local_residuals(u_motor: np.ndarray, values: np.ndarray, neighbours: int, groups=None) -> np.ndarray:
-    """Each row's ``values`` (N, c), e.g. the tip (m), minus their mean over the row's
-    ``neighbours`` nearest rows (scaled command space) that are not in its own group: (N, c).
-    ``groups`` (N,) int; ``None``: leave one row out. A row without such a neighbour: NaN."""
+    """Each row's values minus their mean over the row's nearest rows outside its own group.
+
+    Parameters
+    ----------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad (or the data's input unit).
+    values : numpy.ndarray
+        (N, c), e.g. the tip (m).
+    neighbours : int
+        Nearest rows (scaled command space) in each mean.
+    groups : numpy.ndarray, optional
+        (N,) int; None: leave one row out.
+
+    Returns
+    -------
+    numpy.ndarray
+        Residuals (N, c), units of ``values``; NaN for a row without such a neighbour.
+    """
     from scipy.spatial import cKDTree
 
     z, y = scaled_commands(u_motor), np.asarray(values, float)
@@ -165,7 +205,24 @@ def repeatability_floor(
     twice in a row: measurement noise, RMS 3-D); the fit (``intercept_m2``, ``slope_m2``);
     ``per_axis_m`` (x, y, z); ``min_distance``: the nearest pair that is not an exact revisit
     (without revisits the floor is extrapolated from there to 0); ``bins`` and ``sample``
-    (distance, tip difference) for a figure."""
+    (distance, tip difference) for a figure.
+
+    Parameters
+    ----------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad (or the data's input unit).
+    p_tip_W : numpy.ndarray
+        Tips (N, 3), m, frame W.
+    seq_ids : numpy.ndarray
+        Sequence number (N,) int of each row.
+    neighbours, bootstrap, seed : int
+        Nearest rows per row, bootstrap resamples, and the bootstrap's seed.
+
+    Returns
+    -------
+    dict
+        JSON-ready, as above; lengths in m.
+    """
     y = np.asarray(p_tip_W, float)
     seq = np.asarray(seq_ids)
     rng = np.random.default_rng(seed)
@@ -261,7 +318,26 @@ def hysteresis(
     explains nothing); ``fraction_of_residual``: the same share of what the current command
     leaves unexplained; ``fraction_in_sample``; ``p_value`` (a permutation test over pairs);
     ``slope_m_per_unit``: the largest singular value of the previous-command coefficient
-    (m of tip per unit of command), with ``per_motor_m_per_unit``; ``sample`` for a figure."""
+    (m of tip per unit of command), with ``per_motor_m_per_unit``; ``sample`` for a figure.
+
+    Parameters
+    ----------
+    u_motor : numpy.ndarray
+        Commands (N, m), rad (or the data's input unit).
+    p_tip_W : numpy.ndarray
+        Tips (N, 3), m, frame W.
+    seq_ids : numpy.ndarray
+        Sequence number (N,) int of each row.
+    pairs : numpy.ndarray
+        Near pairs (P, 2) of row indices (:func:`neighbour_pairs`).
+    permutations, seed : int
+        Permutations of the test, and their seed.
+
+    Returns
+    -------
+    dict
+        JSON-ready, as above.
+    """
     u, y, seq = np.asarray(u_motor, float), np.asarray(p_tip_W, float), np.asarray(seq_ids)
     m = u.shape[1]
     i, j = pairs[:, 0], pairs[:, 1]

@@ -21,9 +21,24 @@ __all__ = ["sequence_ids", "sequence_starts_of", "contiguous_blocks"]
 def sequence_starts_of(meta: dict, n_rows: int, *, where: str = "the dataset sidecar") -> np.ndarray:
     """The first row of each sequence, from a sidecar dict ``meta``.
 
-    Returns an int array (k,), ascending, starting with 0; ``[0]`` when ``meta`` has no
-    ``sequence_starts``. InputError (naming ``where``) for starts that are not ascending
-    integers in ``[0, n_rows)`` beginning with 0."""
+    InputError (naming ``where``) for starts that are not ascending integers in
+    ``[0, n_rows)`` beginning with 0.
+
+    Parameters
+    ----------
+    meta : dict
+        The dataset's sidecar.
+    n_rows : int
+        The dataset's rows.
+    where : str
+        What to name in an error.
+
+    Returns
+    -------
+    numpy.ndarray
+        The starts (k,) int, ascending, starting with 0; ``[0]`` when ``meta`` has no
+        ``sequence_starts``.
+    """
     starts = meta.get("sequence_starts") if isinstance(meta, dict) else None
     if starts is None:
         return np.zeros(1, dtype=int)
@@ -43,7 +58,22 @@ def sequence_starts_of(meta: dict, n_rows: int, *, where: str = "the dataset sid
 
 
 def sequence_ids(meta: dict, n_rows: int, *, where: str = "the dataset sidecar") -> np.ndarray:
-    """The sequence number of each row: int array (n_rows,), 0, 0, ..., 1, 1, ... in row order."""
+    """The sequence number of each row.
+
+    Parameters
+    ----------
+    meta : dict
+        The dataset's sidecar.
+    n_rows : int
+        The dataset's rows.
+    where : str
+        What to name in an error.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_rows,) int: 0, 0, ..., 1, 1, ... in row order.
+    """
     starts = sequence_starts_of(meta, n_rows, where=where)
     ids = np.zeros(n_rows, dtype=int)
     ids[starts[1:]] = 1
@@ -51,9 +81,22 @@ def sequence_ids(meta: dict, n_rows: int, *, where: str = "the dataset sidecar")
 
 
 def contiguous_blocks(n_rows: int, n_blocks: int) -> np.ndarray:
-    """Sequence numbers that cut ``n_rows`` rows in measurement order into ``n_blocks``
-    contiguous blocks of nearly equal size: int array (n_rows,). For a group split of data
-    measured as one long sequence (neighbours in time stay on one side of the split)."""
+    """Sequence numbers that cut rows in measurement order into contiguous blocks of nearly
+    equal size. For a group split of data measured as one long sequence (neighbours in time
+    stay on one side of the split).
+
+    Parameters
+    ----------
+    n_rows : int
+        Rows to cut.
+    n_blocks : int
+        Blocks, 1 to ``n_rows``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_rows,) int block number of each row.
+    """
     if n_blocks < 1 or n_rows < n_blocks:
         raise InputError(f"cannot cut {n_rows} rows into {n_blocks} contiguous blocks")
     return (np.arange(n_rows) * n_blocks) // n_rows

@@ -16,10 +16,10 @@ import sys
 import numpy as np
 
 from lab.data import simulation
+from lab.data.chunks import grid_chunks, nearest_neighbour_chunks
 from lab.data.chunkstore import remove_checkpoint
 from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
-from lab.data.designs import grid_chunks, nearest_neighbour_chunks
 from lab.description import RobotDescription
 from lab.fem.bodies.mesh import cylinder_mesh
 
@@ -47,10 +47,39 @@ def simulate_fixed(
     scheduler: str | None = None,
     file=None,
 ) -> tuple[np.ndarray, dict, dict]:
-    """The commands ``u`` (N, m) rad of a grid or space-filling ``design``, the solver's
-    result (:func:`lab.data.simulation.simulate`: ``p_tip_W`` (N, 3) m, per-sample stats,
-    ``wall_s``, ``resumed_samples``) and the sampler's metadata. Chunks of
-    ``chunk_size`` commands are kept in ``checkpoint`` as they finish."""
+    """Simulate a grid or space-filling design.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    design : DesignSpec
+        A grid or space-filling design (not ``active``).
+    n_rings, n_axial : int
+        The mesh's resolution.
+    checkpoint : str or os.PathLike or None
+        Where chunks of ``chunk_size`` commands are kept as they finish.
+    jobs : int
+        Worker processes.
+    chunk_size : int
+        Commands per walk.
+    progress : bool
+        Show a progress bar.
+    scheduler : str, optional
+        A Dask scheduler's address.
+    file : file-like, optional
+        Where the opening line goes (default stderr).
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The commands (N, m), rad.
+    res : dict
+        The solver's result (:func:`lab.data.simulation.simulate`: ``p_tip_W`` (N, 3) m,
+        per-sample stats, ``wall_s``, ``resumed_samples``).
+    sampler : dict
+        The sampler's metadata.
+    """
     u, sampler = design.commands(robot)
     sampler["n_safe"] = len(u)
     if design.method == "sobol":
@@ -85,8 +114,28 @@ def solve_batch(
     progress: bool = False,
     scheduler: str | None = None,
 ) -> dict:
-    """One batch of commands (B, m) rad solved in nearest-neighbour walks of
-    ``chunk_size``, without a checkpoint: :func:`lab.data.simulation.simulate`'s result."""
+    """One batch of commands solved in nearest-neighbour walks, without a checkpoint.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    u_batch : numpy.ndarray
+        Commands (B, m), rad.
+    n_rings, n_axial : int
+        The mesh's resolution.
+    jobs, chunk_size : int
+        Worker processes, and commands per walk.
+    progress : bool
+        Show a progress bar.
+    scheduler : str, optional
+        A Dask scheduler's address.
+
+    Returns
+    -------
+    dict
+        :func:`lab.data.simulation.simulate`'s result (``p_tip_W`` (B, 3) m, ...).
+    """
     return simulation.simulate(
         robot,
         u_batch,
@@ -116,7 +165,38 @@ def write_simulated(
 ) -> dict:
     """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) rad and the
     solver's result ``res``, then remove the ``checkpoint`` it now holds; returns the
-    metadata written. Prints where resumed samples came from and what was written."""
+    metadata written. Prints where resumed samples came from and what was written.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The dataset CSV.
+    robot : RobotDescription
+        The robot simulated.
+    n_rings, n_axial : int
+        The mesh's resolution.
+    u : numpy.ndarray
+        Commands (N, m), rad.
+    res : dict
+        :func:`lab.data.simulation.simulate`'s result for ``u``.
+    sampler : dict
+        The sampler's metadata.
+    checkpoint : str or os.PathLike or None
+        The checkpoint to remove once written.
+    jobs : int
+        Worker processes used (recorded).
+    scheduler : str or None
+        The Dask scheduler used (recorded).
+    command : str
+        The command line (recorded).
+    file : file-like, optional
+        Where the messages go (default stderr).
+
+    Returns
+    -------
+    dict
+        The sidecar's metadata as written.
+    """
     from lab.fem.solve.linsolve import default_backend
 
     file = sys.stderr if file is None else file

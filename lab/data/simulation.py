@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from lab.data.designs import Chunk
+from lab.data.chunks import Chunk
 from lab.description import RobotDescription
 from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import solve_static
@@ -38,14 +38,30 @@ def _fem(robot: RobotDescription, n_rings: int, n_axial: int) -> ArmFEM:
 
 
 def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np.ndarray) -> dict:
-    """Solve a walk of commands (K, m) with warm starts; returns tips (K, 3) and stats.
+    """Solve a walk of commands with warm starts, starting from rest.
 
     Each solve starts from the best prediction of :class:`lab.fem.solve.warmstart.WalkPredictor`
     where the exact Hessian is positive definite, if one of the first ``START_TRIES`` is
     (starting where it is not costs several extra factorisations; the best prediction
     was such a start at 2 of the 308 grid points), and refines dq/du along
     the walk's steps into and out of its command, which the next predictions use.
-    Per sample, ``iterations``, ``factorizations`` and ``time_s`` count all of that."""
+    Per sample, ``iterations``, ``factorizations`` and ``time_s`` count all of that.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    n_rings, n_axial : int
+        The mesh's resolution.
+    u_chunk : numpy.ndarray
+        The walk's commands (K, m), rad, in order.
+
+    Returns
+    -------
+    dict
+        ``p_tip_W`` (K, 3) m, frame W; ``iterations`` (K,), ``factorizations`` (K,) and
+        ``time_s`` (K,) s.
+    """
     fem = _fem(robot, n_rings, n_axial)
     walk = [np.zeros(robot.n_cables)] + [np.asarray(u, float) for u in u_chunk]
     predictor = WalkPredictor(fem)
@@ -95,18 +111,36 @@ def simulate(
     checkpoint: str | os.PathLike | None = None,
     scheduler: str | None = None,
 ) -> dict:
-    """Tip positions (N, 3) m for commands ``u_motor`` (N, m), solved chunk by chunk.
+    """Tip positions for commands, solved chunk by chunk.
 
-    ``n_jobs``: worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
-    ``checkpoint``: a directory where each finished chunk is stored at once; a run
-    started again with the same arguments loads those and solves only the rest
-    (see :mod:`lab.data.chunkstore`). ``scheduler``: the address of a Dask scheduler
-    (``tcp://host:port``) to run the chunks on a cluster through joblib's Dask backend
-    instead of local processes (its workers need this package installed and should run
-    one thread each, e.g. ``dask worker --nthreads 1`` with ``OMP_NUM_THREADS=1``).
-    The progress bar shows the samples done and an ETA.
-    Returns ``p_tip_W`` plus per-sample ``iterations``, ``factorizations`` and ``time_s``, ``wall_s`` and
-    ``resumed_samples`` (how many came from the checkpoint).
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    u_motor : numpy.ndarray
+        Commands (N, m), rad.
+    chunks : list of Chunk
+        The walks covering every command (:mod:`lab.data.chunks`).
+    n_rings, n_axial : int, optional
+        The mesh's resolution; default the robot's.
+    n_jobs : int
+        Worker processes (joblib/loky, one BLAS/MKL thread each); 1 runs here.
+    progress : bool
+        Show a progress bar (the samples done and an ETA).
+    checkpoint : str or os.PathLike, optional
+        A directory where each finished chunk is stored at once; a run started again with
+        the same arguments loads those and solves only the rest (see :mod:`lab.data.chunkstore`).
+    scheduler : str, optional
+        The address of a Dask scheduler (``tcp://host:port``) to run the chunks on a cluster
+        through joblib's Dask backend instead of local processes (its workers need this
+        package installed and should run one thread each, e.g. ``dask worker --nthreads 1``
+        with ``OMP_NUM_THREADS=1``).
+
+    Returns
+    -------
+    dict
+        ``p_tip_W`` (N, 3) m, frame W, plus per-sample ``iterations``, ``factorizations`` and
+        ``time_s`` (s), ``wall_s`` (s) and ``resumed_samples`` (how many came from the checkpoint).
     """
     from joblib import Parallel, delayed, parallel_config
     from tqdm.auto import tqdm

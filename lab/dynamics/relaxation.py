@@ -34,9 +34,19 @@ class DynamicsFileError(InputError):
 
 @dataclass(frozen=True)
 class Relaxation:
-    """``K`` relaxation modes: time constants ``tau_s`` (K,) s, weights ``weight`` (K,) summing
-    to 1; ``noise_sigma_m``: motion-capture noise per axis and frame (m; NaN if unknown);
-    ``info``: JSON-able notes (how it was fitted)."""
+    """``K`` relaxation modes, the same for every axis of the tip.
+
+    Attributes
+    ----------
+    tau_s : numpy.ndarray
+        Time constants (K,), s, each > 0.
+    weight : numpy.ndarray
+        Weights (K,) of the modes, each >= 0, summing to 1.
+    noise_sigma_m : float
+        Motion-capture noise per axis and frame (m); NaN if unknown.
+    info : dict
+        JSON-able notes (how it was fitted).
+    """
 
     tau_s: np.ndarray
     weight: np.ndarray
@@ -59,14 +69,35 @@ class Relaxation:
         return len(self.tau_s)
 
     def step(self, t_s) -> np.ndarray:
-        """Fraction (same shape as ``t_s``) of an equilibrium step covered ``t_s`` s after it
-        (0 before the step)."""
+        """Fraction of an equilibrium step covered ``t_s`` s after it (0 before the step).
+
+        Parameters
+        ----------
+        t_s : array_like
+            Times since the step (s), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The covered fraction in [0, 1], same shape as ``t_s``.
+        """
         t = np.asarray(t_s, float)
         covered = 1.0 - np.tensordot(np.exp(-np.maximum(t, 0.0)[..., None] / self.tau_s), self.weight, axes=1)
         return np.where(t > 0, covered, 0.0)
 
     def settle_time(self, fraction: float) -> float:
-        """Seconds after a step until all but ``fraction`` (e.g. 1e-3) of it is covered."""
+        """Seconds after a step until all but ``fraction`` of it is covered.
+
+        Parameters
+        ----------
+        fraction : float
+            The part of the step still to go (e.g. 1e-3), in (0, 1).
+
+        Returns
+        -------
+        float
+            The settling time (s).
+        """
         from scipy.optimize import brentq
 
         return float(brentq(lambda t: 1.0 - self.step(t) - fraction, 0.0, 50.0 * self.tau_s.max()))
@@ -74,7 +105,19 @@ class Relaxation:
     def interval(self, dt_s: float, s0: float = 1.0, s1: float = 1.0):
         """One exactly integrated interval of ``dt_s`` s in which the equilibrium is
         ``e_a (1 - s) + e_b s`` with ``s`` going linearly from ``s0`` to ``s1``.
-        Returns ``(decay, g_a, g_b)``, each (K,): ``z_k <- decay_k z_k + g_a_k e_a + g_b_k e_b``."""
+
+        Parameters
+        ----------
+        dt_s : float
+            Length of the interval (s), >= 0.
+        s0, s1 : float
+            The ramp parameter ``s`` (dimensionless) at the start and the end of the interval.
+
+        Returns
+        -------
+        decay, g_a, g_b : numpy.ndarray
+            Each (K,): the modes update as ``z_k <- decay_k z_k + g_a_k e_a + g_b_k e_b``.
+        """
         dt = float(dt_s)
         if dt < 0:
             raise InputError(f"time went backwards by {-dt} s")
@@ -89,9 +132,25 @@ class Relaxation:
         return decay, g_a, g_b
 
     def response(self, t_knots_s, p_knots, t_eval_s, z0=None) -> np.ndarray:
-        """The tip (n_eval, d) at times ``t_eval_s`` for an equilibrium that is linear between
-        the knots ``(t_knots_s (n,), p_knots (n, d))`` and held after the last one. Before
-        the first knot the modes are at ``z0`` (K, d), or settled at ``p_knots[0]``."""
+        """The filtered tip for an equilibrium that is linear between knots and held after the last.
+
+        Parameters
+        ----------
+        t_knots_s : array_like
+            Knot times (n,), s, non-decreasing.
+        p_knots : array_like
+            The equilibrium at the knots, (n, d) or (n,) (e.g. m, frame W).
+        t_eval_s : array_like
+            Times (n_eval,), s, at which to evaluate the tip, in any order.
+        z0 : array_like, optional
+            The modes (K, d) before the first knot; default settled at ``p_knots[0]``.
+
+        Returns
+        -------
+        numpy.ndarray
+            The tip (n_eval, d) at ``t_eval_s``, in the units of ``p_knots``; (n_eval,) when
+            ``p_knots`` is 1-D.
+        """
         tk, pk = np.asarray(t_knots_s, float), np.asarray(p_knots, float)
         squeeze = pk.ndim == 1
         pk = pk[:, None] if squeeze else pk
@@ -122,10 +181,25 @@ class Relaxation:
         return out[:, 0] if squeeze else out
 
     def invert(self, t_s, p_des, smoothing: float = 1e-3) -> np.ndarray:
-        """Feed-forward pre-compensation: the equilibrium path (N, d), linear between the
-        uniform times ``t_s`` (N,) s, whose filtered tip follows ``p_des`` (N, d) m, starting
-        settled. Least squares with a small penalty ``smoothing`` on second differences (the
-        exact inverse of a sampled filter rings at the Nyquist frequency)."""
+        """Feed-forward pre-compensation: the equilibrium path whose filtered tip follows a path.
+
+        Least squares, starting settled, with a small penalty on second differences (the
+        exact inverse of a sampled filter rings at the Nyquist frequency).
+
+        Parameters
+        ----------
+        t_s : array_like
+            Uniform times (N,), s, N >= 3; the equilibrium is linear between them.
+        p_des : array_like
+            The desired tip path (N, d), m.
+        smoothing : float
+            Weight of the second-difference penalty (dimensionless).
+
+        Returns
+        -------
+        numpy.ndarray
+            The equilibrium path (N, d), m.
+        """
         t, y = np.asarray(t_s, float), np.asarray(p_des, float)
         if y.ndim != 2 or len(t) != len(y) or len(t) < 3:
             raise InputError(f"need N >= 3 times and an (N, d) path, got {t.shape} and {y.shape}")
@@ -138,7 +212,15 @@ class Relaxation:
 
     # ----------------------------------------------------------------- files
     def save(self, path: str | Path, **extra) -> None:
-        """Write ``.npz`` atomically (``extra``: JSON-able metadata, e.g. robot and rig)."""
+        """Write the model as ``.npz`` atomically.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The file to write.
+        **extra
+            JSON-able metadata to store with it (e.g. robot and rig).
+        """
         from lab.files import code_version
 
         meta = {
@@ -162,7 +244,23 @@ class Relaxation:
 
 
 def load_relaxation(path: str | Path) -> Relaxation:
-    """Read a dynamic model written by :meth:`Relaxation.save`; DynamicsFileError names the problem."""
+    """Read a dynamic model written by :meth:`Relaxation.save`.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ``.npz`` file.
+
+    Returns
+    -------
+    Relaxation
+        The model, with its noise and notes.
+
+    Raises
+    ------
+    DynamicsFileError
+        Naming the problem: a missing or corrupt file, another kind or a newer format.
+    """
     path = Path(path)
     if not path.is_file():
         raise DynamicsFileError(f"{path}: no such dynamic-model file")

@@ -25,8 +25,17 @@ from lab.errors import InputError
 
 @dataclass
 class Segment:
-    """One command: the equilibrium ramps from where it was (at ``t_command_s``) to that of
-    ``pose`` (a label: equal labels share an equilibrium) when the motors arrive, ``t_arrived_s``."""
+    """One command: the equilibrium ramps from where it was to that of ``pose``.
+
+    Attributes
+    ----------
+    t_command_s : float
+        When the command was sent (s): the ramp starts.
+    t_arrived_s : float
+        When the motors arrived (s): the ramp ends at the pose's equilibrium.
+    pose : str
+        A label for the commanded pose; equal labels share an equilibrium.
+    """
 
     t_command_s: float
     t_arrived_s: float
@@ -35,10 +44,21 @@ class Segment:
 
 @dataclass
 class Stream:
-    """Readings of the tip while a rig was driven: times ``t_s`` (n,) s (mid-reading), tips
-    ``p_tip_W`` (n, 3) m (NaN: nothing seen), ``n_valid`` (n,) frames averaged per reading,
-    and the commands as :class:`Segment` in time order. Before the first command the
-    arm rests at the pose ``initial_pose``."""
+    """Readings of the tip while a rig was driven, and the commands that drove it.
+
+    Attributes
+    ----------
+    t_s : numpy.ndarray
+        Reading times (n,), s (mid-reading).
+    p_tip_W : numpy.ndarray
+        Tips (n, 3), m, frame W; NaN where nothing was seen.
+    n_valid : numpy.ndarray
+        Frames averaged per reading (n,).
+    segments : list of Segment
+        The commands, in time order.
+    initial_pose : str
+        The pose the arm rests at before the first command.
+    """
 
     t_s: np.ndarray
     p_tip_W: np.ndarray
@@ -47,7 +67,13 @@ class Stream:
     initial_pose: str = "initial"
 
     def poses(self) -> list[str]:
-        """The distinct poses, in order of first use."""
+        """The distinct poses, in order of first use.
+
+        Returns
+        -------
+        list of str
+            ``initial_pose`` first, then each segment's new pose.
+        """
         seen = [self.initial_pose]
         for s in self.segments:
             if s.pose not in seen:
@@ -94,9 +120,24 @@ def _theta_to_relax(theta, n_modes):
 
 
 def fit_stream(stream: Stream, n_modes: int = 2, *, tau_guess_s=(0.3, 3.0)) -> tuple[Relaxation, dict]:
-    """Fit ``n_modes`` relaxation modes to a recorded stream. Returns the filter (with the
-    noise per frame estimated from the residuals) and a report: ``equilibria`` {pose: (3,) m},
-    ``rms_m`` (per reading), ``n_readings``."""
+    """Fit ``n_modes`` relaxation modes to a recorded stream.
+
+    Parameters
+    ----------
+    stream : Stream
+        The readings and commands; at least ``10 * n_modes`` valid readings.
+    n_modes : int
+        Number of modes K.
+    tau_guess_s : tuple of float
+        The range (s) of the starting time constants.
+
+    Returns
+    -------
+    relax : Relaxation
+        The filter, with the noise per frame (m) estimated from the residuals.
+    report : dict
+        ``equilibria`` {pose: (3,) m, frame W}, ``rms_m`` (per reading, m), ``n_readings``.
+    """
     from scipy.optimize import least_squares
 
     ok = np.all(np.isfinite(stream.p_tip_W), axis=1) & (stream.n_valid > 0)
@@ -141,9 +182,28 @@ def fit_stream(stream: Stream, n_modes: int = 2, *, tau_guess_s=(0.3, 3.0)) -> t
 
 
 def fit_exponentials(responses, n_modes: int = 2, *, tau_guess_s=(0.3, 3.0)):
-    """Shared time constants of step responses ``[(t_s (n,), y (n, d)), ...]`` with ``t``
-    measured from when the motors stopped: ``y = y_inf + sum_k a_k exp(-t / tau_k)``.
-    Returns ``(tau_s (K,), y_inf (R, d), amplitudes (R, K, d), rms)`` (units of ``y``)."""
+    """Shared time constants of step responses: ``y = y_inf + sum_k a_k exp(-t / tau_k)``.
+
+    Parameters
+    ----------
+    responses : list of (array_like, array_like)
+        R pairs ``(t_s (n,), y (n, d))``, ``t`` (s) measured from when the motors stopped.
+    n_modes : int
+        Number of modes K.
+    tau_guess_s : tuple of float
+        The range (s) of the starting time constants.
+
+    Returns
+    -------
+    tau_s : numpy.ndarray
+        Time constants (K,), s, increasing.
+    y_inf : numpy.ndarray
+        Final values (R, d), units of ``y``.
+    amplitudes : numpy.ndarray
+        (R, K, d), units of ``y``.
+    rms : float
+        The residual's root mean square, units of ``y``.
+    """
     from scipy.optimize import least_squares
 
     responses = [(np.asarray(t, float), np.atleast_2d(np.asarray(y, float).T).T) for t, y in responses]

@@ -11,15 +11,13 @@ respect to that load, against ours. ``skfem`` too is imported when an arm is bui
 """
 
 from lab.peers.mujoco_arm import MujocoArm, SettleResult, mujoco_arm
-from lab.peers.skfem_arm import SkfemArm, SkfemSolution, lab_loaded_arm, lab_tip_load_gradient, tip_load_node
+from lab.peers.skfem_arm import SkfemArm, lab_loaded_arm, lab_tip_load_gradient
 
 __all__ = [
     "MujocoArm",
     "SettleResult",
     "SkfemArm",
-    "SkfemSolution",
     "lab_loaded_arm",
     "lab_tip_load_gradient",
     "mujoco_arm",
-    "tip_load_node",
 ]

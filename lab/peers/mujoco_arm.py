@@ -54,10 +54,24 @@ def _vec(v) -> str:
 
 @dataclass
 class SettleResult:
-    """A settled (or failed) simulation: ``status`` "settled", "unstable" (non-finite or
-    MuJoCo's bad-acceleration warning) or "not_settled" (``max_time_s`` reached);
-    ``sim_time_s`` simulated seconds until the speed stayed below the tolerance,
-    ``wall_s`` the wall-clock time spent up to then, ``steps`` steps taken in all."""
+    """A settled (or failed) simulation.
+
+    Attributes
+    ----------
+    status : str
+        "settled", "unstable" (non-finite or MuJoCo's bad-acceleration warning) or
+        "not_settled" (``max_time_s`` reached).
+    sim_time_s : float
+        Simulated seconds until the speed stayed below the tolerance.
+    wall_s : float
+        The wall-clock time (s) spent up to then.
+    steps : int
+        Steps taken in all.
+    max_speed_m_s : float
+        The fastest node's speed (m/s) at the last check.
+    warnings : int
+        MuJoCo warnings raised meanwhile (e.g. an under-converged M+K solve).
+    """
 
     status: str
     sim_time_s: float
@@ -69,8 +83,18 @@ class SettleResult:
 
 class MujocoArm:
     """A MuJoCo model of an :class:`ArmFEM` (see the module docstring); build with
-    :func:`mujoco_arm`. ``model`` and ``fem`` are public; ``free_nodes`` (F,) are the mesh
-    nodes that have a body, in qpos order (3 slide coordinates each, displacements in m)."""
+    :func:`mujoco_arm`. ``model`` and ``fem`` are public.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm modelled.
+    xml : str
+        The MJCF model.
+    free_nodes : numpy.ndarray
+        The mesh nodes (F,) that have a body, in qpos order (3 slide coordinates each,
+        displacements in m).
+    """
 
     def __init__(self, fem: ArmFEM, xml: str, free_nodes: np.ndarray):
         mujoco = _mujoco()
@@ -86,14 +110,26 @@ class MujocoArm:
         return self.model.ntendon
 
     def new_data(self):
-        """A fresh ``mujoco.MjData`` at rest (all displacements zero)."""
+        """A fresh simulation state at rest.
+
+        Returns
+        -------
+        mujoco.MjData
+            All displacements zero, after a forward pass.
+        """
         data = self._mj.MjData(self.model)
         with _collect_warnings(self.warning_messages):
             self._mj.mj_forward(self.model, data)
         return data
 
     def set_command(self, u_motor) -> None:
-        """Tendon dead bands (0, L*) for motor angles ``u_motor`` (m,) rad, L* = L0 + slack - r u (m)."""
+        """Set the tendon dead bands (0, L*) for motor angles, L* = L0 + slack - r u (m).
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Motor angles (m,), rad.
+        """
         u = np.asarray(u_motor, dtype=float)
         if u.shape != (self.n_cables,):
             raise InputError(f"u_motor must have shape ({self.n_cables},), got {u.shape}")
@@ -101,23 +137,73 @@ class MujocoArm:
         self.model.tendon_lengthspring[:, 1] = self.fem.cable_targets(u)
 
     def node_positions(self, data) -> np.ndarray:
-        """Positions x_W (N, 3) m of all mesh nodes in ``data`` (clamped ones at rest)."""
+        """Positions of all mesh nodes (clamped ones at rest).
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            A simulation state of this model.
+
+        Returns
+        -------
+        numpy.ndarray
+            x_W (N, 3), m, frame W.
+        """
         x = self.fem.X_W.copy()
         x[self.free_nodes] += data.qpos.reshape(-1, 3)
         return x
 
     def tip(self, data) -> np.ndarray:
-        """Tip marker p_tip_W (3,) m, with our barycentric embedding of the marker."""
+        """The tip marker, with our barycentric embedding of the marker.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            A simulation state of this model.
+
+        Returns
+        -------
+        numpy.ndarray
+            p_tip_W (3,), m, frame W.
+        """
         return self.fem.tip(self.node_positions(data))
 
     def tendon_lengths(self, data) -> np.ndarray:
-        """MuJoCo's tendon lengths (m,) m in ``data`` (after a forward pass or step)."""
+        """MuJoCo's tendon lengths.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            A simulation state, after a forward pass or step.
+
+        Returns
+        -------
+        numpy.ndarray
+            Lengths (m,), m, one per cable.
+        """
         return data.ten_length.copy()
 
     def settle(self, data, v_tol_m_s: float = 1e-4, hold_s: float = 0.1, max_time_s: float = 10.0) -> SettleResult:
         """Step ``data`` until the fastest node's speed stays below ``v_tol_m_s`` for
         ``hold_s`` simulated seconds (so a turning point of an oscillation does not count).
-        ``sim_time_s``/``wall_s`` are taken where that quiet window began."""
+        ``sim_time_s``/``wall_s`` are taken where that quiet window began.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The state to step (changed in place).
+        v_tol_m_s : float
+            Speed tolerance (m/s).
+        hold_s : float
+            How long (simulated s) the speed must stay below it.
+        max_time_s : float
+            Simulated seconds to give up after.
+
+        Returns
+        -------
+        SettleResult
+            How it ended, with times and steps.
+        """
         mj, m = self._mj, self.model
         dt, check = m.opt.timestep, 10  # check every 10 steps (a speed norm costs ~a step)
         bad = int(mj.mjtWarning.mjWARN_BADQACC)
@@ -168,9 +254,25 @@ def mujoco_arm(
     integrator: str = "discrete",
 ) -> MujocoArm:
     """Build the MuJoCo model of ``fem``'s arm (mesh, material, gravity, cables; see the
-    module docstring): ``timestep_s`` (s), ``flex_damping_s`` (s, Rayleigh stiffness
-    damping of the flex) and MuJoCo's ``integrator`` ("discrete" or "Euler"). The tendons
-    start at motors 0 (:meth:`MujocoArm.set_command` changes them)."""
+    module docstring). The tendons start at motors 0 (:meth:`MujocoArm.set_command` changes them).
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        Our FEM of the arm, whose mesh, material, gravity and cables are copied; its
+        description's ``stiffness_gradient`` must be 0 (a flex has one Young's modulus).
+    timestep_s : float
+        MuJoCo's time step (s), > 0.
+    flex_damping_s : float
+        Rayleigh stiffness damping of the flex (s), >= 0.
+    integrator : str
+        MuJoCo's integrator, "discrete" or "Euler".
+
+    Returns
+    -------
+    MujocoArm
+        The compiled model with its XML and the free nodes (F,) in qpos order.
+    """
     if not np.isfinite(timestep_s) or timestep_s <= 0:
         raise InputError(f"timestep_s must be positive, got {timestep_s}")
     if not np.isfinite(flex_damping_s) or flex_damping_s < 0:

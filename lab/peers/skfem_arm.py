@@ -41,10 +41,28 @@ def tip_load_node(fem: ArmFEM) -> int:
 
 
 def lab_loaded_arm(fem: ArmFEM, load_n: float, direction=(0.0, 0.0, -1.0), cable_slack_m: float = 0.01) -> ArmFEM:
-    """Our arm on ``fem``'s mesh with every cable ``cable_slack_m`` (m) slack and a point load
-    ``load_n`` (N) along the unit ``direction`` (3,) on :func:`tip_load_node`, added to the
-    external load vector (gravity's, ``f_gravity_W``): the wrapper that gives our energy a tip
-    load without changing lab.fem. Solve it with ``solve_static(arm, zeros(m))``."""
+    """Our arm on ``fem``'s mesh with slack cables and a point load on :func:`tip_load_node`.
+
+    The load is added to the external load vector (gravity's, ``f_gravity_W``): the wrapper
+    that gives our energy a tip load without changing lab.fem. Solve it with
+    ``solve_static(arm, zeros(m))``.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The arm whose description and mesh are used.
+    load_n : float
+        The point load (N).
+    direction : array_like
+        Its direction (3,), frame W; normalised here.
+    cable_slack_m : float
+        Slack of every cable (m), so that the cables carry nothing at motors 0.
+
+    Returns
+    -------
+    ArmFEM
+        A new arm with the load in ``f_gravity_W``.
+    """
     arm = ArmFEM(fem.robot, fem.mesh, cable_slack_m=[cable_slack_m] * len(fem.cables))
     arm.f_gravity_W = arm.f_gravity_W.copy()
     arm.f_gravity_W[tip_load_node(fem)] += load_n * _unit(direction)
@@ -52,9 +70,25 @@ def lab_loaded_arm(fem: ArmFEM, load_n: float, direction=(0.0, 0.0, -1.0), cable
 
 
 def lab_tip_load_gradient(arm: ArmFEM, q: np.ndarray, direction=(0.0, 0.0, -1.0)) -> np.ndarray:
-    """d p_tip / d F (3,) in m/N at our equilibrium ``q`` of :func:`lab_loaded_arm`: the
-    equilibrium dE/dq (q, F) = 0 with dE/dq = grad E_el - f_ext(F) gives H dq/dF = df/dF,
-    one solve with our exact Hessian (our ``dx/du`` machinery with the load as parameter)."""
+    """The tip's sensitivity d p_tip / d F to the tip load, with our exact Hessian.
+
+    The equilibrium dE/dq (q, F) = 0 with dE/dq = grad E_el - f_ext(F) gives H dq/dF = df/dF,
+    one solve (our ``dx/du`` machinery with the load as parameter).
+
+    Parameters
+    ----------
+    arm : ArmFEM
+        An arm from :func:`lab_loaded_arm`.
+    q : numpy.ndarray
+        Its equilibrium: the free coordinates (n_free,), m.
+    direction : array_like
+        The load's direction (3,), frame W; normalised here.
+
+    Returns
+    -------
+    numpy.ndarray
+        d p_tip / d F (3,), m/N, frame W.
+    """
     from lab.fem.solve.linsolve import factorize
 
     f_dir = np.zeros((arm.mesh.n_nodes, 3))
@@ -85,7 +119,15 @@ def _unit(direction) -> np.ndarray:
 
 
 class SkfemArm:
-    """The arm's body (no cables) in scikit-fem on ``fem``'s mesh, materials and gravity."""
+    """The arm's body (no cables) in scikit-fem on ``fem``'s mesh, materials and gravity.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        Our FEM of the arm: mesh, per-element Lamé parameters, density and gravity.
+    clamp_tol_m : float
+        Nodes within this distance (m) of the smallest x are clamped.
+    """
 
     def __init__(self, fem: ArmFEM, clamp_tol_m: float = 1e-9):
         skfem = _skfem()
@@ -136,8 +178,18 @@ class SkfemArm:
         return {"disp": self.basis.interpolate(u_flat), "mu": self._mu, "lam": self._lam, "rho_g": rho_g}
 
     def energy(self, x_W: np.ndarray) -> float:
-        """Elastic energy minus gravity's work (J) at node positions ``x_W`` (N, 3) m (no
-        point load; clamped nodes taken as given); +inf if a tet is inverted."""
+        """Elastic energy minus gravity's work (no point load; clamped nodes taken as given).
+
+        Parameters
+        ----------
+        x_W : numpy.ndarray
+            Node positions (N, 3), m, frame W.
+
+        Returns
+        -------
+        float
+            The energy (J); +inf if a tet is inverted.
+        """
         u = np.zeros(self.basis.N)
         u[self._dof] = np.asarray(x_W, float) - self.fem.X_W
         return self._energy(u)
@@ -153,12 +205,34 @@ class SkfemArm:
     def solve(
         self, load_n: float = 0.0, direction=(0.0, 0.0, -1.0), *, tol_step_m: float = 1e-10, max_iter: int = 50
     ) -> SkfemSolution:
-        """Static equilibrium under gravity and a point load ``load_n`` (N) along ``direction``
-        (3,) on :func:`tip_load_node`, by Newton from rest with scikit-fem's assembled residual
-        and tangent (SciPy's sparse LU on the free dofs) and a backtracking line search on the
-        energy (an inverted tet has infinite energy); no safeguard against an indefinite tangent
-        (ours has one), none was needed up to 50 mN. Converged when no dof moves more than
-        ``tol_step_m`` (m); raises :class:`LabRuntimeError` otherwise."""
+        """Static equilibrium under gravity and a point load on :func:`tip_load_node`.
+
+        Newton from rest with scikit-fem's assembled residual and tangent (SciPy's sparse LU
+        on the free dofs) and a backtracking line search on the energy (an inverted tet has
+        infinite energy); no safeguard against an indefinite tangent (ours has one), none was
+        needed up to 50 mN.
+
+        Parameters
+        ----------
+        load_n : float
+            The point load (N).
+        direction : array_like
+            Its direction (3,), frame W; normalised here.
+        tol_step_m : float
+            Converged when no dof moves more than this (m).
+        max_iter : int
+            Most Newton iterations.
+
+        Returns
+        -------
+        SkfemSolution
+            Node positions, tip, displacements, iterations and wall time.
+
+        Raises
+        ------
+        LabRuntimeError
+            When the line search fails or Newton does not converge in ``max_iter``.
+        """
         t0 = time.perf_counter()
         _, residual, tangent = self._forms
         f = self._load(load_n, direction)
@@ -190,10 +264,24 @@ class SkfemArm:
         raise LabRuntimeError(f"scikit-fem Newton did not converge in {max_iter} iterations (step {step:.2g} m)")
 
     def tip_load_gradient(self, sol: SkfemSolution, direction=(0.0, 0.0, -1.0)) -> np.ndarray:
-        """d p_tip / d F (3,) in m/N at ``sol`` by the adjoint method: for each tip coordinate,
-        K lam = dp_tip/du (the marker's barycentric weights; K symmetric), then
-        dp_tip/dF = lam . df/dF, with the tangent assembled and factorised at the equilibrium
-        (as our sensitivity does with our Hessian)."""
+        """The tip's sensitivity d p_tip / d F to the tip load, by the adjoint method.
+
+        For each tip coordinate, K lam = dp_tip/du (the marker's barycentric weights; K
+        symmetric), then dp_tip/dF = lam . df/dF, with the tangent assembled and factorised
+        at the equilibrium (as our sensitivity does with our Hessian).
+
+        Parameters
+        ----------
+        sol : SkfemSolution
+            An equilibrium from :meth:`solve`.
+        direction : array_like
+            The load's direction (3,), frame W; normalised here.
+
+        Returns
+        -------
+        numpy.ndarray
+            d p_tip / d F (3,), m/N, frame W.
+        """
         K = self._forms[2].assemble(self.basis, **self._fields(sol.u_dofs))[self.free][:, self.free]
         S = np.zeros((3, self.basis.N))
         for n, wgt in zip(self.fem.tip_nodes, self.fem.tip_weights):

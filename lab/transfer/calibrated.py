@@ -52,7 +52,7 @@ def calibrated_model(
 
     Raises InputError for bad data and LabRuntimeError when the calibrated FEM has no
     equilibrium for more than a tenth of ``u_sim``."""
-    from lab.data.designs import nearest_neighbour_chunks
+    from lab.data.chunks import nearest_neighbour_chunks
     from lab.data.simulation import simulate
     from lab.learn.train import train
 
