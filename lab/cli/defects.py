@@ -24,6 +24,7 @@ import sys
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.mesh_spec import MeshSpec
+from lab.jobs import defects as job
 from lab.rig.member_spec import FamilyMemberSpec
 
 MESH_HELP = {
@@ -66,7 +67,7 @@ def run(args) -> int:
     check_paths({"--robot": existing(args.robot)}, {"--out": args.out})
     check_writable(args.out)
     robot = load_robot(args.robot)
-    defects = spec.write(args.out, robot, command=command_line(spec, args.robot))
+    defects = job.run(spec, robot, args.out, command=command_line(spec, args.robot))
     family = "the foam family" if spec.family == "foam" else "the family"
     extra = (
         f", hyperfoam alpha {defects.hyperfoam_alpha:g}, tilt {defects.tilt_deg:g} deg" if spec.family == "foam" else ""

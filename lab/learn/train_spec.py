@@ -8,8 +8,8 @@ fields of one frozen spec, each
 declared with :func:`lab.specs.option`, so that the flags' help and checks live here:
 ``train`` and ``splits`` build their flags from it, ``transfer`` its ``--hidden`` and
 ``--seed``. :meth:`TrainSpec.check_fits` refuses, once the data's sizes are known, a
-network that cannot fit in memory (:mod:`lab.learn.network_size`). :class:`SplitsSpec`
-is the ``splits`` study's own setting, the number of random splits.
+network that cannot fit in memory (:mod:`lab.learn.network_size`). The ``splits`` study's
+own setting, the number of random splits, is :class:`lab.jobs.splits.SplitsSpec`.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from lab.learn.split import SPLIT_KINDS
 from lab.learn.train import ALGORITHMS
 from lab.specs import Spec, at_most, non_negative, non_negative_int, option, positive_int
 
-__all__ = ["TrainSpec", "SplitsSpec"]
+__all__ = ["TrainSpec"]
 
 
 def _widths(v) -> str | None:
@@ -167,10 +167,3 @@ class TrainSpec(Spec):
         algorithm = "adam" if self.model == "sklearn-mlp" else self.algorithm
         parallel = min(self.jobs, self.members) if self.model == "ensemble" else 1
         check_network_size(sizes, self.n_train(n_samples), algorithm, copies=copies * parallel)
-
-
-@dataclass(frozen=True)
-class SplitsSpec(Spec):
-    """The ``splits`` study: how many random splits."""
-
-    n_splits: int = option(10, type=int, check=positive_int, help="number of random splits")

@@ -139,8 +139,8 @@ def make_methods(sim_model, names, hidden=(20, 20), seed: int = 0, extra: dict |
     """Model builders ``(u_real, y_real) -> model or None`` for the ``names`` of
     :data:`METHOD_MIN_N` (and any ``extra`` builders, e.g. the calibrated physics):
     ``sim-only`` is the simulation network at N = 0 only; the others use
-    :func:`lab.learn.transfer.transfer_model` from their minimum N on."""
-    from lab.learn.transfer import transfer_model
+    :func:`lab.transfer.data_methods.transfer_model` from their minimum N on."""
+    from lab.transfer.data_methods import transfer_model
 
     def builder(name):
         if name == "sim-only":
