@@ -74,7 +74,19 @@ class TrainRun:
     split_info: dict
 
     def report(self, model_path) -> dict:
-        """The JSON report of ``train --report`` (kind ``lab.train_report``)."""
+        """The JSON report of ``train --report`` (kind ``lab.train_report``).
+
+        Parameters
+        ----------
+        model_path : str or Path
+            Where the model was written, recorded as ``model``.
+
+        Returns
+        -------
+        dict
+            The report: errors per set, workspace size (m), data and model provenance,
+            training settings, stop record and wall time (s).
+        """
         from lab.files import code_version
 
         size, training = self.workspace_size_m, self.model.metadata["training"]
@@ -107,7 +119,20 @@ class TrainRun:
 
 
 def network_words(spec: TrainSpec, n_u: int, n_y: int) -> str:
-    """How the log names the spec's network, e.g. "3-20-20-3", "5 x 3-20-20-3"; "" for a peer."""
+    """How the log names the spec's network, e.g. "3-20-20-3", "5 x 3-20-20-3"; "" for a peer.
+
+    Parameters
+    ----------
+    spec : TrainSpec
+        The model and its hidden widths.
+    n_u, n_y : int
+        Inputs and outputs of the network.
+
+    Returns
+    -------
+    str
+        The words.
+    """
     net = "-".join(map(str, [n_u, *spec.hidden, n_y]))
     return {"mlp": net, "ensemble": f"{spec.members} x {net}", "inverse-mlp": f"inverse {net}"}.get(spec.model, "")
 
