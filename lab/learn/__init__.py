@@ -3,7 +3,7 @@
 :class:`MLP` (:mod:`.mlp`) with the Appendix's analytic Jacobian, stored by
 :mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
-point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); error
+point :func:`train` (``lab/learn/train.py``) on ``dividerand`` splits (:mod:`.split`); error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
 A run's settings are one :class:`TrainSpec` (:mod:`.train_spec`; memory check in
 :mod:`.network_size`); what ``train`` and ``splits`` (:mod:`lab.jobs`) fit on comes from

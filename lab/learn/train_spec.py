@@ -81,7 +81,37 @@ def _is_number_word(w: str) -> bool:
 
 @dataclass(frozen=True)
 class TrainSpec(Spec):
-    """A model and how it is trained; see the flags' help for each field."""
+    """A model and how it is trained; see each field's help.
+
+    Parameters
+    ----------
+    model : str
+        One of :data:`lab.learn.MODEL_CHOICES`: lab's network, an ensemble, a scikit-learn
+        peer or the direct inverse.
+    hidden : tuple of int
+        Hidden layer widths.
+    algorithm : str
+        Network training: ``lm``, ``adam``, ``lbfgs`` or ``br``.
+    activation : str
+        Hidden activation.
+    epochs : int, optional
+        Maximum epochs (None: 1000).
+    min_grad : float, optional
+        LM/BR gradient stop (None: the algorithm's default; 0 disables).
+    members : int
+        Ensemble: number of networks (at least 2).
+    ratios : tuple of float
+        Split ratios (train, validation, test); also takes the ``--split`` words, parsed
+        into ``split`` and ``ratios``.
+    split : str
+        ``random`` rows or ``group``: whole measurement sequences.
+    history : int
+        Past commands the model also takes (0: the command only).
+    seed : int
+        Seed of the split and the initial weights.
+    jobs : int
+        Worker processes (an ensemble's members; the splits of ``splits``).
+    """
 
     model: str = option(
         "mlp",

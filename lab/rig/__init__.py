@@ -5,7 +5,7 @@
 (an emulated as-built robot: :class:`TwinRig`, :class:`FamilyTwinRig`, :class:`FoamTwinRig`),
 ``hardware:CONFIG.toml``
 (Dynamixel servos and OptiTrack: :mod:`.hardware`) -- and :func:`make_rig` (:mod:`.factory`)
-is the one place that builds the rig it names. On any rig, :func:`capture` (:mod:`.capture`)
+is the one place that builds the rig it names. On any rig, :func:`capture` (``lab/rig/capture.py``)
 runs the paper's capture protocol (settings: :class:`CaptureSpec`, :class:`ProtocolSpec`)
 into an append-only :class:`Journal`, or the predictive one
 (:class:`PredictiveSampler`: the settled tip predicted by a Kalman filter, :class:`TipFilter`,

@@ -1,6 +1,6 @@
 """Closing the sim-to-real gap with the physics: calibrate the FEM to a few real samples.
 
-:func:`calibrate` (:mod:`.calibrate`) identifies the as-built parameters of the FEM
+:func:`calibrate` (``lab/transfer/calibrate.py``) identifies the as-built parameters of the FEM
 (softness, stiffness gradient, eyelet shifts, slack per cable; :mod:`lab.fem.parameters`)
 from N real (u, y) samples by Levenberg-Marquardt with exact parameter sensitivities and a
 prior towards the nominal description; :func:`calibrated_robot` /
