@@ -16,7 +16,8 @@ import numpy as np
 
 from lab.data import read_dataset
 from lab.data.designs import greedy_maximin
-from lab.learn import load_model, transfer_model
+from lab.learn import load_model
+from lab.transfer import transfer_model
 
 u_all, y_all, _ = read_dataset("data/real_three_cable.csv")  # the shipped emulated as-built capture
 sim = load_model("data/model_sim_three_cable.npz")

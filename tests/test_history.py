@@ -211,8 +211,8 @@ def measured_dataset(path, n_seq=6, length=12, m=6, seed=0, lag_m=0.04, starts=T
 def test_history_helps_on_hysteretic_data_and_is_recorded(tmp_path):
     """Measured: the tip depends on the previous command by up to 4 cm; history 1 must cut
     the held-out error (whole sequences held out) several-fold."""
+    from lab.jobs.train import run as train_run
     from lab.learn import load_model
-    from lab.learn.runs import train_run
     from lab.learn.train_spec import TrainSpec
 
     data = tmp_path / "hyst.csv"
@@ -236,8 +236,8 @@ def test_history_helps_on_hysteretic_data_and_is_recorded(tmp_path):
 
 @pytest.mark.parametrize("name", ["mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp"])
 def test_every_model_kind_trains_on_an_imported_dataset(tmp_path, name):
+    from lab.jobs.train import run as train_run
     from lab.learn import load_model
-    from lab.learn.runs import train_run
     from lab.learn.train_spec import TrainSpec
 
     data = tmp_path / "trunk.csv"

@@ -21,7 +21,7 @@ LAB = Path(__file__).resolve().parent.parent / "lab"
 
 #: The pipeline, lowest first: description -> fem (mesh, energy, statics) -> data -> model
 #: (learn) -> IK and trajectories (control) -> the as-built robots (asbuilt) -> rig -> capture
-#: on a rig -> tracking -> studies; drawing and the CLI on top.
+#: on a rig -> tracking -> studies; drawing, the commands' jobs and the CLI on top.
 LAYERS = [
     "lab",
     "errors",
@@ -42,6 +42,7 @@ LAYERS = [
     "studies",
     "peers",
     "viz",
+    "jobs",
     "course",
     "cli",
     "__main__",
@@ -64,6 +65,7 @@ SUBPACKAGES = [
     "studies",
     "peers",
     "viz",
+    "jobs",
     "course",
     "cli",
 ]
@@ -317,6 +319,30 @@ def test_command_run_is_short():
         if (n := runs[0].end_lineno - runs[0].lineno + 1) > RUN_MAX_LINES:
             long[module] = n
     assert not long, f"run() over {RUN_MAX_LINES} lines: {long}"
+
+
+def test_one_job_per_command():
+    # lab/jobs/<command>.py for each command, with one entry point ``run``; the command's
+    # module imports it, and jobs never import each other (what two share lives in a stage).
+    import lab.jobs
+
+    commands = command_modules()
+    assert {c: m.__name__ for c, m in lab.jobs.JOBS.items()} == {
+        c: f"lab.jobs.{c.replace('-', '_')}" for c in commands
+    }, "lab.jobs.JOBS does not map each command to its job module"
+    jobs_dir = LAB / "jobs"
+    expected = {cmd.replace("-", "_") for cmd in commands}
+    present = {p.stem for p in jobs_dir.glob("*.py") if p.name != "__init__.py"}
+    assert present == expected, f"lab/jobs modules {sorted(present)} != the commands {sorted(expected)}"
+    g = graph()
+    for cmd, cli_module in commands.items():
+        job = f"lab.jobs.{cmd.replace('-', '_')}"
+        tree = ast.parse((jobs_dir / f"{job.rpartition('.')[2]}.py").read_text())
+        runs = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "run"]
+        assert runs, f"{job} has no run(spec, ...) function"
+        assert job in g[cli_module], f"{cli_module} does not import {job}"
+        others = sorted(m for m in g[job] if m.startswith("lab.jobs") and m != job)
+        assert not others, f"{job} imports other jobs: {others}"
 
 
 # --- the FEM's solve works through the body, material and actuator interfaces -------------

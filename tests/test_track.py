@@ -332,7 +332,7 @@ def test_a_rerun_never_loses_the_kept_points(model_file, tmp_path, monkeypatch, 
     def no_rig(*args, **kwargs):
         raise RigError("servo bus: no such device")
 
-    monkeypatch.setattr("lab.tracking.job.make_rig", no_rig)
+    monkeypatch.setattr("lab.jobs.track.make_rig", no_rig)
     assert main(argv) == 1
     assert points.read_bytes() == kept and "the 8 points kept from an earlier run" in capsys.readouterr().err
     monkeypatch.undo()

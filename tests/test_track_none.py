@@ -172,7 +172,7 @@ def test_rig_none_is_for_track_only():
         make_rig(spec, load_robot("three-cable"))
     with pytest.raises(InputError, match="--rig none is no rig"):
         spec.require_dynamics()
-    from lab.tracking import TrackSpec
+    from lab.jobs.track import TrackSpec
 
     with pytest.raises(InputError, match="--rig none solves the IK through a learned model only.*no robot, seed"):
         TrackSpec(trajectory="p.csv", model="m.npz", rig=spec, robot="six-cable", seed=1)

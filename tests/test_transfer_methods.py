@@ -21,8 +21,8 @@ from lab.learn import (
     fit_residual,
     init_mlp,
     load_model,
-    transfer_model,
 )
+from lab.transfer import transfer_model
 
 ROOT = Path(__file__).resolve().parent.parent
 SIM_MODEL = ROOT / "data" / "model_sim_three_cable.npz"

@@ -173,9 +173,9 @@ def _documented_by_object(env) -> dict[int, str]:
 
 
 def resolve_by_definition(app, env, node, contnode):
-    """A reference to where a name is defined (``lab.learn.runs.train_run``, a method through
+    """A reference to where a name is defined (``lab.learn.train_spec.TrainSpec``, a method through
     its defining module) resolves to the entry of the public name it is documented under
-    (``lab.learn.train_run``)."""
+    (``lab.learn.TrainSpec``)."""
     if node.get("refdomain") != "py" or not node.get("reftarget", "").startswith("lab."):
         return None
     target, objects, by_object = node["reftarget"], env.get_domain("py").objects, _documented_by_object(env)

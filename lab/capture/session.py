@@ -6,7 +6,7 @@ continues with the first command not yet in the journal. With ``repeat_check`` t
 command is measured once more after the last (:func:`repeat_check_line`): a robot that creeps
 over minutes, drifts or is knocked gives another tip for it, and the capture says so.
 ``python -m lab capture``
-(:func:`lab.tracking.capture_design.capture_design`) adds the design, the rig and the dataset.
+(:func:`lab.jobs.capture.run`) adds the design, the rig and the dataset.
 """
 
 from __future__ import annotations

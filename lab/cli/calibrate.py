@@ -2,7 +2,7 @@
 the calibrated robot as a description TOML that every command accepts as ``--robot``.
 
 The real samples are a dataset from ``capture`` (any rig: ``twin``, ``twin:random:SEED``,
-``hardware:RIG.toml``); the fit's flags are :class:`lab.transfer.CalibrationSpec`'s. The
+``hardware:RIG.toml``); the fit's flags are :class:`lab.jobs.calibrate.CalibrationSpec`'s. The
 identified parameters (softness, stiffness gradient, eyelet shifts, slack per cable) and
 their standard deviations are comments at the top of the TOML; a JSON summary goes to
 stdout (and to ``--report``), progress to stderr, ending with a line that says whether the
@@ -20,7 +20,8 @@ import sys
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.bodies.mesh_spec import MeshSpec
-from lab.transfer.calibration_run import CalibrationSpec
+from lab.jobs import calibrate as job
+from lab.jobs.calibrate import CalibrationSpec, calibration_summary, discrepancy_line
 
 MESH_HELP = {"n_rings": "mesh rings of the FEM fitted", "n_axial": "mesh layers of the FEM fitted"}
 
@@ -50,7 +51,6 @@ def run(args) -> int:
     from lab.description import load_robot
     from lab.files import atomic_write_text, json_default
     from lab.transfer import write_calibrated_robot
-    from lab.transfer.calibration_run import calibration_run, calibration_summary, discrepancy_line
 
     spec = spec_from_args(CalibrationSpec, args, mesh=spec_from_args(MeshSpec, args))
     check_paths(
@@ -61,7 +61,7 @@ def run(args) -> int:
     if args.report:
         check_writable(args.report, "--report")
     robot = load_robot(args.robot)
-    result = calibration_run(robot, args.real, spec, log=lambda line: print(line, file=sys.stderr))
+    result = job.run(spec, robot, args.real, log=lambda line: print(line, file=sys.stderr))
     command = "python -m lab " + shlex.join(args.argv)
     write_calibrated_robot(args.out, robot, result, source=str(args.real), command=command)
     text = json.dumps(calibration_summary(robot, result, args.real, args.out, command), indent=2, default=json_default)

@@ -11,7 +11,7 @@ the dataset OUT (+ OUT.json) in grid (or design) order. With --active N --batch 
 is picked where an ensemble fitted to the samples so far disagrees most (rows in capture
 order; --order does not apply). Killed or failed, it keeps every sample so far and the same
 command continues where it stopped (an active run first finishes its batch); the rig is
-closed (torque off). Flags: lab.capture.CaptureSpec; the run: lab.tracking.capture_design.
+closed (torque off). Flags: lab.rig.CaptureSpec; the run: lab.jobs.capture.run.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing
 from lab.cli.sampling import add_design_flags, design_from_args
 from lab.cli.signals import exit_code
 from lab.errors import LabError
+from lab.jobs import capture as job
 from lab.rig.spec import RigSpec
 
 
@@ -68,7 +69,6 @@ def capture_spec(args) -> CaptureSpec:
 
 def run(args) -> int:
     from lab.data.dataset import write_dataset
-    from lab.tracking.capture_design import capture_design
 
     spec = capture_spec(args)
     journal = spec.journal_path
@@ -79,7 +79,7 @@ def run(args) -> int:
     check_writable(journal, "--journal")
     ignore_file_size_signal()
     try:
-        data = capture_design(spec)
+        data = job.run(spec)
     except KeyboardInterrupt as err:  # Ctrl-C, SIGTERM, SIGHUP: the rig is closed (torque off)
         why = f" by {err.args[0]}" if err.args else ""
         print(

@@ -4,7 +4,7 @@ Fits the least-squares baselines (``linear``, ``poly3``), the scikit-learn peers
 ``knn``, ``sklearn-mlp``) and lab's networks (``mlp``, ``br``, ``ensemble``), each with
 the history lengths asked for, on the same random, group (whole sequences) and sequential
 (first 80 % of rows) splits of a dataset, and writes one row per fit to ``--out``
-(:mod:`lab.studies.model_comparison`; the flags are
+(:func:`lab.jobs.compare.run`, :mod:`lab.studies.model_comparison`; the flags are
 :class:`lab.studies.comparison_spec.CompareSpec`'s). Rows are appended one by one, so an
 interrupted run resumes where it stopped; a row already in the file is never fitted again,
 and a file made from other data or with other settings is refused. ``--floor REPORT.json``
@@ -20,6 +20,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, output_lock
+from lab.jobs import compare as job
 from lab.studies.comparison_spec import CompareSpec
 from lab.workers import default_jobs
 
@@ -41,15 +42,13 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.studies.model_comparison import run_comparison
-
     spec = spec_from_args(CompareSpec, args)
     inputs = {"DATA": args.data, "DATA sidecar": f"{args.data}.json", "--floor": args.floor}
     check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json", "--out lock": f"{args.out}.lock"})
     check_writable(args.out)
     command = "python -m lab " + shlex.join(args.argv)
     with output_lock(args.out):
-        side = run_comparison(spec, args.data, args.out, floor=args.floor, jobs=args.jobs, command=command, log=_err)
+        side = job.run(spec, args.data, args.out, floor=args.floor, jobs=args.jobs, command=command, log=_err)
     _print_summary(side)
     print(f"rows -> {args.out}")
     return 0

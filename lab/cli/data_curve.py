@@ -1,5 +1,5 @@
 """``python -m lab data-curve``: model and tracking error against the number of samples N,
-per sampling strategy (:mod:`lab.studies.data_curve_run`, :mod:`lab.studies.data_curve`).
+per sampling strategy (:func:`lab.jobs.data_curve.run`, :mod:`lab.studies.data_curve`).
 
 For one robot on one rig (``sim``: the nominal FEM; ``twin``, ``twin:DEFECTS.toml``,
 ``twin:random:SEED``, ``twin:foam:SEED``: an emulated as-built robot), each strategy and each N it writes one
@@ -20,6 +20,7 @@ import sys
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing, output_lock
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import data_curve as job
 from lab.studies.data_curve_spec import DataCurveSpec
 from lab.workers import default_jobs
 
@@ -50,8 +51,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.studies.data_curve_run import run_data_curve
-
     spec = spec_from_args(DataCurveSpec, args, mesh=spec_from_args(MeshSpec, args))
     inputs = {"--robot": existing(spec.robot) if spec.robot.endswith(".toml") else None}
     # the lock file is written (and removed) too: it must not be an input either
@@ -59,5 +58,5 @@ def run(args) -> int:
     check_writable(args.out)
     command = "python -m lab " + shlex.join(args.argv)
     with output_lock(args.out):
-        run_data_curve(spec, args.out, jobs=args.jobs, command=command, log=lambda line: print(line, file=sys.stderr))
+        job.run(spec, args.out, jobs=args.jobs, command=command, log=lambda line: print(line, file=sys.stderr))
     return 0

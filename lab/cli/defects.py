@@ -25,6 +25,7 @@ from lab.asbuilt.member_spec import FamilyMemberSpec
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import defects as job
 
 MESH_HELP = {
     "n_rings": "FEM mesh rings of the emulator, written to [emulator]",
@@ -66,7 +67,7 @@ def run(args) -> int:
     check_paths({"--robot": existing(args.robot)}, {"--out": args.out})
     check_writable(args.out)
     robot = load_robot(args.robot)
-    defects = spec.write(args.out, robot, command=command_line(spec, args.robot))
+    defects = job.run(spec, robot, args.out, command=command_line(spec, args.robot))
     family = "the foam family" if spec.family == "foam" else "the family"
     extra = (
         f", hyperfoam alpha {defects.hyperfoam_alpha:g}, tilt {defects.tilt_deg:g} deg" if spec.family == "foam" else ""

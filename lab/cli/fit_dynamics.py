@@ -1,5 +1,5 @@
 """``python -m lab fit-dynamics``: learn the foam's relaxation filter of a rig from step
-responses and short random motions.
+responses and short random motions (:func:`lab.jobs.fit_dynamics.run`).
 
 The rig is driven through the excitation of :mod:`lab.capture.dynamics_probe` while the motion
 capture is recorded (:class:`~lab.capture.recorder.StreamRecorder`); ``K`` relaxation modes
@@ -22,6 +22,7 @@ from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.errors import InputError
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import fit_dynamics as job
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -56,10 +57,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """``python -m lab fit-dynamics``; returns the exit code."""
-    from lab.capture.dynamics_probe import run_probe
     from lab.description import load_robot
-    from lab.dynamics.relaxation_fit import fit_stream
-    from lab.rig import RigSpec, make_rig
+    from lab.rig import RigSpec
 
     rig_spec = RigSpec.parse(args.rig)
     check_paths({"--robot": existing(args.robot), "--rig": existing(rig_spec.file)}, {"--out": args.out})
@@ -71,37 +70,7 @@ def run(args) -> int:
     mesh = spec_from_args(MeshSpec, args)
     if not mesh.is_default and rig_spec.kind != "twin":
         raise InputError("--n-rings/--n-axial set the FEM mesh of an emulated twin only")
-    robot = load_robot(args.robot)
-    plan = probe.plan(robot, args.seed)
-    print(
-        f"{robot.name} on {args.rig}: {probe.n_steps} steps held {probe.step_hold_s:g} s and {probe.n_random} "
-        f"random motions, {plan.duration_s:.0f} s of holds",
-        file=sys.stderr,
-    )
-    with make_rig(rig_spec, robot, seed=args.seed, mesh=mesh) as rig:
-        describe = rig.describe()
-        stream = run_probe(rig, plan)
-    relax, report = fit_stream(stream, probe.modes)
-    _save(args, robot, relax, report, describe, plan)
+    command = "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:]))
+    say = lambda line: print(line, file=sys.stderr)
+    job.run(probe, args.rig, load_robot(args.robot), args.out, seed=args.seed, mesh=mesh, command=command, say=say)
     return 0
-
-
-def _save(args, robot, relax, report: dict, describe: dict, plan) -> None:
-    """Write the fitted filter to ``--out`` with its provenance, and say what was fitted."""
-    from lab.capture.dynamics_probe import plan_info
-
-    relax.save(
-        args.out,
-        robot=robot.name,
-        robot_sha256=robot.sha256,
-        rig=describe,
-        plan=plan_info(plan),
-        fit={"rms_m": report["rms_m"], "n_readings": report["n_readings"], "n_poses": len(report["equilibria"])},
-        command="python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:])),
-    )
-    modes = ", ".join(f"tau {t:.3f} s weight {w:.3f}" for t, w in zip(relax.tau_s, relax.weight))
-    print(
-        f"{len(relax.tau_s)} modes: {modes}; fit RMS {1e3 * report['rms_m']:.3f} mm over {report['n_readings']} "
-        f"readings, noise {1e3 * relax.noise_sigma_m:.3f} mm per frame -> {args.out}",
-        file=sys.stderr,
-    )

@@ -7,7 +7,7 @@
 Each FILE holds the ``--u`` and ``--y`` columns; with ``--observations`` FILE i holds the
 inputs and OBS i the positions, paired row by row or on ``--id COL``. Every file or pair
 starts a measurement sequence (``--group COL``: also where COL changes). The flags are
-:class:`lab.data.import_spec.ImportSpec`; :func:`lab.data.importing.import_dataset` reads,
+:class:`lab.data.import_spec.ImportSpec`; :func:`lab.jobs.import_data.run` reads,
 joins, converts to metres and writes the dataset and its sidecar (provenance, licence,
 dropped rows, sequence starts). The rules: docs/import-data.md.
 """
@@ -21,6 +21,7 @@ import sys
 from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, output_lock
 from lab.data.import_spec import ImportSpec
+from lab.jobs import import_data as job
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -46,8 +47,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.data.importing import import_dataset
-
     if not args.observations:
         refuse_unused(args, ["id"], "without --observations: it pairs the rows of a FILE and an OBS file")
     spec = spec_from_args(ImportSpec, args)
@@ -56,7 +55,7 @@ def run(args) -> int:
     check_paths(inputs, dataset_outputs("--out", args.out))
     check_writable(args.out)
     with output_lock(args.out):
-        result = import_dataset(
+        result = job.run(
             spec, args.files, args.out, observations=observations, command="python -m lab " + shlex.join(args.argv)
         )
     dropped = ", ".join(f"{n} {why}" for why, n in result.dropped.items() if n) or "none"

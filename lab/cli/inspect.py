@@ -1,7 +1,7 @@
 """``python -m lab inspect``: what a static model can reach on a dataset, before training one.
 
 Reads a dataset (CSV + sidecar; measured sequences from its ``sequence_starts``), runs
-:func:`lab.data.diagnostics.inspect_file` -- the repeatability floor, hysteresis, drift
+:func:`lab.jobs.inspect.run` -- the repeatability floor, hysteresis, drift
 over the measurement order and outliers -- writes the report as JSON (``--out``) and
 prints a short summary. The flags are :class:`lab.data.diagnostics.InspectSpec`'s. What
 each number means and assumes: ``docs/real-data.md``; the figure of a report:
@@ -17,6 +17,7 @@ from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, output_lock
 from lab.data.diagnostics import InspectSpec
 from lab.errors import InputError
+from lab.jobs import inspect as job
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -34,8 +35,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.data.diagnostics import inspect_file
-
     spec = spec_from_args(InspectSpec, args)
     if not str(args.out).endswith(".json"):
         raise InputError(f"--out {args.out}: the report is JSON; give a file name ending in .json")
@@ -44,7 +43,7 @@ def run(args) -> int:
     )
     check_writable(args.out)
     with output_lock(args.out):
-        report = inspect_file(args.data, args.out, spec, command="python -m lab " + shlex.join(args.argv))
+        report = job.run(spec, args.data, args.out, command="python -m lab " + shlex.join(args.argv))
     _print_summary(report)
     print(f"report -> {args.out}")
     return 0

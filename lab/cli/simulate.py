@@ -1,8 +1,8 @@
 """``python -m lab simulate``: (u, y) pairs of a robot from the FEM, written as a dataset.
 
 The flags become a :class:`lab.data.DesignSpec` (which commands) and a
-:class:`lab.fem.MeshSpec` (which mesh); :func:`lab.learn.simulate_design.simulate_design`
-does the rest, resumable from its checkpoint.
+:class:`lab.fem.MeshSpec` (which mesh); :func:`lab.jobs.simulate.run` does the rest,
+resumable from its checkpoint.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
 from lab.cli.sampling import add_design_flags, design_from_args
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import simulate as job
 from lab.workers import default_jobs
 
 
@@ -60,7 +61,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 def run(args) -> int:
     from lab.data.chunkstore import check_checkpoint
     from lab.description import load_robot
-    from lab.learn.simulate_design import simulate_design
 
     design, mesh = design_from_args(args), spec_from_args(MeshSpec, args)
     checkpoint = args.checkpoint or f"{args.out}.chunks"
@@ -74,9 +74,9 @@ def run(args) -> int:
     ignore_file_size_signal()  # a write past `ulimit -f` fails with EFBIG, reported as such
     robot = load_robot(args.robot)
     with output_lock(args.out):
-        simulate_design(
-            robot,
+        job.run(
             design,
+            robot,
             mesh,
             args.out,
             checkpoint=checkpoint,

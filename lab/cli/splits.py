@@ -4,7 +4,7 @@ Any model of ``--model`` (the flags of :class:`lab.learn.TrainSpec`, here with t
 90/0/10 random split and all cores by default; ``--split group`` holds out whole
 measurement sequences, ``--history K`` fits on the past commands too); the splits are
 those of ``--model mlp`` for the same ``--seed`` (the same test indices), so the rows of
-two models pair up split by split (:func:`lab.learn.runs.splits_run`,
+two models pair up split by split (:func:`lab.jobs.splits.run`,
 :func:`lab.learn.models.evaluate_model_splits`).
 """
 
@@ -16,7 +16,9 @@ import sys
 
 from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable
-from lab.learn.train_spec import SplitsSpec, TrainSpec
+from lab.jobs import splits as job
+from lab.jobs.splits import SplitsSpec
+from lab.learn.train_spec import TrainSpec
 from lab.workers import default_jobs
 
 HELP = {
@@ -58,7 +60,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.learn.runs import splits_run
     from lab.learn.studies import write_csv
 
     _split_words(args)
@@ -74,7 +75,7 @@ def run(args) -> int:
     )
     refuse_unused(args, ["init"], "by splits: every split trains new weights (continue a network with train --init)")
     check_writable(args.out)
-    rows, size = splits_run(
+    rows, size = job.run(
         spec,
         splits,
         args.data,

@@ -3,8 +3,8 @@
 Open loop, closed loop (``--closed-loop ilc|feedback --passes K [--gain A]``) or streamed at
 a period (``--period-s T [--dynamic-model DYN.npz]``); or ``--rig none``: no rig, the IK's
 commands written to ``OUT.commands.csv`` for a lab's own robot. The flags become one
-:class:`lab.tracking.TrackSpec`, each declared on the spec that takes it; a flag the chosen
-mode does not use is refused. The run is :func:`lab.tracking.run_track`, with ``--out``
+:class:`lab.jobs.track.TrackSpec`, each declared on the spec that takes it; a flag the chosen
+mode does not use is refused. The run is :func:`lab.jobs.track.run`, with ``--out``
 locked against a second run; the result file's keys are listed in docs/design/tracking.md.
 Exit codes: 2 for bad input, 1 when the rig fails (measured points kept in OUT.points.csv).
 """
@@ -22,10 +22,11 @@ from lab.cli.paths import check_paths, check_writable, existing, output_lock
 from lab.control.ik import IKConfig
 from lab.errors import InputError
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import track as job
+from lab.jobs.track import TrackSpec
 from lab.rig import RigSpec
 from lab.specs import positive
 from lab.tracking.closed_loop import Correction
-from lab.tracking.job import TrackSpec, run_track
 from lab.tracking.stream_spec import StreamSpec
 
 #: The IK settings ``track`` has flags for (the rest keep :meth:`IKConfig.automatic`'s values).
@@ -121,7 +122,7 @@ def run(args) -> int:
     check_writable(args.out)
     command = "python -m lab " + shlex.join(getattr(args, "argv", sys.argv[1:]))
     with output_lock(args.out):
-        result = run_track(spec, args.out, command=command, say=lambda line: print(line, file=sys.stderr))
+        result = job.run(spec, args.out, command=command, say=lambda line: print(line, file=sys.stderr))
     for line in summary(spec, result, args.out):
         print(line, file=sys.stderr)
     return 0

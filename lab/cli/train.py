@@ -3,7 +3,7 @@
 The model flags are those of :class:`lab.learn.TrainSpec` (``--model``, ``--hidden``,
 ``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``, ``--split`` (ratios, random
 rows or whole ``group`` sequences), ``--history`` (past commands as inputs), ``--seed``,
-``--activation``, ``--jobs``); :func:`lab.learn.runs.train_run` reads the data and fits
+``--activation``, ``--jobs``); :func:`lab.jobs.train.run` reads the data and fits
 the model, this command writes it, prints its errors per set and writes the JSON report.
 """
 
@@ -16,6 +16,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable
+from lab.jobs import train as job
 from lab.learn.train_spec import TrainSpec
 
 
@@ -61,14 +62,13 @@ def _inputs(args) -> dict:
 
 def run(args) -> int:
     from lab.files import atomic_write_text
-    from lab.learn.runs import train_run
 
     spec = spec_from_args(TrainSpec, args)
     check_paths(_inputs(args), {"--out": args.out, "--report": args.report})
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
-    result = train_run(
+    result = job.run(
         spec,
         args.data,
         extra_data=args.extra_data,

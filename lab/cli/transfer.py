@@ -1,9 +1,9 @@
 """``python -m lab transfer``: a forward model for the real arm from simulated data and N
-real samples, by a method of :mod:`lab.learn.transfer` or by calibrated physics
+real samples, by a method of :mod:`lab.transfer.data_methods` or by calibrated physics
 (:mod:`lab.transfer.calibrated`: the FEM is calibrated to the real samples and re-simulates
 the commands of ``--sim``, and a network is trained on those).
 
-The flags are those of :class:`lab.transfer.TransferSpec`; :func:`lab.transfer.transfer_run`
+The flags are those of :class:`lab.jobs.transfer.TransferSpec`; :func:`lab.jobs.transfer.run`
 builds the model. The real samples come from ``capture`` on any rig (``twin``,
 ``twin:random:SEED``, ``hardware:RIG.toml``): the method sees only the dataset. The model
 written is one ``.npz`` that ``track --model`` accepts (a residual model too).
@@ -19,8 +19,9 @@ import sys
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import transfer as job
+from lab.jobs.transfer import TransferSpec, fit_mean_distance_mm
 from lab.learn.train_spec import TrainSpec
-from lab.transfer.transfer_run import TransferSpec
 
 MESH_HELP = {
     "n_rings": "calibrated: mesh rings of calibration and re-simulation",
@@ -52,8 +53,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.transfer.transfer_run import fit_mean_distance_mm, transfer_run
-
     spec = spec_from_args(
         TransferSpec, args, train=spec_from_args(TrainSpec, args), mesh=spec_from_args(MeshSpec, args)
     )
@@ -67,7 +66,7 @@ def run(args) -> int:
         inputs["--robot"] = existing(spec.robot)
     check_paths(inputs, {"--out": args.out})
     check_writable(args.out)
-    model, (u_real, y_real) = transfer_run(
+    model, (u_real, y_real) = job.run(
         spec, command="python -m lab " + shlex.join(args.argv), log=lambda line: print(line, file=sys.stderr)
     )
     model.save(args.out)

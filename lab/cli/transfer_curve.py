@@ -1,5 +1,5 @@
 """``python -m lab transfer-curve``: the sim-to-real curve over a family of emulated
-as-built robots (:mod:`lab.studies.transfer_curve`, :mod:`lab.studies.transfer_study`).
+as-built robots (:func:`lab.jobs.transfer_curve.run`, :mod:`lab.studies.transfer_study`).
 
 For each robot (``--family K``: members 0..K-1 of :data:`lab.asbuilt.RANDOM`,
 or with ``--family-kind foam`` of :data:`lab.asbuilt.FOAM`, rows labelled
@@ -19,6 +19,7 @@ import sys
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.jobs import transfer_curve as job
 from lab.studies.transfer_curve import TransferCurveSpec
 from lab.workers import default_jobs
 
@@ -41,8 +42,6 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from lab.studies.transfer_curve import transfer_curve_run
-
     jobs = {} if args.jobs is not None else {"jobs": default_jobs()}
     spec = spec_from_args(TransferCurveSpec, args, mesh=spec_from_args(MeshSpec, args), **jobs)
     inputs = {"--sim-model": existing(spec.sim_model)}
@@ -51,5 +50,5 @@ def run(args) -> int:
     check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json"})
     check_writable(args.out)
     command = "python -m lab " + shlex.join(args.argv)
-    transfer_curve_run(spec, args.out, command=command, log=lambda line: print(line, file=sys.stderr))
+    job.run(spec, args.out, command=command, log=lambda line: print(line, file=sys.stderr))
     return 0

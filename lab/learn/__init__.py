@@ -3,16 +3,16 @@
 :class:`MLP` (:mod:`.mlp`) with the Appendix's analytic Jacobian, stored by
 :mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
-point :func:`train` (:mod:`.train`) on ``dividerand`` splits (:mod:`.split`); every trainer
+point :func:`train` (``lab/learn/train.py``) on ``dividerand`` splits (:mod:`.split`); every trainer
 takes one :class:`TrainingData` (:mod:`.training_data`) and its algorithm's options; error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
 A run's settings are one :class:`TrainSpec` (:mod:`.train_spec`; memory check in
-:mod:`.network_size`); :mod:`.runs` runs ``train`` and ``splits`` from dataset files
-(:mod:`.run_inputs`). History models of measured sequences and their past-fixed views: :mod:`.history`.
-Sim-to-real transfer from a few real samples: fine-tuning (:mod:`.finetune`), the GP
-residual model (:mod:`.residual`) and the data-only methods behind one call (:mod:`.transfer`).
-Active sampling (:mod:`.active`), run from a design's settings by :mod:`.active_design`;
-:func:`simulate_design` (:mod:`.simulate_design`) simulates any design into a dataset.
+:mod:`.network_size`); what ``train`` and ``splits`` (:mod:`lab.jobs`) fit on comes from
+dataset files by :mod:`.run_inputs`. History models of measured sequences and their
+past-fixed views: :mod:`.history`. Sim-to-real transfer from a few real samples:
+fine-tuning (:mod:`.finetune`) and the GP residual model (:mod:`.residual`), behind one
+call in :mod:`lab.transfer.data_methods`. Active sampling (:mod:`.active`), run from a
+design's settings by :mod:`.active_design`.
 The foam in time (the relaxation filter and its fits) is :mod:`lab.dynamics`.
 """
 
@@ -41,8 +41,6 @@ from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, lo
 from lab.learn.network_size import check_network_size, n_parameters, training_bytes
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
-from lab.learn.runs import TrainRun, splits_run, train_run
-from lab.learn.simulate_design import simulate_design
 from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
 from lab.learn.studies import (
     evaluate_splits,
@@ -52,9 +50,8 @@ from lab.learn.studies import (
     write_csv,
 )
 from lab.learn.train import TrainResult, data_sha256, train
-from lab.learn.train_spec import SplitsSpec, TrainSpec
+from lab.learn.train_spec import TrainSpec
 from lab.learn.training_data import TrainingData
-from lab.learn.transfer import DATA_METHODS, transfer_model
 
 __all__ = [
     "BROptions",
@@ -79,7 +76,6 @@ __all__ = [
     "run_active",
     "active_settings",
     "check_active",
-    "simulate_design",
     "pick_apart",
     "MAX_HISTORY",
     "at_rest",
@@ -106,8 +102,6 @@ __all__ = [
     "ResidualModel",
     "fit_residual",
     "load_residual",
-    "DATA_METHODS",
-    "transfer_model",
     "STOP_MESSAGES",
     "stop_message",
     "minmax_gain",
@@ -135,10 +129,6 @@ __all__ = [
     "TrainResult",
     "train",
     "TrainSpec",
-    "SplitsSpec",
-    "TrainRun",
-    "train_run",
-    "splits_run",
     "check_network_size",
     "n_parameters",
     "training_bytes",

@@ -10,7 +10,8 @@ K not below the longest sequence -- and, for ``--split group``, the groups dealt
 when there are fewer than 3). :func:`record_trained` writes what every trained model
 records: its history K, the box of its training commands
 (:func:`lab.learn.history.record_data_bounds`) and the robot of a dataset without an FEM
-(sidecar ``robot.kind == "measured"``), whose limits and units then travel with the model.
+(sidecar ``robot.kind == "measured"``), whose limits and units then travel with the model;
+:func:`forward_model` loads the forward model that judges a direct inverse's commands.
 """
 
 from __future__ import annotations
@@ -24,9 +25,10 @@ from lab.data.dataset import read_dataset
 from lab.data.sequences import sequence_ids
 from lab.errors import InputError
 from lab.learn.history import history_features, record_data_bounds, record_history
+from lab.learn.models import load_model
 from lab.learn.split import split_groups
 
-__all__ = ["inputs_and_groups", "read_all", "record_trained"]
+__all__ = ["forward_model", "inputs_and_groups", "read_all", "record_trained"]
 
 
 def _check_not_twice(sources: list[tuple[str, np.ndarray]], what: str, rows: np.ndarray) -> None:
@@ -107,3 +109,26 @@ def record_trained(model, spec, u, train_idx, meta) -> None:
     robot = meta.get("robot")
     if isinstance(robot, dict) and robot.get("kind") == "measured":
         model.metadata["robot"] = robot
+
+
+def forward_model(spec, forward):
+    """The forward model file ``forward`` loaded, for a spec of ``model="inverse-mlp"``.
+
+    Parameters
+    ----------
+    spec : lab.learn.train_spec.TrainSpec
+        The run's model settings.
+    forward : str or Path or None
+        A forward model file (.npz), or None.
+
+    Returns
+    -------
+    object or None
+        The loaded model (:func:`lab.learn.models.load_model`), None without ``forward``.
+        InputError for a file given with any other model.
+    """
+    if forward is None:
+        return None
+    if spec.model != "inverse-mlp":
+        raise InputError("--forward only applies to --model inverse-mlp")
+    return load_model(forward)

@@ -8,8 +8,8 @@ fields of one frozen spec, each
 declared with :func:`lab.specs.option`, so that the flags' help and checks live here:
 ``train`` and ``splits`` build their flags from it, ``transfer`` its ``--hidden`` and
 ``--seed``. :meth:`TrainSpec.check_fits` refuses, once the data's sizes are known, a
-network that cannot fit in memory (:mod:`lab.learn.network_size`). :class:`SplitsSpec`
-is the ``splits`` study's own setting, the number of random splits.
+network that cannot fit in memory (:mod:`lab.learn.network_size`). The ``splits`` study's
+own setting, the number of random splits, is :class:`lab.jobs.splits.SplitsSpec`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from lab.learn.split import SPLIT_KINDS
 from lab.learn.train import ALGORITHMS
 from lab.specs import Spec, at_most, non_negative, non_negative_int, option, positive_int
 
-__all__ = ["TrainSpec", "SplitsSpec"]
+__all__ = ["TrainSpec"]
 
 
 def _widths(v) -> str | None:
@@ -82,7 +82,37 @@ def _is_number_word(w: str) -> bool:
 
 @dataclass(frozen=True)
 class TrainSpec(Spec):
-    """A model and how it is trained; see the flags' help for each field."""
+    """A model and how it is trained; see each field's help.
+
+    Parameters
+    ----------
+    model : str
+        One of :data:`lab.learn.MODEL_CHOICES`: lab's network, an ensemble, a scikit-learn
+        peer or the direct inverse.
+    hidden : tuple of int
+        Hidden layer widths.
+    algorithm : str
+        Network training: ``lm``, ``adam``, ``lbfgs`` or ``br``.
+    activation : str
+        Hidden activation.
+    epochs : int, optional
+        Maximum epochs (None: 1000).
+    min_grad : float, optional
+        LM/BR gradient stop (None: the algorithm's default; 0 disables).
+    members : int
+        Ensemble: number of networks (at least 2).
+    ratios : tuple of float
+        Split ratios (train, validation, test); also takes the ``--split`` words, parsed
+        into ``split`` and ``ratios``.
+    split : str
+        ``random`` rows or ``group``: whole measurement sequences.
+    history : int
+        Past commands the model also takes (0: the command only).
+    seed : int
+        Seed of the split and the initial weights.
+    jobs : int
+        Worker processes (an ensemble's members; the splits of ``splits``).
+    """
 
     model: str = option(
         "mlp",
@@ -179,10 +209,3 @@ class TrainSpec(Spec):
         algorithm = "adam" if self.model == "sklearn-mlp" else self.algorithm
         parallel = min(self.jobs, self.members) if self.model == "ensemble" else 1
         check_network_size(sizes, self.n_train(n_samples), algorithm, copies=copies * parallel)
-
-
-@dataclass(frozen=True)
-class SplitsSpec(Spec):
-    """The ``splits`` study: how many random splits."""
-
-    n_splits: int = option(10, type=int, check=positive_int, help="number of random splits")

@@ -176,7 +176,7 @@ def expected_pairs(methods, ns) -> set:
 
 def make_methods(sim_model, names, hidden=(20, 20), seed: int = 0, extra: dict | None = None) -> dict:
     """Model builders for the ``names`` of :data:`METHOD_MIN_N`: ``sim-only`` is the
-    simulation network at N = 0 only; the others use :func:`lab.learn.transfer.transfer_model`
+    simulation network at N = 0 only; the others use :func:`lab.transfer.data_methods.transfer_model`
     from their minimum N on.
 
     Parameters
@@ -193,7 +193,7 @@ def make_methods(sim_model, names, hidden=(20, 20), seed: int = 0, extra: dict |
     dict
         ``{name: make(u_real, y_real) -> model or None}``.
     """
-    from lab.learn.transfer import transfer_model
+    from lab.transfer.data_methods import transfer_model
 
     def builder(name):
         if name == "sim-only":

@@ -3,15 +3,14 @@
 :func:`run_trajectory` (:mod:`.track`) solves the IK for every target, sends the commands
 to any :class:`lab.rig.Rig` and records where the tip settled; :mod:`.stream` commands a
 trajectory continuously at a period, and :mod:`.closed_loop` corrects the commands from
-measured tips (ILC or per-point feedback). :func:`run_track` (:mod:`.job`) is one
-``python -m lab track`` run from its :class:`TrackSpec`, with its measured points kept in
-:mod:`.points`; with ``--rig none`` there is no rig, and :func:`run_offline`
+measured tips (ILC or per-point feedback). One ``python -m lab track`` run from its
+settings is :mod:`lab.jobs.track`, with its measured points kept in :mod:`.points`;
+with ``--rig none`` there is no rig, and :func:`run_offline`
 (:mod:`.offline`) writes the IK's commands for a lab's own robot. The studies built on
 these (Table I, the sim-to-real and data-efficiency curves) are in :mod:`lab.studies`; the
 design notes in ``docs/design/tracking.md``.
 """
 
-from lab.tracking.capture_design import capture_design
 from lab.tracking.closed_loop import (
     DEFAULT_GAIN,
     MAX_PASSES,
@@ -23,7 +22,6 @@ from lab.tracking.closed_loop import (
     run_closed_loop,
     tip_from_frames,
 )
-from lab.tracking.job import TrackSpec, run_track
 from lab.tracking.offline import SolvedTargets, run_offline, solve_targets
 from lab.tracking.points import PointLog
 from lab.tracking.stream import StreamPlan, StreamResult, plan_stream, stream_trajectory, target_at
@@ -39,9 +37,6 @@ from lab.tracking.track import (
 )
 
 __all__ = [
-    "capture_design",
-    "TrackSpec",
-    "run_track",
     "SolvedTargets",
     "run_offline",
     "solve_targets",

@@ -174,7 +174,7 @@ def solve_targets(model, targets_W, config: IKConfig | None = None, *, robot=Non
 
 
 def run_offline(spec, out, *, command: str | None = None, say: Callable | None = None, max_points: int):
-    """``track --rig none`` for ``spec`` (a :class:`lab.tracking.TrackSpec` with a model):
+    """``track --rig none`` for ``spec`` (a :class:`lab.jobs.track.TrackSpec` with a model):
     solve the IK for every target and write the result JSON ``out`` and
     ``OUT.commands.csv`` together (atomic). ``max_points``: the most targets. Returns the
     :class:`SolvedTargets`. InputError for a direct inverse model, a model with another

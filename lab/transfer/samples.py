@@ -1,4 +1,4 @@
-"""The N real samples' equilibria under the FEM at theta, warm-started, for :mod:`.calibrate`.
+"""The N real samples' equilibria under the FEM at theta, warm-started, for :func:`lab.transfer.calibrate`.
 
 The first pass (:meth:`Samples.first`) solves the samples along a nearest-neighbour walk
 from rest, each from its predecessor's equilibrium moved by dq/du; later passes

@@ -1,8 +1,8 @@
-"""The ``calibrate`` run: identify the as-built FEM parameters from a real dataset file.
+"""``python -m lab calibrate``: identify the as-built FEM parameters from a real dataset file.
 
 :class:`CalibrationSpec` holds the fit's settings (``--noise-m``, ``--axes``,
 ``--max-iter``) and its mesh (:class:`lab.fem.MeshSpec`, ``--n-rings``/``--n-axial``);
-:func:`calibration_run` checks the dataset against the nominal robot (its robot, its
+:func:`run` checks the dataset against the nominal robot (its robot, its
 motor columns), runs :func:`lab.transfer.calibrate` and refuses a fit that did not
 converge, or whose misfit is far above what the FEM family can explain
 (:func:`misfit_limit_m`); nothing is written then. :func:`calibration_summary` is the
@@ -19,7 +19,7 @@ from lab.errors import InputError, LabRuntimeError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec, option, positive, positive_int
 
-__all__ = ["CalibrationSpec", "calibration_run", "calibration_summary", "discrepancy_line", "misfit_limit_m"]
+__all__ = ["CalibrationSpec", "run", "calibration_summary", "discrepancy_line", "misfit_limit_m"]
 
 #: A calibrated misfit above this many noise levels is not noise (``--noise-m``: per coordinate).
 MISFIT_NOISE_FACTOR = 10.0
@@ -29,7 +29,20 @@ MISFIT_LENGTH_FRACTION = 0.1
 
 @dataclass(frozen=True)
 class CalibrationSpec(Spec):
-    """How the FEM is fitted to the real samples."""
+    """How the FEM is fitted to the real samples.
+
+    Parameters
+    ----------
+    noise_m : float
+        Tip error per coordinate the fit expects, m (mocap noise plus what the static FEM
+        cannot model); weighs the data against the prior.
+    axes : str
+        Eyelet-shift components identified: "yz" or "xyz".
+    max_iter : int
+        Levenberg-Marquardt iterations at most.
+    mesh : MeshSpec
+        The mesh of the FEM fitted (None fields: the description's).
+    """
 
     noise_m: float = option(
         5e-4,
@@ -53,7 +66,20 @@ def misfit_limit_m(robot, noise_m: float) -> float:
     layers) fitted to tips simulated on the fine one leaves about 11 mm. Beyond a tenth of
     the arm's length -- or ten times the noise the user declares -- the parameters
     (softness, gradient, eyelet shifts, slack) explain nothing: the data are in other
-    units (tips in cm or mm give metres of misfit), another frame, or of another robot."""
+    units (tips in cm or mm give metres of misfit), another frame, or of another robot.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot (its ``length_m``).
+    noise_m : float
+        Declared tip noise per coordinate, m.
+
+    Returns
+    -------
+    float
+        The limit, m.
+    """
     return max(MISFIT_NOISE_FACTOR * noise_m, MISFIT_LENGTH_FRACTION * robot.length_m)
 
 
@@ -72,12 +98,28 @@ def _check_misfit(robot, real, spec: CalibrationSpec, result) -> None:
     raise (InputError if result.rms_m > 2 * robot.length_m else LabRuntimeError)(text)
 
 
-def calibration_run(robot, real, spec: CalibrationSpec, *, log=None):
-    """Calibrate ``robot`` (a :class:`lab.description.RobotDescription`) on the dataset file
-    ``real``; returns the converged :class:`lab.transfer.CalibrationResult`. InputError for
-    data of another robot or the wrong number of motors, LabRuntimeError if not converged;
-    a misfit above :func:`misfit_limit_m` is refused too (InputError beyond twice the arm's
-    length: data in other units or frame; else LabRuntimeError)."""
+def run(spec: CalibrationSpec, robot, real, *, log=None):
+    """Calibrate ``robot`` on the dataset file ``real``.
+
+    Parameters
+    ----------
+    spec : CalibrationSpec
+        The fit's settings and mesh.
+    robot : RobotDescription
+        The nominal robot (:class:`lab.description.RobotDescription`).
+    real : str or Path
+        Real dataset CSV (``u0..,x,y,z``; metres) with its sidecar.
+    log : callable, optional
+        Called with each progress line.
+
+    Returns
+    -------
+    CalibrationResult
+        The converged :class:`lab.transfer.CalibrationResult`. InputError for data of another
+        robot or the wrong number of motors, LabRuntimeError if not converged; a misfit above
+        :func:`misfit_limit_m` is refused too (InputError beyond twice the arm's length: data
+        in other units or frame; else LabRuntimeError).
+    """
     from lab.data.dataset import read_dataset
     from lab.transfer.calibrate import calibrate
 
@@ -108,7 +150,27 @@ def calibration_run(robot, real, spec: CalibrationSpec, *, log=None):
 
 
 def calibration_summary(robot, result, real, out, command: str) -> dict:
-    """The JSON summary (kind ``lab.calibration``) of ``result`` for ``robot``."""
+    """The JSON summary (kind ``lab.calibration``) of ``result`` for ``robot``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    result : CalibrationResult
+        What :func:`run` returned.
+    real : str or Path
+        The real dataset file.
+    out : str or Path
+        The calibrated robot's TOML.
+    command : str
+        The command line.
+
+    Returns
+    -------
+    dict
+        The summary: robot, files, the result's :meth:`~lab.transfer.CalibrationResult.summary`,
+        command and code version.
+    """
     from lab.files import code_version
 
     return {
@@ -126,7 +188,18 @@ def calibration_summary(robot, result, real, out, command: str) -> dict:
 def discrepancy_line(result) -> str:
     """One line on the chi-square test of ``result`` (a :class:`lab.transfer.CalibrationResult`):
     whether the calibrated model explains the samples at the declared noise, the RMS 3-D
-    residual against the RMS a correct model leaves, and the standard deviations reported."""
+    residual against the RMS a correct model leaves, and the standard deviations reported.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+        What :func:`run` returned.
+
+    Returns
+    -------
+    str
+        The line.
+    """
     c = result.check
     mm = f"residual {1e3 * c['rms_m']:.3f} mm RMS against {1e3 * c['expected_rms_m']:.3f} mm expected from the noise"
     stat = (

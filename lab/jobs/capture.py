@@ -1,13 +1,14 @@
-"""A capture run, end to end: a design's commands measured on a rig into a journal, as a dataset.
+"""``python -m lab capture``: a design's commands measured on a rig into a journal, as a dataset.
 
-:func:`capture_design` is ``python -m lab capture``: a fixed design (grid or space-filling)
-is captured in its shuffled order by :func:`lab.capture.session.capture`; an active one
+:func:`run` takes the command's :class:`lab.capture.spec.CaptureSpec`: a fixed design
+(grid or space-filling) is captured in its shuffled order by :func:`lab.capture.session.capture`; an active one
 (``--active N --batch B``) runs :func:`lab.learn.active_design.run_active` -- the loop
 ``simulate`` runs too -- with the rig's side, each batch's plan journaled, then captured,
 and a batch a kill interrupted finished from its plan, in
 :class:`lab.capture.active.JournaledBatches`. It lives above both the rig and the
-learned model, which a rig does not import. Killed or failed, the journal keeps every
-sample so far and the same spec continues from it; the rig is closed (torque off) either way.
+learned model, which a rig does not import; the command line writes the dataset it
+returns. Killed or failed, the journal keeps every sample so far and the same spec
+continues from it; the rig is closed (torque off) either way.
 """
 
 from __future__ import annotations
@@ -20,16 +21,26 @@ import numpy as np
 from lab.capture.dataset import CapturedDataset, capture_header, captured_dataset, planned_commands
 from lab.capture.spec import CaptureSpec
 
-__all__ = ["capture_design"]
+__all__ = ["run"]
 
 
-def capture_design(spec: CaptureSpec, *, file=None) -> CapturedDataset:
-    """Capture ``spec``'s design on its rig; returns the dataset to write (rows in design
-    order, or capture order for an active design) with its metadata and summary line.
+def run(spec: CaptureSpec, *, file=None) -> CapturedDataset:
+    """Capture ``spec``'s design on its rig.
 
-    Progress lines go to ``file`` (default stderr). Raises InputError for bad input found
-    before the rig moves (robot, dynamic model, design) or a journal of other settings,
-    RigError when the rig fails; KeyboardInterrupt passes through after the rig is closed.
+    Parameters
+    ----------
+    spec : CaptureSpec
+        The rig, robot, design, protocol, output and journal of the capture.
+    file : file-like, optional
+        Where progress lines go (default stderr).
+
+    Returns
+    -------
+    CapturedDataset
+        The dataset to write (rows in design order, or capture order for an active design)
+        with its metadata and summary line. Raises InputError for bad input found before the
+        rig moves (robot, dynamic model, design) or a journal of other settings, RigError
+        when the rig fails; KeyboardInterrupt passes through after the rig is closed.
     """
     from lab.capture.session import capture
     from lab.description import load_robot

@@ -1,6 +1,6 @@
-"""A sampling design simulated with the FEM into a dataset file, resumable after a kill.
+"""``python -m lab simulate``: a sampling design simulated with the FEM into a dataset file, resumable.
 
-:func:`simulate_design` is what ``python -m lab simulate`` does: a grid or space-filling
+:func:`run` is what the command does with its :class:`lab.data.DesignSpec`: a grid or space-filling
 design is solved chunk by chunk (:func:`lab.data.simulated_dataset.simulate_fixed`); an
 ``--active`` one batch by batch as :func:`lab.learn.active_design.run_active` picks them,
 each batch saved in the checkpoint the moment it is solved
@@ -24,7 +24,7 @@ from lab.errors import InputError, LabRuntimeError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.active_design import active_settings, check_active, run_active
 
-__all__ = ["simulate_design"]
+__all__ = ["run"]
 
 #: OS errors that mean the disk, the quota or the file-size limit is full.
 _NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
@@ -32,9 +32,9 @@ _NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
 _STATS = ("iterations", "factorizations", "time_s")
 
 
-def simulate_design(
-    robot: RobotDescription,
+def run(
     design: DesignSpec,
+    robot: RobotDescription,
     mesh: MeshSpec,
     out,
     *,
@@ -47,14 +47,40 @@ def simulate_design(
     restart: bool = False,
     file=None,
 ) -> dict:
-    """Simulate ``design`` for ``robot`` on the ``mesh`` and write the dataset ``out``
-    (+ ``out.json``); returns its metadata.
+    """Simulate ``design`` for ``robot`` on the ``mesh`` and write the dataset ``out`` (+ ``out.json``).
 
-    ``checkpoint``: the directory keeping finished chunks (or batches) until the dataset
-    is written (``restart``: its files are discarded first); ``command``: the command
-    line recorded; ``jobs`` worker processes (or a Dask ``scheduler``) solve chunks of
-    ``chunk_size`` commands. Progress lines go to ``file`` (default stderr). A full disk
-    raises LabRuntimeError saying that the finished chunks are kept.
+    Parameters
+    ----------
+    design : DesignSpec
+        Which commands: a grid, a space-filling design or an active one.
+    robot : RobotDescription
+        The robot simulated.
+    mesh : MeshSpec
+        The FEM mesh (None fields: the description's).
+    out : str or Path
+        Output dataset CSV; its metadata goes to ``out.json``.
+    checkpoint : str or Path
+        Directory keeping finished chunks (or batches) until the dataset is written.
+    command : str
+        The command line recorded in the metadata.
+    jobs : int
+        Worker processes solving chunks.
+    chunk_size : int
+        Commands per chunk (a unit of work and of checkpointing).
+    progress : bool
+        Whether to show a progress bar.
+    scheduler : str, optional
+        A Dask scheduler (``tcp://HOST:PORT``) to run the chunks on instead of local workers.
+    restart : bool
+        Discard the checkpoint's files first.
+    file : file-like, optional
+        Where progress lines go (default stderr).
+
+    Returns
+    -------
+    dict
+        The dataset's metadata. A full disk raises LabRuntimeError saying that the finished
+        chunks are kept.
     """
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise InputError(f"--chunk-size must be a positive integer, got {chunk_size!r}")

@@ -1,11 +1,11 @@
-"""The ``transfer`` run: a forward model for the real arm from simulation and N real samples.
+"""``python -m lab transfer``: a forward model for the real arm from simulation and N real samples.
 
 :class:`TransferSpec` says which method (``--method``: the data-only methods of
-:mod:`lab.learn.transfer`, or ``calibrated``, :mod:`lab.transfer.calibrated`), which
+:mod:`lab.transfer.data_methods`, or ``calibrated``, :mod:`lab.transfer.calibrated`), which
 files (``--real``, ``--sim`` or ``--sim-model``, ``--robot``), the network
 (:class:`lab.learn.TrainSpec`'s ``--hidden`` and ``--seed``), the mesh of the calibrated
 method (:class:`lab.fem.MeshSpec`) and its workers, and refuses combinations that do not
-go together. :func:`transfer_run` reads the datasets, checks them against the robot and
+go together. :func:`run` reads the datasets, checks them against the robot and
 builds the model; the real samples may come from any rig, hardware included.
 """
 
@@ -18,17 +18,37 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.train_spec import TrainSpec
-from lab.learn.transfer import DATA_METHODS
 from lab.specs import Spec, option, positive_int
+from lab.transfer.data_methods import DATA_METHODS
 
-__all__ = ["TRANSFER_METHODS", "TransferSpec", "transfer_run", "fit_mean_distance_mm"]
+__all__ = ["TRANSFER_METHODS", "TransferSpec", "run", "fit_mean_distance_mm"]
 
 TRANSFER_METHODS = (*DATA_METHODS, "calibrated")
 
 
 @dataclass(frozen=True)
 class TransferSpec(Spec):
-    """One transfer: method, input files, network (``train``) and calibration mesh (``mesh``)."""
+    """One transfer: method, input files, network (``train``) and calibration mesh (``mesh``).
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`TRANSFER_METHODS`.
+    sim : str, optional
+        Simulated dataset CSV: a network is trained on it (``calibrated``: its commands are re-simulated).
+    sim_model : str, optional
+        Instead of ``sim``: a network already trained on simulation (.npz).
+    real : str
+        Real dataset CSV (from ``capture``).
+    robot : str, optional
+        Robot name or description TOML; checked against the datasets' robots.
+    jobs : int
+        ``calibrated``: worker processes of the re-simulation.
+    train : TrainSpec
+        The network (its ``hidden`` widths and ``seed``).
+    mesh : MeshSpec
+        ``calibrated``: the mesh of calibration and re-simulation.
+    """
 
     method: str = option(None, required=True, choices=TRANSFER_METHODS, help="transfer method")
     sim: str | None = option(
@@ -76,10 +96,26 @@ def _read(path, what: str, robot):
     return u, y, meta
 
 
-def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
-    """The model ``spec`` asks for, its ``metadata["transfer"]`` recording the files and
-    ``command``; returns (model, the real data (u (N, n_u) rad, y (N, 3) m)). ``log(line)``:
-    progress. InputError for files or data that do not fit the method or the robot."""
+def run(spec: TransferSpec, *, command: str = "", log=None):
+    """The model ``spec`` asks for, its ``metadata["transfer"]`` recording the files and ``command``.
+
+    Parameters
+    ----------
+    spec : TransferSpec
+        The method, files, network and mesh.
+    command : str
+        The command line, recorded in the model's metadata.
+    log : callable, optional
+        Called with each progress line.
+
+    Returns
+    -------
+    model : object
+        The forward model (an MLP or a residual model), ready to save.
+    real : tuple of ndarray
+        The real data: u (N, n_u) rad and y (N, 3) m. InputError for files or data that do
+        not fit the method or the robot.
+    """
     from lab.description import load_robot
 
     log = log or (lambda line: None)
@@ -91,7 +127,7 @@ def transfer_run(spec: TransferSpec, *, command: str = "", log=None):
         return model, (u_real, y_real)
     from lab.learn.mlp import load_model
     from lab.learn.train import train
-    from lab.learn.transfer import transfer_model
+    from lab.transfer.data_methods import transfer_model
 
     hidden, seed, sim_model = spec.train.hidden, spec.train.seed, None
     if spec.method != "real-only":
@@ -148,5 +184,20 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
 
 
 def fit_mean_distance_mm(model, u, y) -> float:
-    """Mean distance (mm) between ``model``'s predictions at ``u`` (N, n_u) and ``y`` (N, 3) m."""
+    """Mean distance between ``model``'s predictions and the tips.
+
+    Parameters
+    ----------
+    model : object
+        A forward model with ``predict(u)``.
+    u : ndarray, shape (N, n_u)
+        Commands, rad.
+    y : ndarray, shape (N, 3)
+        Tips, m.
+
+    Returns
+    -------
+    float
+        Mean Euclidean distance, mm.
+    """
     return 1e3 * float(np.mean(np.linalg.norm(model.predict(u) - y, axis=1)))

@@ -1,17 +1,17 @@
-"""The ``train`` and ``splits`` runs: from dataset files and a :class:`TrainSpec` to a model or a table.
+"""``python -m lab train``: from a dataset file and a :class:`TrainSpec` to a fitted model.
 
-:func:`train_run` reads a dataset (and any ``extra_data`` of the same robot, appended
-before the split), fits the spec's model -- the network by :func:`lab.learn.train.train`;
-any other model on the training part of the same split (same seed, same indices), with
-its errors on all three parts and, for an ensemble, its spread scale fitted on the
-validation part -- and records where the data came from in the model's metadata, with the
-per-motor box of the training commands (:func:`lab.learn.history.record_data_bounds`),
-the model's history K and, for a robot without an FEM (``robot.kind == "measured"``), the
-sidecar's robot. :func:`splits_run` is the ten-split study of
-:func:`lab.learn.models.evaluate_model_splits` on a dataset file. With ``history`` K > 0
-both fit on :func:`lab.learn.history.history_features` of the dataset's sequences; a
-``group`` split deals out whole sequences (:func:`lab.learn.split.split_groups`). Both
-check the spec against the data (sizes, memory, K below the longest sequence) before any fit.
+:func:`run` reads a dataset (and any ``extra_data`` of the same robot, appended before the
+split; :func:`lab.learn.run_inputs.read_all`), fits the spec's model -- the network by
+:func:`lab.learn.train.train`; any other model on the training part of the same split
+(same seed, same indices), with its errors on all three parts and, for an ensemble, its
+spread scale fitted on the validation part -- and records where the data came from in the
+model's metadata, with the per-motor box of the training commands
+(:func:`lab.learn.history.record_data_bounds`), the model's history K and, for a robot
+without an FEM (``robot.kind == "measured"``), the sidecar's robot. With ``history`` K > 0
+it fits on :func:`lab.learn.history.history_features` of the dataset's sequences; a
+``group`` split deals out whole sequences (:func:`lab.learn.split.split_groups`). The spec
+is checked against the data (sizes, memory, K below the longest sequence) before any fit.
+The command line (:mod:`lab.cli.train`) writes the model and prints :class:`TrainRun`.
 """
 
 from __future__ import annotations
@@ -25,20 +25,42 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.learn.metrics import workspace_size_m
-from lab.learn.models import evaluate_model_splits, fit_model, held_out_errors, load_model, net_options, outer_split
-from lab.learn.run_inputs import inputs_and_groups, read_all, record_trained
+from lab.learn.models import fit_model, held_out_errors, load_model, net_options, outer_split
+from lab.learn.run_inputs import forward_model, inputs_and_groups, read_all, record_trained
 from lab.learn.split import check_enough_data
 from lab.learn.train import data_sha256, train
-from lab.learn.train_spec import SplitsSpec, TrainSpec
+from lab.learn.train_spec import TrainSpec
 
-__all__ = ["TrainRun", "train_run", "splits_run", "network_words"]
+__all__ = ["TrainSpec", "TrainRun", "run", "network_words"]
 
 
 @dataclass
 class TrainRun:
-    """A fitted model with its errors per set (``errors[set]`` = {mse_m2, mean_distance_m, n, ...}),
-    test calibration (ensemble, gpr; else None), stop record, fit time (s) and the
-    workspace size (m, NaN if unknown)."""
+    """What :func:`run` returns: a fitted model and how it did.
+
+    Parameters
+    ----------
+    spec : TrainSpec
+        The spec the model was fitted with (hidden widths those of ``init``'s network).
+    model : object
+        The fitted model (an MLP, ensemble, inverse or peer), with its metadata.
+    errors : dict
+        Per set (train, validation, test): ``{mse_m2, mean_distance_m, n, ...}``.
+    calibration : dict or None
+        Test calibration of the spread (ensemble, gpr); None for other models.
+    stop : dict
+        ``stop_reason``, ``epochs``, ``best_epoch`` (None for a model other than the network).
+    wall_s : float
+        Fit time, s.
+    workspace_size_m : float
+        Bounding-box diagonal of the tip data, m (NaN if unknown).
+    data : str
+        The dataset file.
+    file_sha256 : str
+        SHA-256 of the dataset file.
+    split_info : dict
+        The report's keys about history and split (``history``, ``split_method``, ...).
+    """
 
     spec: TrainSpec
     model: object
@@ -52,7 +74,19 @@ class TrainRun:
     split_info: dict
 
     def report(self, model_path) -> dict:
-        """The JSON report of ``train --report`` (kind ``lab.train_report``)."""
+        """The JSON report of ``train --report`` (kind ``lab.train_report``).
+
+        Parameters
+        ----------
+        model_path : str or Path
+            Where the model was written, recorded as ``model``.
+
+        Returns
+        -------
+        dict
+            The report: errors per set, workspace size (m), data and model provenance,
+            training settings, stop record and wall time (s).
+        """
         from lab.files import code_version
 
         size, training = self.workspace_size_m, self.model.metadata["training"]
@@ -85,17 +119,22 @@ class TrainRun:
 
 
 def network_words(spec: TrainSpec, n_u: int, n_y: int) -> str:
-    """How the log names the spec's network, e.g. "3-20-20-3", "5 x 3-20-20-3"; "" for a peer."""
+    """How the log names the spec's network, e.g. "3-20-20-3", "5 x 3-20-20-3"; "" for a peer.
+
+    Parameters
+    ----------
+    spec : TrainSpec
+        The model and its hidden widths.
+    n_u, n_y : int
+        Inputs and outputs of the network.
+
+    Returns
+    -------
+    str
+        The words.
+    """
     net = "-".join(map(str, [n_u, *spec.hidden, n_y]))
     return {"mlp": net, "ensemble": f"{spec.members} x {net}", "inverse-mlp": f"inverse {net}"}.get(spec.model, "")
-
-
-def _forward_model(spec: TrainSpec, forward):
-    if forward is None:
-        return None
-    if spec.model != "inverse-mlp":
-        raise InputError("--forward only applies to --model inverse-mlp")
-    return load_model(forward)
 
 
 def _finite_or_none(d: dict) -> dict:
@@ -145,19 +184,37 @@ def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
     return model, errors, cal, wall_s, split.train
 
 
-def train_run(
-    spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, command: str = "", log=None
-) -> TrainRun:
-    """Fit ``spec``'s model on the dataset file ``data`` (plus ``extra_data`` files of the same
-    robot). ``init``: a network file to continue (``--model mlp`` only; the spec's hidden
-    widths become its own); ``forward``: a forward model file judging a direct inverse's
-    commands; ``command``: recorded in the metadata; ``log(line)``: progress. InputError
-    for bad files, data or settings, before any fit."""
+def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, command: str = "", log=None) -> TrainRun:
+    """Fit ``spec``'s model on a dataset file.
+
+    Parameters
+    ----------
+    spec : TrainSpec
+        The model and how it is trained (:class:`lab.learn.train_spec.TrainSpec`).
+    data : str or Path
+        Dataset CSV (``u0..,x,y,z``; metres) with its ``.json`` sidecar.
+    extra_data : sequence of str or Path
+        More datasets of the same robot, appended to ``data`` before the split.
+    init : str or Path, optional
+        A network file to continue (``model="mlp"`` only; the spec's hidden widths become its own).
+    forward : str or Path, optional
+        A forward model file judging a direct inverse's commands (``model="inverse-mlp"``).
+    command : str
+        The command line, recorded in the model's metadata.
+    log : callable, optional
+        Called with each progress line.
+
+    Returns
+    -------
+    TrainRun
+        The fitted model with its errors per set, calibration, stop record and timing.
+        InputError for bad files, data or settings, before any fit.
+    """
     from lab.learn.mlp import MLP
 
     u, y, meta, extra, ids = read_all(data, extra_data)
     x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
-    forward_model = _forward_model(spec, forward)
+    forward_net = forward_model(spec, forward)
     init_model = None
     if init is not None:
         init_model = load_model(init)
@@ -182,7 +239,7 @@ def train_run(
         model, errors, wall_s, train_idx = res.model, res.errors, res.log.wall_s, res.split.train
         stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
     else:
-        model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_model, groups)
+        model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_net, groups)
         stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
     record_trained(model, spec, u, train_idx, meta)
     file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
@@ -194,31 +251,3 @@ def train_run(
     training["command"] = command
     size = workspace_size_m(y) or float("nan")
     return TrainRun(spec, model, errors, cal, stop, wall_s, size, str(data), file_sha, split_info)
-
-
-def splits_run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None):
-    """The ten-split study (:func:`lab.learn.models.evaluate_model_splits`) of ``spec``'s
-    model on the dataset file ``data``, ``splits.n_splits`` splits on ``spec.jobs`` workers;
-    returns (rows, each with ``command``; the workspace size in m)."""
-    u, y, _, _, ids = read_all(data, ())
-    x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
-    forward_model = _forward_model(spec, forward)
-    # spec.jobs workers run one split each; an ensemble's members train one after another there
-    spec.replace(jobs=1).check_fits(x.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
-    if log is not None:
-        net = "-".join(map(str, [x.shape[1], *spec.hidden, y.shape[1]]))
-        what = {
-            "mlp": f"{net} network ({spec.algorithm})",
-            "ensemble": f"{spec.members} x {net} ensemble ({spec.algorithm})",
-        }
-        past = f", history {spec.history}" if spec.history else ""
-        log(
-            f"{data}: {len(u)} samples; {splits.n_splits} {spec.split} splits {list(spec.ratios)} of a "
-            f"{what.get(spec.model, spec.model)}{past}, seed {spec.seed}, {spec.jobs} worker(s)"
-        )
-    rows = evaluate_model_splits(x, y, spec.replace(jobs=1).model_spec(), n_splits=splits.n_splits,
-                                 ratios=tuple(spec.ratios), seed=spec.seed, n_jobs=spec.jobs, forward=forward_model,
-                                 groups=groups)  # fmt: skip
-    for r in rows:
-        r.update(split_info, command=command)
-    return rows, workspace_size_m(y)

@@ -1,12 +1,12 @@
-"""One ``track`` run from its settings: :class:`TrackSpec` and :func:`run_track`.
+"""``python -m lab track``: one run from its settings, :class:`TrackSpec` and :func:`run`.
 
-``python -m lab track`` is a thin shell over this module: it turns its flags into one
+The command line (:mod:`lab.cli.track`) is a thin shell over this module: it turns its flags into one
 :class:`TrackSpec` -- the trajectory and the mode (open loop, closed loop, or streamed at a
 period), with the rig (:class:`lab.rig.RigSpec`), the FEM mesh (:class:`lab.fem.MeshSpec`),
-the IK (:class:`lab.control.IKConfig`), the correction (:class:`.closed_loop.Correction`) and
-the streaming settings (:class:`.stream_spec.StreamSpec`) -- and :func:`run_track` does the rest:
-robot, trajectory, models, IK, rig, the run, the result file. A settled run keeps each
-measured point in ``OUT.points.csv`` (:mod:`.points`) until the result is written. With
+the IK (:class:`lab.control.IKConfig`), the correction (:class:`lab.tracking.closed_loop.Correction`)
+and the streaming settings (:class:`lab.tracking.stream_spec.StreamSpec`) -- and :func:`run` does
+the rest: robot, trajectory, models, IK, rig, the run, the result file. A settled run keeps
+each measured point in ``OUT.points.csv`` (:mod:`lab.tracking.points`) until the result is written. With
 ``--rig none`` there is no rig: :func:`lab.tracking.offline.run_offline` writes the IK's
 commands for a lab's own robot. Every count and duration is bounded, so a run always ends.
 """
@@ -34,7 +34,7 @@ from lab.tracking.stream import stream_trajectory
 from lab.tracking.stream_spec import StreamSpec
 from lab.tracking.track import TrackResult, run_trajectory, write_result
 
-__all__ = ["TrackSpec", "run_track", "MAX_POINTS", "MAX_MEASUREMENTS"]
+__all__ = ["TrackSpec", "run", "MAX_POINTS", "MAX_MEASUREMENTS"]
 
 #: The most targets of a trajectory (a built-in's ``n_points`` or a CSV's rows).
 MAX_POINTS = 10_000
@@ -47,13 +47,38 @@ DEFAULT_ROBOT, DEFAULT_SEED = "three-cable", 0
 
 @dataclass(frozen=True)
 class TrackSpec(Spec):
-    """Everything one ``track`` run needs (module docstring). ``model``: a learned forward
-    model (.npz), None for Soft IK through the FEM; ``closed_loop``: None (open loop), "ilc"
-    or "feedback", with ``passes`` and ``correction``; ``stream``: a :class:`StreamSpec` to
-    stream at a period (then ``dynamic_model``, a ``fit-dynamics`` file, pre-compensates);
-    ``mesh``: the FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed);
-    ``robot``, ``seed``: None for :data:`DEFAULT_ROBOT`, :data:`DEFAULT_SEED`. A ``none``
-    rig takes a model and nothing about a rig (no robot, seed, mesh, closed loop or stream)."""
+    """Everything one ``track`` run needs (module docstring). A ``none`` rig takes a model
+    and nothing about a rig (no robot, seed, mesh, closed loop or stream).
+
+    Parameters
+    ----------
+    trajectory : str
+        A built-in trajectory's name or a CSV file of targets (header x,y,z; metres, frame W).
+    n_points : int, optional
+        Points of a built-in trajectory (None: its own); at most :data:`MAX_POINTS`.
+    closed_loop : str, optional
+        None (open loop), "ilc" or "feedback", with ``passes`` and ``correction``.
+    passes : int
+        Closed loop: runs including the open-loop pass 0 (ilc), or measurements per target (feedback).
+    dynamic_model : str, optional
+        Streamed: a ``fit-dynamics`` file (.npz) inverted into a feed-forward pre-compensation.
+    model : str, optional
+        A learned forward model (.npz); None for Soft IK through the FEM.
+    robot : str, optional
+        Shipped robot name or description TOML; None for :data:`DEFAULT_ROBOT`.
+    seed : int, optional
+        Noise seed of an emulated rig; None for :data:`DEFAULT_SEED`.
+    rig : RigSpec
+        The rig (``sim``, a twin, hardware, or ``none``).
+    mesh : MeshSpec
+        The FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed).
+    ik : IKConfig
+        The IK's settings.
+    correction : Correction
+        The closed loop's correction.
+    stream : StreamSpec, optional
+        Streamed at a period: its settings; None for a settled run.
+    """
 
     trajectory: str | None = option(
         None,
@@ -141,22 +166,29 @@ class TrackSpec(Spec):
         return "streamed" if self.stream is not None else self.closed_loop or "open-loop"
 
 
-def run_track(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Callable | None = None):
+def run(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Callable | None = None):
     """Run ``spec`` and write its result file (JSON, docs/design/tracking.md) to ``out``.
 
     Parameters
     ----------
-    spec: the run's settings.
-    out: the result file; a settled run keeps its points in ``OUT.points.csv`` meanwhile.
-    command: the command line, recorded as ``info.command``.
-    say: called with each line the user should read (IK notes, the points kept when the run
+    spec : TrackSpec
+        The run's settings.
+    out : str or Path
+        The result file; a settled run keeps its points in ``OUT.points.csv`` meanwhile.
+    command : str, optional
+        The command line, recorded as ``info.command``.
+    say : callable, optional
+        Called with each line the user should read (IK notes, the points kept when the run
         stops); default silent.
 
-    Returns the :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed,
-    a :class:`~lab.tracking.offline.SolvedTargets` with ``--rig none``: the result file and
-    ``OUT.commands.csv``, nothing measured).
-    Raises InputError for bad settings or inputs, before the rig is made; a rig's failure
-    (exit 1) or an interrupt after the rig was closed, with the measured points kept.
+    Returns
+    -------
+    TrackResult or StreamResult or SolvedTargets
+        The :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed, a
+        :class:`~lab.tracking.offline.SolvedTargets` with ``--rig none``: the result file and
+        ``OUT.commands.csv``, nothing measured). Raises InputError for bad settings or
+        inputs, before the rig is made; a rig's failure (exit 1) or an interrupt after the
+        rig was closed, with the measured points kept.
     """
     say = say or (lambda line: None)
     if not spec.rig.has_rig:

@@ -4,12 +4,12 @@ simulated data (or none) and N real samples, and returns a forward model for IK.
 * ``real-only``: a new 3-20-20-3 network trained on the N real samples alone (the
   baseline; LM with a 10 % validation stop from 10 samples on, all N for training below);
 * ``finetune`` / ``finetune-last``: the simulation network fine-tuned on the real
-  samples, all layers / the output layer only (:mod:`.finetune`);
+  samples, all layers / the output layer only (:mod:`lab.learn.finetune`);
 * ``residual``: the simulation network plus a GP model of ``y_real - y_sim``
-  (:mod:`.residual`).
+  (:mod:`lab.learn.residual`).
 
 The physics-based method (``calibrated``: identify the as-built parameters through the
-FEM, re-simulate, retrain) needs the FEM and lives in :mod:`lab.transfer`.
+FEM, re-simulate, retrain) is :mod:`lab.transfer.calibrated`.
 """
 
 from __future__ import annotations
@@ -24,9 +24,29 @@ DATA_METHODS = ("real-only", "finetune", "finetune-last", "residual")
 
 
 def transfer_model(method: str, u_real, y_real, sim_model=None, *, hidden=(20, 20), seed: int = 0):
-    """The forward model of ``method`` (one of :data:`DATA_METHODS`) from real samples
-    ``u_real`` (N, n_u) rad, ``y_real`` (N, n_y) m and ``sim_model`` (the MLP trained on
-    simulation; not used by ``real-only``). Its ``metadata["transfer"]`` says how it was made."""
+    """The forward model of ``method`` from real samples and a network trained on simulation.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`DATA_METHODS`.
+    u_real : array_like, shape (N, n_u)
+        Real commands, rad.
+    y_real : array_like, shape (N, n_y)
+        Real tips, m.
+    sim_model : MLP, optional
+        The network trained on simulation (not used by ``real-only``).
+    hidden : tuple of int
+        ``real-only``: hidden layer widths of the new network.
+    seed : int
+        Seed of the initial weights, splits and GP restarts.
+
+    Returns
+    -------
+    object
+        The forward model (an MLP or a residual model); its ``metadata["transfer"]`` says
+        how it was made.
+    """
     u, y = np.asarray(u_real, float), np.asarray(y_real, float)
     if method not in DATA_METHODS:
         raise InputError(f"unknown transfer method {method!r}; choose one of {DATA_METHODS}")

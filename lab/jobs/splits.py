@@ -1,0 +1,87 @@
+"""``python -m lab splits``: the ten-split accuracy study (Section V-A.3) of a model on a dataset file.
+
+:class:`SplitsSpec` is the study's own setting (the number of random splits); the model is
+a :class:`lab.learn.train_spec.TrainSpec`. :func:`run` reads the dataset
+(:func:`lab.learn.run_inputs.read_all`), turns it into the model's inputs and split groups
+(history features, ``group`` splits: :func:`lab.learn.run_inputs.inputs_and_groups`),
+checks the network against the memory of the workers running at once, and runs
+:func:`lab.learn.models.evaluate_model_splits`: the splits are those of ``mlp`` for the
+same seed (the same test indices), so the rows of two models pair up split by split.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from lab.learn.train_spec import TrainSpec
+from lab.specs import Spec, option, positive_int
+
+__all__ = ["SplitsSpec", "run"]
+
+
+@dataclass(frozen=True)
+class SplitsSpec(Spec):
+    """The ``splits`` study: how many random splits.
+
+    Parameters
+    ----------
+    n_splits : int
+        Number of random splits (each trains one model and reports its test errors).
+    """
+
+    n_splits: int = option(10, type=int, check=positive_int, help="number of random splits")
+
+
+def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None):
+    """The ten-split study of ``spec``'s model on the dataset file ``data``.
+
+    Parameters
+    ----------
+    spec : TrainSpec
+        The model, its training, the split ratios and kind, the seed the split seeds are
+        derived from, and the worker processes (one split each).
+    splits : SplitsSpec
+        How many splits.
+    data : str or Path
+        Dataset CSV (``u0..,x,y,z``; metres) with its ``.json`` sidecar.
+    forward : str or Path, optional
+        A forward model file judging a direct inverse's commands (``model="inverse-mlp"``).
+    command : str
+        The command line, recorded in every row.
+    log : callable, optional
+        Called with each progress line.
+
+    Returns
+    -------
+    rows : list of dict
+        One row per split (:func:`lab.learn.models.evaluate_model_splits` keys, with the
+        history and split keys and ``command``).
+    workspace_size_m : float
+        Bounding-box diagonal of the tip data, m.
+    """
+    from lab.learn.metrics import workspace_size_m
+    from lab.learn.models import evaluate_model_splits
+    from lab.learn.run_inputs import forward_model, inputs_and_groups, read_all
+
+    u, y, _, _, ids = read_all(data, ())
+    x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
+    forward_net = forward_model(spec, forward)
+    # spec.jobs workers run one split each; an ensemble's members train one after another there
+    spec.replace(jobs=1).check_fits(x.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
+    if log is not None:
+        net = "-".join(map(str, [x.shape[1], *spec.hidden, y.shape[1]]))
+        what = {
+            "mlp": f"{net} network ({spec.algorithm})",
+            "ensemble": f"{spec.members} x {net} ensemble ({spec.algorithm})",
+        }
+        past = f", history {spec.history}" if spec.history else ""
+        log(
+            f"{data}: {len(u)} samples; {splits.n_splits} {spec.split} splits {list(spec.ratios)} of a "
+            f"{what.get(spec.model, spec.model)}{past}, seed {spec.seed}, {spec.jobs} worker(s)"
+        )
+    rows = evaluate_model_splits(x, y, spec.replace(jobs=1).model_spec(), n_splits=splits.n_splits,
+                                 ratios=tuple(spec.ratios), seed=spec.seed, n_jobs=spec.jobs, forward=forward_net,
+                                 groups=groups)  # fmt: skip
+    for r in rows:
+        r.update(split_info, command=command)
+    return rows, workspace_size_m(y)
