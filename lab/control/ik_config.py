@@ -38,7 +38,6 @@ class IKConfig(Spec):
 
     method: str | None = option(
         "lm",
-        flag="--solver",
         choices=METHODS,
         help="bounded Levenberg-Marquardt, projected gradient descent, or derivative-free IK (secant LM "
         "steps and a compass poll; default: lm, or dfo for a model without a Jacobian)",

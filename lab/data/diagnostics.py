@@ -49,19 +49,19 @@ class InspectSpec(Spec):
     """The settings of :func:`inspect_dataset` (flags of ``python -m lab inspect``)."""
 
     neighbours: int = option(
-        5, type=int, check=at_most(MAX_NEIGHBOURS, positive_int), metavar="K",
+        5, type=int, check=at_most(MAX_NEIGHBOURS, positive_int),
         help="nearest rows in scaled command space per row: the near pairs and the local fit",
     )  # fmt: skip
     bootstrap: int = option(
-        200, type=int, check=at_most(MAX_BOOTSTRAP, positive_int), metavar="B",
+        200, type=int, check=at_most(MAX_BOOTSTRAP, positive_int),
         help="resamples for each 95-percent interval (and permutations of the hysteresis test)",
     )  # fmt: skip
     outlier_mads: float = option(
-        5.0, type=float, check=at_most(100, positive), metavar="K",
+        5.0, type=float, check=at_most(100, positive),
         help="outlier threshold: a row's local-fit residual beyond median + K robust sigmas (1.4826 MAD)",
     )  # fmt: skip
     block_rows: int = option(
-        100, type=int, check=at_most(MAX_BLOCK_ROWS, positive_int), metavar="N",
+        100, type=int, check=at_most(MAX_BLOCK_ROWS, positive_int),
         help="drift: sequences are cut into blocks of at most N rows, the units of the local fit and bootstrap",
     )  # fmt: skip
     seed: int = option(0, type=int, check=non_negative_int, help="random seed of the bootstrap")

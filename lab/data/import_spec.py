@@ -49,7 +49,6 @@ class ImportSpec(Spec):
     u: tuple[str, ...] | None = option(
         help="the input columns, comma-separated, in order (they become u0, u1, ...), e.g. u1,u2,u3,u4,u5,u6",
         type=column_names,
-        metavar="COLS",
         check=_names,
         required=True,
     )
@@ -57,7 +56,6 @@ class ImportSpec(Spec):
         help="the measured position columns, comma-separated: the tip's x,y,z (exactly 3 for a lab dataset), "
         "e.g. x3,y3,z3",
         type=column_names,
-        metavar="COLS",
         check=_names,
         required=True,
     )
@@ -66,21 +64,19 @@ class ImportSpec(Spec):
     )
     y_unit: str = option("m", help="the positions' unit; converted to metres", choices=tuple(Y_UNITS))
     group: str | None = option(
-        help="a column whose value changes where a new measurement sequence starts (within a file)", metavar="COL"
+        help="a column whose value changes where a new measurement sequence starts (within a file)"
     )
     id: str | None = option(
         help="with --observations: pair input and observation rows on this column, which both files have "
         "(default: row by row)",
-        metavar="COL",
     )
     drop_bad_rows: bool = option(
         False,
         help="drop rows with a NaN, empty or non-numeric value and count them in the sidecar (default: an error)",
-        action="store_true",
     )
-    licence: str | None = option(help="the data's licence, kept in the sidecar", metavar="TEXT", check=_text)
+    licence: str | None = option(help="the data's licence, kept in the sidecar", check=_text)
     source: str | None = option(
-        help="where the data come from (repository, commit, paper), kept in the sidecar", metavar="TEXT", check=_text
+        help="where the data come from (repository, commit, paper), kept in the sidecar", check=_text
     )
     name: str | None = option(help="the robot's name in the sidecar (default: the --out file's stem)", check=_text)
 

@@ -89,9 +89,7 @@ class TrainSpec(Spec):
         help="lab's network, a deep ensemble of them, or a scikit-learn peer "
         "(Gaussian process, k-nearest neighbours, MLPRegressor), or the direct inverse u = g(y)",
     )
-    hidden: tuple[int, ...] = option(
-        (20, 20), type=int, nargs="+", metavar="WIDTH", check=_widths, help="hidden layer widths"
-    )
+    hidden: tuple[int, ...] = option((20, 20), type=int, check=_widths, help="hidden layer widths")
     algorithm: str = option(
         "lm",
         choices=ALGORITHMS,
@@ -106,10 +104,7 @@ class TrainSpec(Spec):
     members: int = option(5, type=int, check=positive_int, help="ensemble: number of networks K >= 2")
     ratios: tuple[float, float, float] = option(
         (0.8, 0.1, 0.1),
-        flag="--split",
         type=str,
-        nargs="+",
-        metavar="SPLIT",
         check=_ratios,
         help="split ratios (train, validation, test), after an optional word: random rows like MATLAB "
         "dividerand (the default), or group: whole measurement sequences (the sidecar's sequence_starts; "
@@ -119,7 +114,6 @@ class TrainSpec(Spec):
     history: int = option(
         0,
         type=int,
-        metavar="K",
         check=at_most(MAX_HISTORY, non_negative_int),
         help="past commands the model also takes: inputs u_t, u_{t-1}, ..., u_{t-K} within each measurement "
         f"sequence (0: the command only; at most {MAX_HISTORY}, and below the longest sequence)",

@@ -100,20 +100,19 @@ def _fraction(v) -> str | None:
 class CompareSpec(Spec):
     """One comparison: see the module docstring and each flag's help."""
 
-    models: tuple[str, ...] = option(COMPARE_MODELS, nargs="+", check=_names(COMPARE_MODELS), help="models to fit")
+    models: tuple[str, ...] = option(COMPARE_MODELS, check=_names(COMPARE_MODELS), help="models to fit")
     splits: tuple[str, ...] = option(
-        COMPARE_SPLITS, nargs="+", check=_names(COMPARE_SPLITS), help="random, group (whole sequences), sequential"
+        COMPARE_SPLITS, check=_names(COMPARE_SPLITS), help="random, group (whole sequences), sequential"
     )
     n_splits: int = option(
         5, type=int, check=at_most(MAX_COMPARE_SPLITS, positive_int), help="repeats of the random and group splits"
     )
     history: tuple[int, ...] = option(
-        (0, 1), type=int, nargs="+", check=_ints(0, MAX_HISTORY), help="past commands K of each model's inputs"
+        (0, 1), type=int, check=_ints(0, MAX_HISTORY), help="past commands K of each model's inputs"
     )
     ns: tuple[int, ...] | None = option(
         None,
         type=int,
-        nargs="+",
         check=_ints(MIN_CURVE_N),
         help="learning curve: also fit on N rows of each random split",
     )

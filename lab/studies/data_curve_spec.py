@@ -68,17 +68,11 @@ class DataCurveSpec(Spec):
 
     robot: str = option("three-cable", help="robot name or description TOML")
     rig: str = option("sim", help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED")
-    strategies: tuple[str, ...] | None = option(None, nargs="+", help="grid sobol lhs maximin random active")
-    ns: tuple[int, ...] = option(
-        DEFAULT_NS, type=int, nargs="+", check=_ints(1, MAX_DESIGN_N), help="numbers of samples N"
-    )
-    grid_levels: tuple[int, ...] | None = option(
-        None, type=int, nargs="+", check=_ints(2), help="grid: these levels per motor"
-    )
+    strategies: tuple[str, ...] | None = option(None, help="grid sobol lhs maximin random active")
+    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, check=_ints(1, MAX_DESIGN_N), help="numbers of samples N")
+    grid_levels: tuple[int, ...] | None = option(None, type=int, check=_ints(2), help="grid: these levels per motor")
     model: str = option("mlp", help="mlp, ensemble, gpr, knn, sklearn-mlp")
-    hidden: tuple[int, ...] = option(
-        (20, 20), type=int, nargs="+", check=_ints(1, what="widths"), help="hidden layer widths"
-    )
+    hidden: tuple[int, ...] = option((20, 20), type=int, check=_ints(1, what="widths"), help="hidden layer widths")
     epochs: int | None = option(None, type=int, check=positive_int, help="maximum training epochs")
     algorithm: str = option(
         "lm", check=_algorithm, help="training: lm (the paper's stopping rules), br (Bayesian), adam, lbfgs"
@@ -87,15 +81,13 @@ class DataCurveSpec(Spec):
         200, type=int, check=at_most(MAX_DESIGN_N, positive_int), help="held-out random allowed commands"
     )
     seeds: tuple[int, ...] = option(
-        (0,), type=int, nargs="+", check=_ints(0), help="seeds of designs, noise and training: a row per seed"
+        (0,), type=int, check=_ints(0), help="seeds of designs, noise and training: a row per seed"
     )
     heldout_seed: int = option(1, type=int, check=non_negative_int, help="seed of the held-out commands")
     batch: int = option(25, type=int, check=positive_int, help="active: samples per batch")
     n_initial: int | None = option(None, type=int, check=positive_int, help="active: initial Sobol design")
     n_points: int = option(24, type=int, check=at_most(MAX_POINTS, _at_least_2), help="targets per trajectory")
-    tracking: bool = option(
-        True, flag="--no-tracking", action="store_false", help="model error only (no Table I tracking)"
-    )
+    tracking: bool = option(True, help="model error only (no Table I tracking)")
     samples_per_hour: float | None = option(None, type=float, check=positive, help="capture rate for capture_h")
     rate_from: str = option(DEFAULT_RATE_FROM, help="dataset whose sidecar's capture.rate_samples_per_hour is used")
     mesh: MeshSpec = field(default_factory=MeshSpec)

@@ -64,15 +64,14 @@ class TransferCurveSpec(Spec):
         help="which family: random (twin:random:K, in the calibrator's model class) or foam (twin:foam:K, "
         "defects outside it)",
     )
-    shipped: bool = option(False, action="store_true", help="also the robot of the shipped defects file")
+    shipped: bool = option(False, help="also the robot of the shipped defects file")
     methods: tuple[str, ...] = option(
         DEFAULT_METHODS,
-        nargs="+",
         check=_methods,
         help="transfer methods: sim-only, real-only, finetune-last, finetune, residual, calibrated (the last "
         "is slow: a calibration and a re-simulation of the lattice per N)",
     )
-    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, nargs="+", check=_counts, help="numbers of real samples")
+    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, check=_counts, help="numbers of real samples")
     design: str = option("maximin", choices=("random", "sobol", "maximin"), help="which N commands")
     n_test: int = option(100, type=int, check=positive_int, help="held-out random commands per robot")
     n_points: int = option(24, type=int, check=_at_least_2, help="targets per trajectory")
@@ -80,8 +79,6 @@ class TransferCurveSpec(Spec):
     calibration_mesh: tuple[int, int] | None = option(
         None,
         type=int,
-        nargs=2,
-        metavar=("RINGS", "AXIAL"),
         help="calibrated: mesh of calibration and re-simulation (default: the robot's)",
     )
     sim_levels: int = option(
