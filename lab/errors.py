@@ -24,6 +24,8 @@ __all__ = ["LabError", "InputError", "FieldError", "LabRuntimeError", "EXIT_INPU
 EXIT_INPUT = 2
 EXIT_RUNTIME = 1
 EXIT_INTERRUPTED = 130
+#: A setting in a message: ``Class.field``.
+_NAME = re.compile(r"(?<![\w.])[A-Z]\w*\.[a-z_]\w*")
 
 
 class LabError(Exception):
@@ -54,7 +56,8 @@ class FieldError(InputError):
         be finite and > 0, got -1"``); the command line writes its flag in their place.
     *names : str
         The settings the message names, each ``"Class.field"``; the first is :attr:`spec`
-        and :attr:`field`. A cross-field rule names all the fields it relates.
+        and :attr:`field`. A cross-field rule names all the fields it relates. Default: every
+        ``Class.field`` the message holds.
 
     Attributes
     ----------
@@ -70,7 +73,7 @@ class FieldError(InputError):
 
     def __init__(self, message: str, *names: str):
         super().__init__(message)
-        self.names = tuple(names)
+        self.names = tuple(names) or tuple(dict.fromkeys(_NAME.findall(message)))
         self.spec, _, self.field = self.names[0].partition(".") if self.names else ("", "", "")
         self.fields = tuple(n.partition(".")[2] for n in self.names)
 

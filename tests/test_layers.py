@@ -402,6 +402,9 @@ def test_no_test_named_after_an_issue():
 FLAG = re.compile(r"(?<![\w-])--[a-z]")
 #: Where messages may name flags: the command line and the jobs it runs.
 FLAG_SPEAKERS = ("cli", "jobs")
+#: Jobs that live outside lab/jobs until they move there; their messages name a run's own
+#: arguments (``--extra-data``, ``--chunk-size``) by flag, as a job may.
+JOBS_ELSEWHERE = {"learn/runs.py", "learn/run_inputs.py", "learn/simulate_design.py"}
 #: Calls that build an error: ``InputError(...)``, ``LabRuntimeError(...)``, ``spec.field_error(...)``.
 _ERROR_CALL = re.compile(r"(Error|Exception|field_error)$")
 
@@ -444,7 +447,7 @@ def test_stage_errors_name_no_flags():
     never about flags it did not type: only lab/cli and lab/jobs name flags."""
     found = []
     for path in sorted(LAB.rglob("*.py")):
-        if path.relative_to(LAB).parts[0] in FLAG_SPEAKERS:
+        if path.relative_to(LAB).parts[0] in FLAG_SPEAKERS or path.relative_to(LAB).as_posix() in JOBS_ELSEWHERE:
             continue
         for line, text in error_messages(path.read_text()):
             if FLAG.search(text):

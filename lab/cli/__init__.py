@@ -7,7 +7,7 @@ calls one library function. Command modules never import each other; :mod:`.path
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
 ``error: <message>`` (a :class:`lab.errors.FieldError`'s ``Class.field`` written as the flag
-the user typed, :func:`.flags.flag_name`) and exits with its code -- 2 for bad input (a file, a field, an
+the user typed, :func:`.flags.flag_text`) and exits with its code -- 2 for bad input (a file, a field, an
 argument), 1 for a runtime or hardware failure. An OS error on a file the user named
 (missing, not permitted, a directory) is bad input too (2); other OS errors exit 1.
 Ctrl-C, SIGTERM and SIGHUP stop the command cleanly (rigs closed with torque off, journals
@@ -37,9 +37,9 @@ from lab.cli import (
     transfer,
     transfer_curve,
 )
-from lab.cli.flags import flag_name
+from lab.cli.flags import flag_text
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
-from lab.errors import EXIT_INPUT, EXIT_RUNTIME, FieldError, LabError
+from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
         return exit_code(err)
     except (LabError, OSError) as err:
         if isinstance(err, LabError):  # a spec's field, ``Class.field``, named as the user's flag
-            code, message = err.exit_code, err.renamed(flag_name) if isinstance(err, FieldError) else str(err)
+            code, message = err.exit_code, flag_text(str(err))
         else:
             code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
             message = _os_error_message(err)

@@ -10,7 +10,7 @@ the flag the user typed. Stages never see this table.
 
 from __future__ import annotations
 
-__all__ = ["SPELLING", "TYPED"]
+__all__ = ["SPELLING", "TYPED", "WORDS"]
 
 #: ``"Class.field"`` -> argparse keywords: ``flag`` (its spelling), ``metavar``, ``nargs``, ``type``.
 SPELLING: dict[str, dict] = {
@@ -42,6 +42,20 @@ SPELLING: dict[str, dict] = {
     "DesignSpec.ensemble_members": {"metavar": "K"},
     "DesignSpec.ensemble_hidden": {"metavar": "WIDTH"},
     "DesignSpec.ensemble_epochs": {"metavar": "E"},
+}
+
+#: A stage's words for a run's own argument (not a spec field) -> the command line's words.
+WORDS: dict[str, str] = {
+    "choose another output file": "choose another --out",
+    "several output files": "several --out files",
+    "jobs (worker processes) must be": "--jobs must be",
+    "floor report ": "--floor ",
+    "choose another checkpoint directory": "choose another --checkpoint directory",
+    "choose another checkpoint": "choose another --checkpoint",
+    "restarting discards": "--restart discards",
+    "without observations files": "without --observations",
+    "observations files": "--observations files",
+    "observations file ": "--observations ",
 }
 
 #: ``"Class.field"`` -> the flag a command declares by hand for it (not from the spec).

@@ -19,7 +19,7 @@ import re
 import types
 import typing
 
-from lab.cli.flag_names import SPELLING, TYPED
+from lab.cli.flag_names import SPELLING, TYPED, WORDS
 from lab.errors import InputError
 from lab.specs import meta
 
@@ -129,7 +129,8 @@ def flag_name(name: str) -> str:
 
 
 def flag_text(text: str) -> str:
-    """``text`` with each ``Class.field`` a command has a flag for written as that flag.
+    """``text`` with each ``Class.field`` a command has a flag for written as that flag, and a
+    run's arguments in the stage's words as their flags (:data:`.flag_names.WORDS`).
 
     Parameters
     ----------
@@ -141,6 +142,8 @@ def flag_text(text: str) -> str:
     str
         The same words naming flags (``TrackSpec.model`` -> ``--model``).
     """
+    for words, flag_words in WORDS.items():
+        text = text.replace(words, flag_words)
     return re.sub(r"(?<![\w.])[A-Z]\w*\.[a-z_]\w*", lambda m: flag_name(m.group()), text)
 
 

@@ -183,7 +183,8 @@ class DesignSpec(Spec):
             n = self.levels**robot.n_cables
             if n > MAX_GRID_CANDIDATES:
                 raise self.field_error(
-                    f"{self.name_of('grid')} {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} candidate commands; "
+                    f"{self.name_of('grid')} {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} "
+                    "candidate commands; "
                     f"at most {MAX_GRID_CANDIDATES:,} are allowed (a grid is built whole in memory)",
                     "grid",
                 )

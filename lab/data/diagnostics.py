@@ -204,7 +204,9 @@ def inspect_dataset(u_motor, p_tip_W, seq_ids=None, spec: InspectSpec | None = N
     if seq.shape != (len(u),) or np.any(np.diff(seq) < 0) or (len(seq) and seq[0] != 0):
         raise InputError("seq_ids must be (N,) sequence numbers, ascending in row order from 0")
     if len(u) < spec.neighbours + 2:
-        raise InputError(f"{len(u)} rows: too few to inspect with --neighbours {spec.neighbours} (need K + 2)")
+        raise InputError(
+            f"{len(u)} rows: too few to inspect with InspectSpec.neighbours {spec.neighbours} (need K + 2)"
+        )
     for name, a, limit in (("u", u, MAX_ABS_COMMAND), ("y", y, MAX_ABS_TIP_M)):
         bad = ~np.isfinite(a) | (np.abs(np.nan_to_num(a, nan=np.inf)) > limit)
         if bad.any():

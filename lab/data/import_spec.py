@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lab.errors import InputError
 from lab.specs import Spec, option
 
 __all__ = ["ImportSpec", "Y_UNITS", "column_names"]
@@ -84,9 +83,14 @@ class ImportSpec(Spec):
         super().__post_init__()
         both = [n for n in self.u if n in self.y]
         if both:
-            raise InputError(f"the column {both[0]!r} is given in both --u and --y: each column is one thing")
+            raise self.field_error(
+                f"the column {both[0]!r} is given in both ImportSpec.u and ImportSpec.y: each column is one thing"
+            )
         if self.id is not None and self.id in (*self.u, *self.y):
-            raise InputError(f"--id {self.id!r} is also given in --u or --y: the ID column pairs rows, it is no data")
+            raise self.field_error(
+                f"ImportSpec.id {self.id!r} is also given in ImportSpec.u or ImportSpec.y: the ID column pairs "
+                "rows, it is no data"
+            )
 
     @property
     def y_scale(self) -> float:

@@ -79,9 +79,11 @@ def inputs_and_groups(spec, u, ids, data, log) -> tuple[np.ndarray, np.ndarray |
     ``split_groups``, ``n_groups``). InputError for K not below the longest sequence."""
     runs = np.diff(np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])) if len(ids) else np.zeros(1, int)
     if spec.history and spec.history >= runs.max():
-        raise InputError(
-            f"--history {spec.history}: the longest measurement sequence of {data} has {runs.max()} rows "
-            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it"
+        raise spec.field_error(
+            f"{spec.name_of('history')} {spec.history}: the longest measurement sequence of {data} has "
+            f"{runs.max()} rows "
+            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it",
+            "history",
         )
     x = history_features(u, ids, spec.history) if spec.history else u
     info = {"history": spec.history, "split_method": spec.split, "split_groups": None, "n_groups": None}

@@ -94,7 +94,7 @@ def _forward_model(spec: TrainSpec, forward):
     if forward is None:
         return None
     if spec.model != "inverse-mlp":
-        raise InputError("--forward only applies to --model inverse-mlp")
+        raise InputError("--forward only applies to TrainSpec.model inverse-mlp")
     return load_model(forward)
 
 
@@ -162,7 +162,7 @@ def train_run(
     if init is not None:
         init_model = load_model(init)
         if spec.model != "mlp" or not isinstance(init_model, MLP):
-            raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with --model mlp only")
+            raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with TrainSpec.model mlp only")
         spec = spec.replace(hidden=tuple(init_model.hidden))
     spec.check_fits(x.shape[1], y.shape[1], len(u))
     what = network_words(spec, x.shape[1], y.shape[1])

@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass
 from numbers import Integral
 
-from lab.errors import InputError
+from lab.errors import FieldError
 from lab.learn.history import MAX_HISTORY
 from lab.learn.mlp import ACTIVATIONS
 from lab.learn.models import MODEL_CHOICES, net_options
@@ -28,6 +28,9 @@ from lab.learn.train import ALGORITHMS
 from lab.specs import Spec, at_most, non_negative, non_negative_int, option, positive_int
 
 __all__ = ["TrainSpec", "SplitsSpec"]
+
+#: How an error names the split ratios (the command line's ``--split``).
+_RATIOS = "TrainSpec.ratios"
 
 
 def _widths(v) -> str | None:
@@ -55,17 +58,20 @@ def _split_words(value, kind: str, default) -> tuple[str, object]:
         if not words:
             return kind, default
     elif words and isinstance(words[0], str) and not _is_number_word(words[0]):
-        raise InputError(f"--split must start with one of {', '.join(SPLIT_KINDS)} or be 3 ratios, got {words[0]!r}")
+        raise FieldError(
+            f"{_RATIOS} must start with one of {', '.join(SPLIT_KINDS)} or be 3 ratios, got {words[0]!r}", _RATIOS
+        )
     if len(words) != 3:
-        raise InputError(
-            f"--split takes 3 ratios (TRAIN VAL TEST), a word ({', '.join(SPLIT_KINDS)}) or the word and 3 ratios, "
-            f"got {' '.join(map(str, value))!r}"
+        raise FieldError(
+            f"{_RATIOS} takes 3 ratios (TRAIN VAL TEST), a word ({', '.join(SPLIT_KINDS)}) or the word and 3 "
+            f"ratios, got {' '.join(map(str, value))!r}",
+            _RATIOS,
         )
     out = []
     for w in words:
         if isinstance(w, str):
             if not _is_number_word(w):
-                raise InputError(f"--split ratio {w!r} is not a number")
+                raise FieldError(f"{_RATIOS} ratio {w!r} is not a number", _RATIOS)
             w = float(w)
         out.append(w)
     return kind, tuple(out)
@@ -128,10 +134,13 @@ class TrainSpec(Spec):
         object.__setattr__(self, "ratios", ratios)
         super().__post_init__()
         if self.model == "ensemble" and self.members < 2:
-            raise InputError(f"--members must be at least 2, got {self.members}")
+            raise self.field_error(f"{self.name_of('members')} must be at least 2, got {self.members}", "members")
         if self.model == "inverse-mlp" and self.history:
-            raise InputError(
-                "--history applies to forward models; --model inverse-mlp maps a tip to a command and takes no past"
+            raise self.field_error(
+                f"{self.name_of('history')} applies to forward models; {self.name_of('model')} inverse-mlp maps a "
+                "tip to a command and takes no past",
+                "history",
+                "model",
             )
 
     def fit_kwargs(self) -> dict:

@@ -63,7 +63,8 @@ class ProtocolSpec(Spec):
         if self.kind == "predictive" and (self.no_wait or self.no_reset):
             name = self.name_of
             raise self.field_error(
-                f"{name('kind')} predictive replaces waiting; it cannot run with {name('no_wait')} or {name('no_reset')}",
+                f"{name('kind')} predictive replaces waiting; it cannot run with {name('no_wait')} or "
+                f"{name('no_reset')}",
                 "kind",
                 "no_wait",
                 "no_reset",

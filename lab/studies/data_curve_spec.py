@@ -107,20 +107,28 @@ class DataCurveSpec(Spec):
                 f"rig {self.rig!r}: the data curve measures through a body's quasi-static map; "
                 "expected sim, twin, twin:DEFECTS.toml, twin:random:SEED or twin:foam:SEED"
             )
+        name = self.name_of
         if "maximin" in self.strategies and max(self.ns) > MAX_MAXIMIN_N:
-            raise InputError(f"--ns: a maximin design takes at most {MAX_MAXIMIN_N} commands, got N = {max(self.ns)}")
+            raise self.field_error(
+                f"{name('ns')}: a maximin design takes at most {MAX_MAXIMIN_N} commands, got N = {max(self.ns)}",
+                "ns",
+            )
         if "active" in self.strategies and min(self.batch, max(self.ns)) > ACTIVE_POOL:
-            raise InputError(
-                f"--batch must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}"
+            raise self.field_error(
+                f"{name('batch')} must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}",
+                "batch",
             )
         n_seeds = len(set(self.seeds))
         if n_seeds > MAX_SEEDS:
-            raise InputError(f"--seeds: at most {MAX_SEEDS} seeds per study, got {n_seeds}")
+            raise self.field_error(f"{name('seeds')}: at most {MAX_SEEDS} seeds per study, got {n_seeds}", "seeds")
         n_rows = len(self.strategies) * len(set(self.ns)) * n_seeds
         if n_rows > MAX_ROWS:
-            raise InputError(
-                f"--strategies x --ns x --seeds: {n_rows:,} rows, each a trained model; at most {MAX_ROWS:,} "
-                "per study (split it into several --out files)"
+            raise self.field_error(
+                f"{name('strategies')} x {name('ns')} x {name('seeds')}: {n_rows:,} rows, each a trained model; "
+                f"at most {MAX_ROWS:,} per study (split it into several output files)",
+                "strategies",
+                "ns",
+                "seeds",
             )
 
     @property
@@ -136,9 +144,10 @@ class DataCurveSpec(Spec):
         if "grid" in self.strategies and self.grid_levels:
             levels = max(self.grid_levels)
             if levels**robot.n_cables > MAX_GRID_CANDIDATES:
-                raise InputError(
-                    f"--grid-levels {levels}: a {levels}^{robot.n_cables} grid has {levels**robot.n_cables:,} "
-                    f"candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed"
+                raise self.field_error(
+                    f"{self.name_of('grid_levels')} {levels}: a {levels}^{robot.n_cables} grid has "
+                    f"{levels**robot.n_cables:,} candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed",
+                    "grid_levels",
                 )
 
     def settings(self, samples_per_hour: float) -> dict:
@@ -170,15 +179,19 @@ class DataCurveSpec(Spec):
             side = Path(__file__).resolve().parents[2] / f"{DEFAULT_RATE_FROM}.json"
         if not side.exists():
             if self.rate_from != DEFAULT_RATE_FROM:
-                raise InputError(f"--rate-from {self.rate_from}: no sidecar {side}")
+                raise self.field_error(f"{self.name_of('rate_from')} {self.rate_from}: no sidecar {side}", "rate_from")
             return FALLBACK_SAMPLES_PER_HOUR, f"{side} capture.rate_samples_per_hour (built-in copy; file not found)"
         try:
             meta = json.loads(side.read_text())
             rate = float(meta["capture"]["rate_samples_per_hour"])
         except (ValueError, KeyError, TypeError):
-            raise InputError(f"--rate-from {side}: no capture.rate_samples_per_hour in it") from None
+            message = f"{self.name_of('rate_from')} {side}: no capture.rate_samples_per_hour in it"
+            raise self.field_error(message, "rate_from") from None
         if positive(rate):
-            raise InputError(f"--rate-from {side}: capture.rate_samples_per_hour must be finite and > 0, got {rate}")
+            raise self.field_error(
+                f"{self.name_of('rate_from')} {side}: capture.rate_samples_per_hour must be finite and > 0, got {rate}",
+                "rate_from",
+            )
         rig = meta.get("rig", {}).get("kind", "?") if isinstance(meta.get("rig"), dict) else meta.get("rig", "?")
         src = f"{DEFAULT_RATE_FROM}.json" if self.rate_from == DEFAULT_RATE_FROM else str(side)
         return rate, f"{src} capture.rate_samples_per_hour (rig {rig}, the waiting protocol)"

@@ -85,7 +85,7 @@ def calibration_run(robot, real, spec: CalibrationSpec, *, log=None):
     u, y, meta = read_dataset(real)
     name = (meta.get("robot") or {}).get("name")
     if name is not None and name != robot.name:
-        raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but --robot is {robot.name!r}")
+        raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
     if u.shape[1] != robot.n_cables:
         raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
     if log is not None:
@@ -102,7 +102,7 @@ def calibration_run(robot, real, spec: CalibrationSpec, *, log=None):
     if not result.converged:
         raise LabRuntimeError(
             f"calibration did not converge in {result.iterations} iterations (RMS tip misfit "
-            f"{1e3 * result.rms_m:.3f} mm); nothing written: raise --max-iter, or check the data"
+            f"{1e3 * result.rms_m:.3f} mm); nothing written: raise CalibrationSpec.max_iter, or check the data"
         )
     return result
 
