@@ -77,6 +77,20 @@ class FieldError(InputError):
         self.spec, _, self.field = self.names[0].partition(".") if self.names else ("", "", "")
         self.fields = tuple(n.partition(".")[2] for n in self.names)
 
+    #: Whether the error is about one setting's own value (its check or choices), not a rule.
+    value_check = False
+
+    def of_value(self) -> FieldError:
+        """This error, marked as about one setting's own value (:attr:`value_check`).
+
+        Returns
+        -------
+        FieldError
+            ``self``.
+        """
+        self.value_check = True
+        return self
+
     def renamed(self, name_of) -> str:
         """The message with each setting written as ``name_of("Class.field")`` instead.
 

@@ -112,11 +112,14 @@ class Spec:
                 continue
             if m["choices"] is not None and value not in m["choices"]:
                 allowed = ", ".join(map(str, m["choices"]))
-                raise self.field_error(f"{self.name_of(f.name)} must be one of {allowed}, got {value!r}", f.name)
+                raise self.field_error(
+                    f"{self.name_of(f.name)} must be one of {allowed}, got {value!r}", f.name
+                ).of_value()
             if m["check"] is not None:
                 problem = m["check"](value)
                 if problem:
-                    raise self.field_error(f"{self.name_of(f.name)} {problem}, {_got(value, m['unit'])}", f.name)
+                    message = f"{self.name_of(f.name)} {problem}, {_got(value, m['unit'])}"
+                    raise self.field_error(message, f.name).of_value()
 
     @classmethod
     def name_of(cls, field: str) -> str:

@@ -37,9 +37,9 @@ from lab.cli import (
     transfer,
     transfer_curve,
 )
-from lab.cli.flags import flag_text
+from lab.cli.flags import flag_label, flag_text
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
-from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
+from lab.errors import EXIT_INPUT, EXIT_RUNTIME, FieldError, LabError
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -87,6 +87,10 @@ def _os_error_message(err: OSError) -> str:
     return f"{where}{err.strerror or err}"
 
 
+def _of_value(err) -> bool:
+    return isinstance(err, FieldError) and err.value_check
+
+
 def main(argv=None) -> int:
     """Run one command; returns the exit code: 0 success, 1 runtime failure, 2 bad input,
     128 + the signal number when interrupted (130 for Ctrl-C)."""
@@ -103,7 +107,7 @@ def main(argv=None) -> int:
         return exit_code(err)
     except (LabError, OSError) as err:
         if isinstance(err, LabError):  # a spec's field, ``Class.field``, named as the user's flag
-            code, message = err.exit_code, flag_text(str(err))
+            code, message = err.exit_code, flag_text(err.renamed(flag_label) if _of_value(err) else str(err))
         else:
             code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
             message = _os_error_message(err)

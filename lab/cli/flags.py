@@ -23,7 +23,16 @@ from lab.cli.flag_names import SPELLING, TYPED, WORDS
 from lab.errors import InputError
 from lab.specs import meta
 
-__all__ = ["add_spec_flags", "spec_from_args", "refuse_unused", "given", "flag_name", "flag_text", "flag_dest"]
+__all__ = [
+    "add_spec_flags",
+    "spec_from_args",
+    "refuse_unused",
+    "given",
+    "flag_name",
+    "flag_label",
+    "flag_text",
+    "flag_dest",
+]
 
 #: ``"Class.field"`` -> its flag, for every field a command has declared a flag for.
 _DECLARED: dict[str, str] = {}
@@ -126,6 +135,24 @@ def flag_name(name: str) -> str:
         The flag (``--period-s``); ``name`` itself for a field no command has a flag for.
     """
     return _DECLARED.get(name) or TYPED.get(name) or name
+
+
+def flag_label(name: str) -> str:
+    """How an error about a setting's own value names it: its flag, and the field's name
+    too where the flag spells it otherwise (``--split (ratios)``).
+
+    Parameters
+    ----------
+    name : str
+        ``"Class.field"``.
+
+    Returns
+    -------
+    str
+        The label; ``name`` itself for a field no command has a flag for.
+    """
+    flag, field = flag_name(name), name.partition(".")[2]
+    return f"{flag} ({field})" if flag.startswith("--") and flag != "--" + field.replace("_", "-") else flag
 
 
 def flag_text(text: str) -> str:
