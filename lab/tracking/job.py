@@ -21,7 +21,7 @@ from lab.control.ik import IKConfig, IKSolver
 from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
 from lab.description import load_robot
 from lab.dynamics.relaxation import load_relaxation
-from lab.errors import FieldError, InputError
+from lab.errors import FieldError
 from lab.fem.energy import ArmFEM
 from lab.fem.mesh_spec import MeshSpec
 from lab.learn.models import load_model
@@ -138,9 +138,13 @@ class TrackSpec(Spec):
         super().__post_init__()
         for name, cls in _NESTED.items():
             if not isinstance(getattr(self, name), cls):
-                raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}")
+                raise self.field_error(
+                    f"{self.name_of(name)} must be a {cls.__name__}, got {getattr(self, name)!r}", name
+                )
         if self.stream is not None and not isinstance(self.stream, StreamSpec):
-            raise InputError(f"stream must be a StreamSpec or None, got {self.stream!r}")
+            raise self.field_error(
+                f"{self.name_of('stream')} must be a StreamSpec or None, got {self.stream!r}", "stream"
+            )
         if self.max_spread_mm is not None:  # the spread in mm, the IK's threshold in m
             object.__setattr__(self, "ik", self.ik.replace(max_spread_m=1e-3 * self.max_spread_mm))
         name = self.name_of
