@@ -82,9 +82,11 @@ class TrackSpec(Spec):
     model (.npz), None for Soft IK through the FEM; ``closed_loop``: None (open loop), "ilc"
     or "feedback", with ``passes`` and ``correction``; ``stream``: a :class:`StreamSpec` to
     stream at a period (then ``dynamic_model``, a ``fit-dynamics`` file, pre-compensates);
-    ``mesh``: the FEM of ``--rig sim`` and Soft IK (and of an emulated twin when streamed);
-    ``robot``, ``seed``: None for :data:`DEFAULT_ROBOT`, :data:`DEFAULT_SEED`. A ``none``
-    rig takes a model and nothing about a rig (no robot, seed, mesh, closed loop or stream)."""
+    ``mesh``: the FEM of a ``sim`` rig and Soft IK (and of an emulated twin when streamed);
+    ``robot``, ``seed``: None for :data:`DEFAULT_ROBOT`, :data:`DEFAULT_SEED`;
+    ``max_spread_mm``: the IK's uncertainty threshold in mm (it sets ``ik.max_spread_m``).
+    A ``none`` rig takes a model and nothing about a rig (:data:`NO_RIG_UNUSED`); each rule
+    raises a :class:`lab.errors.FieldError` naming its fields."""
 
     trajectory: str | None = option(
         None,
