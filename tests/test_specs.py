@@ -121,3 +121,23 @@ def test_mesh_spec_resolves_against_the_robot(three_cable):
         MeshSpec(n_rings=0)
     with pytest.raises(InputError, match="would need about"):
         MeshSpec(n_rings=2000, n_axial=100000).resolve(three_cable)  # refused before any work
+
+
+def test_a_cross_field_rule_lives_in_the_spec_and_reads_as_flags_on_the_command_line():
+    """``track``'s mode rules are written once, in TrackSpec; the command line names the flags."""
+    from lab.cli import build_parser
+    from lab.cli.flags import flag_text
+    from lab.tracking import TrackSpec
+
+    build_parser()  # the commands declare their flags
+    with pytest.raises(FieldError) as err:
+        TrackSpec(trajectory="circle", closed_loop="ilc", stream=StreamSpec(period_s=5.0))
+    assert err.value.spec == "TrackSpec" and err.value.fields == ("stream", "closed_loop")
+    assert str(err.value).startswith("TrackSpec.stream streams open loop or feed-forward")
+    assert flag_text(str(err.value)) == (
+        "--period-s streams open loop or feed-forward; it does not combine with --closed-loop"
+    )
+    spec = TrackSpec(trajectory="circle", model="m.npz", max_spread_mm=2.0)
+    assert spec.ik.max_spread_m == pytest.approx(2e-3)  # the spec converts mm to the IK's metres
+    with pytest.raises(FieldError, match=r"^TrackSpec.max_spread_mm must be finite and > 0, got -1.0 mm$"):
+        TrackSpec(trajectory="circle", model="m.npz", max_spread_mm=-1.0)
