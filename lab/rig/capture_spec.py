@@ -45,6 +45,7 @@ class ProtocolSpec(Spec):
         0.15,
         type=float,
         check=_positive_mm,
+        unit="mm",
         help="predictive: record when the predicted settled tip's 3-D standard deviation is below this, mm",
     )
     dynamic_model: str | None = option(
@@ -52,8 +53,10 @@ class ProtocolSpec(Spec):
     )
     no_wait: bool = option(False, help="do not wait until settled: record 0.5 s after the motors arrive")
     no_reset: bool = option(False, help="do not erase hysteresis before each sample")
-    settle_tol_mm: float = option(0.1, type=float, check=positive, help="settle tolerance, mm")
-    reset_rad: float = option(1.0, type=float, check=non_negative, help="contraction of every cable in the reset, rad")
+    settle_tol_mm: float = option(0.1, type=float, check=positive, unit="mm", help="settle tolerance, mm")
+    reset_rad: float = option(
+        1.0, type=float, check=non_negative, unit="rad", help="contraction of every cable in the reset, rad"
+    )
 
     def __post_init__(self):
         if self.kind == "wait" and self.dynamic_model:

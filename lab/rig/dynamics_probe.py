@@ -79,6 +79,7 @@ class ProbeSpec(Spec):
     modes: int = option(2, help="relaxation modes K to fit", type=int, check=_modes)
     step_hold_s: float = option(
         10.0,
+        unit="s",
         help="hold of each step response, s: about four times the slowest time constant",
         type=float,
         check=_seconds,

@@ -80,12 +80,14 @@ class StreamSpec(Spec):
         DEFAULT_LEAD_IN_S,
         type=float,
         check=at_most(MAX_LEAD_IN_S, non_negative, " s"),
+        unit="s",
         help="with --period-s: settle at the first command first, s",
     )
     command_rate_hz: float = option(
         DEFAULT_COMMAND_RATE_HZ,
         type=float,
         check=_within(*COMMAND_RATE_RANGE_HZ, "Hz"),
+        unit="Hz",
         help="with --period-s: commands per second",
     )
     smoothing: float = option(1e-3, cli=False, check=non_negative, help="smoothing of the filter's inversion")

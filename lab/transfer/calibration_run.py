@@ -35,6 +35,7 @@ class CalibrationSpec(Spec):
         5e-4,
         type=float,
         check=positive,
+        unit="m",
         help="tip error per coordinate the fit expects, m: mocap noise plus what the static FEM cannot "
         "model; weighs the data against the prior",
     )
