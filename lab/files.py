@@ -181,11 +181,13 @@ def read_resumable_rows(path: str | Path, columns, what: str) -> list[dict]:
     with path.open(newline="") as fh:
         reader = csv.DictReader(fh)
         if reader.fieldnames is None or tuple(reader.fieldnames) != tuple(columns):
-            raise InputError(f"{path}: not a {what} file (columns {reader.fieldnames}); choose another --out")
+            raise InputError(f"{path}: not a {what} file (columns {reader.fieldnames}); choose another output file")
         rows = list(reader)
     for line, r in enumerate(rows, start=2):
         if None in r or None in r.values():
-            raise InputError(f"{path}: line {line} does not have the {len(columns)} columns; choose another --out")
+            raise InputError(
+                f"{path}: line {line} does not have the {len(columns)} columns; choose another output file"
+            )
     return rows
 
 

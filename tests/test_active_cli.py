@@ -205,9 +205,9 @@ def test_design_spec_reads_and_reproduces_the_flags():
     for kwargs, words in [
         (dict(grid=3, sobol=4), "are different designs"),
         (dict(lhs=200_000), "at most 100000"),
-        (dict(active=10**6, batch=5), "--active must be at most"),
-        (dict(active=100, batch=5000), "--batch must be at most 4096"),
-        (dict(seed=-1), "--seed must be an integer >= 0"),
+        (dict(active=10**6, batch=5), "DesignSpec.active must be at most"),
+        (dict(active=100, batch=5000), "DesignSpec.batch must be at most 4096"),
+        (dict(seed=-1), "DesignSpec.seed must be an integer >= 0"),
     ]:
         with pytest.raises(InputError, match=words):
             DesignSpec(**kwargs)
@@ -225,6 +225,6 @@ def test_an_active_budget_must_fit_the_first_ensemble():
     for name, ok, bad in (("three-cable", 12, 11), ("six-cable", 16, 15)):
         robot = load_robot(name)
         check_active(DesignSpec(active=ok, batch=2), robot)
-        with pytest.raises(InputError, match=f"use --active {ok} or more"):
+        with pytest.raises(InputError, match=f"use DesignSpec.active {ok} or more"):
             check_active(DesignSpec(active=bad, batch=2), robot)
     check_active(DesignSpec(active=1, batch=1), load_robot("three-cable"))  # the initial design is all of it

@@ -264,12 +264,12 @@ def test_a_finished_capture_leaves_no_lock_file_and_a_held_journal_refuses_a_sec
 
 def test_capture_settings_name_the_flag_and_reproduce_the_command():
     for kwargs, words in [
-        ({"settle_tol_mm": 0.0}, "--settle-tol-mm must be finite and > 0"),
-        ({"reset_rad": -1.0}, "--reset-rad must be finite and >= 0"),
-        ({"kind": "predictive", "predict_tol_mm": float("nan")}, "--predict-tol-mm must be a positive number of mm"),
-        ({"dynamic_model": "d.npz"}, "--dynamic-model is for --protocol predictive"),
-        ({"kind": "predictive", "no_wait": True}, "it cannot run with --no-wait or --no-reset"),
-        ({"kind": "fast"}, "--protocol (kind) must be one of wait, predictive"),
+        ({"settle_tol_mm": 0.0}, "ProtocolSpec.settle_tol_mm must be finite and > 0"),
+        ({"reset_rad": -1.0}, "ProtocolSpec.reset_rad must be finite and >= 0"),
+        ({"kind": "predictive", "predict_tol_mm": float("nan")}, "ProtocolSpec.predict_tol_mm must be a positive"),
+        ({"dynamic_model": "d.npz"}, "ProtocolSpec.dynamic_model is for ProtocolSpec.kind predictive"),
+        ({"kind": "predictive", "no_wait": True}, "cannot run with ProtocolSpec.no_wait or ProtocolSpec.no_reset"),
+        ({"kind": "fast"}, "ProtocolSpec.kind must be one of wait, predictive"),
     ]:
         with pytest.raises(InputError, match=re.escape(words)):
             ProtocolSpec(**kwargs)
@@ -286,9 +286,9 @@ def test_capture_settings_name_the_flag_and_reproduce_the_command():
         "--order grid --protocol predictive --predict-tol-mm 0.2 --settle-tol-mm 0.05 --reset-rad 0.5"
     )
     assert CaptureSpec(out="o.csv", journal="j.csv").command.endswith("--order shuffled --journal j.csv")
-    with pytest.raises(InputError, match="--out is required"):
+    with pytest.raises(InputError, match="CaptureSpec.out is required"):
         CaptureSpec()
-    with pytest.raises(InputError, match="--order must be one of shuffled, grid"):
+    with pytest.raises(InputError, match="CaptureSpec.order must be one of shuffled, grid"):
         CaptureSpec(out="o.csv", order="random")
 
 

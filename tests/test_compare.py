@@ -147,7 +147,7 @@ def test_other_settings_or_data_are_refused(data, tmp_path):
     out = tmp_path / "c.csv"
     spec = CompareSpec(models=("linear",), splits=("random",), n_splits=1, history=(0,))
     run_comparison(spec, data, out)
-    with pytest.raises(InputError, match=r"test_fraction 0.1 \(this run: 0.2\).*choose another --out"):
+    with pytest.raises(InputError, match=r"test_fraction 0.1 \(this run: 0.2\).*choose another output file"):
         run_comparison(spec.replace(test_fraction=0.2), data, out)
     u, y, meta = read_dataset(data)
     other = tmp_path / "other.csv"

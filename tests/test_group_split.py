@@ -65,10 +65,10 @@ def test_split_words_on_the_spec():
     assert TrainSpec(ratios=("random", "1", "0", "0")).split == "random"
     assert TrainSpec(split="group").ratios == (0.8, 0.1, 0.1)
     for bad, words in (
-        (("bogus",), "--split must start with one of random, group"),
-        (("0.8", "0.2"), "--split takes 3 ratios"),
-        (("group", "0.8", "0.2"), "--split takes 3 ratios"),
-        (("group", "x", "0.1", "0.1"), "--split ratio 'x' is not a number"),
+        (("bogus",), "TrainSpec.ratios must start with one of random, group"),
+        (("0.8", "0.2"), "TrainSpec.ratios takes 3 ratios"),
+        (("group", "0.8", "0.2"), "TrainSpec.ratios takes 3 ratios"),
+        (("group", "x", "0.1", "0.1"), "TrainSpec.ratios ratio 'x' is not a number"),
         (("group", "nan", "0.1", "0.1"), "must be 3 non-negative numbers"),
         (("random", "0.8", "-0.1", "0.3"), "must be 3 non-negative numbers"),
     ):

@@ -161,5 +161,5 @@ def test_the_track_flags_build_the_config():
     args = parser.parse_args([*base, "--solver", "gd", "--reg-weight", "1e-6", "--spread-weight", "0.5"])
     cfg = spec_from_args(IKConfig, args, base=IKConfig.automatic())
     assert cfg == IKConfig.automatic(method="gd", reg_weight=1e-6, spread_weight=0.5)
-    with pytest.raises(InputError, match="--posture-weight"):
+    with pytest.raises(InputError, match="IKConfig.posture_weight"):
         spec_from_args(IKConfig, parser.parse_args([*base, "--posture-weight", "-1"]), base=IKConfig.automatic())

@@ -93,7 +93,7 @@ def test_phantom_id_rule(tmp_path):
 
 def test_bad_values_are_an_error_or_dropped_and_counted(tmp_path):
     f = write(tmp_path, "f.csv", "a,b,x,y,z\n1,2,3,4,5\n1,two,3,4,5\n1,2,nan,4,5\n1,2,,4,5\n1,-inf,3,4,5\n6,7,8,9,1\n")
-    with pytest.raises(InputError, match=r"f.csv: line 3, column 'b' \(--u\): 'two' is not a number"):
+    with pytest.raises(InputError, match=r"f.csv: line 3, column 'b' \(ImportSpec.u\): 'two' is not a number"):
         read_measurements(spec(), [f])
     m = read_measurements(spec(drop_bad_rows=True), [f])
     np.testing.assert_array_equal(m.u, [[1, 2], [6, 7]])
@@ -123,11 +123,11 @@ def test_file_size_limit(tmp_path, monkeypatch):
 
 
 def test_spec_refuses_a_column_given_twice():
-    with pytest.raises(InputError, match="--u names the column 'a' twice"):
+    with pytest.raises(InputError, match="ImportSpec.u names the column 'a' twice"):
         spec(u=("a", "a"))
-    with pytest.raises(InputError, match="'x' is given in both --u and --y"):
+    with pytest.raises(InputError, match="'x' is given in both ImportSpec.u and ImportSpec.y"):
         spec(u=("a", "x"))
-    with pytest.raises(InputError, match="--id"):
+    with pytest.raises(InputError, match="ImportSpec.id"):
         spec(id="a")
 
 

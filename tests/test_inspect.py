@@ -144,7 +144,7 @@ def test_report_is_json_and_checks_its_input(plain):
         inspect_dataset(u, y * 1000)
     with pytest.raises(InputError, match="ascending"):
         inspect_dataset(u, y, np.r_[np.ones(10, int), np.zeros(len(u) - 10, int)])
-    with pytest.raises(InputError, match="--neighbours"):
+    with pytest.raises(InputError, match="InspectSpec.neighbours"):
         InspectSpec(neighbours=51)
 
 

@@ -519,3 +519,59 @@ def test_no_test_named_after_an_issue():
         and re.search(r"issues?_?\d+", n.name, re.IGNORECASE)
     ]
     assert not bad, f"tests named after issue numbers: {bad}"
+
+
+# --- the stages speak their own fields; only the command line and its jobs name flags -------
+
+#: A command-line flag in a message: ``--period-s``, ``--rig``.
+FLAG = re.compile(r"(?<![\w-])--[a-z]")
+#: Where messages may name flags: the command line and the jobs it runs.
+FLAG_SPEAKERS = ("cli", "jobs")
+#: Calls that build an error: ``InputError(...)``, ``LabRuntimeError(...)``, ``spec.field_error(...)``.
+_ERROR_CALL = re.compile(r"(Error|Exception|field_error)$")
+
+
+def error_messages(source: str) -> list[tuple[int, str]]:
+    """(line, text) of every string literal (f-strings' literal parts too) in a ``raise``
+    statement or in a call that builds an error (``InputError(...)``, ``field_error(...)``)."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        exprs = []
+        if isinstance(node, ast.Raise) and node.exc is not None:
+            exprs.append(node.exc)
+        elif isinstance(node, ast.Call):
+            func = node.func
+            name = func.id if isinstance(func, ast.Name) else func.attr if isinstance(func, ast.Attribute) else ""
+            if _ERROR_CALL.search(name):
+                exprs.append(node)
+        for expr in exprs:
+            for sub in ast.walk(expr):
+                if isinstance(sub, ast.Constant) and isinstance(sub.value, str):
+                    found.add((sub.lineno, sub.value))
+    return sorted(found)
+
+
+def test_error_message_finder():
+    source = (
+        "def f(x):\n"
+        "    if x:\n"
+        "        raise InputError(f'--period-s {x} is bad')\n"
+        "    err = FieldError('Spec.a goes with --b', 'Spec.a')\n"
+        "    raise self.field_error(f'{x} --c-d')\n"
+        "    print('--not-an-error')\n"
+    )
+    texts = [t for _, t in error_messages(source)]
+    assert [t for t in texts if FLAG.search(t)] == ["--period-s ", "Spec.a goes with --b", " --c-d"]
+
+
+def test_stage_errors_name_no_flags():
+    """A notebook that builds a spec gets errors about its fields (``TrackSpec.period_s``),
+    never about flags it did not type: only lab/cli and lab/jobs name flags."""
+    found = []
+    for path in sorted(LAB.rglob("*.py")):
+        if path.relative_to(LAB).parts[0] in FLAG_SPEAKERS:
+            continue
+        for line, text in error_messages(path.read_text()):
+            if FLAG.search(text):
+                found.append(f"{path.relative_to(LAB.parent)}:{line}: {text!r}")
+    assert not found, "stage errors naming a flag:\n" + "\n".join(found)

@@ -58,7 +58,7 @@ def test_file_label_and_dynamics():
         "emulated as-built robot",
         "hardware",
     ]
-    with pytest.raises(InputError, match="--rig sim is the quasi-static FEM: it has no dynamics"):
+    with pytest.raises(InputError, match="RigSpec.rig sim is the quasi-static FEM: it has no dynamics"):
         RigSpec.parse("sim").require_dynamics()
     twin = RigSpec.parse("twin")
     assert twin.require_dynamics() is twin
@@ -67,45 +67,45 @@ def test_file_label_and_dynamics():
 @pytest.mark.parametrize(
     "text, words",
     [
-        ("warp", "unknown rig 'warp' (--rig): expected sim, twin[:DEFECTS.toml], twin:random:SEED"),
+        ("warp", "unknown rig 'warp' (RigSpec.rig): expected sim, twin[:DEFECTS.toml], twin:random:SEED"),
         ("", "unknown rig ''"),
-        ("sim:x", "rig 'sim' takes no argument (--rig sim), got 'sim:x'"),
-        ("twin:random", "needs the robot's seed: --rig twin:random:SEED"),
-        ("twin:random:", "needs the robot's seed: --rig twin:random:SEED"),
-        ("twin:random:abc", "robot seed must be a non-negative integer (--rig twin:random:SEED"),
+        ("sim:x", "rig 'sim' takes no argument (RigSpec.rig sim), got 'sim:x'"),
+        ("twin:random", "needs the robot's seed: RigSpec.rig twin:random:SEED"),
+        ("twin:random:", "needs the robot's seed: RigSpec.rig twin:random:SEED"),
+        ("twin:random:abc", "robot seed must be a non-negative integer (RigSpec.rig twin:random:SEED"),
         ("twin:random:-1", "got '-1'"),
         ("twin:random:1.5", "got '1.5'"),
         ("twin:random:3:4", "got '3:4'"),
-        ("hardware", "needs a configuration file: --rig hardware:RIG.toml"),
-        ("hardware:", "needs a configuration file: --rig hardware:RIG.toml"),
+        ("hardware", "needs a configuration file: RigSpec.rig hardware:RIG.toml"),
+        ("hardware:", "needs a configuration file: RigSpec.rig hardware:RIG.toml"),
     ],
 )
 def test_bad_strings_raise_input_errors_naming_the_flag(text, words):
     with pytest.raises(InputError) as err:
         RigSpec.parse(text)
-    assert words in str(err.value) and "--rig" in str(err.value)
+    assert words in str(err.value) and "RigSpec.rig" in str(err.value)
 
 
 @pytest.mark.parametrize(
     "fields, words",
     [
         ({"kind": "real"}, "unknown rig kind 'real'"),
-        ({"kind": "sim", "defects_path": "d.toml"}, "--rig sim takes no defects file"),
-        ({"kind": "hardware", "config_path": "c", "family_seed": 1}, "--rig hardware takes no robot seed"),
-        ({"kind": "twin", "config_path": "c"}, "--rig twin takes no configuration file"),
+        ({"kind": "sim", "defects_path": "d.toml"}, "RigSpec.rig sim takes no defects file"),
+        ({"kind": "hardware", "config_path": "c", "family_seed": 1}, "RigSpec.rig hardware takes no robot seed"),
+        ({"kind": "twin", "config_path": "c"}, "RigSpec.rig twin takes no configuration file"),
         ({"kind": "twin", "defects_path": "d", "family_seed": 1}, "not both"),
         ({"kind": "twin", "family_seed": -1}, "non-negative integer"),
         ({"kind": "twin", "family_seed": True}, "non-negative integer"),
         ({"kind": "twin", "family_seed": "3"}, "non-negative integer"),
         ({"kind": "hardware"}, "needs a configuration file"),
-        ({"kind": "hardware", "config_path": "c", "mesh": MeshSpec(2)}, "--n-rings/--n-axial"),
+        ({"kind": "hardware", "config_path": "c", "mesh": MeshSpec(2)}, "MeshSpec.n_rings/MeshSpec.n_axial"),
         ({"kind": "twin", "mesh": (2, 8)}, "MeshSpec"),
     ],
 )
 def test_bad_fields_raise_input_errors_naming_the_flag(fields, words):
     with pytest.raises(InputError) as err:
         RigSpec(**fields)
-    assert words in str(err.value) and "--rig" in str(err.value)
+    assert words in str(err.value) and "RigSpec.rig" in str(err.value)
 
 
 def test_make_rig_on_a_given_fem_uses_that_fem(three_cable, coarse_fem):
@@ -144,13 +144,13 @@ def test_make_rig_family_member_on_a_mesh(three_cable):
 
 
 def test_make_rig_refuses_what_a_rig_cannot_take(three_cable, coarse_fem):
-    with pytest.raises(InputError, match="only --rig sim runs on a given nominal FEM"):
+    with pytest.raises(InputError, match="only RigSpec.rig sim runs on a given nominal FEM"):
         make_rig("twin", three_cable, fem=coarse_fem)
     with pytest.raises(InputError, match="not both"):
         make_rig("sim", three_cable, fem=coarse_fem, mesh=MeshSpec(1, 4))
-    with pytest.raises(InputError, match="--n-rings/--n-axial"):
+    with pytest.raises(InputError, match="MeshSpec.n_rings/MeshSpec.n_axial"):
         make_rig("hardware:rig.toml", three_cable, mesh=MeshSpec(2))
-    with pytest.raises(InputError, match="--rig twin only"):
+    with pytest.raises(InputError, match="RigSpec.rig twin only"):
         as_built_body("sim", three_cable)
     with pytest.raises(InputError, match="unknown rig 'warp'"):
         make_rig("warp", three_cable)

@@ -341,15 +341,15 @@ def test_train_spec_refuses_bad_settings_naming_the_flag():
 
     assert TrainSpec().model_spec().hidden == (20, 20)
     for kwargs, words in (
-        (dict(min_grad=float("nan")), "--min-grad"),
-        (dict(min_grad=-1.0), "--min-grad"),
-        (dict(epochs=0), "--epochs"),
-        (dict(hidden=(20, 0)), "--hidden widths must be positive"),
-        (dict(ratios=(1.0, -1.0, 0.0)), "--split"),
-        (dict(ratios=(float("nan"), 0.0, 0.0)), "--split"),
-        (dict(model="ensemble", members=1), "--members must be at least 2"),
-        (dict(seed=-1), "--seed"),
-        (dict(jobs=0), "--jobs"),
+        (dict(min_grad=float("nan")), "TrainSpec.min_grad"),
+        (dict(min_grad=-1.0), "TrainSpec.min_grad"),
+        (dict(epochs=0), "TrainSpec.epochs"),
+        (dict(hidden=(20, 0)), "TrainSpec.hidden widths must be positive"),
+        (dict(ratios=(1.0, -1.0, 0.0)), "TrainSpec.ratios"),
+        (dict(ratios=(float("nan"), 0.0, 0.0)), "TrainSpec.ratios"),
+        (dict(model="ensemble", members=1), "TrainSpec.members must be at least 2"),
+        (dict(seed=-1), "TrainSpec.seed"),
+        (dict(jobs=0), "TrainSpec.jobs"),
     ):
         with pytest.raises(InputError, match=words):
             TrainSpec(**kwargs)
@@ -365,10 +365,10 @@ def test_network_size_follows_the_lm_system_and_refuses_what_cannot_fit():
     assert training_bytes((3, 100000, 3), 9) < 1e9 < 1e12 < training_bytes((3, 100000, 3), 277)
     assert training_bytes((3, 100000, 3), 277, "adam") < 1e9
     assert check_network_size((3, 20, 20, 3), 277, available_bytes=10**9) < 10**8
-    with pytest.raises(InputError, match="--hidden 100000: .* would need about .* of memory"):
+    with pytest.raises(InputError, match="TrainSpec.hidden 100000: .* would need about .* of memory"):
         check_network_size((3, 100000, 3), 277, available_bytes=10**10)
     u, y = smooth_problem()
-    with pytest.raises(InputError, match="--hidden 100000 100000"):
+    with pytest.raises(InputError, match="TrainSpec.hidden 100000 100000"):
         train(u, y, (100000, 100000))
 
 

@@ -70,7 +70,7 @@ def load_defects(path: str | Path | None, robot: RobotDescription) -> Defects:
         if not path.exists():
             raise DefectsError(
                 f"no shipped defects file for robot {robot.name!r} ({path}); "
-                f"write one and pass it as --rig twin:DEFECTS.toml"
+                f"write one and name it as the rig twin:DEFECTS.toml"
             )
         shown = f"lab/rig/defects/{path.name}"  # recorded relative to the repository
     path = Path(path)

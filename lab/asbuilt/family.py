@@ -26,9 +26,13 @@ from lab.asbuilt.draw import RANGES, draw_member
 from lab.asbuilt.foam import FOAM_RANGES, draw_foam, foam_mesh
 from lab.asbuilt.writer import defects_toml
 from lab.description import RobotDescription
-from lab.errors import InputError
+from lab.errors import FieldError
 
 __all__ = ["Family", "RANDOM", "FOAM", "FAMILIES", "family_member", "parse_robot_seed"]
+
+#: How an error names the rig string a member is named by (``twin:FAMILY:SEED``); the
+#: command line writes the flag the user typed in its place.
+RIG = "RigSpec.rig"
 
 
 @dataclass(frozen=True)
@@ -247,9 +251,10 @@ def parse_robot_seed(text: str, spec: str | None = None, family: str = "random")
     """
     where = f"rig {spec!r}: " if spec else ""
     if not re.fullmatch(r"[0-9]+", str(text)):
-        raise InputError(
-            f"{where}the robot seed must be a non-negative integer (--rig twin:{family}:SEED, e.g. twin:{family}:3), "
-            f"got {text!r}"
+        raise FieldError(
+            f"{where}the robot seed must be a non-negative integer ({RIG} twin:{family}:SEED, e.g. twin:{family}:3), "
+            f"got {text!r}",
+            RIG,
         )
     return int(text)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from lab.errors import InputError
+from lab.asbuilt.family import RIG
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec, non_negative_int, option
 
@@ -25,18 +25,14 @@ class FamilyMemberSpec(Spec):
 
     seed: int | None = option(
         None,
-        flag="--random",
         type=int,
-        metavar="SEED",
         check=non_negative_int,
         help="the robot of the family to draw (an integer >= 0; the same as --rig twin:random:SEED)",
     )
     mesh: MeshSpec = field(default_factory=MeshSpec)
     foam: int | None = option(
         None,
-        flag="--foam",
         type=int,
-        metavar="SEED",
         check=non_negative_int,
         help="or the robot of the foam family, with defects `calibrate` cannot fit (the same as "
         "--rig twin:foam:SEED; default mesh finer than the description's)",
@@ -45,9 +41,18 @@ class FamilyMemberSpec(Spec):
     def __post_init__(self):
         super().__post_init__()
         if self.seed is not None and self.foam is not None:
-            raise InputError("--random and --foam name members of two families: give one of them")
+            name = self.name_of
+            raise self.field_error(
+                f"{name('seed')} and {name('foam')} name members of two families: give one of them", "seed", "foam"
+            )
         if self.seed is None and self.foam is None:
-            raise InputError("give --random SEED (--rig twin:random:SEED) or --foam SEED (--rig twin:foam:SEED)")
+            name = self.name_of
+            raise self.field_error(
+                f"give {name('seed')} SEED ({RIG} twin:random:SEED) or {name('foam')} SEED ({RIG} twin:foam:SEED)",
+                "seed",
+                "foam",
+                RIG,
+            )
 
     @property
     def family(self) -> str:

@@ -79,6 +79,7 @@ class ProbeSpec(Spec):
     modes: int = option(2, help="relaxation modes K to fit", type=int, check=_modes)
     step_hold_s: float = option(
         10.0,
+        unit="s",
         help="hold of each step response, s: about four times the slowest time constant",
         type=float,
         check=_seconds,
@@ -88,9 +89,14 @@ class ProbeSpec(Spec):
         super().__post_init__()
         longest = self.longest_s
         if longest > MAX_PROBE_S:
-            raise InputError(
-                f"--n-steps {self.n_steps} x --step-hold-s {self.step_hold_s:g} and --n-random {self.n_random} "
-                f"hold the rig up to {longest / 3600:.1f} h: at most {MAX_PROBE_S / 3600:g} h in one probe"
+            name = self.name_of
+            raise self.field_error(
+                f"{name('n_steps')} {self.n_steps} x {name('step_hold_s')} {self.step_hold_s:g} and "
+                f"{name('n_random')} {self.n_random} hold the rig up to {longest / 3600:.1f} h: at most "
+                f"{MAX_PROBE_S / 3600:g} h in one probe",
+                "n_steps",
+                "step_hold_s",
+                "n_random",
             )
 
     @property

@@ -36,7 +36,6 @@ class ProtocolSpec(Spec):
 
     kind: str = option(
         "wait",
-        flag="--protocol",
         choices=PROTOCOLS,
         help="wait: the paper's protocol, record once settled; predictive: learn the foam's relaxation from "
         "the first samples, then record as soon as the settled tip is predicted within --predict-tol-mm "
@@ -46,24 +45,33 @@ class ProtocolSpec(Spec):
         0.15,
         type=float,
         check=_positive_mm,
+        unit="mm",
         help="predictive: record when the predicted settled tip's 3-D standard deviation is below this, mm",
     )
     dynamic_model: str | None = option(
         help="predictive: a relaxation fitted by 'python -m lab fit-dynamics' (DYN.npz); skips the learning samples"
     )
-    no_wait: bool = option(
-        False, action="store_true", help="do not wait until settled: record 0.5 s after the motors arrive"
+    no_wait: bool = option(False, help="do not wait until settled: record 0.5 s after the motors arrive")
+    no_reset: bool = option(False, help="do not erase hysteresis before each sample")
+    settle_tol_mm: float = option(0.1, type=float, check=positive, unit="mm", help="settle tolerance, mm")
+    reset_rad: float = option(
+        1.0, type=float, check=non_negative, unit="rad", help="contraction of every cable in the reset, rad"
     )
-    no_reset: bool = option(False, action="store_true", help="do not erase hysteresis before each sample")
-    settle_tol_mm: float = option(0.1, type=float, check=positive, help="settle tolerance, mm")
-    reset_rad: float = option(1.0, type=float, check=non_negative, help="contraction of every cable in the reset, rad")
 
     def __post_init__(self):
         if self.kind == "wait" and self.dynamic_model:
-            raise InputError("--dynamic-model is for --protocol predictive")
+            name = self.name_of
+            raise self.field_error(f"{name('dynamic_model')} is for {name('kind')} predictive", "dynamic_model", "kind")
         super().__post_init__()
         if self.kind == "predictive" and (self.no_wait or self.no_reset):
-            raise InputError("--protocol predictive replaces waiting; it cannot run with --no-wait or --no-reset")
+            name = self.name_of
+            raise self.field_error(
+                f"{name('kind')} predictive replaces waiting; it cannot run with {name('no_wait')} or "
+                f"{name('no_reset')}",
+                "kind",
+                "no_wait",
+                "no_reset",
+            )
         self.protocol()  # whatever else the protocol refuses
 
     def protocol(self) -> Protocol:
@@ -117,7 +125,7 @@ class CaptureSpec(Spec):
         help="capture order (the dataset is written in grid/design order either way)",
     )
     protocol: ProtocolSpec = ProtocolSpec()
-    no_progress: bool = option(False, action="store_true", help="no progress bar")
+    no_progress: bool = option(False, help="no progress bar")
 
     def __post_init__(self):
         super().__post_init__()

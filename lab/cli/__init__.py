@@ -6,7 +6,8 @@ calls one library function. Command modules never import each other; :mod:`.path
 :mod:`.signals`, :mod:`.flags` and :mod:`.sampling` are shared helpers.
 
 One error policy, applied here and nowhere else: a :class:`lab.errors.LabError` prints
-``error: <message>`` and exits with its code -- 2 for bad input (a file, a field, an
+``error: <message>`` (a :class:`lab.errors.FieldError`'s ``Class.field`` written as the flag
+the user typed, :func:`.flags.flag_text`) and exits with its code -- 2 for bad input (a file, a field, an
 argument), 1 for a runtime or hardware failure. An OS error on a file the user named
 (missing, not permitted, a directory) is bad input too (2); other OS errors exit 1.
 Ctrl-C, SIGTERM and SIGHUP stop the command cleanly (rigs closed with torque off, journals
@@ -36,8 +37,9 @@ from lab.cli import (
     transfer,
     transfer_curve,
 )
+from lab.cli.flags import flag_label, flag_text
 from lab.cli.signals import Terminated, exit_code, interrupts_as_keyboard
-from lab.errors import EXIT_INPUT, EXIT_RUNTIME, LabError
+from lab.errors import EXIT_INPUT, EXIT_RUNTIME, FieldError, LabError
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -85,6 +87,10 @@ def _os_error_message(err: OSError) -> str:
     return f"{where}{err.strerror or err}"
 
 
+def _of_value(err) -> bool:
+    return isinstance(err, FieldError) and err.value_check
+
+
 def main(argv=None) -> int:
     """Run one command; returns the exit code: 0 success, 1 runtime failure, 2 bad input,
     128 + the signal number when interrupted (130 for Ctrl-C)."""
@@ -100,8 +106,8 @@ def main(argv=None) -> int:
         print(f"interrupted {what}; stopped cleanly", file=sys.stderr)
         return exit_code(err)
     except (LabError, OSError) as err:
-        if isinstance(err, LabError):
-            code, message = err.exit_code, str(err)
+        if isinstance(err, LabError):  # a spec's field, ``Class.field``, named as the user's flag
+            code, message = err.exit_code, flag_text(err.renamed(flag_label) if _of_value(err) else str(err))
         else:
             code = EXIT_INPUT if isinstance(err, _BAD_PATH_ERRORS) else EXIT_RUNTIME
             message = _os_error_message(err)

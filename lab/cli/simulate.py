@@ -70,7 +70,7 @@ def run(args) -> int:
         {**dataset_outputs("--out", args.out), "--out lock": f"{args.out}.lock", "--checkpoint": checkpoint},
     )
     check_writable(args.out)
-    check_checkpoint(checkpoint)  # a checkpoint under a file fails now, not after the first chunk
+    check_checkpoint(checkpoint, "--checkpoint")  # a checkpoint under a file fails now, not after the first chunk
     ignore_file_size_signal()  # a write past `ulimit -f` fails with EFBIG, reported as such
     robot = load_robot(args.robot)
     with output_lock(args.out):

@@ -17,15 +17,13 @@ import sys
 
 import numpy as np
 
-from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
+from lab.cli.flags import add_spec_flags, flag_dest, flag_text, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing, output_lock
 from lab.control.ik import IKConfig
-from lab.errors import InputError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.jobs import track as job
-from lab.jobs.track import TrackSpec
+from lab.jobs.track import NO_RIG_UNUSED, TrackSpec
 from lab.rig import RigSpec
-from lab.specs import positive
 from lab.tracking.closed_loop import Correction
 from lab.tracking.stream_spec import StreamSpec
 
@@ -37,22 +35,6 @@ SETTLED_ONLY = ("reg_weight", "posture_weight", "spread_weight", "max_spread_mm"
 STREAMED_ONLY = ("dynamic_model", "n_periods", "lead_in_s", "command_rate_hz")
 CLOSED_LOOP_ONLY = ("passes", "gain")
 SPREAD_ONLY = ("spread_weight", "max_spread_mm")
-#: Flags ``--rig none`` refuses, and why.
-NO_RIG_REFUSES = (
-    (("soft_ik",), "Soft IK solves through the FEM of a shipped robot; --rig none solves through --model"),
-    (("closed_loop", "passes", "gain"), "a closed loop corrects from measured tips, and nothing is measured"),
-    (
-        ("period_s", *STREAMED_ONLY),
-        "streaming times the commands on a rig; --rig none writes them to OUT.commands.csv",
-    ),
-    (("seed",), "it seeds an emulated rig's noise"),
-    (("n_rings", "n_axial"), "they set an FEM mesh, and no FEM is used"),
-    (
-        ("robot",),
-        "the commands are kept in the box of the model's training data, and a model trained on a "
-        "shipped robot's data brings that robot's limits",
-    ),
-)
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -76,13 +58,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     add_spec_flags(k, TrackSpec, only=("trajectory", "n_points"))
     # the IK's settings: --solver, --reg-weight, --posture-weight, --spread-weight (lab.control.ik_config)
     add_spec_flags(k, IKConfig, only=TRACK_IK_FIELDS, base=IKConfig.automatic())
-    k.add_argument(
-        "--max-spread-mm",
-        type=float,
-        default=None,
-        help="flag a target 'uncertain' where the model's predicted spread exceeds this, mm "
-        "(default 1 mm for a model with a spread; never for one without)",
-    )
+    add_spec_flags(k, TrackSpec, only=("max_spread_mm",))
     add_spec_flags(k, TrackSpec, only=("closed_loop", "passes"))
     add_spec_flags(k, Correction, only=("gain",))
     # trajectories at speed: --period-s, --dynamic-model, ... (lab.tracking.stream)
@@ -132,9 +108,9 @@ def track_spec(args) -> TrackSpec:
     """The run's settings from the flags; InputError for a flag the chosen mode does not use
     or a bad value (naming the flag)."""
     rig = RigSpec.parse(args.rig, allow_none=True)
-    if not rig.has_rig:
-        for dests, why in NO_RIG_REFUSES:
-            refuse_unused(args, dests, f"with --rig none ({why})")
+    if not rig.has_rig:  # the spec's rule (NO_RIG_UNUSED), applied to the flags given
+        for names, why in NO_RIG_UNUSED:
+            refuse_unused(args, [flag_dest(n) for n in names], f"with --rig none ({flag_text(why)})")
     if args.period_s is not None:
         refuse_unused(args, SETTLED_ONLY, "in a streamed run (--period-s streams open loop or feed-forward)")
     else:
@@ -143,10 +119,7 @@ def track_spec(args) -> TrackSpec:
             refuse_unused(args, CLOSED_LOOP_ONLY, "in an open-loop run (they need --closed-loop ilc|feedback)")
     if args.soft_ik:
         refuse_unused(args, SPREAD_ONLY, "with --soft-ik (the FEM has no spread)")
-    mm = args.max_spread_mm
-    if mm is not None and (problem := positive(mm)):
-        raise InputError(f"--max-spread-mm {problem} (a spread in mm), got {mm}")
-    ik = spec_from_args(IKConfig, args, base=IKConfig.automatic(), max_spread_m=None if mm is None else 1e-3 * mm)
+    ik = spec_from_args(IKConfig, args, base=IKConfig.automatic())
     return spec_from_args(
         TrackSpec,
         args,

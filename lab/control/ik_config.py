@@ -64,7 +64,6 @@ class IKConfig(Spec):
 
     method: str | None = option(
         "lm",
-        flag="--solver",
         choices=METHODS,
         help="bounded Levenberg-Marquardt, projected gradient descent, or derivative-free IK (secant LM "
         "steps and a compass poll; default: lm, or dfo for a model without a Jacobian)",
@@ -96,10 +95,13 @@ class IKConfig(Spec):
         None,
         cli=False,
         check=positive,
+        unit="m",
         help="spread (m) above which an answer is flagged uncertain (default 1 mm for a model with a spread)",
     )
-    tol_m: float = option(1e-8, cli=False, check=non_negative, help="stop at this tip residual, m")
-    reach_tol_m: float = option(1e-5, cli=False, check=non_negative, help="residual up to which a target is reached, m")
+    tol_m: float = option(1e-8, cli=False, check=non_negative, unit="m", help="stop at this tip residual, m")
+    reach_tol_m: float = option(
+        1e-5, cli=False, check=non_negative, unit="m", help="residual up to which a target is reached, m"
+    )
     tol_stationary: float = option(1e-6, cli=False, check=non_negative, help="relative stationarity tolerance")
     max_iter: int | None = option(
         None, cli=False, check=positive_int, help="iteration limit (default 100 lm, 20000 gd, 200 dfo)"

@@ -57,7 +57,7 @@ class BatchStore(ChunkStore):
                     j += 1
                 break
             if res["u_motor"].ndim != 2 or res["p_tip_W"].shape != (len(res["u_motor"]), 3):
-                raise CheckpointError(f"{self._path(i)} is not a batch of this run; --restart discards it")
+                raise CheckpointError(f"{self._path(i)} is not a batch of this run; restarting discards it")
             batches.append(res)
             i += 1
         return batches

@@ -92,11 +92,11 @@ def _refuse_foreign(directory: Path) -> None:
         shown = ", ".join(foreign[:5]) + (" ..." if len(foreign) > 5 else "")
         raise CheckpointError(
             f"checkpoint directory {directory} holds files that are not a lab checkpoint's ({shown}); "
-            "choose another --checkpoint directory (nothing was deleted)"
+            "choose another checkpoint directory (nothing was deleted)"
         )
 
 
-def check_checkpoint(directory: str | Path, what: str = "--checkpoint") -> None:
+def check_checkpoint(directory: str | Path, what: str = "checkpoint") -> None:
     """Before any work: refuse (:class:`CheckpointError`) a checkpoint path that is a file,
     a directory holding anything but a checkpoint's files, or a place where the checkpoint
     could not be written."""
@@ -141,13 +141,13 @@ class ChunkStore:
                 old = json.loads(manifest.read_text())
             except json.JSONDecodeError as err:
                 raise CheckpointError(
-                    f"{manifest}: corrupt manifest ({err}); --restart discards this checkpoint"
+                    f"{manifest}: corrupt manifest ({err}); restarting discards this checkpoint"
                 ) from None
             if old != fp:
                 diff = sorted(k for k in set(old) | set(fp) if old.get(k) != fp.get(k))
                 raise CheckpointError(
                     f"checkpoint {self.directory} belongs to another run (differs in {', '.join(diff)}); "
-                    "--restart discards it, or choose another --checkpoint"
+                    "restarting discards it, or choose another checkpoint"
                 )
 
     def _path(self, i: int) -> Path:
@@ -212,7 +212,7 @@ class ChunkStore:
                 path.unlink()
                 continue
             if not (np.array_equal(res["order"], order) and np.array_equal(res["u_motor"], u_motor[order])):
-                raise CheckpointError(f"{path} does not hold chunk {i} of this run; --restart discards it")
+                raise CheckpointError(f"{path} does not hold chunk {i} of this run; restarting discards it")
             done[i] = res
         return done
 

@@ -72,12 +72,10 @@ class DesignSpec(Spec):
         Seeds a design or ``active``'s picks and ensembles (the command's own seed), >= 0.
     """
 
-    grid: int | None = option(help="grid levels per motor (default 7)", type=int, metavar="LEVELS", check=_grid_levels)
-    sobol: int | None = option(
-        help="N scrambled-Sobol safe commands instead of a grid", type=int, metavar="N", check=_at_least(1)
-    )
+    grid: int | None = option(help="grid levels per motor (default 7)", type=int, check=_grid_levels)
+    sobol: int | None = option(help="N scrambled-Sobol safe commands instead of a grid", type=int, check=_at_least(1))
     lhs: int | None = option(
-        help="N commands of a Latin hypercube restricted to the safe set", type=int, metavar="N", check=_at_least(1)
+        help="N commands of a Latin hypercube restricted to the safe set", type=int, check=_at_least(1)
     )
     design: str | None = option(
         help="instead of the grid, --n commands of a space-filling design over the safe set", choices=DESIGNS
@@ -86,62 +84,74 @@ class DesignSpec(Spec):
         help="N commands measured in batches of --batch, each where an ensemble trained on the samples "
         "so far disagrees most (the first N/2: a Sobol design)",
         type=int,
-        metavar="N",
         check=_at_least(1),
     )
-    n: int | None = option(help="number of commands of --design", type=int, metavar="N", check=_at_least(1))
-    batch: int | None = option(help="samples per batch of --active", type=int, metavar="B", check=_at_least(1))
-    ensemble_members: int = option(5, help="networks of --active's ensemble", type=int, metavar="K")
-    ensemble_hidden: tuple[int, ...] = option(
-        (20, 20), help="hidden layer widths of --active's networks", type=int, nargs="+", metavar="WIDTH"
-    )
-    ensemble_epochs: int | None = option(
-        help="most training epochs per network (default: train's)", type=int, metavar="E"
-    )
+    n: int | None = option(help="number of commands of --design", type=int, check=_at_least(1))
+    batch: int | None = option(help="samples per batch of --active", type=int, check=_at_least(1))
+    ensemble_members: int = option(5, help="networks of --active's ensemble", type=int)
+    ensemble_hidden: tuple[int, ...] = option((20, 20), help="hidden layer widths of --active's networks", type=int)
+    ensemble_epochs: int | None = option(help="most training epochs per network (default: train's)", type=int)
     seed: int = option(0, help="seed of the design or of --active's picks and ensembles", cli=False)
 
     def __post_init__(self):
         super().__post_init__()
         object.__setattr__(self, "ensemble_hidden", tuple(self.ensemble_hidden))
-        chosen = [f"--{f}" for f in ("grid", "sobol", "lhs", "design", "active") if getattr(self, f) is not None]
+        name = self.name_of
+        chosen = [f for f in ("grid", "sobol", "lhs", "design", "active") if getattr(self, f) is not None]
         if len(chosen) > 1:
-            raise InputError(f"{' and '.join(chosen)} are different designs: give one")
-        for flag in ("sobol", "lhs"):
-            if getattr(self, flag) is not None and self.n is not None:
-                raise InputError(f"--n N goes with --design; --{flag} N gives the number itself")
+            raise self.field_error(f"{' and '.join(map(name, chosen))} are different designs: give one", *chosen)
+        for field in ("sobol", "lhs"):
+            if getattr(self, field) is not None and self.n is not None:
+                message = f"{name('n')} N goes with {name('design')}; {name(field)} N gives the number itself"
+                raise self.field_error(message, "n", "design", field)
         if self.active is None and self.batch is not None:
-            raise InputError("--batch B goes with --active N")
+            raise self.field_error(f"{name('batch')} B goes with {name('active')} N", "batch", "active")
         if self.n is not None and self.design is None and self.sobol is None and self.lhs is None:
-            raise InputError(f"--n N goes with --design {{{','.join(DESIGNS)}}}; the grid's size is --grid LEVELS")
+            raise self.field_error(
+                f"{name('n')} N goes with {name('design')} {{{','.join(DESIGNS)}}}; the grid's size is "
+                f"{name('grid')} LEVELS",
+                "n",
+                "design",
+                "grid",
+            )
         if self.design is not None and self.n is None:
-            raise InputError(f"--design {self.design} needs the number of commands: --n N")
+            raise self.field_error(
+                f"{name('design')} {self.design} needs the number of commands: {name('n')} N", "design", "n"
+            )
         if self.active is not None:
             self._check_active()
         if self.kind == "design":
             limit = MAX_MAXIMIN_N if self.method == "maximin" else MAX_DESIGN_N
             if self.n_commands > limit:
-                raise InputError(
-                    f"--design {self.method} --n {self.n_commands}: a {self.method} design takes at most "
-                    f"{limit} commands, got n = {self.n_commands}"
+                raise self.field_error(
+                    f"{name('design')} {self.method} {name('n')} {self.n_commands}: a {self.method} design takes "
+                    f"at most {limit} commands, got n = {self.n_commands}",
+                    "design",
+                    "n",
                 )
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise InputError(f"--seed must be an integer >= 0, got {self.seed}")
+            raise self.field_error(f"{name('seed')} must be an integer >= 0, got {self.seed}", "seed")
 
     def _check_active(self) -> None:
+        name = self.name_of
         if self.batch is None:
-            raise InputError("--active N needs the batch size: --batch B")
+            raise self.field_error(f"{name('active')} N needs the batch size: {name('batch')} B", "active", "batch")
         if self.active > MAX_ACTIVE_N:
-            raise InputError(f"--active must be at most {MAX_ACTIVE_N}, got {self.active}")
+            raise self.field_error(f"{name('active')} must be at most {MAX_ACTIVE_N}, got {self.active}", "active")
         if self.batch > ACTIVE_POOL:
-            raise InputError(
-                f"--batch must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}"
+            raise self.field_error(
+                f"{name('batch')} must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}",
+                "batch",
             )
         if _at_least(2)(self.ensemble_members):
-            raise InputError(f"--ensemble-members must be at least 2, got {self.ensemble_members}")
+            message = f"{name('ensemble_members')} must be at least 2, got {self.ensemble_members}"
+            raise self.field_error(message, "ensemble_members")
         if not self.ensemble_hidden or any(_at_least(1)(h) for h in self.ensemble_hidden):
-            raise InputError(f"--ensemble-hidden widths must be positive, got {list(self.ensemble_hidden)}")
+            message = f"{name('ensemble_hidden')} widths must be positive, got {list(self.ensemble_hidden)}"
+            raise self.field_error(message, "ensemble_hidden")
         if self.ensemble_epochs is not None and _at_least(1)(self.ensemble_epochs):
-            raise InputError(f"--ensemble-epochs must be at least 1, got {self.ensemble_epochs}")
+            message = f"{name('ensemble_epochs')} must be at least 1, got {self.ensemble_epochs}"
+            raise self.field_error(message, "ensemble_epochs")
 
     # --- what the flags mean ----------------------------------------------------------------
 
@@ -208,9 +218,11 @@ class DesignSpec(Spec):
         if self.kind == "grid":
             n = self.levels**robot.n_cables
             if n > MAX_GRID_CANDIDATES:
-                raise InputError(
-                    f"--grid {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} candidate commands; "
-                    f"at most {MAX_GRID_CANDIDATES:,} are allowed (a grid is built whole in memory)"
+                raise self.field_error(
+                    f"{self.name_of('grid')} {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} "
+                    "candidate commands; "
+                    f"at most {MAX_GRID_CANDIDATES:,} are allowed (a grid is built whole in memory)",
+                    "grid",
                 )
 
     def commands(self, robot: RobotDescription) -> tuple[np.ndarray, dict]:
@@ -229,7 +241,9 @@ class DesignSpec(Spec):
             The sampler's metadata (JSON-able).
         """
         if self.kind == "active":
-            raise InputError("an --active design is picked as it is measured: it has no fixed commands")
+            raise self.field_error(
+                f"a design of {self.name_of('active')} is picked as it is measured: it has no fixed commands", "active"
+            )
         self.check(robot)
         if self.kind == "grid":
             u = grid_commands(robot, self.levels)
@@ -239,7 +253,8 @@ class DesignSpec(Spec):
         try:
             u = design_commands(robot, n, method, seed=self.seed)
         except InputError as err:
-            raise InputError(f"--design {method} --n {n}: {err}") from None
+            name = self.name_of
+            raise self.field_error(f"{name('design')} {method} {name('n')} {n}: {err}", "design", "n") from None
         return u, {
             "name": method,
             "n": n,

@@ -63,19 +63,19 @@ class InspectSpec(Spec):
     """
 
     neighbours: int = option(
-        5, type=int, check=at_most(MAX_NEIGHBOURS, positive_int), metavar="K",
+        5, type=int, check=at_most(MAX_NEIGHBOURS, positive_int),
         help="nearest rows in scaled command space per row: the near pairs and the local fit",
     )  # fmt: skip
     bootstrap: int = option(
-        200, type=int, check=at_most(MAX_BOOTSTRAP, positive_int), metavar="B",
+        200, type=int, check=at_most(MAX_BOOTSTRAP, positive_int),
         help="resamples for each 95-percent interval (and permutations of the hysteresis test)",
     )  # fmt: skip
     outlier_mads: float = option(
-        5.0, type=float, check=at_most(100, positive), metavar="K",
+        5.0, type=float, check=at_most(100, positive),
         help="outlier threshold: a row's local-fit residual beyond median + K robust sigmas (1.4826 MAD)",
     )  # fmt: skip
     block_rows: int = option(
-        100, type=int, check=at_most(MAX_BLOCK_ROWS, positive_int), metavar="N",
+        100, type=int, check=at_most(MAX_BLOCK_ROWS, positive_int),
         help="drift: sequences are cut into blocks of at most N rows, the units of the local fit and bootstrap",
     )  # fmt: skip
     seed: int = option(0, type=int, check=non_negative_int, help="random seed of the bootstrap")
@@ -269,7 +269,9 @@ def inspect_dataset(u_motor, p_tip_W, seq_ids=None, spec: InspectSpec | None = N
     if seq.shape != (len(u),) or np.any(np.diff(seq) < 0) or (len(seq) and seq[0] != 0):
         raise InputError("seq_ids must be (N,) sequence numbers, ascending in row order from 0")
     if len(u) < spec.neighbours + 2:
-        raise InputError(f"{len(u)} rows: too few to inspect with --neighbours {spec.neighbours} (need K + 2)")
+        raise InputError(
+            f"{len(u)} rows: too few to inspect with InspectSpec.neighbours {spec.neighbours} (need K + 2)"
+        )
     for name, a, limit in (("u", u, MAX_ABS_COMMAND), ("y", y, MAX_ABS_TIP_M)):
         bad = ~np.isfinite(a) | (np.abs(np.nan_to_num(a, nan=np.inf)) > limit)
         if bad.any():

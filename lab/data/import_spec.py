@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lab.errors import InputError
 from lab.specs import Spec, option
 
 __all__ = ["ImportSpec", "Y_UNITS", "column_names"]
@@ -71,7 +70,6 @@ class ImportSpec(Spec):
     u: tuple[str, ...] | None = option(
         help="the input columns, comma-separated, in order (they become u0, u1, ...), e.g. u1,u2,u3,u4,u5,u6",
         type=column_names,
-        metavar="COLS",
         check=_names,
         required=True,
     )
@@ -79,7 +77,6 @@ class ImportSpec(Spec):
         help="the measured position columns, comma-separated: the tip's x,y,z (exactly 3 for a lab dataset), "
         "e.g. x3,y3,z3",
         type=column_names,
-        metavar="COLS",
         check=_names,
         required=True,
     )
@@ -88,21 +85,19 @@ class ImportSpec(Spec):
     )
     y_unit: str = option("m", help="the positions' unit; converted to metres", choices=tuple(Y_UNITS))
     group: str | None = option(
-        help="a column whose value changes where a new measurement sequence starts (within a file)", metavar="COL"
+        help="a column whose value changes where a new measurement sequence starts (within a file)"
     )
     id: str | None = option(
         help="with --observations: pair input and observation rows on this column, which both files have "
         "(default: row by row)",
-        metavar="COL",
     )
     drop_bad_rows: bool = option(
         False,
         help="drop rows with a NaN, empty or non-numeric value and count them in the sidecar (default: an error)",
-        action="store_true",
     )
-    licence: str | None = option(help="the data's licence, kept in the sidecar", metavar="TEXT", check=_text)
+    licence: str | None = option(help="the data's licence, kept in the sidecar", check=_text)
     source: str | None = option(
-        help="where the data come from (repository, commit, paper), kept in the sidecar", metavar="TEXT", check=_text
+        help="where the data come from (repository, commit, paper), kept in the sidecar", check=_text
     )
     name: str | None = option(help="the robot's name in the sidecar (default: the --out file's stem)", check=_text)
 
@@ -110,9 +105,14 @@ class ImportSpec(Spec):
         super().__post_init__()
         both = [n for n in self.u if n in self.y]
         if both:
-            raise InputError(f"the column {both[0]!r} is given in both --u and --y: each column is one thing")
+            raise self.field_error(
+                f"the column {both[0]!r} is given in both ImportSpec.u and ImportSpec.y: each column is one thing"
+            )
         if self.id is not None and self.id in (*self.u, *self.y):
-            raise InputError(f"--id {self.id!r} is also given in --u or --y: the ID column pairs rows, it is no data")
+            raise self.field_error(
+                f"ImportSpec.id {self.id!r} is also given in ImportSpec.u or ImportSpec.y: the ID column pairs "
+                "rows, it is no data"
+            )
 
     @property
     def y_scale(self) -> float:

@@ -25,7 +25,7 @@ import numpy as np
 from lab.data.csv_table import NON_NUMERIC, CsvTable, read_table
 from lab.data.dataset import write_dataset
 from lab.data.import_spec import ImportSpec
-from lab.errors import InputError
+from lab.errors import FieldError, InputError
 
 __all__ = ["Measurements", "ImportResult", "read_measurements", "import_dataset"]
 
@@ -108,14 +108,14 @@ def _id_key(text: str) -> str:
 
 def _ids(table: CsvTable, column: str) -> list[str]:
     keys, first = [], {}
-    for text, line in zip(table.strings(column, "--id"), table.lines):
+    for text, line in zip(table.strings(column, "ImportSpec.id"), table.lines):
         if not text:
-            raise InputError(f"{table.path}: line {line}, column {column!r} (--id): empty ID")
+            raise InputError(f"{table.path}: line {line}, column {column!r} (ImportSpec.id): empty ID")
         key = _id_key(text)
         if key in first:
             raise InputError(
                 f"{table.path}: the ID {text!r} on line {line} repeats the ID {first[key][1]!r} of line "
-                f"{first[key][0]} (column {column!r}, --id): IDs must be unique to pair rows"
+                f"{first[key][0]} (column {column!r}, ImportSpec.id): IDs must be unique to pair rows"
             )
         first[key] = (line, text)
         keys.append(key)
@@ -134,8 +134,8 @@ def _pair(spec: ImportSpec, inputs: CsvTable, obs: CsvTable, notes: list) -> tup
             )
         if len(inputs.rows) != len(obs.rows):
             raise InputError(
-                f"{inputs.path} has {len(inputs.rows)} rows, its --observations {obs.path} has {len(obs.rows)}: "
-                "pairing row by row needs equal counts (pair on an ID column both have with --id COL)"
+                f"{inputs.path} has {len(inputs.rows)} rows, its observations file {obs.path} has {len(obs.rows)}: "
+                "pairing row by row needs equal counts (pair on an ID column both have with ImportSpec.id COL)"
             )
         rows = np.arange(len(inputs.rows))
         return rows, rows, 0, "row"
@@ -149,7 +149,7 @@ def _pair(spec: ImportSpec, inputs: CsvTable, obs: CsvTable, notes: list) -> tup
 
 def _bad_cell(spec, tables, kinds, rows, r) -> str:
     """The message for the first bad cell of paired row ``r``."""
-    for table, names, flag, kind, index in zip(tables, (spec.u, spec.y), ("--u", "--y"), kinds, rows):
+    for table, names, flag, kind, index in zip(tables, (spec.u, spec.y), ("ImportSpec.u", "ImportSpec.y"), kinds, rows):
         for c, name in enumerate(names):
             k = kind[index[r], c]
             if k:
@@ -157,7 +157,7 @@ def _bad_cell(spec, tables, kinds, rows, r) -> str:
                 what = "not a number" if k == NON_NUMERIC else ("empty" if not text.strip() else "NaN or infinite")
                 return (
                     f"{table.path}: line {table.lines[index[r]]}, column {name!r} ({flag}): {text!r} is {what}; "
-                    "pass --drop-bad-rows to drop such rows (they are counted in the sidecar)"
+                    "set ImportSpec.drop_bad_rows to drop such rows (they are counted in the sidecar)"
                 )
     raise AssertionError("no bad cell in a bad row")
 
@@ -166,15 +166,15 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
     """One file (``obs_path`` None) or pair: inputs, positions (metres), sequence starts
     within it, and its row-group record (without start/stop)."""
     inputs = read_table(path, id_column=spec.id if obs_path else None, what="FILE")
-    obs = inputs if obs_path is None else read_table(obs_path, id_column=spec.id, what="--observations")
+    obs = inputs if obs_path is None else read_table(obs_path, id_column=spec.id, what="observations file")
     for t in {id(inputs): inputs, id(obs): obs}.values():
         if t.phantom and not (spec.id is not None and obs is not inputs):
             notes.append(
                 f"{t.path}: the header names {t.phantom!r} but no row has a value for it: read as lacking that "
                 "column (phantom-ID rule)"
             )
-    u_all, ku = inputs.numbers(spec.u, "--u")
-    y_all, ky = obs.numbers(spec.y, "--y")
+    u_all, ku = inputs.numbers(spec.u, "ImportSpec.u")
+    y_all, ky = obs.numbers(spec.y, "ImportSpec.y")
     if obs is inputs:
         rows_in = rows_obs = np.arange(len(inputs.rows))
         unmatched, join = 0, "one file"
@@ -191,7 +191,7 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
     starts = [0] if len(u) else []
     if spec.group is not None:
         table, rows = (inputs, rows_in) if inputs.has(spec.group) or not obs.has(spec.group) else (obs, rows_obs)
-        values = np.array(table.strings(spec.group, "--group"), dtype=object)[rows[keep]]
+        values = np.array(table.strings(spec.group, "ImportSpec.group"), dtype=object)[rows[keep]]
         starts += [int(k) for k in np.flatnonzero(values[1:] != values[:-1]) + 1]
     sources = [{"path": str(path), "sha256": inputs.sha256, "columns": list(spec.u if obs_path else spec.u + spec.y)}]
     if obs_path is not None:
@@ -232,11 +232,13 @@ def read_measurements(spec: ImportSpec, files, observations=()) -> Measurements:
         raise InputError("no input FILE given")
     if observations and len(observations) != len(files):
         raise InputError(
-            f"{len(files)} FILEs but {len(observations)} --observations files: FILE i pairs with OBS i, "
+            f"{len(files)} FILEs but {len(observations)} observations files: FILE i pairs with OBS i, "
             "give as many of each"
         )
     if spec.id is not None and not observations:
-        raise InputError("--id is not used without --observations: it pairs the rows of an input and an OBS file")
+        raise FieldError(
+            "ImportSpec.id is not used without observations files: it pairs the rows of an input and an OBS file"
+        )
     us, ys, starts, groups, notes = [], [], [], [], []
     n = 0
     for i, path in enumerate(files):
@@ -282,7 +284,8 @@ def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: st
     """
     if len(spec.y) != 3:
         raise InputError(
-            f"--y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip position, give "
+            f"ImportSpec.y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip "
+            "position, give "
             "exactly 3 (its x,y,z, e.g. x3,y3,z3); to read more, use lab.data.importing.read_measurements"
         )
     m = read_measurements(spec, files, observations)

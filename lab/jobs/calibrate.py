@@ -48,6 +48,7 @@ class CalibrationSpec(Spec):
         5e-4,
         type=float,
         check=positive,
+        unit="m",
         help="tip error per coordinate the fit expects, m: mocap noise plus what the static FEM cannot "
         "model; weighs the data against the prior",
     )
@@ -127,7 +128,7 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
     u, y, meta = read_dataset(real)
     name = (meta.get("robot") or {}).get("name")
     if name is not None and name != robot.name:
-        raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but --robot is {robot.name!r}")
+        raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
     if u.shape[1] != robot.n_cables:
         raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
     if log is not None:
@@ -144,7 +145,7 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
     if not result.converged:
         raise LabRuntimeError(
             f"calibration did not converge in {result.iterations} iterations (RMS tip misfit "
-            f"{1e3 * result.rms_m:.3f} mm); nothing written: raise --max-iter, or check the data"
+            f"{1e3 * result.rms_m:.3f} mm); nothing written: raise CalibrationSpec.max_iter, or check the data"
         )
     return result
 

@@ -21,12 +21,13 @@ from lab.control.ik import IKConfig, IKSolver
 from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
 from lab.description import load_robot
 from lab.dynamics.relaxation import load_relaxation
-from lab.errors import InputError
+from lab.errors import FieldError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.fem.model import ArmFEM
 from lab.learn.models import load_model
 from lab.rig import RigSpec, make_rig
-from lab.specs import Spec, at_most, option, positive_int
+from lab.rig.spec import RIG
+from lab.specs import Spec, at_most, option, positive, positive_int
 from lab.tracking.closed_loop import MODES, Correction, check_passes, run_closed_loop
 from lab.tracking.offline import run_offline
 from lab.tracking.points import PointLog
@@ -34,7 +35,7 @@ from lab.tracking.stream import stream_trajectory
 from lab.tracking.stream_spec import StreamSpec
 from lab.tracking.track import TrackResult, run_trajectory, write_result
 
-__all__ = ["TrackSpec", "run", "MAX_POINTS", "MAX_MEASUREMENTS"]
+__all__ = ["TrackSpec", "run", "MAX_POINTS", "MAX_MEASUREMENTS", "NO_RIG_UNUSED"]
 
 #: The most targets of a trajectory (a built-in's ``n_points`` or a CSV's rows).
 MAX_POINTS = 10_000
@@ -43,6 +44,36 @@ MAX_MEASUREMENTS = 100_000
 _NESTED = {"rig": RigSpec, "mesh": MeshSpec, "ik": IKConfig, "correction": Correction}
 #: The robot and noise seed of a run that names none.
 DEFAULT_ROBOT, DEFAULT_SEED = "three-cable", 0
+#: What a run without a rig (``RigSpec.rig`` none) does not use, and why: (the settings, as
+#: ``Class.field``; the reason). :meth:`TrackSpec.__post_init__` refuses them; the command
+#: line refuses their flags with the same words.
+NO_RIG_UNUSED = (
+    (
+        ("TrackSpec.soft_ik",),
+        f"Soft IK solves through the FEM of a shipped robot; {RIG} none solves through TrackSpec.model",
+    ),
+    (
+        ("TrackSpec.closed_loop", "TrackSpec.passes", "Correction.gain"),
+        "a closed loop corrects from measured tips, and nothing is measured",
+    ),
+    (
+        (
+            "TrackSpec.stream",
+            "TrackSpec.dynamic_model",
+            "StreamSpec.n_periods",
+            "StreamSpec.lead_in_s",
+            "StreamSpec.command_rate_hz",
+        ),
+        f"streaming times the commands on a rig; {RIG} none writes them to OUT.commands.csv",
+    ),
+    (("TrackSpec.seed",), "it seeds an emulated rig's noise"),
+    (("MeshSpec.n_rings", "MeshSpec.n_axial"), "they set an FEM mesh, and no FEM is used"),
+    (
+        ("TrackSpec.robot",),
+        "the commands are kept in the box of the model's training data, and a model trained on a "
+        "shipped robot's data brings that robot's limits",
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -78,6 +109,11 @@ class TrackSpec(Spec):
         The closed loop's correction.
     stream : StreamSpec, optional
         Streamed at a period: its settings; None for a settled run.
+    max_spread_mm : float, optional
+        The IK's uncertainty threshold (mm); it sets ``ik.max_spread_m``.
+
+    A ``none`` rig takes nothing of :data:`NO_RIG_UNUSED`; each rule raises a
+    :class:`lab.errors.FieldError` naming its fields.
     """
 
     trajectory: str | None = option(
@@ -110,6 +146,13 @@ class TrackSpec(Spec):
         help="with --period-s: the dynamic model DYN.npz of `fit-dynamics`, inverted into a feed-forward "
         "pre-compensation of the commands (default: quasi-static open loop)",
     )
+    max_spread_mm: float | None = option(
+        None,
+        check=positive,
+        unit="mm",
+        help="flag a target 'uncertain' where the model's predicted spread exceeds this, mm "
+        "(default 1 mm for a model with a spread; never for one without)",
+    )
     model: str | None = option(None, cli=False, help="learned forward model (.npz); None: Soft IK through the FEM")
     robot: str | None = option(
         None, cli=False, help="shipped robot name or path to a TOML description (default three-cable)"
@@ -125,35 +168,56 @@ class TrackSpec(Spec):
         super().__post_init__()
         for name, cls in _NESTED.items():
             if not isinstance(getattr(self, name), cls):
-                raise InputError(f"{name} must be a {cls.__name__}, got {getattr(self, name)!r}")
+                raise self.field_error(
+                    f"{self.name_of(name)} must be a {cls.__name__}, got {getattr(self, name)!r}", name
+                )
         if self.stream is not None and not isinstance(self.stream, StreamSpec):
-            raise InputError(f"stream must be a StreamSpec or None, got {self.stream!r}")
+            raise self.field_error(
+                f"{self.name_of('stream')} must be a StreamSpec or None, got {self.stream!r}", "stream"
+            )
+        if self.max_spread_mm is not None:  # the spread in mm, the IK's threshold in m
+            object.__setattr__(self, "ik", self.ik.replace(max_spread_m=1e-3 * self.max_spread_mm))
+        name = self.name_of
         if self.stream is not None and self.closed_loop is not None:
-            raise InputError("--period-s streams open loop or feed-forward; it does not combine with --closed-loop")
+            raise self.field_error(
+                f"{name('stream')} streams open loop or feed-forward; it does not combine with {name('closed_loop')}",
+                "stream",
+                "closed_loop",
+            )
         if self.dynamic_model is not None and self.stream is None:
-            raise InputError("--dynamic-model needs --period-s T")
+            raise self.field_error(f"{name('dynamic_model')} needs {name('stream')} T", "dynamic_model", "stream")
         if not self.rig.has_rig:
             self._check_no_rig()
         fem_rigs = ("sim", "twin") if self.stream is not None else ("sim",)
         if not self.mesh.is_default and self.rig.kind not in fem_rigs and not self.soft_ik:
-            where = "--rig sim, an emulated twin" if self.stream is not None else "--rig sim"
-            raise InputError(f"--n-rings/--n-axial set the FEM mesh of {where} and --soft-ik only")
+            where = f"{RIG} sim, an emulated twin" if self.stream is not None else f"{RIG} sim"
+            raise self.field_error(
+                f"MeshSpec.n_rings/MeshSpec.n_axial set the FEM mesh of {where} and {name('soft_ik')} only",
+                "MeshSpec.n_rings",
+                "MeshSpec.n_axial",
+                RIG,
+                "soft_ik",
+            )
 
     def _check_no_rig(self) -> None:
-        """InputError for a setting a run without a rig has no use for."""
-        unused = {
-            "Soft IK (no model)": self.soft_ik,
-            "robot": self.robot is not None,
-            "seed": self.seed is not None,
-            "mesh": not self.mesh.is_default,
-            "closed loop": self.closed_loop is not None,
-            "stream": self.stream is not None,
+        """FieldError for a setting a run without a rig has no use for (:data:`NO_RIG_UNUSED`)."""
+        stream = self.stream or StreamSpec(period_s=1.0)
+        given = {
+            "TrackSpec.soft_ik": self.soft_ik,
+            "TrackSpec.closed_loop": self.closed_loop is not None,
+            "Correction.gain": self.correction != Correction(),
+            "TrackSpec.stream": self.stream is not None,
+            "TrackSpec.dynamic_model": self.dynamic_model is not None,
+            "StreamSpec.n_periods": stream.n_periods is not None,
+            "TrackSpec.seed": self.seed is not None,
+            "MeshSpec.n_rings": self.mesh.n_rings is not None,
+            "MeshSpec.n_axial": self.mesh.n_axial is not None,
+            "TrackSpec.robot": self.robot is not None,
         }
-        if wrong := [what for what, given in unused.items() if given]:
-            raise InputError(
-                f"--rig none solves the IK through a learned model only (the commands are bounded by its "
-                f"training data); it takes no {', '.join(wrong)}"
-            )
+        for names, why in NO_RIG_UNUSED:
+            if used := [n for n in names if given.get(n)]:
+                verb = "is" if len(used) == 1 else "are"
+                raise FieldError(f"{', '.join(used)} {verb} not used with {RIG} none ({why})", *used, RIG)
 
     @property
     def soft_ik(self) -> bool:
@@ -228,12 +292,14 @@ def run(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Ca
 def _check_size(spec: TrackSpec, n_targets: int) -> None:
     """Refuse a trajectory, or a closed loop over it, longer than a run may be."""
     if n_targets > MAX_POINTS:
-        raise InputError(f"--trajectory {spec.trajectory}: {n_targets} points, at most {MAX_POINTS}")
+        message = f"{spec.name_of('trajectory')} {spec.trajectory}: {n_targets} points, at most {MAX_POINTS}"
+        raise spec.field_error(message, "trajectory")
     passes = spec.passes if spec.closed_loop is not None else 1
     if n_targets * passes > MAX_MEASUREMENTS:
-        raise InputError(
-            f"--passes {passes} over {n_targets} points is {n_targets * passes} measurements: "
-            f"at most {MAX_MEASUREMENTS} in one run"
+        raise spec.field_error(
+            f"{spec.name_of('passes')} {passes} over {n_targets} points is {n_targets * passes} measurements: "
+            f"at most {MAX_MEASUREMENTS} in one run",
+            "passes",
         )
 
 

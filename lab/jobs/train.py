@@ -219,7 +219,7 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
     if init is not None:
         init_model = load_model(init)
         if spec.model != "mlp" or not isinstance(init_model, MLP):
-            raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with --model mlp only")
+            raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with TrainSpec.model mlp only")
         spec = spec.replace(hidden=tuple(init_model.hidden))
     spec.check_fits(x.shape[1], y.shape[1], len(u))
     what = network_words(spec, x.shape[1], y.shape[1])

@@ -1,8 +1,8 @@
 """``python -m lab transfer``: a forward model for the real arm from simulation and N real samples.
 
-:class:`TransferSpec` says which method (``--method``: the data-only methods of
+:class:`TransferSpec` says which method (``method``: the data-only methods of
 :mod:`lab.transfer.data_methods`, or ``calibrated``, :mod:`lab.transfer.calibrated`), which
-files (``--real``, ``--sim`` or ``--sim-model``, ``--robot``), the network
+files (``real``, ``sim`` or ``sim_model``, ``robot``), the network
 (:class:`lab.learn.TrainSpec`'s ``--hidden`` and ``--seed``), the mesh of the calibrated
 method (:class:`lab.fem.MeshSpec`) and its workers, and refuses combinations that do not
 go together. :func:`run` reads the datasets, checks them against the robot and
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lab.errors import InputError
+from lab.errors import FieldError, InputError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.train_spec import TrainSpec
 from lab.specs import Spec, option, positive_int
@@ -64,24 +64,29 @@ class TransferSpec(Spec):
     def __post_init__(self):
         super().__post_init__()
         if self.method == "calibrated" and (self.sim is None or self.sim_model is not None or self.robot is None):
-            raise InputError(
-                "--method calibrated needs --robot R and --sim SIM.csv (its commands are re-simulated), not --sim-model"
+            raise FieldError(
+                "TransferSpec.method calibrated needs TransferSpec.robot R and TransferSpec.sim SIM.csv (its "
+                "commands are re-simulated), not TransferSpec.sim_model"
             )
         if self.method != "calibrated" and not self.mesh.is_default:
-            raise InputError("--n-rings/--n-axial are options of --method calibrated only")
+            raise FieldError("MeshSpec.n_rings/MeshSpec.n_axial are options of TransferSpec.method calibrated only")
         if self.method not in ("real-only", "calibrated") and (self.sim is None) == (self.sim_model is None):
-            raise InputError(f"--method {self.method} needs exactly one of --sim SIM.csv and --sim-model SIM.npz")
+            raise FieldError(
+                f"TransferSpec.method {self.method} needs exactly one of TransferSpec.sim SIM.csv and "
+                "TransferSpec.sim_model SIM.npz"
+            )
 
 
 def _check_robot(robot, meta: dict, what: str, n_u: int) -> None:
-    """Refuse a dataset (``what``: its flag and path) made on another robot than ``--robot``
+    """Refuse a dataset (``what``: its field and path) made on another robot than ``TransferSpec.robot``
     or whose ``n_u`` motor columns are not the robot's motors."""
     name = (meta.get("robot") or {}).get("name")
     if robot is not None and name is not None and name != robot.name:
-        raise InputError(f"{what} was made on robot {name!r}, but --robot is {robot.name!r}")
+        raise FieldError(f"{what} was made on robot {name!r}, but TransferSpec.robot is {robot.name!r}")
     if robot is not None and n_u != robot.n_cables:
-        raise InputError(
-            f"{what} has {n_u} motor columns (u0..u{n_u - 1}), but --robot {robot.name} has {robot.n_cables} motors"
+        raise FieldError(
+            f"{what} has {n_u} motor columns (u0..u{n_u - 1}), but TransferSpec.robot {robot.name} has "
+            f"{robot.n_cables} motors"
         )
 
 
@@ -91,7 +96,7 @@ def _read(path, what: str, robot):
 
     u, y, meta = read_dataset(path)
     if len(u) == 0:
-        raise InputError(f"{what} {path} holds no samples")
+        raise FieldError(f"{what} {path} holds no samples")
     _check_robot(robot, meta, f"{what} {path}", u.shape[1])
     return u, y, meta
 
@@ -120,7 +125,7 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
 
     log = log or (lambda line: None)
     robot = load_robot(spec.robot) if spec.robot else None
-    u_real, y_real, _ = _read(spec.real, "--real", robot)
+    u_real, y_real, _ = _read(spec.real, "TransferSpec.real", robot)
     if spec.method == "calibrated":
         model = _calibrated(spec, robot, u_real, y_real, log)
         model.metadata["transfer"].update({"real": str(spec.real), "sim": spec.sim, "command": command})
@@ -134,23 +139,25 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
         if spec.sim_model:
             sim_model = load_model(spec.sim_model)
             if robot is not None and sim_model.n_u != robot.n_cables:
-                raise InputError(
-                    f"--sim-model {spec.sim_model} takes {sim_model.n_u} motor angles, but --robot {robot.name} "
+                raise FieldError(
+                    f"TransferSpec.sim_model {spec.sim_model} takes {sim_model.n_u} motor angles, but "
+                    f"TransferSpec.robot {robot.name} "
                     f"has {robot.n_cables} motors"
                 )
         else:
-            u_sim, y_sim, _ = _read(spec.sim, "--sim", robot)
+            u_sim, y_sim, _ = _read(spec.sim, "TransferSpec.sim", robot)
             if u_sim.shape[1] != u_real.shape[1]:
-                raise InputError(
-                    f"--sim {spec.sim} has {u_sim.shape[1]} motor columns, but --real {spec.real} has "
+                raise FieldError(
+                    f"TransferSpec.sim {spec.sim} has {u_sim.shape[1]} motor columns, but TransferSpec.real "
+                    f"{spec.real} has "
                     f"{u_real.shape[1]}: they are not of one robot"
                 )
             log(f"training {list(hidden)} on {len(u_sim)} simulated samples ({spec.sim})")
             sim_model = train(u_sim, y_sim, hidden, seed=seed).model
         if (sim_model.n_u, sim_model.n_y) != (u_real.shape[1], y_real.shape[1]):
-            raise InputError(
+            raise FieldError(
                 f"the simulation network ({spec.sim_model or spec.sim}) maps {sim_model.n_u} -> {sim_model.n_y}, "
-                f"the real data (--real {spec.real}) {u_real.shape[1]} -> {y_real.shape[1]}"
+                f"the real data (TransferSpec.real {spec.real}) {u_real.shape[1]} -> {y_real.shape[1]}"
             )
     log(f"{spec.method}: {len(u_real)} real samples from {spec.real}")
     model = transfer_model(spec.method, u_real, y_real, sim_model, hidden=tuple(hidden), seed=seed)
@@ -164,10 +171,11 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
     from lab.transfer.calibrated import MIN_RESIMULATED, calibrated_model
 
     n_rings, n_axial = spec.mesh.resolve(robot)
-    u_sim, _, _ = _read(spec.sim, "--sim", robot)
+    u_sim, _, _ = _read(spec.sim, "TransferSpec.sim", robot)
     if len(u_sim) < MIN_RESIMULATED:
-        raise InputError(
-            f"--sim {spec.sim} holds {len(u_sim)} commands; the calibrated FEM re-simulates at least {MIN_RESIMULATED}"
+        raise FieldError(
+            f"TransferSpec.sim {spec.sim} holds {len(u_sim)} commands; the calibrated FEM re-simulates at least "
+            f"{MIN_RESIMULATED}"
         )
     spec.train.check_fits(robot.n_cables, 3, len(u_sim))  # before the calibration and re-simulation
     log(
@@ -179,8 +187,8 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
             robot, u_real, y_real, u_sim, hidden=tuple(spec.train.hidden), seed=spec.train.seed,
             n_rings=n_rings, n_axial=n_axial, n_jobs=spec.jobs, log=log,
         )  # fmt: skip
-    except InputError as err:  # the real samples: the commands of --sim were checked above
-        raise InputError(f"--real {spec.real}: {err}") from None
+    except InputError as err:  # the real samples: the commands of TransferSpec.sim were checked above
+        raise FieldError(f"TransferSpec.real {spec.real}: {err}") from None
 
 
 def fit_mean_distance_mm(model, u, y) -> float:

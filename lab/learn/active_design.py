@@ -63,9 +63,11 @@ def check_active(design: DesignSpec, robot: RobotDescription) -> None:
     n_initial = default_initial(d.active)
     need = minimum_samples(robot.n_cables, member_ratios())
     if n_initial < d.active and n_initial < need:
-        raise InputError(
-            f"--active {d.active} starts from a Sobol design of {n_initial} samples, too few to train the first "
-            f"ensemble on ({robot.name}: at least {need}); use --active {2 * need} or more"
+        active = d.name_of("active")
+        raise d.field_error(
+            f"{active} {d.active} starts from a Sobol design of {n_initial} samples, too few to train the first "
+            f"ensemble on ({robot.name}: at least {need}); use {active} {2 * need} or more",
+            "active",
         )
 
 

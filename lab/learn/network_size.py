@@ -11,11 +11,14 @@ calls it before initialising the weights.
 
 from __future__ import annotations
 
-from lab.errors import InputError
+from lab.errors import FieldError
 from lab.fem.bodies.mesh import available_memory_bytes
 from lab.files import format_bytes
 
 __all__ = ["n_parameters", "training_bytes", "check_network_size"]
+
+#: How an error names the hidden widths (the command line writes its ``--hidden``).
+HIDDEN = "TrainSpec.hidden"
 
 #: LM's Jacobian budget, MB (:class:`lab.learn.lm.LMOptions`' ``max_jacobian_mb``).
 JACOBIAN_BUDGET_MB = 256.0
@@ -49,7 +52,7 @@ def training_bytes(layer_sizes, n_train: int, algorithm: str = "lm", max_jacobia
 def check_network_size(
     layer_sizes, n_train: int, algorithm: str = "lm", copies: int = 1, available_bytes: int | None = None
 ) -> int:
-    """Refuse (InputError naming ``--hidden``) training ``layer_sizes`` (n_u, hidden..., n_y)
+    """Refuse (a FieldError naming ``TrainSpec.hidden``) training ``layer_sizes`` (n_u, hidden..., n_y)
     on ``n_train`` samples by ``algorithm`` when ``copies`` such runs at once (parallel
     workers) would not fit in the memory available now; returns the estimate in bytes."""
     sizes = tuple(int(s) for s in layer_sizes)
@@ -57,10 +60,11 @@ def check_network_size(
     have = available_memory_bytes() if available_bytes is None else available_bytes
     if need > have:
         times = f" ({copies} at once)" if copies > 1 else ""
-        raise InputError(
-            f"--hidden {' '.join(map(str, sizes[1:-1]))}: a {'-'.join(map(str, sizes))} network "
+        raise FieldError(
+            f"{HIDDEN} {' '.join(map(str, sizes[1:-1]))}: a {'-'.join(map(str, sizes))} network "
             f"({n_parameters(sizes):,} parameters) trained by {algorithm} on {n_train} samples{times} would need "
             f"about {format_bytes(need)} of memory; this machine has {format_bytes(have)} available. "
-            "Use fewer or narrower hidden layers."
+            "Use fewer or narrower hidden layers.",
+            HIDDEN,
         )
     return need

@@ -57,18 +57,18 @@ def read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list, np.n
     for path in extra_data:
         same = seen.get(Path(path).resolve())
         if same is not None:
-            raise InputError(f"--extra-data {path} is the same file as {same}: each dataset may be given once")
-        seen[Path(path).resolve()] = f"--extra-data {path}"
+            raise InputError(f"extra dataset {path} is the same file as {same}: each dataset may be given once")
+        seen[Path(path).resolve()] = f"extra dataset {path}"
         u_x, y_x, meta_x = read_dataset(path)
         robot_x, robot = ((m.get("robot") or {}).get("name") for m in (meta_x, meta))
         if u_x.shape[1] != u.shape[1] or robot_x != robot:
             raise InputError(
-                f"--extra-data {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
+                f"extra dataset {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
                 f"{robot!r} with {u.shape[1]}"
             )
         rows = np.hstack([u_x, y_x])
-        _check_not_twice(sources, f"--extra-data {path}", rows)
-        sources.append((f"--extra-data {path}", rows))
+        _check_not_twice(sources, f"extra dataset {path}", rows)
+        sources.append((f"extra dataset {path}", rows))
         ids_x = sequence_ids(meta_x, len(u_x), where=f"{path}.json") + (ids[-1] + 1 if len(ids) else 0)
         u, y, ids = np.vstack([u, u_x]), np.vstack([y, y_x]), np.concatenate([ids, ids_x])
         extra.append({"path": str(path), "file_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()})
@@ -81,9 +81,11 @@ def inputs_and_groups(spec, u, ids, data, log) -> tuple[np.ndarray, np.ndarray |
     ``split_groups``, ``n_groups``). InputError for K not below the longest sequence."""
     runs = np.diff(np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])) if len(ids) else np.zeros(1, int)
     if spec.history and spec.history >= runs.max():
-        raise InputError(
-            f"--history {spec.history}: the longest measurement sequence of {data} has {runs.max()} rows "
-            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it"
+        raise spec.field_error(
+            f"{spec.name_of('history')} {spec.history}: the longest measurement sequence of {data} has "
+            f"{runs.max()} rows "
+            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it",
+            "history",
         )
     x = history_features(u, ids, spec.history) if spec.history else u
     info = {"history": spec.history, "split_method": spec.split, "split_groups": None, "n_groups": None}
@@ -130,5 +132,5 @@ def forward_model(spec, forward):
     if forward is None:
         return None
     if spec.model != "inverse-mlp":
-        raise InputError("--forward only applies to --model inverse-mlp")
+        raise InputError("a forward model applies only to TrainSpec.model inverse-mlp")
     return load_model(forward)

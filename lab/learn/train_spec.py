@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass
 from numbers import Integral
 
-from lab.errors import InputError
+from lab.errors import FieldError
 from lab.learn.history import MAX_HISTORY
 from lab.learn.mlp import ACTIVATIONS
 from lab.learn.model_specs import model_spec
@@ -29,6 +29,9 @@ from lab.learn.train import ALGORITHMS
 from lab.specs import Spec, at_most, non_negative, non_negative_int, option, positive_int
 
 __all__ = ["TrainSpec"]
+
+#: How an error names the split ratios (the command line's ``--split``).
+_RATIOS = "TrainSpec.ratios"
 
 
 def _widths(v) -> str | None:
@@ -56,17 +59,20 @@ def _split_words(value, kind: str, default) -> tuple[str, object]:
         if not words:
             return kind, default
     elif words and isinstance(words[0], str) and not _is_number_word(words[0]):
-        raise InputError(f"--split must start with one of {', '.join(SPLIT_KINDS)} or be 3 ratios, got {words[0]!r}")
+        raise FieldError(
+            f"{_RATIOS} must start with one of {', '.join(SPLIT_KINDS)} or be 3 ratios, got {words[0]!r}", _RATIOS
+        )
     if len(words) != 3:
-        raise InputError(
-            f"--split takes 3 ratios (TRAIN VAL TEST), a word ({', '.join(SPLIT_KINDS)}) or the word and 3 ratios, "
-            f"got {' '.join(map(str, value))!r}"
+        raise FieldError(
+            f"{_RATIOS} takes 3 ratios (TRAIN VAL TEST), a word ({', '.join(SPLIT_KINDS)}) or the word and 3 "
+            f"ratios, got {' '.join(map(str, value))!r}",
+            _RATIOS,
         )
     out = []
     for w in words:
         if isinstance(w, str):
             if not _is_number_word(w):
-                raise InputError(f"--split ratio {w!r} is not a number")
+                raise FieldError(f"{_RATIOS} ratio {w!r} is not a number", _RATIOS)
             w = float(w)
         out.append(w)
     return kind, tuple(out)
@@ -120,9 +126,7 @@ class TrainSpec(Spec):
         help="lab's network, a deep ensemble of them, or a scikit-learn peer "
         "(Gaussian process, k-nearest neighbours, MLPRegressor), or the direct inverse u = g(y)",
     )
-    hidden: tuple[int, ...] = option(
-        (20, 20), type=int, nargs="+", metavar="WIDTH", check=_widths, help="hidden layer widths"
-    )
+    hidden: tuple[int, ...] = option((20, 20), type=int, check=_widths, help="hidden layer widths")
     algorithm: str = option(
         "lm",
         choices=ALGORITHMS,
@@ -137,10 +141,7 @@ class TrainSpec(Spec):
     members: int = option(5, type=int, check=positive_int, help="ensemble: number of networks K >= 2")
     ratios: tuple[float, float, float] = option(
         (0.8, 0.1, 0.1),
-        flag="--split",
         type=str,
-        nargs="+",
-        metavar="SPLIT",
         check=_ratios,
         help="split ratios (train, validation, test), after an optional word: random rows like MATLAB "
         "dividerand (the default), or group: whole measurement sequences (the sidecar's sequence_starts; "
@@ -150,7 +151,6 @@ class TrainSpec(Spec):
     history: int = option(
         0,
         type=int,
-        metavar="K",
         check=at_most(MAX_HISTORY, non_negative_int),
         help="past commands the model also takes: inputs u_t, u_{t-1}, ..., u_{t-K} within each measurement "
         f"sequence (0: the command only; at most {MAX_HISTORY}, and below the longest sequence)",
@@ -165,10 +165,13 @@ class TrainSpec(Spec):
         object.__setattr__(self, "ratios", ratios)
         super().__post_init__()
         if self.model == "ensemble" and self.members < 2:
-            raise InputError(f"--members must be at least 2, got {self.members}")
+            raise self.field_error(f"{self.name_of('members')} must be at least 2, got {self.members}", "members")
         if self.model == "inverse-mlp" and self.history:
-            raise InputError(
-                "--history applies to forward models; --model inverse-mlp maps a tip to a command and takes no past"
+            raise self.field_error(
+                f"{self.name_of('history')} applies to forward models; {self.name_of('model')} inverse-mlp maps a "
+                "tip to a command and takes no past",
+                "history",
+                "model",
             )
 
     def model_spec(self):

@@ -10,11 +10,11 @@ for studies that read its quasi-static map directly.
 from __future__ import annotations
 
 from lab.description import RobotDescription
-from lab.errors import InputError
+from lab.errors import FieldError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.fem.model import ArmFEM
 from lab.rig.base import Rig
-from lab.rig.spec import RigSpec
+from lab.rig.spec import RIG, RigSpec
 
 __all__ = ["make_rig", "as_built_body"]
 
@@ -44,7 +44,7 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
     """
     spec = _spec(spec, mesh)
     if spec.kind != "twin":
-        raise InputError(f"--rig {spec}: an as-built body is emulated for --rig twin only")
+        raise FieldError(f"{RIG} {spec}: an as-built body is emulated for {RIG} twin only", RIG)
     from lab.rig.twin import AsBuiltBody
 
     overrides = spec.mesh.overrides()
@@ -91,16 +91,16 @@ def make_rig(
     """
     spec = _spec(spec, mesh)
     if not spec.has_rig:
-        raise InputError(
-            "--rig none is no rig: only `track --rig none` takes it, to solve the IK and write the commands"
+        raise FieldError(
+            f"{RIG} none is no rig: only `track` takes {RIG} none, to solve the IK and write the commands", RIG
         )
     if fem is not None and spec.kind != "sim":
-        raise InputError(f"--rig {spec}: only --rig sim runs on a given nominal FEM")
+        raise FieldError(f"{RIG} {spec}: only {RIG} sim runs on a given nominal FEM", RIG)
     if spec.kind == "sim":
         from lab.rig.sim import SimRig
 
         if fem is not None and not spec.mesh.is_default:
-            raise InputError("--rig sim: give the FEM or the mesh overrides, not both")
+            raise FieldError(f"{RIG} sim: give the FEM or the mesh overrides, not both", RIG)
         return SimRig(robot, fem if fem is not None else ArmFEM(robot, **spec.mesh.overrides()))
     if spec.kind == "twin":
         if spec.family_seed is not None:

@@ -8,15 +8,16 @@ and :meth:`RigSpec.parse` is the only place
 that reads it; ``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
 (``--n-rings``/``--n-axial``) is the :class:`~lab.fem.MeshSpec` field ``mesh``, which the
 string does not carry. :func:`lab.rig.make_rig` builds the rig a spec names. Every
-problem is an :class:`~lab.errors.InputError` naming ``--rig``.
+problem is a :class:`~lab.errors.FieldError` naming the rig string ``RigSpec.rig`` (the
+command line writes its ``--rig`` there).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lab.asbuilt.family import FAMILIES, parse_robot_seed
-from lab.errors import InputError
+from lab.asbuilt.family import FAMILIES, RIG, parse_robot_seed
+from lab.errors import FieldError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.specs import Spec
 
@@ -27,6 +28,8 @@ __all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS"]
 RIG_KINDS = ("sim", "twin", "hardware", "none")
 #: The forms ``--rig`` accepts, as its help and errors name them.
 RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED, twin:foam:SEED or hardware:CONFIG.toml"
+#: How an error names the FEM mesh's fields.
+MESH_FIELDS = ("MeshSpec.n_rings", "MeshSpec.n_axial")
 
 
 @dataclass(frozen=True)
@@ -51,18 +54,20 @@ class RigSpec(Spec):
     def __post_init__(self):
         super().__post_init__()
         if self.kind not in RIG_KINDS:
-            raise InputError(f"unknown rig kind {self.kind!r} (--rig): expected {RIG_FORMS}")
+            raise FieldError(f"unknown rig kind {self.kind!r} ({RIG}): expected {RIG_FORMS}", RIG)
         if not isinstance(self.mesh, MeshSpec):
-            raise InputError(f"--rig: mesh must be a MeshSpec, got {self.mesh!r}")
+            raise FieldError(f"{RIG}: mesh must be a MeshSpec, got {self.mesh!r}", RIG)
         seed = self.family_seed
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-            raise InputError(f"--rig twin:random:SEED: the robot seed must be a non-negative integer, got {seed!r}")
+            raise FieldError(
+                f"{RIG} twin:random:SEED: the robot seed must be a non-negative integer, got {seed!r}", RIG
+            )
         if self.family not in FAMILIES:
-            raise InputError(
-                f"--rig twin:FAMILY:SEED: unknown family {self.family!r}, expected one of {tuple(FAMILIES)}"
+            raise FieldError(
+                f"{RIG} twin:FAMILY:SEED: unknown family {self.family!r}, expected one of {tuple(FAMILIES)}", RIG
             )
         if self.family != "random" and seed is None:
-            raise InputError(f"--rig twin:{self.family}:SEED needs the robot's seed (e.g. twin:{self.family}:3)")
+            raise FieldError(f"{RIG} twin:{self.family}:SEED needs the robot's seed (e.g. twin:{self.family}:3)", RIG)
         given = {
             "defects file": self.defects_path is not None,
             "robot seed": seed is not None,
@@ -76,13 +81,17 @@ class RigSpec(Spec):
         }[self.kind]
         wrong = [what for what, set_ in given.items() if set_ and what not in allowed]
         if wrong:
-            raise InputError(f"--rig {self.kind} takes no {' or '.join(wrong)}")
+            raise FieldError(f"{RIG} {self.kind} takes no {' or '.join(wrong)}", RIG)
         if self.defects_path is not None and seed is not None:
-            raise InputError("--rig twin takes a defects file or twin:random:SEED, not both")
+            raise FieldError(f"{RIG} twin takes a defects file or twin:random:SEED, not both", RIG)
         if self.kind == "hardware" and not self.config_path:
-            raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
+            raise FieldError(f"rig 'hardware' needs a configuration file: {RIG} hardware:RIG.toml", RIG)
         if self.kind in ("hardware", "none") and not self.mesh.is_default:
-            raise InputError(f"--n-rings/--n-axial set the FEM mesh of --rig sim or an emulated twin, not {self.kind}")
+            raise FieldError(
+                f"{'/'.join(MESH_FIELDS)} set the FEM mesh of {RIG} sim or an emulated twin, not {self.kind}",
+                *MESH_FIELDS,
+                RIG,
+            )
 
     @classmethod
     def parse(cls, text: RigSpec | str, *, mesh: MeshSpec | None = None, allow_none: bool = False) -> RigSpec:
@@ -98,29 +107,29 @@ class RigSpec(Spec):
         kind, _, arg = text.partition(":")
         if kind == "none":
             if not allow_none:
-                raise InputError(f"--rig none (no rig) is taken by `track` only; this command needs {RIG_FORMS}")
+                raise FieldError(f"{RIG} none (no rig) is taken by `track` only; this command needs {RIG_FORMS}", RIG)
             if arg:
-                raise InputError(f"rig 'none' takes no argument (--rig none), got {text!r}")
+                raise FieldError(f"rig 'none' takes no argument ({RIG} none), got {text!r}", RIG)
             return cls("none", mesh=mesh)
         if kind == "sim":
             if arg:
-                raise InputError(f"rig 'sim' takes no argument (--rig sim), got {text!r}")
+                raise FieldError(f"rig 'sim' takes no argument ({RIG} sim), got {text!r}", RIG)
             return cls("sim", mesh=mesh)
         if kind == "twin":
             family, _, robot_seed = arg.partition(":")
             if family in FAMILIES:
                 if not robot_seed:
-                    raise InputError(
-                        f"rig {text!r} needs the robot's seed: --rig twin:{family}:SEED (e.g. twin:{family}:3)"
+                    raise FieldError(
+                        f"rig {text!r} needs the robot's seed: {RIG} twin:{family}:SEED (e.g. twin:{family}:3)", RIG
                     )
                 seed = parse_robot_seed(robot_seed, text, family)
                 return cls("twin", family_seed=seed, mesh=mesh, family=family)
             return cls("twin", defects_path=arg or None, mesh=mesh)
         if kind == "hardware":
             if not arg:
-                raise InputError("rig 'hardware' needs a configuration file: --rig hardware:RIG.toml")
+                raise FieldError(f"rig 'hardware' needs a configuration file: {RIG} hardware:RIG.toml", RIG)
             return cls("hardware", config_path=arg, mesh=mesh)
-        raise InputError(f"unknown rig {text!r} (--rig): expected {RIG_FORMS}")
+        raise FieldError(f"unknown rig {text!r} ({RIG}): expected {RIG_FORMS}", RIG)
 
     def __str__(self) -> str:
         """The ``--rig`` string of this spec (without the mesh, which has its own flags)."""
@@ -166,7 +175,7 @@ class RigSpec(Spec):
     def require_dynamics(self) -> RigSpec:
         """This spec, or InputError for ``sim``, whose quasi-static FEM has no dynamics."""
         if not self.has_rig:
-            raise InputError("--rig none is no rig: it has no dynamics to learn or stream")
+            raise FieldError(f"{RIG} none is no rig: it has no dynamics to learn or stream", RIG)
         if not self.has_dynamics:
-            raise InputError("--rig sim is the quasi-static FEM: it has no dynamics to learn or stream")
+            raise FieldError(f"{RIG} sim is the quasi-static FEM: it has no dynamics to learn or stream", RIG)
         return self

@@ -119,20 +119,19 @@ class CompareSpec(Spec):
         Seed of the splits and the fits, >= 0.
     """
 
-    models: tuple[str, ...] = option(COMPARE_MODELS, nargs="+", check=_names(COMPARE_MODELS), help="models to fit")
+    models: tuple[str, ...] = option(COMPARE_MODELS, check=_names(COMPARE_MODELS), help="models to fit")
     splits: tuple[str, ...] = option(
-        COMPARE_SPLITS, nargs="+", check=_names(COMPARE_SPLITS), help="random, group (whole sequences), sequential"
+        COMPARE_SPLITS, check=_names(COMPARE_SPLITS), help="random, group (whole sequences), sequential"
     )
     n_splits: int = option(
         5, type=int, check=at_most(MAX_COMPARE_SPLITS, positive_int), help="repeats of the random and group splits"
     )
     history: tuple[int, ...] = option(
-        (0, 1), type=int, nargs="+", check=_ints(0, MAX_HISTORY), help="past commands K of each model's inputs"
+        (0, 1), type=int, check=_ints(0, MAX_HISTORY), help="past commands K of each model's inputs"
     )
     ns: tuple[int, ...] | None = option(
         None,
         type=int,
-        nargs="+",
         check=_ints(MIN_CURVE_N),
         help="learning curve: also fit on N rows of each random split",
     )
@@ -213,16 +212,16 @@ def floor_of(path, data, sha: str) -> dict:
         report = json.loads(Path(path).read_text())
         ds, floor_m = report["dataset"], report["floor"]["floor_m"]
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise InputError(f"--floor {path}: not a readable inspect report ({err})") from None
+        raise InputError(f"floor report {path}: not a readable inspect report ({err})") from None
     if not isinstance(report, dict) or report.get("kind") != "lab.inspect" or not isinstance(ds, dict):
-        raise InputError(f"--floor {path}: not an inspect report (kind {report.get('kind')!r})")
+        raise InputError(f"floor report {path}: not an inspect report (kind {report.get('kind')!r})")
     same = ds.get("csv_sha256") == sha if ds.get("csv_sha256") else Path(str(ds.get("path"))).resolve() == data
     if not same:
         raise InputError(
-            f"--floor {path}: the report was made from {ds.get('path')} (csv sha256 {ds.get('csv_sha256')}), "
-            f"another dataset than {data}; run python -m lab inspect {data} --out REPORT.json"
+            f"floor report {path}: the report was made from {ds.get('path')} (csv sha256 {ds.get('csv_sha256')}), "
+            f"another dataset than {data}; make its report with `python -m lab inspect`"
         )
     if not isinstance(floor_m, (int, float)) or not np.isfinite(floor_m) or floor_m <= 0:
-        raise InputError(f"--floor {path}: the report has no floor (floor_m {floor_m!r})")
+        raise InputError(f"floor report {path}: the report has no floor (floor_m {floor_m!r})")
     interval = report["floor"].get("interval_m")
     return {"floor_m": float(floor_m), "interval_m": interval, "report": str(path), "command": report.get("command")}

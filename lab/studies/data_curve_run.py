@@ -43,7 +43,7 @@ def _number(path: Path, line: int, column: str, value):
         return float(value)
     except (TypeError, ValueError):
         raise InputError(
-            f"{path}: line {line}: {column} {value!r} is not a number; repair the file or choose another --out"
+            f"{path}: line {line}: {column} {value!r} is not a number; repair the file or choose another output file"
         ) from None
 
 
@@ -62,11 +62,15 @@ def _read(path: Path) -> tuple[list[dict], dict]:
     try:
         meta = json.loads(side.read_text())
     except ValueError as err:
-        raise InputError(f"{side}: the sidecar of {path} is not valid JSON ({err}); choose another --out") from None
+        raise InputError(
+            f"{side}: the sidecar of {path} is not valid JSON ({err}); choose another output file"
+        ) from None
     if not isinstance(meta, dict) or not isinstance(meta.get("settings", {}), dict | None):
-        raise InputError(f"{side}: the sidecar of {path} must be a JSON object with settings; choose another --out")
+        raise InputError(
+            f"{side}: the sidecar of {path} must be a JSON object with settings; choose another output file"
+        )
     if not isinstance(meta.get("commands", []), list):
-        raise InputError(f"{side}: the sidecar's commands must be a list; choose another --out")
+        raise InputError(f"{side}: the sidecar's commands must be a list; choose another output file")
     return rows, meta
 
 
@@ -166,7 +170,7 @@ def run_data_curve(spec: DataCurveSpec, out, *, jobs: int = 1, command: str = ""
 
     log = log or (lambda line: None)
     if positive_int(jobs):
-        raise InputError(f"--jobs must be a positive integer, got {jobs!r}")
+        raise InputError(f"jobs (worker processes) must be a positive integer, got {jobs!r}")
     spec.check(load_robot(spec.robot))
     rate = spec.capture_rate()
     settings, out = spec.settings(rate[0]), Path(out)
@@ -175,11 +179,11 @@ def run_data_curve(spec: DataCurveSpec, out, *, jobs: int = 1, command: str = ""
         was = {k: old["settings"].get(k, SETTING_DEFAULTS.get(k)) for k in SETTINGS}
         diff = [k for k in SETTINGS if json.dumps(was[k]) != json.dumps(settings[k])]
         if diff:
-            raise InputError(f"{out} was made with other settings ({', '.join(diff)}); choose another --out")
+            raise InputError(f"{out} was made with other settings ({', '.join(diff)}); choose another output file")
     body, _, _ = _body(spec.robot, spec.rig, spec.mesh.n_rings, spec.mesh.n_axial)
     heldout = heldout_set(body, spec.heldout, spec.heldout_seed)
     if any(r["heldout_id"] != heldout[2] for r in rows):
-        raise InputError(f"{out} was measured on another held-out set; choose another --out")
+        raise InputError(f"{out} was measured on another held-out set; choose another output file")
     have = {(r["strategy"], int(r["n"]), int(r["seed"])) for r in rows}
     plan = [
         (*p, seed)

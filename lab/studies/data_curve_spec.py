@@ -103,17 +103,11 @@ class DataCurveSpec(Spec):
 
     robot: str = option("three-cable", help="robot name or description TOML")
     rig: str = option("sim", help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED")
-    strategies: tuple[str, ...] | None = option(None, nargs="+", help="grid sobol lhs maximin random active")
-    ns: tuple[int, ...] = option(
-        DEFAULT_NS, type=int, nargs="+", check=_ints(1, MAX_DESIGN_N), help="numbers of samples N"
-    )
-    grid_levels: tuple[int, ...] | None = option(
-        None, type=int, nargs="+", check=_ints(2), help="grid: these levels per motor"
-    )
+    strategies: tuple[str, ...] | None = option(None, help="grid sobol lhs maximin random active")
+    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, check=_ints(1, MAX_DESIGN_N), help="numbers of samples N")
+    grid_levels: tuple[int, ...] | None = option(None, type=int, check=_ints(2), help="grid: these levels per motor")
     model: str = option("mlp", help="mlp, ensemble, gpr, knn, sklearn-mlp")
-    hidden: tuple[int, ...] = option(
-        (20, 20), type=int, nargs="+", check=_ints(1, what="widths"), help="hidden layer widths"
-    )
+    hidden: tuple[int, ...] = option((20, 20), type=int, check=_ints(1, what="widths"), help="hidden layer widths")
     epochs: int | None = option(None, type=int, check=positive_int, help="maximum training epochs")
     algorithm: str = option(
         "lm", check=_algorithm, help="training: lm (the paper's stopping rules), br (Bayesian), adam, lbfgs"
@@ -122,15 +116,13 @@ class DataCurveSpec(Spec):
         200, type=int, check=at_most(MAX_DESIGN_N, positive_int), help="held-out random allowed commands"
     )
     seeds: tuple[int, ...] = option(
-        (0,), type=int, nargs="+", check=_ints(0), help="seeds of designs, noise and training: a row per seed"
+        (0,), type=int, check=_ints(0), help="seeds of designs, noise and training: a row per seed"
     )
     heldout_seed: int = option(1, type=int, check=non_negative_int, help="seed of the held-out commands")
     batch: int = option(25, type=int, check=positive_int, help="active: samples per batch")
     n_initial: int | None = option(None, type=int, check=positive_int, help="active: initial Sobol design")
     n_points: int = option(24, type=int, check=at_most(MAX_POINTS, _at_least_2), help="targets per trajectory")
-    tracking: bool = option(
-        True, flag="--no-tracking", action="store_false", help="model error only (no Table I tracking)"
-    )
+    tracking: bool = option(True, help="model error only (no Table I tracking)")
     samples_per_hour: float | None = option(None, type=float, check=positive, help="capture rate for capture_h")
     rate_from: str = option(DEFAULT_RATE_FROM, help="dataset whose sidecar's capture.rate_samples_per_hour is used")
     mesh: MeshSpec = field(default_factory=MeshSpec)
@@ -150,20 +142,28 @@ class DataCurveSpec(Spec):
                 f"rig {self.rig!r}: the data curve measures through a body's quasi-static map; "
                 "expected sim, twin, twin:DEFECTS.toml, twin:random:SEED or twin:foam:SEED"
             )
+        name = self.name_of
         if "maximin" in self.strategies and max(self.ns) > MAX_MAXIMIN_N:
-            raise InputError(f"--ns: a maximin design takes at most {MAX_MAXIMIN_N} commands, got N = {max(self.ns)}")
+            raise self.field_error(
+                f"{name('ns')}: a maximin design takes at most {MAX_MAXIMIN_N} commands, got N = {max(self.ns)}",
+                "ns",
+            )
         if "active" in self.strategies and min(self.batch, max(self.ns)) > ACTIVE_POOL:
-            raise InputError(
-                f"--batch must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}"
+            raise self.field_error(
+                f"{name('batch')} must be at most {ACTIVE_POOL} (the candidates scored per batch), got {self.batch}",
+                "batch",
             )
         n_seeds = len(set(self.seeds))
         if n_seeds > MAX_SEEDS:
-            raise InputError(f"--seeds: at most {MAX_SEEDS} seeds per study, got {n_seeds}")
+            raise self.field_error(f"{name('seeds')}: at most {MAX_SEEDS} seeds per study, got {n_seeds}", "seeds")
         n_rows = len(self.strategies) * len(set(self.ns)) * n_seeds
         if n_rows > MAX_ROWS:
-            raise InputError(
-                f"--strategies x --ns x --seeds: {n_rows:,} rows, each a trained model; at most {MAX_ROWS:,} "
-                "per study (split it into several --out files)"
+            raise self.field_error(
+                f"{name('strategies')} x {name('ns')} x {name('seeds')}: {n_rows:,} rows, each a trained model; "
+                f"at most {MAX_ROWS:,} per study (split it into several output files)",
+                "strategies",
+                "ns",
+                "seeds",
             )
 
     @property
@@ -185,9 +185,10 @@ class DataCurveSpec(Spec):
         if "grid" in self.strategies and self.grid_levels:
             levels = max(self.grid_levels)
             if levels**robot.n_cables > MAX_GRID_CANDIDATES:
-                raise InputError(
-                    f"--grid-levels {levels}: a {levels}^{robot.n_cables} grid has {levels**robot.n_cables:,} "
-                    f"candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed"
+                raise self.field_error(
+                    f"{self.name_of('grid_levels')} {levels}: a {levels}^{robot.n_cables} grid has "
+                    f"{levels**robot.n_cables:,} candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed",
+                    "grid_levels",
                 )
 
     def settings(self, samples_per_hour: float) -> dict:
@@ -247,15 +248,19 @@ class DataCurveSpec(Spec):
             side = Path(__file__).resolve().parents[2] / f"{DEFAULT_RATE_FROM}.json"
         if not side.exists():
             if self.rate_from != DEFAULT_RATE_FROM:
-                raise InputError(f"--rate-from {self.rate_from}: no sidecar {side}")
+                raise self.field_error(f"{self.name_of('rate_from')} {self.rate_from}: no sidecar {side}", "rate_from")
             return FALLBACK_SAMPLES_PER_HOUR, f"{side} capture.rate_samples_per_hour (built-in copy; file not found)"
         try:
             meta = json.loads(side.read_text())
             rate = float(meta["capture"]["rate_samples_per_hour"])
         except (ValueError, KeyError, TypeError):
-            raise InputError(f"--rate-from {side}: no capture.rate_samples_per_hour in it") from None
+            message = f"{self.name_of('rate_from')} {side}: no capture.rate_samples_per_hour in it"
+            raise self.field_error(message, "rate_from") from None
         if positive(rate):
-            raise InputError(f"--rate-from {side}: capture.rate_samples_per_hour must be finite and > 0, got {rate}")
+            raise self.field_error(
+                f"{self.name_of('rate_from')} {side}: capture.rate_samples_per_hour must be finite and > 0, got {rate}",
+                "rate_from",
+            )
         rig = meta.get("rig", {}).get("kind", "?") if isinstance(meta.get("rig"), dict) else meta.get("rig", "?")
         src = f"{DEFAULT_RATE_FROM}.json" if self.rate_from == DEFAULT_RATE_FROM else str(side)
         return rate, f"{src} capture.rate_samples_per_hour (rig {rig}, the waiting protocol)"

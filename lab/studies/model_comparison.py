@@ -137,7 +137,7 @@ def _parse(path: Path, line: int, column: str, value: str):
         return int(value) if column in _INT else float(value)
     except ValueError:
         raise InputError(
-            f"{path}: line {line}: {column} {value!r} is not a number; repair the file or choose another --out"
+            f"{path}: line {line}: {column} {value!r} is not a number; repair the file or choose another output file"
         ) from None
 
 
@@ -152,10 +152,13 @@ def _read(path: Path) -> tuple[list[dict], dict]:
         meta = json.loads(side.read_text())
     except (OSError, ValueError) as err:
         raise InputError(
-            f"{side}: the sidecar of {path} cannot be read ({err}); its settings are unknown: choose another --out"
+            f"{side}: the sidecar of {path} cannot be read ({err}); its settings are unknown: choose another "
+            "output file"
         ) from None
     if not isinstance(meta, dict) or not isinstance(meta.get("settings"), dict):
-        raise InputError(f"{side}: the sidecar of {path} must be a JSON object with settings; choose another --out")
+        raise InputError(
+            f"{side}: the sidecar of {path} must be a JSON object with settings; choose another output file"
+        )
     return rows, meta
 
 
@@ -180,7 +183,7 @@ def _check_same(out: Path, old: dict, new: dict) -> None:
     """Refuse a file made with other settings, naming each with both values."""
     diff = [f"{k} {json.dumps(old.get(k))} (this run: {json.dumps(v)})" for k, v in new.items() if old.get(k) != v]
     if diff:
-        raise InputError(f"{out} was made with other settings: {'; '.join(diff)}; choose another --out")
+        raise InputError(f"{out} was made with other settings: {'; '.join(diff)}; choose another output file")
 
 
 def _write(out: Path, rows: list[dict], meta: dict, n_full: int, floor_m) -> None:
@@ -227,7 +230,7 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
 
     log = log or (lambda line: None)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InputError(f"--jobs must be a positive integer, got {jobs!r}")
+        raise InputError(f"jobs (worker processes) must be a positive integer, got {jobs!r}")
     data, out = Path(data), Path(out)
     u, y, meta = read_dataset(data)
     seq = sequence_ids(meta, len(u), where=f"{data}.json")
@@ -235,7 +238,11 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
     check_enough_data(u, (1.0 - spec.test_fraction, 0.0, spec.test_fraction))
     n_full = len(u) - int(round(spec.test_fraction * len(u)))
     if spec.ns and max(spec.ns) >= n_full:
-        raise InputError(f"--ns {max(spec.ns)}: a learning-curve N must be below the {n_full} training rows of a split")
+        raise spec.field_error(
+            f"{spec.name_of('ns')} {max(spec.ns)}: a learning-curve N must be below the {n_full} training rows of a "
+            "split",
+            "ns",
+        )
     settings = {"data_csv_sha256": sha, **spec.settings(), "recipes": {m: RECIPES[m] for m in COMPARE_MODELS}}
     rows, old = _read(out)
     if rows:

@@ -97,15 +97,14 @@ class TransferCurveSpec(Spec):
         help="which family: random (twin:random:K, in the calibrator's model class) or foam (twin:foam:K, "
         "defects outside it)",
     )
-    shipped: bool = option(False, action="store_true", help="also the robot of the shipped defects file")
+    shipped: bool = option(False, help="also the robot of the shipped defects file")
     methods: tuple[str, ...] = option(
         DEFAULT_METHODS,
-        nargs="+",
         check=_methods,
         help="transfer methods: sim-only, real-only, finetune-last, finetune, residual, calibrated (the last "
         "is slow: a calibration and a re-simulation of the lattice per N)",
     )
-    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, nargs="+", check=_counts, help="numbers of real samples")
+    ns: tuple[int, ...] = option(DEFAULT_NS, type=int, check=_counts, help="numbers of real samples")
     design: str = option("maximin", choices=("random", "sobol", "maximin"), help="which N commands")
     n_test: int = option(100, type=int, check=positive_int, help="held-out random commands per robot")
     n_points: int = option(24, type=int, check=_at_least_2, help="targets per trajectory")
@@ -113,8 +112,6 @@ class TransferCurveSpec(Spec):
     calibration_mesh: tuple[int, int] | None = option(
         None,
         type=int,
-        nargs=2,
-        metavar=("RINGS", "AXIAL"),
         help="calibrated: mesh of calibration and re-simulation (default: the robot's)",
     )
     sim_levels: int = option(
@@ -203,15 +200,15 @@ def _calibrated_builder(robot, spec: TransferCurveSpec):
     return make
 
 
-#: What a file is resumed with only if it was made with the same (sidecar key -> flag); the
-#: robots (``--family``, ``--shipped``), ``--methods`` and ``--ns`` may grow from run to run.
-RESUME_FLAGS = {
-    "robot": "--robot", "sim_model": "--sim-model", "family_kind": "--family-kind", "seed": "--seed",
-    "design": "--design", "n_test": "--n-test", "n_points": "--n-points",
-    "n_rings": "--n-rings", "n_axial": "--n-axial",
+#: What a file is resumed with only if it was made with the same (sidecar key -> setting); the
+#: robots (``family``, ``shipped``), ``methods`` and ``ns`` may grow from run to run.
+RESUME_SETTINGS = {
+    **{key: f"TransferCurveSpec.{key}" for key in ("robot", "sim_model", "family_kind", "seed", "design")},
+    **{key: f"TransferCurveSpec.{key}" for key in ("n_test", "n_points")},
+    "n_rings": "MeshSpec.n_rings", "n_axial": "MeshSpec.n_axial",
 }  # fmt: skip
 #: ... and, once the file holds calibrated rows, the settings those were measured with.
-CALIBRATED_FLAGS = {"calibration_mesh": "--calibration-mesh", "sim_levels": "--sim-levels"}
+CALIBRATED_SETTINGS = {key: f"TransferCurveSpec.{key}" for key in ("calibration_mesh", "sim_levels")}
 #: The value of a setting added later, in files made before it (other missing keys are not checked).
 SETTING_DEFAULTS = {"family_kind": "random"}
 
@@ -227,7 +224,7 @@ def _read(path: Path) -> tuple[list[dict], dict]:
                 int(r[c]) if c == "n_real" else float(r[c])
             except ValueError:
                 raise InputError(
-                    f"{path}: line {line}: {c} {r[c]!r} is not a number; repair the file or choose another --out"
+                    f"{path}: line {line}: {c} {r[c]!r} is not a number; repair the file or choose another output file"
                 ) from None
     side = Path(f"{path}.json")
     if not side.exists():
@@ -235,9 +232,13 @@ def _read(path: Path) -> tuple[list[dict], dict]:
     try:
         meta = json.loads(side.read_text())
     except ValueError as err:
-        raise InputError(f"{side}: the sidecar of {path} is not valid JSON ({err}); choose another --out") from None
+        raise InputError(
+            f"{side}: the sidecar of {path} is not valid JSON ({err}); choose another output file"
+        ) from None
     if not isinstance(meta, dict) or not isinstance(meta.get("commands", []), list):
-        raise InputError(f"{side}: the sidecar of {path} must be a JSON object (commands a list); choose another --out")
+        raise InputError(
+            f"{side}: the sidecar of {path} must be a JSON object (commands a list); choose another output file"
+        )
     return rows, meta
 
 
@@ -251,19 +252,19 @@ def _same_file(a, b) -> bool:
 def _check_resume(spec: TransferCurveSpec, out: Path, rows: list[dict], old: dict) -> None:
     """Refuse to add rows to ``out`` measured with other settings than its own (its sidecar's)."""
     new = {"robot": spec.robot, "sim_model": spec.sim_model, **spec.settings()}
-    flags = {**RESUME_FLAGS, **(CALIBRATED_FLAGS if any(r["method"] == "calibrated" for r in rows) else {})}
+    names = {**RESUME_SETTINGS, **(CALIBRATED_SETTINGS if any(r["method"] == "calibrated" for r in rows) else {})}
     diff = []
-    for key, flag in flags.items():
+    for key, name in names.items():
         if key not in old and key not in SETTING_DEFAULTS:  # a file from before the setting was recorded
             continue
         was = old.get(key, SETTING_DEFAULTS.get(key))
         same = _same_file(was, new[key]) if key == "sim_model" else json.dumps(was) == json.dumps(new[key])
         if not same:
-            diff.append(f"{flag} {was} (this run: {new[key]})")
+            diff.append(f"{name} {was} (this run: {new[key]})")
     if rows and diff:
         raise InputError(
             f"{out} was made with {', '.join(diff)}; its rows would mix two studies: resume it with its own "
-            "settings or choose another --out"
+            "settings or choose another output file"
         )
 
 
@@ -277,9 +278,11 @@ def _check_model(spec: TransferCurveSpec) -> None:
     spec.mesh.resolve(robot)
     model = load_model(spec.sim_model)
     if (model.n_u, model.n_y) != (robot.n_cables, 3):
-        raise InputError(
-            f"--sim-model {spec.sim_model} maps {model.n_u} motor angles to {model.n_y} outputs, but --robot "
-            f"{robot.name} has {robot.n_cables} motors and a 3-D tip"
+        raise spec.field_error(
+            f"{spec.name_of('sim_model')} {spec.sim_model} maps {model.n_u} motor angles to {model.n_y} outputs, "
+            f"but {spec.name_of('robot')} {robot.name} has {robot.n_cables} motors and a 3-D tip",
+            "sim_model",
+            "robot",
         )
 
 

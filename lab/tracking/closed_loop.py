@@ -81,10 +81,12 @@ class Correction(Spec):
         check=_open_interval(0, 1, " (a fraction of J's largest singular value)"),
         help="lambda / sigma_max(J)",
     )
-    max_step_rad: float = option(0.3, cli=False, check=positive, help="largest change of a motor per correction, rad")
-    window_s: float = option(0.5, cli=False, check=positive, help="averaging window after settling, s")
+    max_step_rad: float = option(
+        0.3, cli=False, check=positive, unit="rad", help="largest change of a motor per correction, rad"
+    )
+    window_s: float = option(0.5, cli=False, check=positive, unit="s", help="averaging window after settling, s")
     min_valid_fraction: float = option(0.5, cli=False, check=_fraction, help="share of valid frames a correction needs")
-    max_window_s: float = option(2.0, cli=False, check=positive, help="longest the window may grow, s")
+    max_window_s: float = option(2.0, cli=False, check=positive, unit="s", help="longest the window may grow, s")
 
     def __post_init__(self):
         super().__post_init__()

@@ -29,7 +29,6 @@ from lab.control.ik import IKConfig, IKSolver, check_forward
 from lab.control.spread import has_spread
 from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
 from lab.description import load_robot, shipped_robots
-from lab.errors import InputError
 from lab.files import atomic_write_group, code_version
 from lab.learn.history import at_rest, data_bounds, history_of, past_commands, with_past
 from lab.learn.models import load_model
@@ -186,28 +185,33 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
     model = load_model(spec.model)
     check_forward(model)
     if getattr(model, "n_y", 3) != 3:
-        raise InputError(
-            f"--model {spec.model} predicts {model.n_y} outputs, but the targets have 3 columns (x, y, z): "
-            "the IK needs a model of the tip position"
+        raise spec.field_error(
+            f"{spec.name_of('model')} {spec.model} predicts {model.n_y} outputs, but the targets have 3 columns "
+            "(x, y, z): the IK needs a model of the tip position",
+            "model",
         )
     robot_name = trained_robot(model)
     if spec.trajectory in BUILTIN + SIX_CABLE and robot_name is None:
-        raise InputError(
-            f"--trajectory {spec.trajectory}: the built-in trajectories are in the shipped arms' frames "
-            "(circle, square, rose, helix: the three-cable arm's; six-*: the six-cable arm's), and "
-            f"--model {spec.model} was not trained on a shipped robot's data: give a CSV with header x,y,z "
-            "(metres) in your robot's frame"
+        raise spec.field_error(
+            f"{spec.name_of('trajectory')} {spec.trajectory}: the built-in trajectories are in the shipped arms' "
+            "frames (circle, square, rose, helix: the three-cable arm's; six-*: the six-cable arm's), and "
+            f"{spec.name_of('model')} {spec.model} was not trained on a shipped robot's data: give a CSV with "
+            "header x,y,z (metres) in your robot's frame",
+            "trajectory",
+            "model",
         )
     targets = load_trajectory(spec.trajectory, spec.n_points)
     if len(targets) > max_points:
-        raise InputError(f"--trajectory {spec.trajectory}: {len(targets)} points, at most {max_points}")
+        message = f"{spec.name_of('trajectory')} {spec.trajectory}: {len(targets)} points, at most {max_points}"
+        raise spec.field_error(message, "trajectory")
     bounds = data_bounds(model)
     robot = load_robot(robot_name) if robot_name is not None else None
     if bounds is None and robot is None:
-        raise InputError(
-            f"--model {spec.model} records no bounds of its training data (a file saved before they were "
-            "recorded) and was not trained on a shipped robot's data: there is no box of commands to solve "
-            "in; train it again with `python -m lab train`"
+        raise spec.field_error(
+            f"{spec.name_of('model')} {spec.model} records no bounds of its training data (a file saved before "
+            "they were recorded) and was not trained on a shipped robot's data: there is no box of commands to "
+            "solve in; train it again with `python -m lab train`",
+            "model",
         )
     sol = solve_targets(model, targets, spec.ik, robot=robot, bounds=bounds)
     solver = sol["solver"]

@@ -45,13 +45,16 @@ class PointLog:
         if not self.path.exists():
             return 0
         if not self.path.is_file():
-            raise InputError(f"--out points {self.path} exists and is not a file; move it away or choose another --out")
+            raise InputError(
+                f"points file {self.path} exists and is not a file; move it away or choose another result file"
+            )
         with open(self.path, "rb") as fh:
             first = fh.readline(len(self.header) + 2)
         if first.rstrip(b"\r\n") != self.header.encode():
             raise InputError(
-                f"--out points {self.path} exists and is not a points file this program wrote for this robot "
-                f"(its first line is not {self.header!r}); nothing was changed: move it away or choose another --out"
+                f"points file {self.path} exists and is not a points file this program wrote for this robot "
+                f"(its first line is not {self.header!r}); nothing was changed: move it away or choose another "
+                "result file"
             )
         return self.n_points
 

@@ -14,7 +14,6 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from lab.errors import InputError
 from lab.specs import Spec, at_most, finite, non_negative, option, positive_int
 
 __all__ = [
@@ -67,6 +66,7 @@ class StreamSpec(Spec):
         dataclasses.MISSING,
         type=float,
         check=_within(*PERIOD_RANGE_S, "s"),
+        unit="s",
         help="stream the trajectory continuously as one period of this many seconds (2-20 s typical) "
         "instead of settling at each point; error over the last period (default: settle at each point)",
     )
@@ -80,12 +80,14 @@ class StreamSpec(Spec):
         DEFAULT_LEAD_IN_S,
         type=float,
         check=at_most(MAX_LEAD_IN_S, non_negative, " s"),
+        unit="s",
         help="with --period-s: settle at the first command first, s",
     )
     command_rate_hz: float = option(
         DEFAULT_COMMAND_RATE_HZ,
         type=float,
         check=_within(*COMMAND_RATE_RANGE_HZ, "Hz"),
+        unit="Hz",
         help="with --period-s: commands per second",
     )
     smoothing: float = option(1e-3, cli=False, check=non_negative, help="smoothing of the filter's inversion")
@@ -93,9 +95,14 @@ class StreamSpec(Spec):
     def __post_init__(self):
         super().__post_init__()
         if self.n_knots > MAX_KNOTS:
-            raise InputError(
-                f"--n-periods {self.periods} x --period-s {self.period_s:g} x --command-rate-hz "
-                f"{self.command_rate_hz:g} is {self.n_knots} commands: at most {MAX_KNOTS} in one run"
+            name = self.name_of
+            raise self.field_error(
+                f"{name('n_periods')} {self.periods} x {name('period_s')} {self.period_s:g} x "
+                f"{name('command_rate_hz')} {self.command_rate_hz:g} is {self.n_knots} commands: at most "
+                f"{MAX_KNOTS} in one run",
+                "n_periods",
+                "period_s",
+                "command_rate_hz",
             )
 
     @property
