@@ -117,16 +117,16 @@ def test_the_foam_member_is_the_emulated_robot(three_cable):
 @pytest.mark.parametrize(
     "text, words",
     [
-        ("twin:foam", "needs the robot's seed: --rig twin:foam:SEED"),
-        ("twin:foam:", "needs the robot's seed: --rig twin:foam:SEED"),
-        ("twin:foam:abc", "robot seed must be a non-negative integer (--rig twin:foam:SEED"),
+        ("twin:foam", "needs the robot's seed: RigSpec.rig twin:foam:SEED"),
+        ("twin:foam:", "needs the robot's seed: RigSpec.rig twin:foam:SEED"),
+        ("twin:foam:abc", "robot seed must be a non-negative integer (RigSpec.rig twin:foam:SEED"),
         ("twin:foam:-1", "got '-1'"),
     ],
 )
 def test_bad_foam_strings(text, words):
     with pytest.raises(InputError) as err:
         RigSpec.parse(text)
-    assert words in str(err.value) and "--rig" in str(err.value)
+    assert words in str(err.value) and "RigSpec.rig" in str(err.value)
 
 
 def test_bad_foam_fields():
