@@ -15,7 +15,8 @@
 from lab.rig.emulators.bench import EmulatedBench
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
 from lab.rig.emulators.clock import VirtualClock
-from lab.rig.emulators.natnet_server import MocapScene, NatNetServerEmulator
+from lab.rig.emulators.mocap_scene import MocapScene
+from lab.rig.emulators.natnet_server import NatNetServerEmulator
 from lab.rig.emulators.xm430 import FAULTS, EmulatedXM430Bus, ServoSpec
 
 __all__ = [
