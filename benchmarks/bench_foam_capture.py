@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from lab.asbuilt.family import family_member
-from lab.capture.session import capture, repeat_check_line
+from lab.capture.repeat_check import repeat_check_line
+from lab.capture.session import capture
 from lab.data.designs import random_commands
 from lab.description import load_robot
 from lab.files import atomic_write_text, code_version

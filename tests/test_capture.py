@@ -142,7 +142,7 @@ def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_pat
     back within the threshold; one that creeps over minutes does not, and the capture says so."""
     import copy
 
-    from lab.capture.session import repeat_check_line, repeat_threshold_m
+    from lab.capture.repeat_check import repeat_check_line, repeat_threshold_m
 
     creeping = copy.deepcopy(twin_defects.source)
     creeping["lag"].update(creep_fraction=0.1, creep_tau_s=60.0)

@@ -11,7 +11,8 @@ import pytest
 
 from lab.cli import main
 from lab.dynamics.relaxation import Relaxation, load_relaxation
-from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
+from lab.rig.mocap_model import MocapModel
+from lab.rig.twin import AsBuiltBody, TwinRig
 
 DATA = Path(__file__).parents[1] / "data"
 MODEL = str(DATA / "model_real_three_cable.npz")

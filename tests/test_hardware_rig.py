@@ -135,7 +135,8 @@ def test_rig_on_natnet_4_1_multicast_in_millimetres_with_noise(three_cable, tmp_
     idle), so the frame timeout is 2 s; the servos' 0.5 s move has 5 s of rig time."""
     import dataclasses
 
-    from lab.rig.emulators import MocapScene, multicast_loopback_works
+    from lab.rig.emulators import MocapScene
+    from lab.rig.emulators.natnet_server import multicast_loopback_works
 
     multicast = multicast_loopback_works()  # unicast where the machine cannot
     scene = dataclasses.replace(MocapScene(), length_unit_m=1e-3)

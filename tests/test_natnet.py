@@ -10,8 +10,9 @@ from natnet import DataDescriptions, DataFrame, ServerInfo, Version
 from natnet.packet_buffer import PacketBuffer
 
 from lab.rig.base import MocapError
-from lab.rig.emulators import MocapScene, NatNetServerEmulator, VirtualClock, multicast_loopback_works
+from lab.rig.emulators import MocapScene, NatNetServerEmulator, VirtualClock
 from lab.rig.emulators import natnet_packets as nn
+from lab.rig.emulators.natnet_server import multicast_loopback_works
 from lab.rig.optitrack import MarkerRef, NatNetConfig, OptiTrackStream, fit_rigid_transform
 
 SCENE = MocapScene()

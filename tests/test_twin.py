@@ -22,7 +22,8 @@ from lab.asbuilt.arm import (
 from lab.fem.solve.statics import solve_static
 from lab.rig import make_rig
 from lab.rig.base import RigError
-from lab.rig.twin import AsBuiltBody, MocapModel, TwinRig
+from lab.rig.mocap_model import MocapModel
+from lab.rig.twin import AsBuiltBody, TwinRig
 
 COARSE = dict(n_rings=1, n_axial=6)
 

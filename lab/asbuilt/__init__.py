@@ -15,14 +15,13 @@ Every field and range: ``docs/design/rig.md``.
 
 from __future__ import annotations
 
-from lab.asbuilt.arm import Defects, DefectsError, default_defects_path, load_defects, parse_defects
+from lab.asbuilt.arm import Defects, DefectsError, load_defects, parse_defects
 from lab.asbuilt.family import FAMILIES, FOAM, RANDOM, Family, family_member
 from lab.asbuilt.member_spec import FamilyMemberSpec
 
 __all__ = [
     "Defects",
     "DefectsError",
-    "default_defects_path",
     "load_defects",
     "parse_defects",
     "Family",

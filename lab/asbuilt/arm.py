@@ -58,12 +58,37 @@ DEFECTS_DIR = Path(__file__).resolve().parent.parent / "rig" / "defects"
 
 
 def default_defects_path(robot: RobotDescription) -> Path:
-    """The shipped defects file of ``robot``: ``lab/rig/defects/<robot.name>.toml``."""
+    """The shipped defects file of ``robot``: ``lab/rig/defects/<robot.name>.toml``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot (its name names the file).
+
+    Returns
+    -------
+    Path
+        The file's absolute path (which may not exist).
+    """
     return DEFECTS_DIR / f"{robot.name}.toml"
 
 
 def load_defects(path: str | Path | None, robot: RobotDescription) -> Defects:
-    """Load and validate a defects file (``None``: the shipped default for ``robot``)."""
+    """Load and validate a defects file.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The TOML file; None: the shipped default for ``robot`` (DefectsError if none).
+    robot : RobotDescription
+        The robot the file must fit (name, cables).
+
+    Returns
+    -------
+    Defects
+        The validated defects, recording the path (relative to the repository for a
+        shipped file).
+    """
     shown = None
     if path is None:
         path = default_defects_path(robot)

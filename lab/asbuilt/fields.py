@@ -71,7 +71,62 @@ class CableDefects:
 
 @dataclass(frozen=True)
 class Defects:
-    """A validated defects file (see :mod:`lab.asbuilt.arm` and this module's docstring)."""
+    """A validated defects file (see :mod:`lab.asbuilt.arm` and this module's docstring).
+
+    Attributes
+    ----------
+    robot : str
+        Name of the robot the file is for.
+    softness : float
+        Factor (> 0) on the description's Young's modulus.
+    gradient : float
+        Casting gradient in [0, 1]: the modulus is scaled by ``1 + gradient * s``, s in
+        [-1, 1] the position along ``gradient_direction_W`` over the body radius.
+    gradient_direction_W : numpy.ndarray
+        Unit direction, shape (3,), across the section in frame W (x component 0).
+    cables : tuple of CableDefects
+        One per cable of the robot, in its order (eyelet shift, slack, play, stiffness).
+    tau_fast_s, tau_slow_s : float
+        Time constants (s) of the foam's fast and slow relaxation modes.
+    slow_fraction : float
+        Share of each step taken by the slow mode.
+    ticks_per_rev : int
+        Encoder ticks per motor revolution (0: no rounding).
+    profile_velocity_rad_s : float
+        Motor speed (rad/s) toward a goal.
+    frame_rate_hz : float
+        Motion-capture frame rate (Hz).
+    noise_sigma_m : float
+        Motion-capture noise per axis (m).
+    dropout_rate_hz : float
+        Rate (1/s) at which occlusion bursts start.
+    dropout_max_frames : int
+        Longest occlusion burst (frames).
+    n_rings, n_axial : int or None
+        The emulator's FEM mesh (``[emulator]``); None: the description's.
+    path : str or None
+        Where the file was read from (not compared).
+    source : dict
+        The parsed TOML document (its hash is :attr:`sha256`; not compared).
+    tilt_deg : float
+        Base tilt (deg) about ``tilt_axis_W``; 0: level.
+    tilt_axis_W : numpy.ndarray or None
+        Unit tilt axis, shape (3,), in W.
+    frame_rotation_deg : float
+        Registration error of the mocap frame (deg) about ``frame_rotation_axis_W``.
+    frame_rotation_axis_W : numpy.ndarray or None
+        Unit axis, shape (3,), of that error.
+    frame_offset_m : numpy.ndarray or None
+        Registration offset of the mocap frame, shape (3,), in m.
+    creep_fraction : float
+        Share of each step taken by a third, creep mode (0: none).
+    creep_tau_s : float or None
+        Time constant (s) of the creep mode.
+    law : str
+        Material law, one of :data:`LAWS`.
+    hyperfoam_mu_pa, hyperfoam_alpha, hyperfoam_beta : float or None
+        The hyperfoam law's initial shear modulus (Pa), exponent and volumetric parameter.
+    """
 
     robot: str
     softness: float

@@ -21,7 +21,17 @@ __all__ = ["FamilyMemberSpec"]
 @dataclass(frozen=True)
 class FamilyMemberSpec(Spec):
     """Member ``seed`` of the family of as-built robots, or member ``foam`` of the foam
-    family (exactly one of the two), on the emulator mesh ``mesh``."""
+    family (exactly one of the two), on the emulator mesh ``mesh``.
+
+    Attributes
+    ----------
+    seed : int or None
+        The member of the random family (``--random``), an integer >= 0.
+    mesh : MeshSpec
+        The emulator mesh the member is drawn for (``--n-rings``/``--n-axial``).
+    foam : int or None
+        Or the member of the foam family (``--foam``), an integer >= 0.
+    """
 
     seed: int | None = option(
         None,

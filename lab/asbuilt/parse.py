@@ -166,7 +166,22 @@ def _mount_and_frame(data: dict, mocap: dict) -> dict:
 
 
 def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) -> Defects:
-    """Validate a parsed defects TOML document against ``robot`` and build :class:`Defects`."""
+    """Validate a parsed defects TOML document against ``robot`` and build :class:`Defects`.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML document.
+    robot : RobotDescription
+        The robot the document must fit (name, cables, body size).
+    path : str or None
+        Where the document came from, recorded in the result.
+
+    Returns
+    -------
+    Defects
+        The validated defects (DefectsError naming the field otherwise).
+    """
     check_fields(data, DEFECTS_FIELDS[""], "", DefectsError)
     if data.get("format_version") != FORMAT_VERSION:
         raise DefectsError(f"field 'format_version' must be {FORMAT_VERSION}, got {data.get('format_version')!r}")

@@ -19,7 +19,7 @@ from lab.capture.journal import Journal, JournalError
 from lab.capture.predictive import PredictiveSampler
 from lab.capture.protocol import PROTOCOLS, Protocol, Sample, SettleDetector, measure
 from lab.capture.recorder import StreamRecorder
-from lab.capture.session import Capture, capture, journal_columns
+from lab.capture.session import Capture, capture
 from lab.capture.spec import CaptureSpec, ProtocolSpec
 from lab.capture.tip_filter import TipFilter
 
@@ -36,7 +36,6 @@ __all__ = [
     "Sample",
     "SettleDetector",
     "capture",
-    "journal_columns",
     "measure",
     "Journal",
     "JournalError",

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from lab.capture.protocol import Protocol
-from lab.capture.session import Capture, repeat_check_line
+from lab.capture.repeat_check import repeat_check_line
+from lab.capture.session import Capture
 from lab.capture.spec import CaptureSpec
 from lab.description import RobotDescription
 
@@ -49,7 +50,20 @@ def planned_commands(spec: CaptureSpec, robot: RobotDescription) -> tuple[np.nda
 @dataclass(frozen=True)
 class CapturedDataset:
     """Rows ``u_motor`` (N, m) rad and ``p_tip_W`` (N, 3) m in dataset order, the dataset's
-    metadata and the line that reports the run."""
+    metadata and the line that reports the run.
+
+    Attributes
+    ----------
+    u_motor : numpy.ndarray
+        Commanded motor angles, shape (N, m), in rad, in dataset (design) order.
+    p_tip_W : numpy.ndarray
+        Settled tips, shape (N, 3), in m in frame W, in the same order.
+    meta : dict
+        The dataset's metadata (robot, rig, protocol, sampler, capture statistics,
+        per-sample settle times), JSON-ready.
+    summary : str
+        The line (or two, with the repeat check) printed after writing it.
+    """
 
     u_motor: np.ndarray
     p_tip_W: np.ndarray

@@ -53,12 +53,38 @@ def _format(value) -> str:
 
 class Journal:
     """Append-only record file; use :meth:`open`. ``rows`` holds the records (dicts of
-    floats), ``notes`` the ``# tag {json}`` lines as (tag, dict), old and new."""
+    floats), ``notes`` the ``# tag {json}`` lines as (tag, dict), old and new.
+
+    Parameters
+    ----------
+    path : Path
+        The journal file.
+    fh : file
+        The file, open for reading and appending, positioned at its end.
+    columns : list of str
+        The record columns.
+    rows : list of dict
+        The records read so far, column -> float.
+    notes : list of tuple
+        The notes read so far, (tag, dict).
+    """
 
     def __init__(self, path: Path, fh, columns: list[str], rows: list[dict], notes: list[tuple[str, dict]]):
         self.path, self._fh, self.columns, self.rows, self.notes = path, fh, columns, rows, notes
 
     def notes_tagged(self, tag: str) -> list[dict]:
+        """The notes with one tag.
+
+        Parameters
+        ----------
+        tag : str
+            The note's tag, e.g. ``session``.
+
+        Returns
+        -------
+        list of dict
+            Their JSON payloads, oldest first.
+        """
         return [info for t, info in self.notes if t == tag]
 
     @classmethod
@@ -67,6 +93,21 @@ class Journal:
 
         Raises :class:`JournalError` if another process holds it, if its header differs
         from ``header`` (JSON-able) or its columns from ``columns``, or if a line is corrupt.
+
+        Parameters
+        ----------
+        path : str or Path
+            The journal file (CSV); its lock is ``path.lock`` while it is open.
+        header : dict
+            JSON-able settings the journal is a record of; a reopened journal must match.
+        columns : list of str
+            The record columns; a reopened journal must have the same.
+
+        Returns
+        -------
+        Journal
+            The open journal, with the records and notes already in it (a torn last line
+            cut off), locked until :meth:`close`.
         """
         path = Path(path)
         header = json.loads(json.dumps(header))  # normalise (tuples -> lists)
@@ -144,7 +185,15 @@ class Journal:
         os.fsync(self._fh.fileno())
 
     def note(self, tag: str, info: dict) -> None:
-        """Append a ``# tag {json}`` comment line (e.g. ``session``, ``session-end``)."""
+        """Append a ``# tag {json}`` comment line (e.g. ``session``, ``session-end``).
+
+        Parameters
+        ----------
+        tag : str
+            One word.
+        info : dict
+            The payload, written as JSON (``str`` of what JSON cannot hold).
+        """
         if not tag or " " in tag:
             raise InputError(f"a note tag is one word, got {tag!r}")
         text = json.dumps(info, sort_keys=True, default=str)
@@ -152,7 +201,13 @@ class Journal:
         self.notes.append((tag, json.loads(text)))
 
     def append(self, row: dict) -> None:
-        """Append one record (a value for every column) and make it durable."""
+        """Append one record and make it durable (written, flushed and fsynced).
+
+        Parameters
+        ----------
+        row : dict
+            Column -> number, a value for every column (extra keys are ignored).
+        """
         missing = [c for c in self.columns if c not in row]
         if missing:
             raise InputError(f"journal record lacks columns {missing}")
@@ -160,6 +215,7 @@ class Journal:
         self.rows.append({c: float(row[c]) for c in self.columns})
 
     def close(self) -> None:
+        """Close the file and release the lock (removing the lock file). Idempotent."""
         if not self._fh.closed:
             self._fh.close()
         lock = getattr(self, "_lock", None)

@@ -26,8 +26,22 @@ from lab.rig.base import Rig, RigError
 
 class PredictiveSampler:
     """Measures samples with the predictive protocol, one call per command; keeps the
-    filter's state from sample to sample. ``note(tag, info)``: where to journal the learned
-    relaxation (a :class:`~lab.capture.journal.Journal`'s ``note``)."""
+    filter's state from sample to sample. Calling it with a command ``u_motor`` (m,) rad
+    returns that command's :class:`~lab.capture.protocol.Sample`.
+
+    Parameters
+    ----------
+    rig : Rig
+        The rig to measure on.
+    protocol : Protocol
+        The settings; ``kind`` predictive.
+    relaxation : Relaxation, optional
+        A relaxation fitted before (e.g. by ``fit-dynamics``, or read from a resumed
+        journal): skips the learning phase. None: learn it from the first ``n_learn`` samples.
+    note : callable, optional
+        ``note(tag, info)``: where to journal the learned relaxation (a
+        :class:`~lab.capture.journal.Journal`'s ``note``).
+    """
 
     def __init__(self, rig: Rig, protocol: Protocol, relaxation: Relaxation | None = None, note=None):
         self.rig, self.protocol = rig, protocol

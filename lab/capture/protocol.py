@@ -24,7 +24,51 @@ from lab.rig.base import MocapError, Rig, RigError
 
 @dataclass(frozen=True)
 class Protocol:
-    """Capture settings (SI units); the defaults are the protocol of the shipped data."""
+    """Capture settings (SI units); the defaults are the protocol of the shipped data.
+
+    Attributes
+    ----------
+    wait : bool
+        Wait until settled (True) or record ``dwell_s`` after the motors arrive (False).
+    reset : bool
+        Erase hysteresis before each command (contract to ``reset_u_rad``, release to 0).
+    n_previous : int
+        Readings the settle test compares the current one with.
+    reading_period_s : float
+        One reading is the mean of the valid frames over this period (s).
+    settle_tol_m : float
+        Settled when the reading is within this distance (m) of the previous ones' mean.
+    settle_timeout_s : float
+        Not settled within this time (s) after the command: recorded and flagged.
+    dwell_s : float
+        Without waiting: pause (s) after the motors arrive before recording.
+    reset_u_rad : float
+        Motor angle (rad) every cable is contracted to by the reset.
+    motor_tol_rad : float
+        The motors arrived when every one is within this angle (rad) of its goal.
+    motion_timeout_s : float
+        Motors not arrived within this time (s): RigError.
+    max_occlusion_s : float
+        Tip marker unseen for longer (s): MocapError.
+    kind : str
+        One of :data:`PROTOCOLS`: ``wait`` (the paper's: settle, then record) or
+        ``predictive`` (:mod:`lab.capture.predictive`).
+    predict_tol_m : float
+        Predictive: record when the predicted tip's 3-D std (m) is below this.
+    n_learn : int
+        Predictive: samples measured by waiting, to learn the relaxation from.
+    n_modes : int
+        Predictive: relaxation modes learned.
+    process_noise_m2_per_s : float
+        Predictive: random walk of the relaxation modes in the filter (model error), m^2/s.
+    min_readings_after_arrival : int
+        Predictive: readings after the motors arrived before a prediction is recorded.
+    pose_jitter_m : float
+        Predictive: how much the rest pose may differ from one visit to the next, m per axis.
+    reset_jitter_m : float
+        Predictive: the same for the reset pose (it keeps the previous sample's cable
+        play), m per axis.
+    """
 
     wait: bool = True
     reset: bool = True
@@ -37,21 +81,13 @@ class Protocol:
     motor_tol_rad: float = 0.01
     motion_timeout_s: float = 30.0
     max_occlusion_s: float = 2.0
-    #: "wait" (the paper's: settle, then record) or "predictive" (:mod:`lab.capture.predictive`)
     kind: str = "wait"
-    #: predictive: record when the predicted tip's 3-D std is below this, m
     predict_tol_m: float = 1.5e-4
-    #: predictive: samples measured by waiting, to learn the relaxation from
     n_learn: int = 10
-    #: predictive: relaxation modes learned
     n_modes: int = 2
-    #: predictive: random walk of the relaxation modes in the filter (model error), m^2/s
     process_noise_m2_per_s: float = 1e-8
-    #: predictive: readings after the motors arrived before a prediction is recorded
     min_readings_after_arrival: int = 1
-    #: predictive: how much the rest pose may differ from one visit to the next, m per axis
     pose_jitter_m: float = 1e-4
-    #: predictive: the same for the reset pose (it keeps the previous sample's cable play), m per axis
     reset_jitter_m: float = 2e-3
 
     def __post_init__(self):
@@ -82,8 +118,14 @@ class Protocol:
                 raise InputError("a predictive protocol needs process_noise_m2_per_s >= 0 and min readings >= 1")
 
     def as_dict(self) -> dict:
-        """The settings, for metadata and journal headers (a waiting protocol lists only the
-        fields it uses, so journals written before the predictive protocol still resume)."""
+        """The settings, for metadata and journal headers.
+
+        Returns
+        -------
+        dict
+            Field -> value; a waiting protocol lists only the fields it uses, so journals
+            written before the predictive protocol still resume.
+        """
         d = asdict(self)
         if self.kind == "wait":
             for name in PREDICTIVE_FIELDS:
@@ -107,7 +149,15 @@ PREDICTIVE_FIELDS = (
 
 class SettleDetector:
     """The paper's test: the current reading is within ``tol_m`` of the mean of the
-    previous ``n_previous`` readings. NaN readings are ignored."""
+    previous ``n_previous`` readings. NaN readings are ignored.
+
+    Parameters
+    ----------
+    n_previous : int
+        How many previous readings the current one is compared with.
+    tol_m : float
+        Largest distance (m) from their mean that counts as settled.
+    """
 
     def __init__(self, n_previous: int = 20, tol_m: float = 1e-4):
         self.n_previous, self.tol_m = int(n_previous), float(tol_m)
@@ -115,7 +165,18 @@ class SettleDetector:
         self.deviation_m = np.inf  # |current - mean(previous)| at the last update, m
 
     def update(self, reading_W: np.ndarray) -> bool:
-        """Add a reading (3,) m; True when settled."""
+        """Add a reading and test it.
+
+        Parameters
+        ----------
+        reading_W : numpy.ndarray
+            The reading, shape (3,), in m in frame W; NaN (occluded) is ignored.
+
+        Returns
+        -------
+        bool
+            True when it is within ``tol_m`` of the previous ``n_previous`` readings' mean.
+        """
         reading_W = np.asarray(reading_W, dtype=float)
         if not np.all(np.isfinite(reading_W)):
             return False
@@ -129,8 +190,32 @@ class SettleDetector:
 
 @dataclass
 class Sample:
-    """One recorded sample: command ``u_motor`` (m,) rad, tip ``p_tip_W`` (3,) m, present
-    motor angles ``u_present`` (m,) rad, times on the rig clock (s), settle statistics."""
+    """One recorded sample: command, tip, present motor angles, times on the rig clock (s),
+    settle statistics.
+
+    Attributes
+    ----------
+    u_motor : numpy.ndarray
+        The command sent, shape (m,), in rad.
+    p_tip_W : numpy.ndarray
+        The recorded tip, shape (3,), in m in frame W.
+    u_present : numpy.ndarray
+        Present motor angles at the end, shape (m,), in rad.
+    settled : bool
+        Whether the settle test (or the prediction) passed; False: flagged.
+    t_start_s, t_command_s, t_arrived_s, t_done_s : float
+        Rig-clock times (s): start (before the reset), command sent, motors arrived, recorded.
+    n_readings : int
+        Readings taken after the command.
+    deviation_m : float
+        The settle test's last deviation (m); NaN without waiting.
+    n_frames, n_invalid_frames : int
+        Frames read for this sample, and how many of them were occluded.
+    pred_std_m : float
+        Predictive protocol: 3-D std (m) of the predicted settled tip (NaN when waited for).
+    predicted : bool
+        Predictive protocol: recorded from the prediction (False: waited for).
+    """
 
     u_motor: np.ndarray
     p_tip_W: np.ndarray
@@ -144,9 +229,7 @@ class Sample:
     deviation_m: float
     n_frames: int
     n_invalid_frames: int
-    #: predictive protocol: 3-D std of the predicted settled tip, m (NaN when waited for)
     pred_std_m: float = float("nan")
-    #: predictive protocol: recorded from the prediction (False: waited for)
     predicted: bool = False
 
 
@@ -194,7 +277,23 @@ class _Watcher:
 
 
 def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
-    """Capture one sample of command ``u_motor`` (m,) rad with ``protocol``."""
+    """Capture one sample of command ``u_motor`` with ``protocol`` (reset, move, wait, record).
+
+    Parameters
+    ----------
+    rig : Rig
+        The rig to measure on.
+    u_motor : array_like
+        The command, shape (m,), in rad (validated by the rig).
+    protocol : Protocol
+        The capture settings.
+
+    Returns
+    -------
+    Sample
+        The recorded sample (RigError if the motors do not arrive, MocapError if the
+        marker stays unseen).
+    """
     watch = _Watcher(rig, protocol)
     t_start = rig.now()
     if protocol.reset:

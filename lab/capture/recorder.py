@@ -56,8 +56,22 @@ class _Move:
 
 
 class StreamRecorder:
-    """Drive ``rig`` and record its stream. ``on_reading(t_mid_s, p_tip_W, n_valid)`` is
-    called after every reading (NaN tip and 0 frames when the marker was not seen)."""
+    """Drive ``rig`` and record its stream: the readings ``t_s``, ``p_tip_W`` and ``n_valid``
+    (NaN tip and 0 frames when the marker was not seen) and the commands ``moves``.
+
+    Parameters
+    ----------
+    rig : Rig
+        The rig to drive and read.
+    reading_period_s : float
+        One reading is the mean of the valid frames over this period (s).
+    max_occlusion_s : float
+        Tip marker unseen for longer (s): MocapError.
+    motor_tol_rad : float
+        The motors arrived when every one is within this angle (rad) of its goal.
+    initial_pose : str
+        Label of the equilibrium before the first command.
+    """
 
     def __init__(
         self,
@@ -83,13 +97,36 @@ class StreamRecorder:
         return self.moves[-1] if self.moves else None
 
     def command(self, u_motor, pose: str) -> np.ndarray:
-        """Send ``u_motor`` (m,) rad (validated by the rig); ``pose`` labels its equilibrium."""
+        """Send a command and start recording its move (returns at once).
+
+        Parameters
+        ----------
+        u_motor : array_like
+            The command, shape (m,), in rad (validated by the rig).
+        pose : str
+            Label of the equilibrium it moves to (e.g. ``reset``, ``rest``, ``target``).
+
+        Returns
+        -------
+        numpy.ndarray
+            The validated goal, shape (m,), in rad.
+        """
         goal = self.rig.send(u_motor)
         self.moves.append(_Move(self.rig.now(), self._u_present, goal, str(pose), self.motor_tol_rad))
         return goal
 
     def read(self) -> tuple[float, np.ndarray, int]:
-        """One reading: (mean time of the valid frames s, mean tip (3,) m or NaN, frames used)."""
+        """Take one reading (frames over ``reading_period_s``), then read the motors.
+
+        Returns
+        -------
+        t_mid_s : float
+            Mean time (s, rig clock) of the valid frames (mid-period when none).
+        p_tip_W : numpy.ndarray
+            Mean tip, shape (3,), in m in frame W, or NaN when the marker was not seen.
+        n_valid : int
+            Valid frames used.
+        """
         end = self.rig.now() + self.reading_period_s
         points, times = [], []
         while self.rig.now() < end - 1e-9:
@@ -118,7 +155,22 @@ class StreamRecorder:
         return t_mid, p, len(points)
 
     def go_to(self, u_motor, pose: str, timeout_s: float = 30.0) -> np.ndarray:
-        """Command ``u_motor`` and read until the motors have arrived."""
+        """Command ``u_motor`` and read until the motors have arrived.
+
+        Parameters
+        ----------
+        u_motor : array_like
+            The command, shape (m,), in rad.
+        pose : str
+            Label of its equilibrium.
+        timeout_s : float
+            Motors not arrived within this time (s, rig clock): RigError.
+
+        Returns
+        -------
+        numpy.ndarray
+            The validated goal, shape (m,), in rad.
+        """
         goal = self.command(u_motor, pose)
         while not self.move.arrived:
             if self.rig.now() - self.move.t_command_s > timeout_s:
@@ -130,7 +182,13 @@ class StreamRecorder:
         return goal
 
     def hold(self, duration_s: float) -> None:
-        """Read for ``duration_s`` seconds."""
+        """Read for ``duration_s`` seconds.
+
+        Parameters
+        ----------
+        duration_s : float
+            How long to read (s, rig clock).
+        """
         t_end = self.rig.now() + float(duration_s)
         while self.rig.now() < t_end - 1e-9:
             self.read()
@@ -142,7 +200,19 @@ class StreamRecorder:
 
     def stream(self, since: int = 0) -> Stream:
         """The recording as a :class:`Stream` (commands from number ``since`` on, and the
-        readings from that command's time; the pose before it is the previous command's)."""
+        readings from that command's time; the pose before it is the previous command's).
+
+        Parameters
+        ----------
+        since : int
+            Index of the first command to include.
+
+        Returns
+        -------
+        Stream
+            Reading times (N,) s, tips (N, 3) m, valid-frame counts (N,), one
+            :class:`Segment` per command and the pose before the first.
+        """
         moves = self.moves[since:]
         t0 = moves[0].t_command_s if moves else -np.inf
         keep = np.asarray(self.t_s) >= t0

@@ -3,7 +3,7 @@
 :func:`capture` runs a list of commands through an append-only :class:`~lab.capture.journal.Journal`,
 one fsynced line per sample: killed and started again with the same settings, it
 continues with the first command not yet in the journal. With ``repeat_check`` the first
-command is measured once more after the last (:func:`repeat_check_line`): a robot that creeps
+command is measured once more after the last (:mod:`.repeat_check`): a robot that creeps
 over minutes, drifts or is knocked gives another tip for it, and the capture says so.
 ``python -m lab capture``
 (:func:`lab.jobs.capture.run`) adds the design, the rig and the dataset.
@@ -18,13 +18,29 @@ import numpy as np
 
 from lab.capture.journal import Journal
 from lab.capture.protocol import Protocol, measure
+from lab.capture.repeat_check import repeat_note
 from lab.errors import InputError
 from lab.rig.base import Rig
 
 
 def journal_columns(n_motors: int, predictive: bool = False) -> list[str]:
     """The journal's columns; the predictive protocol adds ``pred_std_m`` (3-D std of the
-    predicted tip, m; NaN when waited for) and ``predicted`` (1: recorded from the prediction)."""
+    predicted tip, m; NaN when waited for) and ``predicted`` (1: recorded from the prediction).
+
+    Parameters
+    ----------
+    n_motors : int
+        Number of motors m: columns ``u0..u{m-1}`` and ``present_u0..``.
+    predictive : bool
+        Whether the journal is of the predictive protocol.
+
+    Returns
+    -------
+    list of str
+        ``index``, the commands (rad), the tip ``x``, ``y``, ``z`` (m, frame W), the settle
+        statistics and times (s), the present motor angles (rad), ``session`` and, for the
+        predictive protocol, its two columns.
+    """
     u = [f"u{i}" for i in range(n_motors)]
     return (
         [
@@ -51,11 +67,35 @@ def journal_columns(n_motors: int, predictive: bool = False) -> list[str]:
 
 @dataclass
 class Capture:
-    """All samples of a capture in command order: ``u_motor`` (N, m) rad, ``p_tip_W``
-    (N, 3) m, and per-sample arrays (``settled``, ``sample_s`` robot time from the start
-    of the reset to the record, ``settle_s`` from the command to the record,
-    ``n_frames``, ``n_invalid_frames``, ``deviation_m``, ``session``), and the journal's
-    notes (``session`` / ``session-end`` lines as (tag, dict))."""
+    """All samples of a capture in command order, and the journal's notes.
+
+    Attributes
+    ----------
+    u_motor : numpy.ndarray
+        Commands, shape (N, m), in rad.
+    p_tip_W : numpy.ndarray
+        Recorded tips, shape (N, 3), in m in frame W.
+    settled : numpy.ndarray
+        Whether each sample settled, shape (N,), bool.
+    sample_s : numpy.ndarray
+        Robot time (s) from the start of the reset to the record, shape (N,).
+    settle_s : numpy.ndarray
+        Time (s) from the command to the record, shape (N,).
+    deviation_m : numpy.ndarray
+        The settle test's last deviation (m), shape (N,).
+    n_frames, n_invalid_frames : numpy.ndarray
+        Frames read per sample and the occluded ones, shape (N,), int.
+    session : numpy.ndarray
+        The session (1, 2, ...) that recorded each sample, shape (N,), int.
+    notes : list of tuple
+        The journal's notes (``session`` / ``session-end`` / ... lines) as (tag, dict).
+    new_samples : int
+        Samples recorded by this call.
+    pred_std_m : numpy.ndarray or None
+        Predictive protocol: 3-D std (m) of each predicted tip, shape (N,); NaN when waited for.
+    predicted : numpy.ndarray or None
+        Predictive protocol: recorded from the prediction, shape (N,), bool.
+    """
 
     u_motor: np.ndarray
     p_tip_W: np.ndarray
@@ -91,6 +131,7 @@ class Capture:
 
     @property
     def robot_time_s(self) -> float:
+        """Robot time (s) of all samples: the sum of ``sample_s``."""
         return float(self.sample_s.sum())
 
     @property
@@ -131,7 +172,36 @@ def capture(
 
     ``repeat_check`` (a fixed list, a waiting protocol): once every command is captured,
     the first is measured again with the same protocol and the journal's ``repeat-check``
-    note says whether the tip moved (not a dataset row; :func:`repeat_check_line` reads it).
+    note says whether the tip moved (not a dataset row;
+    :func:`~lab.capture.repeat_check.repeat_check_line` reads it).
+
+    Parameters
+    ----------
+    rig : Rig
+        The open rig to capture on.
+    commands : array_like
+        Commands, shape (N, m), in rad, each checked by the robot's limits before any moves.
+    journal_path : str or Path
+        The journal (CSV) to create or resume.
+    protocol : Protocol
+        The capture settings.
+    header : dict, optional
+        Extra JSON-able identity of the capture (robot, rig, sampler).
+    session_info : dict, optional
+        Extra JSON-able fields of this session's ``session`` note.
+    progress : bool
+        Show a progress bar.
+    open_ended : bool
+        The command list grows from call to call (see above).
+    relaxation : Relaxation, optional
+        The predictive protocol's relaxation (see above).
+    repeat_check : bool
+        Measure the first command again after the last (see above).
+
+    Returns
+    -------
+    Capture
+        Every sample in the journal, old and new, in command order.
     """
     from tqdm import tqdm
 
@@ -189,7 +259,7 @@ def capture(
             if repeat_check and not open_ended and protocol.wait and not journal.notes_tagged("repeat-check"):
                 first = journal.rows[0]
                 again = sample(commands[0])
-                journal.note("repeat-check", _repeat_note(first, again, protocol))
+                journal.note("repeat-check", repeat_note(first, again, protocol))
         except BaseException as err:
             status = f"stopped: {type(err).__name__}: {err}"
             raise
@@ -224,54 +294,6 @@ def capture(
     )
 
 
-#: A repeat of the first command is flagged when its tip lies further than this many of the
-#: protocol's tolerances (settle_tol_m or predict_tol_m) from the first measurement: each
-#: sample is within about one tolerance of where the tip was going, so two of an unchanged
-#: robot differ by up to two plus the reading noise (docs/design/rig.md, "The repeat check").
-REPEAT_TOLERANCES = 4.0
-
-
-def repeat_threshold_m(protocol: Protocol) -> float:
-    """Distance (m) above which a repeated command's tip says the robot changed."""
-    tol = protocol.predict_tol_m if protocol.kind == "predictive" else protocol.settle_tol_m
-    return REPEAT_TOLERANCES * tol
-
-
-def _repeat_note(first: dict, again, protocol: Protocol) -> dict:
-    p_first = np.array([first["x"], first["y"], first["z"]], float)
-    distance = float(np.linalg.norm(again.p_tip_W - p_first))
-    threshold = repeat_threshold_m(protocol)
-    return {
-        "u_motor": [float(v) for v in again.u_motor],
-        "p_first_m": p_first.tolist(),
-        "p_again_m": [float(v) for v in again.p_tip_W],
-        "t_first_s": float(first["t_done_s"]),
-        "t_again_s": float(again.t_done_s),
-        "distance_m": distance,
-        "threshold_m": threshold,
-        "drift": bool(distance > threshold),
-    }
-
-
-def repeat_check_line(capture: Capture) -> str:
-    """One line on a capture's repeat check ("" if it has none): how far the first command's
-    tip moved between the first sample and its repeat after the last, and whether that says
-    the samples drift (creep over minutes, a drifting rig or mocap frame)."""
-    rc = capture.repeat_check
-    if rc is None:
-        return ""
-    mm = 1e3 * rc["distance_m"]
-    minutes = (rc["t_again_s"] - rc["t_first_s"]) / 60.0  # negative: the rig's clock restarted
-    when = f"{minutes:.0f} min later" if minutes >= 0 else "in a later session"
-    if rc["drift"]:
-        return (
-            f"samples drift: the first command, measured again {when}, gave a tip "
-            f"{mm:.2f} mm away (more than {1e3 * rc['threshold_m']:.2f} mm); the robot changed during the capture "
-            "(creep over minutes, a moved base or mocap frame), so its samples depend on their history"
-        )
-    return f"repeat check: the first command measured again {when}, {mm:.2f} mm away"
-
-
 def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):
     """``u -> Sample`` for ``protocol``: the waiting protocol's :func:`measure`, or a
     :class:`~lab.capture.predictive.PredictiveSampler` (with the relaxation a resumed journal learned)."""
@@ -294,9 +316,29 @@ def _full_header(header: dict | None, protocol: Protocol, commands: np.ndarray |
 
 
 def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol(), *, header: dict | None = None):
-    """What an open-ended capture's journal holds: commands ``u`` (N, m) rad, tips ``y``
-    (N, 3) m in journal order, and its notes as (tag, dict); empty if there is no journal.
-    Raises JournalError for a journal of other settings (as :func:`capture` would)."""
+    """What an open-ended capture's journal holds; empty if there is no journal.
+    Raises JournalError for a journal of other settings (as :func:`capture` would).
+
+    Parameters
+    ----------
+    journal_path : str or Path
+        The journal.
+    n_motors : int
+        Number of motors m.
+    protocol : Protocol
+        The capture settings it was written with.
+    header : dict, optional
+        The extra identity it was written with.
+
+    Returns
+    -------
+    u : numpy.ndarray
+        Commands, shape (N, m), in rad, in journal order.
+    y : numpy.ndarray
+        Tips, shape (N, 3), in m in frame W.
+    notes : list of tuple
+        The journal's notes as (tag, dict).
+    """
     from pathlib import Path
 
     empty = np.empty((0, n_motors)), np.empty((0, 3)), []

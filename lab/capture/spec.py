@@ -32,7 +32,25 @@ def _positive_mm(v) -> str | None:
 
 @dataclass(frozen=True)
 class ProtocolSpec(Spec):
-    """The capture protocol's flags; :meth:`protocol` is the :class:`Protocol` they mean."""
+    """The capture protocol's flags; :meth:`protocol` is the :class:`Protocol` they mean.
+
+    Attributes
+    ----------
+    kind : str
+        ``wait`` (the paper's protocol) or ``predictive`` (``--protocol``).
+    predict_tol_mm : float
+        Predictive: record when the predicted settled tip's 3-D std is below this (mm).
+    dynamic_model : str or None
+        Predictive: a relaxation fitted by ``fit-dynamics`` (DYN.npz); skips the learning.
+    no_wait : bool
+        Record 0.5 s after the motors arrive instead of waiting until settled.
+    no_reset : bool
+        Do not erase hysteresis before each sample.
+    settle_tol_mm : float
+        Settle tolerance (mm).
+    reset_rad : float
+        Contraction of every cable in the reset (rad).
+    """
 
     kind: str = option(
         "wait",
@@ -75,7 +93,13 @@ class ProtocolSpec(Spec):
         self.protocol()  # whatever else the protocol refuses
 
     def protocol(self) -> Protocol:
-        """The protocol these flags mean (SI units: m, rad)."""
+        """The protocol these flags mean.
+
+        Returns
+        -------
+        Protocol
+            The settings in SI units (m, rad, s).
+        """
         return Protocol(
             wait=not self.no_wait,
             reset=not self.no_reset,
@@ -86,7 +110,13 @@ class ProtocolSpec(Spec):
         )
 
     def relaxation(self):
-        """The :class:`~lab.dynamics.relaxation.Relaxation` of ``--dynamic-model``, or None."""
+        """The relaxation of ``--dynamic-model``.
+
+        Returns
+        -------
+        Relaxation or None
+            The fitted relaxation read from ``dynamic_model``, or None without one.
+        """
         if not self.dynamic_model:
             return None
         from lab.dynamics.relaxation import load_relaxation
@@ -94,7 +124,13 @@ class ProtocolSpec(Spec):
         return load_relaxation(self.dynamic_model)
 
     def words(self) -> list[str]:
-        """The flags that reproduce this spec (the defaults left out)."""
+        """The flags that reproduce this spec.
+
+        Returns
+        -------
+        list of str
+            Command-line words, the defaults left out.
+        """
         words = []
         if self.kind != "wait":
             words += ["--protocol", self.kind, "--predict-tol-mm", repr(self.predict_tol_mm)]
@@ -112,7 +148,27 @@ class ProtocolSpec(Spec):
 class CaptureSpec(Spec):
     """One capture run: the ``design``'s commands measured on ``rig`` with ``protocol`` into
     the journal, then written as the dataset ``out``. ``design.seed`` (``--seed``) also seeds
-    the shuffled order and an emulated rig's noise."""
+    the shuffled order and an emulated rig's noise.
+
+    Attributes
+    ----------
+    rig : RigSpec
+        The rig to capture on (``--rig``).
+    robot : str
+        Shipped robot name or path to a TOML description.
+    design : DesignSpec
+        The commands to capture (a fixed design, a grid or active batches).
+    out : str
+        Output CSV; metadata goes to OUT.json.
+    journal : str or None
+        Append-only journal to write or resume; None: OUT with ``.journal.csv``.
+    order : str
+        Capture order, one of :data:`ORDERS` (the dataset is written in design order).
+    protocol : ProtocolSpec
+        The capture protocol's settings.
+    no_progress : bool
+        No progress bar.
+    """
 
     rig: RigSpec = RigSpec("twin")
     robot: str = option("three-cable", help="shipped robot name or path to a TOML description")

@@ -22,10 +22,22 @@ from lab.dynamics.relaxation import Relaxation
 
 
 class TipFilter:
-    """Kalman filter over modes + pose equilibria. ``prior_sigma_m``: prior std of a pose
-    never seen (m per axis); ``process_noise_m2_per_s``: random walk of the modes (model
-    error, m^2/s per axis); ``noise_sigma_m``: motion-capture noise per frame and axis
-    (default: the relaxation's)."""
+    """Kalman filter over modes + pose equilibria; state mean ``x`` (n, 3) m and covariance
+    ``P`` (n, n) m^2 shared by the three axes, n = K modes + the poses.
+
+    Parameters
+    ----------
+    relax : Relaxation
+        The foam's relaxation (K modes: time constants, weights, noise).
+    poses : tuple of str
+        Names of the pose equilibria in the state.
+    prior_sigma_m : float
+        Prior std of a pose never seen (m per axis).
+    process_noise_m2_per_s : float
+        Random walk of the modes (model error, m^2/s per axis).
+    noise_sigma_m : float, optional
+        Motion-capture noise per frame and axis (m); default: the relaxation's.
+    """
 
     def __init__(
         self,
@@ -52,7 +64,17 @@ class TipFilter:
         self.n_outliers = 0
 
     def set(self, pose: str, mean_W, sigma_m: float) -> None:
-        """Make ``pose`` (or ``"modes"``) a fresh, independent estimate: mean (3,) m, std per axis."""
+        """Make ``pose`` (or ``"modes"``) a fresh, independent estimate.
+
+        Parameters
+        ----------
+        pose : str
+            A pose of the state, or ``"modes"`` for every relaxation mode.
+        mean_W : array_like
+            Its mean, shape (3,), in m in frame W.
+        sigma_m : float
+            Its std per axis (m).
+        """
         rows = list(range(self.K)) if pose == "modes" else [self.index[pose]]
         for i in rows:
             self.P[i, :] = 0.0
@@ -62,25 +84,68 @@ class TipFilter:
 
     def jitter(self, pose: str, sigma_m: float) -> None:
         """``pose``'s equilibrium may differ from last time by ``sigma_m`` per axis (m): a
-        pose reached along another path (cable play) is not quite the same pose."""
+        pose reached along another path (cable play) is not quite the same pose.
+
+        Parameters
+        ----------
+        pose : str
+            A pose of the state.
+        sigma_m : float
+            Std per axis (m) added to its uncertainty.
+        """
         i = self.index[pose]
         self.P[i, i] += sigma_m**2
 
     def forget(self, pose: str) -> None:
-        """A new, unknown equilibrium for ``pose`` (the next sample's target)."""
+        """A new, unknown equilibrium for ``pose`` (the next sample's target): the filtered
+        tip now, with the prior std.
+
+        Parameters
+        ----------
+        pose : str
+            A pose of the state.
+        """
         self.set(pose, self.tip(), self.prior_sigma_m)
 
     def tip(self) -> np.ndarray:
-        """The filtered tip now (3,) m."""
+        """The filtered tip now.
+
+        Returns
+        -------
+        numpy.ndarray
+            The tip, shape (3,), in m in frame W: the modes weighted by the relaxation.
+        """
         return self.H @ self.x
 
     def std(self, pose: str) -> float:
-        """Std (m) per axis of ``pose``'s equilibrium."""
+        """The uncertainty of ``pose``'s equilibrium.
+
+        Parameters
+        ----------
+        pose : str
+            A pose of the state.
+
+        Returns
+        -------
+        float
+            Its std per axis (m).
+        """
         return float(np.sqrt(self.P[self.index[pose], self.index[pose]]))
 
     def advance(self, t_s: float, pose_from: str, pose_to: str, s0: float, s1: float) -> None:
         """Move the state to time ``t_s`` while the equilibrium goes linearly from
-        ``pose_from (1 - s0) + pose_to s0`` to ``... s1`` (s: fraction of the move done)."""
+        ``pose_from (1 - s0) + pose_to s0`` to ``... s1`` (s: fraction of the move done).
+        The first call only sets the state's time.
+
+        Parameters
+        ----------
+        t_s : float
+            The new time (s, rig clock); no earlier time changes nothing.
+        pose_from, pose_to : str
+            The poses the move goes from and to.
+        s0, s1 : float
+            Fraction (0..1) of the move done at the state's time and at ``t_s``.
+        """
         if self.t_s is None:
             self.t_s = float(t_s)
             return
@@ -103,7 +168,20 @@ class TipFilter:
         """Fold in one reading (3,) m, the mean of ``n_frames`` frames; NaN readings and
         readings of no frame change nothing. Returns the normalised innovation squared (per
         axis, mean), NaN when skipped. A reading far outside the prediction (> 5 sigma on
-        average) widens the modes instead of being trusted: the model did not expect it."""
+        average) widens the modes instead of being trusted: the model did not expect it.
+
+        Parameters
+        ----------
+        reading_W : array_like
+            The reading, shape (3,), in m in frame W.
+        n_frames : int
+            Frames averaged into it (its noise variance is ``sigma^2 / n_frames``).
+
+        Returns
+        -------
+        float
+            The normalised innovation squared (per axis, mean), NaN when skipped.
+        """
         reading_W = np.asarray(reading_W, float)
         if n_frames <= 0 or not np.all(np.isfinite(reading_W)):
             return float("nan")

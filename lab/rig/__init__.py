@@ -18,7 +18,7 @@ from lab.rig.base import Body, MocapError, MocapFrame, Rig, RigError, ServoError
 from lab.rig.factory import as_built_body, make_rig
 from lab.rig.sim import SimRig
 from lab.rig.spec import RIG_FORMS, RIG_KINDS, RigSpec
-from lab.rig.twin import AsBuiltBody, FamilyTwinRig, MocapModel, TwinRig
+from lab.rig.twin import AsBuiltBody, FamilyTwinRig, TwinRig
 
 __all__ = [
     "make_rig",
@@ -36,5 +36,4 @@ __all__ = [
     "TwinRig",
     "FamilyTwinRig",
     "AsBuiltBody",
-    "MocapModel",
 ]

@@ -39,8 +39,16 @@ class MocapError(RigError):
 
 @dataclass(frozen=True)
 class MocapFrame:
-    """One motion-capture frame: time ``t_s`` (s, rig clock) and tip marker ``p_tip_W``
-    (3,) m in the robot frame W; all-NaN when the marker was not seen in this frame."""
+    """One motion-capture frame: the tip marker's position at one time on the rig clock.
+
+    Attributes
+    ----------
+    t_s : float
+        Time stamp (s) on the rig's clock.
+    p_tip_W : numpy.ndarray
+        Tip marker position, shape (3,), in m in the robot frame W; all-NaN when the
+        marker was not seen in this frame.
+    """
 
     t_s: float
     p_tip_W: np.ndarray
@@ -51,7 +59,15 @@ class MocapFrame:
 
 
 class Rig(abc.ABC):
-    """Base class of all rigs. Subclasses implement the ``_send``/``next_frame``/... hooks."""
+    """Base class of all rigs. Subclasses implement the ``_send``/``next_frame``/... hooks.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot the rig drives; its limits and safety rule validate every command.
+    frame_rate_hz : float
+        Motion-capture frame rate (Hz): one :class:`MocapFrame` per ``1 / frame_rate_hz`` s.
+    """
 
     #: short name written into datasets and reports ("sim", "twin", "hardware")
     kind: str = "rig"
@@ -67,6 +83,16 @@ class Rig(abc.ABC):
 
         Raises ValueError (nothing is sent) for a wrong shape, NaN, an angle outside
         ``[0, u_max]`` or a command the robot's safety rule forbids.
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Goal motor angles, shape (n_cables,), in rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            The validated command that was sent, shape (n_cables,), rad (float).
         """
         if self._closed:
             raise RigError(f"{self.kind} rig is closed")
@@ -80,25 +106,66 @@ class Rig(abc.ABC):
 
     @abc.abstractmethod
     def present_u(self) -> np.ndarray:
-        """Measured motor angles (n_cables,) rad."""
+        """Measured motor angles.
+
+        Returns
+        -------
+        numpy.ndarray
+            Present motor angles, shape (n_cables,), in rad (read from the servos on
+            hardware, the emulated motors' state on the twin, the last command on sim).
+        """
 
     # --- sensing --------------------------------------------------------------------
     @abc.abstractmethod
     def now(self) -> float:
-        """Current time on the rig's clock, s."""
+        """Current time on the rig's clock.
+
+        Returns
+        -------
+        float
+            Time (s): wall time on hardware, the virtual clock on emulated rigs.
+        """
 
     @abc.abstractmethod
     def next_frame(self) -> MocapFrame:
         """The next motion-capture frame (blocks on hardware; advances a virtual clock by
-        one frame period on emulated rigs)."""
+        one frame period on emulated rigs).
+
+        Returns
+        -------
+        MocapFrame
+            Time stamp (s) and tip marker ``p_tip_W`` (3,) m in W; NaN while occluded.
+        """
 
     def frames(self, n: int) -> list[MocapFrame]:
-        """The next ``n`` frames."""
+        """The next ``n`` frames.
+
+        Parameters
+        ----------
+        n : int
+            Number of frames to read.
+
+        Returns
+        -------
+        list of MocapFrame
+            ``n`` consecutive frames, oldest first.
+        """
         return [self.next_frame() for _ in range(int(n))]
 
     def wait(self, duration_s: float) -> list[MocapFrame]:
         """Let ``duration_s`` seconds pass on the rig clock, consuming (and returning) the
-        frames that arrive meanwhile."""
+        frames that arrive meanwhile.
+
+        Parameters
+        ----------
+        duration_s : float
+            How long to wait (s, rig clock).
+
+        Returns
+        -------
+        list of MocapFrame
+            The frames read until the clock reached ``now() + duration_s``, oldest first.
+        """
         t_end = self.now() + float(duration_s)
         out = []
         while self.now() < t_end - 1e-12:
@@ -123,7 +190,13 @@ class Rig(abc.ABC):
         return False
 
     def describe(self) -> dict:
-        """JSON-able description of this rig for dataset/report metadata."""
+        """JSON-able description of this rig for dataset/report metadata.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``robot`` (name) and ``frame_rate_hz`` (Hz), plus what the rig adds.
+        """
         return {"kind": self.kind, "robot": self.robot.name, "frame_rate_hz": self.frame_rate_hz}
 
 
@@ -141,8 +214,29 @@ class Body(abc.ABC):
 
     @abc.abstractmethod
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
-        """New goal motor angles (n_motors,) rad from time ``t_s`` on."""
+        """New goal motor angles from time ``t_s`` on.
+
+        Parameters
+        ----------
+        u_goal_rad : numpy.ndarray
+            Goal motor angles, shape (n_motors,), in rad.
+        t_s : float
+            Time (s, body clock) the goal takes effect; not before earlier calls.
+        """
 
     @abc.abstractmethod
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(present motor angles (n_motors,) rad, true tip position p_tip_W (3,) m) at ``t_s``."""
+        """The body's state at ``t_s``, after integrating its dynamics up to then.
+
+        Parameters
+        ----------
+        t_s : float
+            Time (s, body clock); not before earlier calls.
+
+        Returns
+        -------
+        u_present_rad : numpy.ndarray
+            Present motor angles, shape (n_motors,), in rad.
+        p_tip_W : numpy.ndarray
+            True tip position, shape (3,), in m in the robot frame W.
+        """

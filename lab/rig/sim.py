@@ -16,7 +16,17 @@ from lab.rig.base import MocapFrame, Rig
 
 
 class SimRig(Rig):
-    """Quasi-static nominal FEM behind the rig interface (virtual clock, exact tip)."""
+    """Quasi-static nominal FEM behind the rig interface (virtual clock, exact tip).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot; the rig starts hanging under gravity with all cables at rest (u = 0).
+    fem : ArmFEM, optional
+        The model to solve; the nominal ``ArmFEM(robot)`` when omitted.
+    frame_rate_hz : float
+        Virtual motion-capture frame rate (Hz); each frame advances the clock 1/rate s.
+    """
 
     kind = "sim"
 
@@ -44,4 +54,11 @@ class SimRig(Rig):
         return MocapFrame(self._t_s, self._p_tip_W.copy())
 
     def describe(self) -> dict:
+        """JSON-able description of this rig for dataset/report metadata.
+
+        Returns
+        -------
+        dict
+            The base description plus ``mesh_nodes``, the FEM mesh's node count.
+        """
         return {**super().describe(), "mesh_nodes": int(self.fem.mesh.n_nodes)}

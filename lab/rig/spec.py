@@ -36,12 +36,20 @@ MESH_FIELDS = ("MeshSpec.n_rings", "MeshSpec.n_axial")
 class RigSpec(Spec):
     """One rig, as ``--rig`` names it (see the module docstring).
 
-    ``kind``: one of :data:`RIG_KINDS` (``none`` only where :meth:`parse` was told it is
-    allowed); ``defects_path``: a twin's defects file (None: the
-    robot's shipped defects); ``family_seed``: a twin that is member SEED of the family
-    ``family`` (a name in :data:`lab.asbuilt.FAMILIES`: ``random`` or ``foam``);
-    ``config_path``: a hardware rig's configuration file;
-    ``mesh``: FEM mesh overrides of a ``sim`` or ``twin`` rig.
+    Attributes
+    ----------
+    kind : str
+        One of :data:`RIG_KINDS` (``none`` only where :meth:`parse` was told it is allowed).
+    defects_path : str or None
+        A twin's defects file (TOML); None: the robot's shipped defects.
+    family_seed : int or None
+        A twin that is member SEED (>= 0) of the family ``family``; None: no family member.
+    config_path : str or None
+        A hardware rig's configuration file (TOML).
+    mesh : MeshSpec
+        FEM mesh overrides (rings, axial layers) of a ``sim`` or ``twin`` rig.
+    family : str
+        A name in :data:`lab.asbuilt.FAMILIES`: ``random`` or ``foam``.
     """
 
     kind: str = "sim"
@@ -95,11 +103,25 @@ class RigSpec(Spec):
 
     @classmethod
     def parse(cls, text: RigSpec | str, *, mesh: MeshSpec | None = None, allow_none: bool = False) -> RigSpec:
-        """The spec of a ``--rig`` string (a spec is returned as it is); ``mesh``: its FEM mesh;
-        ``allow_none``: whether ``none`` (no rig) is a form this command takes.
+        """The spec of a ``--rig`` string (a spec is returned as it is).
 
         Raises InputError naming the problem: an unknown kind, ``sim`` or ``none`` with an
-        argument, ``twin:random`` without a seed or with a bad one, ``hardware`` without a file."""
+        argument, ``twin:random`` without a seed or with a bad one, ``hardware`` without a file.
+
+        Parameters
+        ----------
+        text : RigSpec or str
+            The ``--rig`` string (one of :data:`RIG_FORMS`), or a spec.
+        mesh : MeshSpec, optional
+            Its FEM mesh; None keeps a spec's mesh (the default mesh for a string).
+        allow_none : bool
+            Whether ``none`` (no rig) is a form this command takes.
+
+        Returns
+        -------
+        RigSpec
+            The parsed spec.
+        """
         if isinstance(text, RigSpec):
             return text if mesh is None else text.replace(mesh=mesh)
         mesh = MeshSpec() if mesh is None else mesh
@@ -142,8 +164,15 @@ class RigSpec(Spec):
         return self.kind
 
     def as_dict(self) -> dict:
-        """The fields as JSON-ready values, and the ``--rig`` string as ``rig`` (``family``
-        only for a family other than ``random``: a random member's metadata reads as before)."""
+        """The fields as JSON-ready values, and the ``--rig`` string as ``rig``.
+
+        Returns
+        -------
+        dict
+            Field name -> JSON-ready value, ``mesh`` as a dict, ``rig`` the ``--rig``
+            string; ``family`` only for a family other than ``random`` (a random member's
+            metadata reads as before).
+        """
         d = {**super().as_dict(), "mesh": self.mesh.as_dict(), "rig": str(self)}
         if self.family == "random":
             del d["family"]
@@ -173,7 +202,13 @@ class RigSpec(Spec):
         return self.kind in ("twin", "hardware")
 
     def require_dynamics(self) -> RigSpec:
-        """This spec, or InputError for ``sim``, whose quasi-static FEM has no dynamics."""
+        """This spec, or InputError for ``sim``, whose quasi-static FEM has no dynamics.
+
+        Returns
+        -------
+        RigSpec
+            ``self``, when the rig moves in time (a twin or hardware).
+        """
         if not self.has_rig:
             raise FieldError(f"{RIG} none is no rig: it has no dynamics to learn or stream", RIG)
         if not self.has_dynamics:

@@ -10,7 +10,7 @@ exactly (three with the defects file's creep); and where the motion capture sees
 (:meth:`AsBuiltBody.report`: the base's tilt, the mocap's frame error). ``TwinRig`` puts
 the body on a virtual clock advanced one motion-capture frame per ``next_frame()`` and
 observes the tip through ``MocapModel`` (Gaussian noise and occlusion bursts, NaN
-frames). Deterministic for a given seed. :class:`FamilyTwinRig` is the twin on a member of a
+frames; :mod:`.mocap_model`). Deterministic for a given seed. :class:`FamilyTwinRig` is the twin on a member of a
 family of as-built robots (:class:`lab.asbuilt.Family`). The model step by step: ``docs/design/rig.md``.
 """
 
@@ -26,12 +26,22 @@ from lab.asbuilt.family import RANDOM, Family
 from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.rig.base import Body, MocapFrame, Rig, RigError
+from lab.rig.mocap_model import MocapModel
 
 
 class AsBuiltBody(Body):
-    """The as-built arm in time (see the module docstring). ``defects``: a
-    :class:`Defects`, a TOML path, or ``None`` for the robot's shipped default;
-    ``n_rings``/``n_axial`` override the FEM mesh (coarse meshes for tests)."""
+    """The as-built arm in time (see the module docstring).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot (cables, spool radius, limits).
+    defects : Defects or str or None
+        The as-built defects: a :class:`Defects`, a TOML path, or None for the robot's
+        shipped default.
+    n_rings, n_axial : int, optional
+        Override the FEM mesh's rings and axial layers (coarse meshes for tests).
+    """
 
     def __init__(
         self,
@@ -74,8 +84,17 @@ class AsBuiltBody(Body):
 
     # ---------------------------------------------------------------- Body interface
     def command(self, u_goal_rad: np.ndarray, t_s: float) -> None:
-        """New goal motor angles (n_motors,) rad from ``t_s`` on (any finite angles; the
-        rig, not the body, enforces the robot's range and safety rule)."""
+        """New goal motor angles from ``t_s`` on (any finite angles; the rig, not the
+        body, enforces the robot's range and safety rule).
+
+        Parameters
+        ----------
+        u_goal_rad : numpy.ndarray
+            Goal motor angles, shape (n_motors,), in rad; rounded to encoder ticks and
+            reached at the profile velocity.
+        t_s : float
+            Time (s, body clock) from which the goal holds; not before the body's time.
+        """
         goal = np.asarray(u_goal_rad, dtype=float)
         if goal.shape != (self.n_motors,) or not np.all(np.isfinite(goal)):
             raise InputError(f"expected {self.n_motors} finite motor angles, got {goal!r}")
@@ -94,8 +113,21 @@ class AsBuiltBody(Body):
         self._T = float(travel[k] / (v if np.ndim(v) == 0 else v[k]))
 
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(present motor angles (n_motors,) rad in whole ticks, tip p_tip_W (3,) m where the
-        motion capture sees it before its noise: :meth:`report` of the body's tip)."""
+        """The motors and the tip at ``t_s``, after integrating the lag modes up to then.
+
+        Parameters
+        ----------
+        t_s : float
+            Time (s, body clock); not before the body's time.
+
+        Returns
+        -------
+        u_present_rad : numpy.ndarray
+            Present motor angles, shape (n_motors,), in rad, in whole encoder ticks.
+        p_tip_W : numpy.ndarray
+            Tip, shape (3,), in m, where the motion capture sees it before its noise
+            (:meth:`report` of the body's tip).
+        """
         self._advance(t_s)
         return self._quantise(self._motors(self._t)), self.report(self._w @ self._z)
 
@@ -111,20 +143,53 @@ class AsBuiltBody(Body):
         return self._contraction(self._t)
 
     def contraction_from_reset(self, u_motor) -> np.ndarray:
-        """Effective contractions (n_motors,) m when ``u_motor`` rad is approached from the
-        reset state (every cable released to y = +h): ``max(h, r u - h)``."""
+        """Effective contractions when ``u_motor`` is approached from the reset state
+        (every cable released to y = +h): ``max(h, r u - h)``.
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Motor angles, shape (n_motors,), in rad (rounded to encoder ticks).
+
+        Returns
+        -------
+        numpy.ndarray
+            Cable contractions y after the play, shape (n_motors,), in m.
+        """
         return np.maximum(self._h, self._r * self._quantise(np.asarray(u_motor, float)) - self._h)
 
     def quasi_static_tip(self, u_motor) -> np.ndarray:
-        """Noise-free settled tip p_tip_W (3,) m for ``u_motor`` reached after a reset:
-        the quasi-static map the capture protocol measures (:meth:`report`, noise-free)."""
+        """Noise-free settled tip for ``u_motor`` reached after a reset: the quasi-static
+        map the capture protocol measures (:meth:`report`, noise-free).
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Motor angles, shape (n_motors,), in rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Settled tip p_tip_W, shape (3,), in m in the motion capture's frame W.
+        """
         return self.report(self.equilibria.tip(self.contraction_from_reset(u_motor)))
 
     def report(self, p_body: np.ndarray) -> np.ndarray:
-        """Where the motion capture reports a point (3,) m of the body frame (the FEM's):
+        """Where the motion capture reports a point of the body frame (the FEM's):
         ``R_err (R_tilt p_body) + frame_offset_m`` -- the base tilted in the room (about its
         origin), the room's frame registered with an error. Without those defects, ``p_body``
-        itself (bit for bit)."""
+        itself (bit for bit).
+
+        Parameters
+        ----------
+        p_body : numpy.ndarray
+            A point, shape (3,), in m in the body (FEM) frame.
+
+        Returns
+        -------
+        numpy.ndarray
+            The point, shape (3,), in m in the motion capture's frame W.
+        """
         p = p_body if self._R_report is None else self._R_report @ p_body
         return p if self._offset_report is None else p + self._offset_report
 
@@ -163,60 +228,20 @@ class AsBuiltBody(Body):
             self._t = t_b
 
 
-class MocapModel:
-    """Motion-capture observation of a marker: per-axis Gaussian noise of
-    ``noise_sigma_m`` and occlusion bursts starting with probability ``dropout_rate_hz /
-    frame_rate_hz`` at each frame, each 1..``dropout_max_frames`` frames long (uniform),
-    reported as NaN, with at least one seen frame between two bursts. Every frame
-    consumes the same random numbers, so the sequence depends only on the seed."""
-
-    _BLOCK = 4096
-
-    def __init__(
-        self, frame_rate_hz: float, noise_sigma_m: float, dropout_rate_hz: float, dropout_max_frames: int, seed: int = 0
-    ):
-        self.noise_sigma_m = float(noise_sigma_m)
-        self.p_burst_start = float(dropout_rate_hz) / float(frame_rate_hz)
-        self.dropout_max_frames = int(dropout_max_frames)
-        self._rng = np.random.default_rng(seed)
-        self._i = self._BLOCK
-        self._left = 0  # frames still occluded in the current burst
-        self._burst_ended = False  # a burst ended last frame: this one is seen
-        self.n_frames = self.n_dropped = 0
-
-    @classmethod
-    def from_defects(cls, defects: Defects, seed: int = 0) -> MocapModel:
-        return cls(
-            defects.frame_rate_hz, defects.noise_sigma_m, defects.dropout_rate_hz, defects.dropout_max_frames, seed
-        )
-
-    def observe(self, p_true_W: np.ndarray) -> np.ndarray:
-        """One frame's measurement (3,) m of the true marker position, or NaN (3,)."""
-        if self._i == self._BLOCK:
-            self._noise = self.noise_sigma_m * self._rng.standard_normal((self._BLOCK, 3))
-            self._start = self._rng.random(self._BLOCK)
-            self._length = self._rng.integers(1, self.dropout_max_frames + 1, self._BLOCK)
-            self._i = 0
-        i = self._i
-        self._i += 1
-        self.n_frames += 1
-        if self._left == 0 and not self._burst_ended and self._start[i] < self.p_burst_start:
-            self._left = int(self._length[i])
-        self._burst_ended = False
-        if self._left > 0:
-            self._left -= 1
-            self.n_dropped += 1
-            self._burst_ended = self._left == 0
-            return np.full(3, np.nan)
-        return p_true_W + self._noise[i]
-
-
 class TwinRig(Rig):
     """The emulated as-built robot behind the rig interface, on a virtual clock.
 
-    ``defects``: a :class:`Defects`, a TOML path, or ``None`` (the robot's shipped
-    default); ``seed``: motion-capture noise and dropouts; ``body``: an existing
-    :class:`AsBuiltBody` to drive (its defects are then used).
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    defects : Defects or str or None
+        The as-built defects: a :class:`Defects`, a TOML path, or None (the robot's
+        shipped default); ignored when ``body`` is given.
+    seed : int
+        Seed of the motion capture's noise and dropouts.
+    body : AsBuiltBody, optional
+        An existing body to drive (its defects are then used; its clock may be ahead).
     """
 
     kind = "twin"
@@ -258,6 +283,14 @@ class TwinRig(Rig):
         return MocapFrame(self.now(), self.mocap.observe(p_true))
 
     def describe(self) -> dict:
+        """JSON-able description of this rig for dataset/report metadata.
+
+        Returns
+        -------
+        dict
+            The base description plus the mocap ``seed``, the ``defects`` (path, SHA-256,
+            values) and the FEM ``mesh`` (node and tet counts).
+        """
         d, fem = self.defects, self.body.fem
         return {
             **super().describe(),
@@ -306,10 +339,26 @@ class FamilyTwinRig(TwinRig):
 
 
 def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) -> np.ndarray:
-    """Settled tips (N, 3) m of ``body`` (an :class:`AsBuiltBody`) for commands ``u_motor``
-    (N, m) rad, each reached after the protocol's reset, plus Gaussian noise of
-    ``noise_sigma_m`` per axis (seeded by ``seed``): what ``capture`` measures once the lag
-    has died out, without emulating the waiting."""
+    """Settled tips of ``body`` for commands ``u_motor``, each reached after the protocol's
+    reset, plus Gaussian noise: what ``capture`` measures once the lag has died out,
+    without emulating the waiting.
+
+    Parameters
+    ----------
+    body : AsBuiltBody
+        The arm (anything with ``quasi_static_tip(u)``).
+    u_motor : array_like
+        Commands, shape (N, m) (or (m,) for one), in rad.
+    noise_sigma_m : float
+        Gaussian noise per axis (m); 0 for the noise-free tips.
+    seed : int
+        Seed of the noise.
+
+    Returns
+    -------
+    numpy.ndarray
+        Settled tips p_tip_W, shape (N, 3), in m in the motion capture's frame W.
+    """
     u = np.atleast_2d(np.asarray(u_motor, float))
     tips = np.array([body.quasi_static_tip(ui) for ui in u])
     if noise_sigma_m > 0:

@@ -12,14 +12,11 @@
   ``python -m lab.rig.emulators --config-out RIG.toml`` serves it until interrupted.
 """
 
-from lab.rig.emulators.bench import EmulatedBench, default_specs, kinematic_body_for
+from lab.rig.emulators.bench import EmulatedBench
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
 from lab.rig.emulators.clock import VirtualClock
-from lab.rig.emulators.natnet_server import (
-    MocapScene,
-    NatNetServerEmulator,
-    multicast_loopback_works,
-)
+from lab.rig.emulators.mocap_scene import MocapScene
+from lab.rig.emulators.natnet_server import NatNetServerEmulator
 from lab.rig.emulators.xm430 import FAULTS, EmulatedXM430Bus, ServoSpec
 
 __all__ = [
@@ -32,7 +29,4 @@ __all__ = [
     "NatNetServerEmulator",
     "ServoSpec",
     "VirtualClock",
-    "default_specs",
-    "kinematic_body_for",
-    "multicast_loopback_works",
 ]

@@ -26,13 +26,25 @@ from lab.errors import InputError
 from lab.rig.base import Body
 from lab.rig.emulators.bodies import KinematicBody, LiveBody
 from lab.rig.emulators.clock import VirtualClock
-from lab.rig.emulators.natnet_server import MocapScene, NatNetServerEmulator
+from lab.rig.emulators.mocap_scene import MocapScene
+from lab.rig.emulators.natnet_server import NatNetServerEmulator
 from lab.rig.emulators.xm430 import EmulatedXM430Bus, ServoSpec
 
 
 def default_specs(n_motors: int) -> list[ServoSpec]:
     """IDs 1..n; zero ticks 1000, 5000 (reported a turn lower at power-up), 3100, ...;
-    every second motor mirrored."""
+    every second motor mirrored.
+
+    Parameters
+    ----------
+    n_motors : int
+        Number of servos.
+
+    Returns
+    -------
+    list of ServoSpec
+        One physical truth per servo, ID ``i + 1`` for motor ``i``.
+    """
     zeros = [1000, 5000, 3100, 700, 2500, 3900]
     return [
         ServoSpec(i + 1, zero_tick=zeros[i % len(zeros)] + 4096 * (i // len(zeros)), direction=1 if i % 2 == 0 else -1)
@@ -42,7 +54,20 @@ def default_specs(n_motors: int) -> list[ServoSpec]:
 
 def kinematic_body_for(robot: RobotDescription, gain_m_per_rad: float = 0.02) -> KinematicBody:
     """A ``KinematicBody`` for ``robot``: pulling a cable moves the tip toward that cable's
-    side (its first via point's direction from the axis) and slightly back along x."""
+    side (its first via point's direction from the axis) and slightly back along x.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot (its cables' via points and the tip marker's rest position).
+    gain_m_per_rad : float
+        Tip displacement per motor angle (m/rad).
+
+    Returns
+    -------
+    KinematicBody
+        Tip at rest at ``robot.p_tip_marker_W``, Jacobian ``J_W`` of shape (3, n_cables) m/rad.
+    """
     cols = []
     for cable in robot.cables:
         yz = cable.via_points_m[0, 1:]
@@ -58,9 +83,31 @@ def _toml(value) -> str:
 class EmulatedBench:
     """Emulated servos and motion capture around ``body`` (a ``Body``); context manager.
 
-    ``virtual_time``: False runs on the wall clock; True on ``self.clock``, a
-    ``VirtualClock`` that the NatNet server advances by one frame period per frame the rig
-    wants, once the body has taken every command of the current time.
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot the bench stands in for (one servo per cable).
+    body : Body, optional
+        The arm both emulators drive; a :func:`kinematic_body_for` the robot when omitted.
+    specs : list of ServoSpec, optional
+        The servos' physical truth (IDs, zero ticks, directions), one per cable;
+        :func:`default_specs` when omitted.
+    scene : MocapScene
+        The motion-capture scene (marker names, base markers, length unit).
+    natnet_version : tuple of int
+        NatNet protocol version the server speaks, e.g. (3, 1).
+    multicast : bool
+        Stream frames by multicast (True) or unicast (False).
+    noise_m : float
+        Gaussian noise per axis on the streamed marker positions (m).
+    frame_rate_hz : float
+        Motion-capture frame rate (Hz).
+    seed : int
+        Seed of the marker noise.
+    virtual_time : bool
+        False runs on the wall clock; True on ``self.clock``, a ``VirtualClock`` that the
+        NatNet server advances by one frame period per frame the rig wants, once the body
+        has taken every command of the current time.
     """
 
     def __init__(
@@ -104,11 +151,19 @@ class EmulatedBench:
             raise
 
     def start(self) -> EmulatedBench:
+        """Start the servo bus and the NatNet server.
+
+        Returns
+        -------
+        EmulatedBench
+            ``self``, serving.
+        """
         self.bus.start()
         self.mocap.start()
         return self
 
     def stop(self) -> None:
+        """Stop the NatNet server and the servo bus."""
         try:
             self.mocap.stop()
         finally:
@@ -122,8 +177,14 @@ class EmulatedBench:
         return False
 
     def rig_options(self) -> dict:
-        """Keyword arguments that put a ``HardwareRig`` on this bench's clock: on virtual
-        time its clock and the wish for each frame it waits for; nothing on the wall clock."""
+        """Keyword arguments that put a ``HardwareRig`` on this bench's clock.
+
+        Returns
+        -------
+        dict
+            On virtual time ``clock`` (the :class:`VirtualClock`) and ``frame_wanted``
+            (the wish for each frame the rig waits for); empty on the wall clock.
+        """
         if self.clock is None:
             return {}
         return {"clock": self.clock, "frame_wanted": self.clock.want_frame}
@@ -133,7 +194,20 @@ class EmulatedBench:
         fields of those tables (for tests of bad settings). The mocap frame timeout is 2 s
         on the wall clock (the server shares a possibly loaded machine with the rig: its
         frames came up to 0.07 s apart with two CPU-bound processes beside it on 2 cores),
-        10 s on virtual time (where it only detects a dead server)."""
+        10 s on virtual time (where it only detects a dead server).
+
+        Parameters
+        ----------
+        servos : dict, optional
+            Field -> value overriding the ``[servos]`` table.
+        mocap : dict, optional
+            Field -> value overriding the ``[mocap]`` table.
+
+        Returns
+        -------
+        str
+            The configuration's TOML text (motor calibration matching ``specs``).
+        """
         s = {
             "port": self.bus.port,
             "baud_rate": self.specs[0].baud_rate,
@@ -178,7 +252,20 @@ class EmulatedBench:
         return "\n".join(lines) + "\n"
 
     def write_config(self, path: str | Path, **overrides) -> Path:
-        """Write ``config_text(**overrides)`` to ``path`` atomically; returns the path."""
+        """Write ``config_text(**overrides)`` to ``path`` atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            The configuration file to write.
+        **overrides
+            ``servos``/``mocap``: as for :meth:`config_text`.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         path = Path(path)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
         try:

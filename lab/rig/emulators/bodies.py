@@ -27,7 +27,15 @@ from lab.rig.base import Body
 
 class LiveBody:
     """A ``Body`` driven on ``clock`` (s; default the wall clock), ``t_s`` = seconds since
-    construction."""
+    construction.
+
+    Parameters
+    ----------
+    body : Body
+        The body to share between the emulators' threads.
+    clock : callable
+        Returns the time (s); ``time.monotonic`` or a :class:`VirtualClock`.
+    """
 
     def __init__(self, body: Body, clock=time.monotonic):
         self.body = body
@@ -37,6 +45,13 @@ class LiveBody:
         self._lock = threading.Lock()
 
     def now(self) -> float:
+        """The body's time.
+
+        Returns
+        -------
+        float
+            Seconds (on ``clock``) since construction.
+        """
         return self._clock() - self._t0
 
     def _tick(self, t_s: float | None = None) -> float:
@@ -47,7 +62,18 @@ class LiveBody:
         """New goal motor angles (n_motors,) rad from ``t_s`` (default now; s on this
         clock) on, with the motors' speeds where the body has a speed limit:
         ``profile_velocity_rad_s`` rad/s, one for all or (n_motors,) one per motor (with
-        any of them 0, a servo that does not drive, the speeds stay as they were)."""
+        any of them 0, a servo that does not drive, the speeds stay as they were).
+
+        Parameters
+        ----------
+        u_goal_rad : array_like
+            Goal motor angles, shape (n_motors,), in rad.
+        t_s : float, optional
+            Time (s on this clock) from which the goal holds; now when omitted, and never
+            before the body's latest time.
+        profile_velocity_rad_s : float or array_like, optional
+            Motor speed (rad/s), one for all or shape (n_motors,); None keeps the speeds.
+        """
         with self._lock:
             t = self._tick(t_s)
             v = None if profile_velocity_rad_s is None else np.asarray(profile_velocity_rad_s, dtype=float)
@@ -59,22 +85,49 @@ class LiveBody:
             self.body.command(np.asarray(u_goal_rad, dtype=float), t)
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """(present motor angles (n_motors,) rad, tip position p_tip_W (3,) m) now."""
+        """The body's state now.
+
+        Returns
+        -------
+        u_present_rad : numpy.ndarray
+            Present motor angles, shape (n_motors,), in rad.
+        p_tip_W : numpy.ndarray
+            Tip position, shape (3,), in m in the frame W.
+        """
         with self._lock:
             return self.body.state(self._tick())
 
     def p_tip_W(self, _t_s: float | None = None) -> np.ndarray:
         """The tip position (3,) m now, as the body gives it (an ``AsBuiltBody``: where the
         room-registered motion capture sees it, with its defects file's base tilt and frame
-        error; the argument is ignored: a NatNet tip source)."""
+        error; the argument is ignored: a NatNet tip source).
+
+        Parameters
+        ----------
+        _t_s : float, optional
+            Ignored (the signature of a NatNet tip source).
+
+        Returns
+        -------
+        numpy.ndarray
+            Tip position p_tip_W, shape (3,), in m.
+        """
         return self.state()[1]
 
 
 class KinematicBody(Body):
     """Motors slewing at ``profile_velocity_rad_s`` (or each at ``motor_speeds_rad_s``
-    (n_motors,) rad/s when set) toward their goals; tip linear in the angles. ``p_rest_W``
-    (3,) m: tip at u = 0; ``J_W`` (3, n_motors) m/rad: tip displacement per motor angle. The
-    last goal and the motor angles are kept for inspection.
+    (n_motors,) rad/s when set) toward their goals; tip linear in the angles. The last goal
+    and the motor angles are kept for inspection.
+
+    Parameters
+    ----------
+    p_rest_W : array_like
+        Tip at u = 0, shape (3,), in m in the frame W.
+    J_W : array_like
+        Tip displacement per motor angle, shape (3, n_motors), in m/rad.
+    profile_velocity_rad_s : float
+        Motor speed (rad/s), positive.
     """
 
     def __init__(self, p_rest_W, J_W, profile_velocity_rad_s: float = 2.0):

@@ -30,15 +30,31 @@ class VirtualClock:
         self._cond = threading.Condition()
 
     def now(self) -> float:
-        """The current time, s."""
+        """The current time.
+
+        Returns
+        -------
+        float
+            Seconds since construction (virtual).
+        """
         with self._cond:
             return self._t_s
 
     __call__ = now
 
     def advance(self, dt_s: float) -> float:
-        """Move the clock on by ``dt_s`` >= 0 s (a frame period, or a quiet spell a test
-        makes); returns the new time, s."""
+        """Move the clock on (by a frame period, or a quiet spell a test makes).
+
+        Parameters
+        ----------
+        dt_s : float
+            The step (s), >= 0.
+
+        Returns
+        -------
+        float
+            The new time (s).
+        """
         if not dt_s >= 0:
             raise ValueError(f"a clock only moves forward, got dt_s = {dt_s}")
         with self._cond:
@@ -52,8 +68,18 @@ class VirtualClock:
             self._cond.notify_all()
 
     def take_wish(self, timeout_s: float) -> bool:
-        """Wait up to ``timeout_s`` (wall clock) for a wished frame; True (and the wish is
-        taken) if there is one."""
+        """Wait for a wished frame.
+
+        Parameters
+        ----------
+        timeout_s : float
+            How long to wait (s, wall clock).
+
+        Returns
+        -------
+        bool
+            True (and the wish is taken) if a frame was wished, False on timeout.
+        """
         with self._cond:
             if not self._cond.wait_for(lambda: self._wished, timeout_s):
                 return False

@@ -13,60 +13,54 @@ period each time. Faults: ``occlude_tip(True)``, ``freeze()`` (the server disapp
 
 from __future__ import annotations
 
-import math
 import socket
 import struct
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from lab.rig.emulators import natnet_packets as nn
 from lab.rig.emulators.clock import VirtualClock
-
-
-def _rotation_z_up_to_y_up(yaw_deg: float) -> np.ndarray:
-    """W (z up) into a Y-up mocap frame, turned by ``yaw_deg`` about the vertical."""
-    to_y_up = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-    yaw = np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-    return yaw @ to_y_up
-
-
-@dataclass(frozen=True)
-class MocapScene:
-    """What the cameras see: marker names, the base markers' positions in W (m), the
-    placement of W in the mocap frame M (``p_M = R_MW p_W + t_MW_m``) and the unit."""
-
-    marker_set: str = "soft_arm"
-    tip_marker: str = "tip"
-    base_markers: tuple = ("base_1", "base_2", "base_3")
-    base_positions_W_m: tuple = ((-0.01, 0.03, 0.03), (-0.01, -0.035, 0.02), (-0.01, 0.0, -0.04))
-    R_MW: np.ndarray = field(default_factory=lambda: _rotation_z_up_to_y_up(30.0))
-    t_MW_m: tuple = (0.40, 0.90, -0.20)
-    tip_rigid_body: tuple | None = ("tip_body", 7)  # (name, id) or None
-    marker_set_model_id: int = 1
-    length_unit_m: float = 1.0  # 1e-3 streams millimetres
-
-    def to_mocap(self, p_W_m: np.ndarray) -> np.ndarray:
-        """(k, 3) m in W -> (k, 3) in M, in the streamed unit."""
-        return (np.atleast_2d(p_W_m) @ self.R_MW.T + np.asarray(self.t_MW_m)) / self.length_unit_m
-
-    @property
-    def marker_names(self) -> list[str]:
-        return [self.tip_marker, *self.base_markers]
+from lab.rig.emulators.mocap_scene import MocapScene
 
 
 class NatNetServerEmulator:
     """Loopback NatNet server; ``command_port``/``data_port`` are the bound ports.
 
-    Use as a context manager (or ``start()``/``stop()``); its threads always stop. ``clock``:
-    None streams on the wall clock at ``frame_rate_hz``; a ``VirtualClock`` sends a frame
-    for each wish (``VirtualClock.want_frame``), calling ``before_frame()`` first (e.g. to
-    let the body take the commands of the current time) and then advancing the clock by
-    one frame period.
+    Use as a context manager (or ``start()``/``stop()``); its threads always stop.
+
+    Parameters
+    ----------
+    tip_W_m : callable
+        ``tip_W_m(t_s)``: the tip marker's position, shape (3,), in m in W at server time
+        ``t_s`` (s), e.g. ``LiveBody.p_tip_W``.
+    scene : MocapScene
+        The markers and the placement of W in the mocap frame.
+    version : tuple of int
+        NatNet protocol version, e.g. (3, 1).
+    frame_rate_hz : float
+        Frame rate (Hz) on the wall clock.
+    multicast : bool
+        Stream to ``multicast_address`` (True) or unicast to each client (False).
+    multicast_address : str
+        The multicast group (loopback, TTL 0).
+    command_port, data_port : int
+        UDP ports to bind; 0 picks free ones.
+    noise_m : float
+        Gaussian noise per axis on every marker (m).
+    seed : int
+        Seed of the noise.
+    host : str
+        The loopback address to bind.
+    clock : VirtualClock, optional
+        None streams on the wall clock at ``frame_rate_hz``; a ``VirtualClock`` sends a
+        frame for each wish (``VirtualClock.want_frame``) and then advances the clock by
+        one frame period.
+    before_frame : callable, optional
+        Called before each frame on a virtual clock (e.g. to let the body take the
+        commands of the current time).
     """
 
     CLIENT_TIMEOUT_S = 10.0
@@ -125,6 +119,13 @@ class NatNetServerEmulator:
 
     # --- lifecycle and faults -------------------------------------------------------
     def start(self) -> NatNetServerEmulator:
+        """Start the command and streaming threads.
+
+        Returns
+        -------
+        NatNetServerEmulator
+            ``self``, serving.
+        """
         stream = self._stream if self.clock is None else self._stream_on_wish
         for target, name in ((self._serve_commands, "natnet-cmd"), (stream, "natnet-data")):
             t = threading.Thread(target=target, name=name, daemon=True)
@@ -133,6 +134,7 @@ class NatNetServerEmulator:
         return self
 
     def stop(self) -> None:
+        """Stop the threads and close the sockets."""
         self._stop.set()
         for t in self._threads:
             t.join(timeout=5.0)
@@ -151,24 +153,52 @@ class NatNetServerEmulator:
         self._frozen.set()
 
     def occlude_tip(self, occluded: bool = True) -> None:
+        """Hide (or show again) the tip marker, as Motive reports an untracked marker.
+
+        Parameters
+        ----------
+        occluded : bool
+            True hides the tip marker from the next frame on; False shows it.
+        """
         self._occluded = bool(occluded)
 
     def now(self) -> float:
-        """The server's time, s: wall clock or virtual, since construction."""
+        """The server's time: wall clock or virtual, since construction.
+
+        Returns
+        -------
+        float
+            Seconds since construction.
+        """
         return self._clock() - self._t0
 
     @property
     def clients(self) -> list[tuple]:
+        """The registered unicast clients' (host, port) addresses."""
         with self._lock:
             return list(self._clients)
 
     # --- messages -------------------------------------------------------------------
     def server_info(self) -> bytes:
+        """The answer to a connect request.
+
+        Returns
+        -------
+        bytes
+            A NatNet server-info packet (version, multicast settings, data port).
+        """
         return nn.server_info(
             self.version, multicast=self.multicast, multicast_address=self.multicast_address, data_port=self.data_port
         )
 
     def model_def(self) -> bytes:
+        """The answer to a model-definition request.
+
+        Returns
+        -------
+        bytes
+            A NatNet model-definition packet: the scene's marker sets and tip rigid body.
+        """
         s = self.scene
         sets = [(s.marker_set, s.marker_names), ("all", s.marker_names)]
         bodies = []
@@ -178,6 +208,21 @@ class NatNetServerEmulator:
         return nn.model_def(self.version, sets, bodies)
 
     def frame(self, frame_number: int, t_s: float) -> bytes:
+        """One frame of data, with the tip where ``tip_W_m(t_s)`` puts it.
+
+        Parameters
+        ----------
+        frame_number : int
+            The frame's number.
+        t_s : float
+            Server time (s) of the frame.
+
+        Returns
+        -------
+        bytes
+            A NatNet frame-of-data packet: marker sets, labeled markers and the tip rigid
+            body, in the mocap frame and the scene's unit (tip untracked while occluded).
+        """
         s = self.scene
         p_W = np.vstack(
             [np.asarray(self.tip_W_m(t_s), dtype=float).reshape(1, 3), np.asarray(s.base_positions_W_m, dtype=float)]
@@ -292,7 +337,20 @@ class NatNetServerEmulator:
 
 def multicast_loopback_works(group: str = "239.255.42.99", host: str = "127.0.0.1") -> bool:
     """Whether this machine delivers a multicast datagram sent on the loopback interface
-    (TTL 0) back to a member socket: the condition for multicast NatNet on loopback."""
+    (TTL 0) back to a member socket: the condition for multicast NatNet on loopback.
+
+    Parameters
+    ----------
+    group : str
+        The multicast group to try.
+    host : str
+        The loopback interface's address.
+
+    Returns
+    -------
+    bool
+        True when the datagram came back within 1 s.
+    """
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
         try:
             rx.bind((group, 0))

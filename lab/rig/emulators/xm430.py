@@ -43,10 +43,18 @@ class EmulatedXM430Bus:
     """XM430 servos on a pseudo-terminal; ``port`` is the device path for the SDK.
 
     Use as a context manager (or ``start()``/``stop()``); the serving thread always stops.
-    ``body``: optional ``Body`` (or ``LiveBody``) the servos drive, motors in ``specs`` order.
-    ``clock``: seconds, e.g. ``time.monotonic`` or a ``VirtualClock``.
     ``max_packet_gap_s`` is the longest time between two instruction packets (a test may
     reset it to 0): how long the host left the servos' Bus Watchdog unfed.
+
+    Parameters
+    ----------
+    specs : iterable of ServoSpec
+        The servos' physical truth, unique IDs; motor ``i`` of the body is ``specs[i]``.
+    body : Body or LiveBody, optional
+        The arm the servos drive (a ``Body`` is wrapped in a wall-clock ``LiveBody``);
+        None: servos without a load.
+    clock : callable
+        Returns the time (s), e.g. ``time.monotonic`` or a ``VirtualClock``.
     """
 
     def __init__(self, specs, *, body=None, clock=time.monotonic):
@@ -75,6 +83,13 @@ class EmulatedXM430Bus:
 
     # --- lifecycle ------------------------------------------------------------------
     def start(self) -> EmulatedXM430Bus:
+        """Start serving the pty (and driving the body, if any).
+
+        Returns
+        -------
+        EmulatedXM430Bus
+            ``self``, serving.
+        """
         self._thread = threading.Thread(target=self._serve, name="xm430-bus", daemon=True)
         self._thread.start()
         if self.body is not None:
@@ -84,6 +99,7 @@ class EmulatedXM430Bus:
         return self
 
     def stop(self) -> None:
+        """Stop the threads and close the pty (the SDK's next read or write fails)."""
         self._stop.set()
         self._body_queue.put(None)
         for thread in (self._thread, self._body_thread):
@@ -107,16 +123,48 @@ class EmulatedXM430Bus:
 
     # --- inspection and faults ------------------------------------------------------
     def now(self) -> float:
+        """The bus time.
+
+        Returns
+        -------
+        float
+            Seconds (on ``clock``) since construction.
+        """
         return self._clock() - self._t0
 
     def servo(self, dxl_id: int) -> EmulatedServo:
+        """The emulated servo with ID ``dxl_id`` (KeyError if there is none).
+
+        Parameters
+        ----------
+        dxl_id : int
+            The servo's Dynamixel ID (0..252).
+
+        Returns
+        -------
+        EmulatedServo
+            Its control table, spool angle and fault state.
+        """
         for s in self.servos:
             if s.dxl_id == dxl_id:
                 return s
         raise KeyError(f"no emulated servo with ID {dxl_id}")
 
     def state(self, dxl_id: int) -> dict:
-        """Registers of one servo after advancing it to now (for tests)."""
+        """Registers of one servo after advancing it to now (for tests).
+
+        Parameters
+        ----------
+        dxl_id : int
+            The servo's Dynamixel ID.
+
+        Returns
+        -------
+        dict
+            ``torque_enable``, ``operating_mode``, ``profile_velocity``, ``goal_position``,
+            ``present_position`` (ticks), ``hardware_error_status``, ``moving`` (raw register
+            values) and ``u_goal_rad``, the goal as a motor angle (rad).
+        """
         with self._lock:
             s = self.servo(dxl_id)
             s.advance(self.now())
@@ -132,6 +180,20 @@ class EmulatedXM430Bus:
             return {n: s.get(n) for n in names} | {"u_goal_rad": s.u_goal_rad()}
 
     def inject_fault(self, dxl_id: int, fault: str, count: int | None = None) -> None:
+        """Make one servo misbehave.
+
+        Parameters
+        ----------
+        dxl_id : int
+            The servo's Dynamixel ID.
+        fault : str
+            One of :data:`FAULTS`: ``silent`` (no status replies), ``disconnected`` (hears
+            nothing), ``bad_crc`` (replies with a corrupted CRC), ``crc_error`` (reports a
+            CRC error), ``overload`` (sets the overload bit of the hardware error status;
+            torque off where the shutdown register says so, until REBOOT).
+        count : int, optional
+            How many replies the fault affects; None: until :meth:`clear_fault`.
+        """
         if fault not in FAULTS:
             raise InputError(f"unknown fault {fault!r}; expected one of {FAULTS}")
         with self._lock:
@@ -144,6 +206,13 @@ class EmulatedXM430Bus:
         self._command_body()
 
     def clear_fault(self, dxl_id: int) -> None:
+        """End an injected communication fault of one servo (an overload needs a REBOOT).
+
+        Parameters
+        ----------
+        dxl_id : int
+            The servo's Dynamixel ID.
+        """
         with self._lock:
             self.servo(dxl_id).fault = None
 
@@ -199,7 +268,13 @@ class EmulatedXM430Bus:
                 self._body_queue.task_done()
 
     def wait_body(self, timeout_s: float = 10.0) -> None:
-        """Block until the body has been given every queued command (for tests)."""
+        """Block until the body has been given every queued command (for tests).
+
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait (s, wall clock); returns then even with commands still queued.
+        """
         deadline = time.monotonic() + timeout_s
         while self._body_queue.unfinished_tasks and time.monotonic() < deadline:
             time.sleep(0.005)

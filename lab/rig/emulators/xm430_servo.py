@@ -89,9 +89,24 @@ EXTENDED_GOAL_LIMIT = 1_048_575
 class ServoSpec:
     """The physical truth of one emulated servo.
 
-    ``zero_tick``: spool angle (ticks, multi-turn) where the cable is just taut (u = 0);
-    ``direction``: +1 if increasing ticks wind the cable in; ``start_tick``: spool angle at
-    power-up (default ``zero_tick``, the robot at rest); speeds in rad/s of the spool.
+    Attributes
+    ----------
+    dxl_id : int
+        Dynamixel ID, 0..252.
+    zero_tick : int
+        Spool angle (ticks, multi-turn; 4096 per revolution) where the cable is just taut (u = 0).
+    direction : int
+        +1 if increasing ticks wind the cable in, -1 if they let it out.
+    start_tick : int or None
+        Spool angle (ticks) at power-up; None: ``zero_tick``, the robot at rest.
+    model_number : int
+        The model number register (1020: XM430-W350).
+    baud_rate : int
+        The only baud rate (bit/s) the servo hears.
+    max_speed_rad_s : float
+        No-load speed of the spool (rad/s).
+    backdrive_speed_rad_s : float
+        Speed (rad/s) at which the foam pulls the spool back to ``zero_tick`` with torque off.
     """
 
     dxl_id: int
