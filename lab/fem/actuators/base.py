@@ -9,7 +9,7 @@ coordinates with the body's :class:`~lab.fem.bodies.base.FreeCoordinates`.
 What it needs from the statics: an actuator whose force is a stiff one-dimensional law
 along a few directions (a cable's spring along its length) returns a :class:`Condensation`
 from :meth:`Actuator.gradient`, and the Newton steps keep that law exact in those
-coordinates (:func:`lab.fem.solve.steps.condensed_step`). Others return None.
+coordinates (``lab.fem.solve.steps.condensed_step``). Others return None.
 
 A new actuator is one module with an :class:`Actuator` subclass decorated with
 :func:`register_actuator`; :data:`ACTUATORS` lists them by name.

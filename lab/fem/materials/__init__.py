@@ -7,13 +7,12 @@ with :func:`register_material`.
 """
 
 from lab.fem.materials.base import MATERIALS, Material, MaterialLaw, register_material
-from lab.fem.materials.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
+from lab.fem.materials.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_matching
 from lab.fem.materials.neo_hookean import (
     InvertedElementError,
     NeoHookean,
     NeoHookeanMaterial,
     lame,
-    project_psd,
 )
 
 __all__ = [
@@ -23,11 +22,9 @@ __all__ = [
     "register_material",
     "Hyperfoam",
     "HyperfoamMaterial",
-    "hyperfoam_law",
     "hyperfoam_matching",
     "InvertedElementError",
     "NeoHookean",
     "NeoHookeanMaterial",
     "lame",
-    "project_psd",
 ]

@@ -205,7 +205,7 @@ class Hyperfoam(TetElements):
         return cls(tets, G, V, np.broadcast_to(mu, (M,)).copy(), float(alpha), float(beta))
 
     def law(self, x_W: np.ndarray, order: int):
-        """:func:`hyperfoam_law` at node positions ``x_W`` (N, 3)."""
+        """``hyperfoam_law`` at node positions ``x_W`` (N, 3)."""
         return hyperfoam_law(self.deformation_gradient(x_W), self.mu, self.alpha, self.beta, order)
 
     def energy(self, x_W: np.ndarray) -> float:

@@ -7,7 +7,7 @@ shared with the foam law of :mod:`lab.fem.materials.hyperfoam`) maps them to eve
 element's F, kept as (3, 3, M), and B^T scatters the stresses back to the nodes,
 dE/dx = B^T vec(V P), with the first Piola-Kirchhoff stress P = mu F - (mu - lam ln J) F^-T.
 The element Hessian is exact, in closed form; it is indefinite under strong compression,
-so :func:`project_psd` clamps negative eigenvalues element by element when the solver
+so ``project_psd`` clamps negative eigenvalues element by element when the solver
 needs a descent direction. A tet with J <= 0 is inverted and has infinite energy.
 :meth:`NeoHookean.hessian_product` gives exact Hessian products the same way.
 

@@ -12,14 +12,6 @@ actuators' :class:`~lab.fem.actuators.Condensation`).
 from lab.fem.solve.linsolve import SingularMatrixError, default_backend, factorize
 from lab.fem.solve.parameters import ParameterError, ParameterLayout, ParametrisedFEM, as_built_description
 from lab.fem.solve.statics import StaticSolution, StaticSolveError, sensitivities, solve_static
-from lab.fem.solve.steps import (
-    Factorised,
-    condensed_step,
-    newton_step,
-    reused_sensitivity,
-    secant_step,
-    shifted_step,
-)
 from lab.fem.solve.warmstart import WalkPredictor
 
 __all__ = [
@@ -34,11 +26,5 @@ __all__ = [
     "StaticSolveError",
     "sensitivities",
     "solve_static",
-    "Factorised",
-    "condensed_step",
-    "newton_step",
-    "reused_sensitivity",
-    "secant_step",
-    "shifted_step",
     "WalkPredictor",
 ]

@@ -36,7 +36,7 @@ from lab.fem.solve.steps import (
 
 #: A step may reuse the last factorisation (a "chord" step: one solve instead of an
 #: assembly and a factorisation, BFGS-updated with the secant pairs of the steps taken
-#: since, :func:`lab.fem.solve.steps.secant_step`) when the previous step was within CHORD_WINDOW
+#: since, ``lab.fem.solve.steps.secant_step``) when the previous step was within CHORD_WINDOW
 #: tolerances (1e-3 m by default); it is kept only if it is at most CHORD_CONTRACTION
 #: of the previous step and passes the line search at full length, otherwise the
 #: Hessian is reassembled and refactorised where the chord step started. (Chord steps
