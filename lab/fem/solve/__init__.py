@@ -4,9 +4,10 @@
 sparse factorisations in :mod:`.linsolve`) give x(u) = argmin_x E(x, u) and dx/du;
 :class:`WalkPredictor` (:mod:`.warmstart`) warm-starts a walk of neighbouring solves;
 :class:`ParametrisedFEM` (:mod:`.parameters`) gives the FEM of as-built parameters theta and
-dx/dtheta, theta laid out by :class:`ParameterLayout` (:mod:`.parameter_layout`). They use the model only through its generic interface
-(:class:`lab.fem.model.ArmFEM`: energy, gradient, Hessian, mixed derivative, the
-actuators' :class:`~lab.fem.actuators.Condensation`).
+dx/dtheta, theta laid out by :class:`ParameterLayout` (:mod:`.parameter_layout`). They use
+the model only through its generic interface (:class:`lab.fem.model.ArmFEM`: energy,
+gradient, Hessian, mixed derivative, the actuators'
+:class:`~lab.fem.actuators.Condensation`).
 """
 
 from lab.fem.solve.linsolve import SingularMatrixError, default_backend, factorize
