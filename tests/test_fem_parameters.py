@@ -9,7 +9,8 @@ from helpers import fd_jacobian
 
 from lab.asbuilt.arm import as_built_fem, load_defects
 from lab.fem.model import ArmFEM
-from lab.fem.solve.parameters import ParameterError, ParameterLayout, ParametrisedFEM
+from lab.fem.solve.parameter_layout import ParameterError, ParameterLayout
+from lab.fem.solve.parameters import ParametrisedFEM
 from lab.fem.solve.statics import sensitivities, solve_static
 
 MESH = dict(n_rings=1, n_axial=6)

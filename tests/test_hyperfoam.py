@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 from lab.errors import InputError
 from lab.fem import ArmFEM, solve_static
 from lab.fem.bodies.mesh import cylinder_mesh
+from lab.fem.materials.elements import InvertedElementError
 from lab.fem.materials.hyperfoam import (
     REPEATED_LOG_GAP,
     Hyperfoam,
@@ -21,7 +22,7 @@ from lab.fem.materials.hyperfoam import (
     hyperfoam_law,
     hyperfoam_matching,
 )
-from lab.fem.materials.neo_hookean import InvertedElementError, lame
+from lab.fem.materials.neo_hookean import lame
 
 MU = 1.5e4
 R1, R2 = Rotation.from_rotvec([0.3, -0.5, 0.8]).as_matrix(), Rotation.from_rotvec([-0.7, 0.2, 0.4]).as_matrix()

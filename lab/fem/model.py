@@ -22,7 +22,8 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.fem.bodies import CylinderBody, FreeCoordinates
 from lab.fem.bodies.mesh import TetMesh
-from lab.fem.materials import NeoHookeanMaterial, project_psd
+from lab.fem.materials import NeoHookeanMaterial
+from lab.fem.materials.neo_hookean import project_psd
 from lab.fem.model_inputs import ActuatedModel
 
 

@@ -27,7 +27,8 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.solve.parameters import ParameterLayout, ParametrisedFEM
+from lab.fem.solve.parameter_layout import ParameterLayout
+from lab.fem.solve.parameters import ParametrisedFEM
 from lab.transfer.samples import Samples
 
 __all__ = ["DEFAULT_PRIOR_STD", "DISCREPANCY_QUANTILE", "CalibrationResult", "calibrate", "model_check", "prior_std"]

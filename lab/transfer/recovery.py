@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.description import RobotDescription
-from lab.fem.solve.parameters import AXES, ParameterLayout
+from lab.fem.solve.parameter_layout import AXES, ParameterLayout
 
 __all__ = [
     "true_theta",

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.solve.parameters import ParameterError, ParametrisedFEM
+from lab.fem.solve.parameter_layout import ParameterError
+from lab.fem.solve.parameters import ParametrisedFEM
 from lab.fem.solve.statics import solve_static
 
 

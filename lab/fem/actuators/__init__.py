@@ -8,7 +8,7 @@ with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imp
 """
 
 from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
-from lab.fem.actuators.cable_routes import CableRoute, CableSet, spring
+from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
 
 __all__ = [
@@ -18,6 +18,5 @@ __all__ = [
     "register_actuator",
     "CableActuator",
     "CableRoute",
-    "CableSet",
     "spring",
 ]

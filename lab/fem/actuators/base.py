@@ -9,7 +9,7 @@ coordinates with the body's :class:`~lab.fem.bodies.base.FreeCoordinates`.
 What it needs from the statics: an actuator whose force is a stiff one-dimensional law
 along a few directions (a cable's spring along its length) returns a :class:`Condensation`
 from :meth:`Actuator.gradient`, and the Newton steps keep that law exact in those
-coordinates (:func:`lab.fem.solve.steps.condensed_step`). Others return None.
+coordinates (``lab.fem.solve.steps.condensed_step``). Others return None.
 
 A new actuator is one module with an :class:`Actuator` subclass decorated with
 :func:`register_actuator`; :data:`ACTUATORS` lists them by name.
@@ -55,11 +55,23 @@ def register_actuator(name: str):
 @dataclass
 class Condensation:
     """Coordinates e = A^T dq (k,) along which an actuator's force is a one-dimensional law
-    that the Newton steps keep exact: ``A`` (n_free, k) the directions (m per m),
-    ``stretch`` (k,) where the law is evaluated now (m), ``law`` a function stretch (k,) ->
-    (energy (J), force (N), stiffness (N/m)), each (k,), ``scale`` the smallest stretch
-    (m) worth resolving, ``inputs`` the slice of u the law's stretch moves with, and
-    ``gain``: d stretch / d u for those inputs (m per unit of u, scalar or (k,))."""
+    that the Newton steps keep exact.
+
+    Attributes
+    ----------
+    A : ndarray, shape (n_free, k)
+        The directions, m per m.
+    stretch : ndarray, shape (k,)
+        Where the law is evaluated now, m.
+    law : callable
+        Stretch (k,) m -> (energy J, force N, stiffness N/m), each (k,).
+    scale : float
+        The smallest stretch worth resolving, m.
+    inputs : slice
+        The entries of u the law's stretch moves with.
+    gain : float or ndarray, shape (k,)
+        d stretch / d u for those inputs, m per unit of u.
+    """
 
     A: np.ndarray
     stretch: np.ndarray
@@ -176,6 +188,13 @@ class Actuator(ABC):
     def energy_and_gradient(self, x_W: np.ndarray, u: np.ndarray):
         """:meth:`energy` and :meth:`gradient` together.
 
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
+
         Returns
         -------
         tuple
@@ -197,6 +216,13 @@ class Actuator(ABC):
     def hessian_blocks(self, x_W: np.ndarray, u: np.ndarray) -> list[np.ndarray]:
         """d2E_a/dx2 on each block of :meth:`block_dofs`, ravelled (3K * 3K,) in N/m.
 
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
+
         Returns
         -------
         list of ndarray
@@ -206,6 +232,13 @@ class Actuator(ABC):
 
     def hessian_product(self, x_W: np.ndarray, u: np.ndarray) -> Callable:
         """Exact Hessian products without assembly.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
 
         Returns
         -------
@@ -235,6 +268,13 @@ class Actuator(ABC):
     def input_states(self, x_W: np.ndarray, u: np.ndarray) -> tuple[bool, ...]:
         """Whether each input's actuation is engaged (a cable taut); a warm start that
         flips one whose input did not move is implausible.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (n_inputs,)
+            This actuator's inputs.
 
         Returns
         -------

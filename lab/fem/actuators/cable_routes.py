@@ -28,8 +28,21 @@ import numpy as np
 
 @dataclass(frozen=True)
 class CableRoute:
-    """A cable embedded in a mesh: anchor (3,), via nodes (K, 4), weights (K, 4), rest
-    length ``L0_m``, ``slack_m`` added to the free length (as-built defects)."""
+    """A cable embedded in a mesh: its anchor and K via points (eyelets) in tets.
+
+    Attributes
+    ----------
+    anchor_W : ndarray, shape (3,)
+        The fixed anchor in frame W, m.
+    nodes : ndarray of int, shape (K, 4)
+        The nodes of each via point's tet.
+    weights : ndarray, shape (K, 4)
+        The via points' barycentric weights.
+    L0_m : float
+        Rest length, m.
+    slack_m : float
+        Added to the free length (as-built defects), m.
+    """
 
     anchor_W: np.ndarray
     nodes: np.ndarray
@@ -38,15 +51,51 @@ class CableRoute:
     slack_m: float = 0.0
 
     def points(self, x_W: np.ndarray) -> np.ndarray:
-        """Polyline (K + 1, 3): anchor then via points, for node positions x_W (N, 3)."""
+        """The cable's polyline: anchor then via points.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (K + 1, 3)
+            Its points in frame W, m.
+        """
         p = np.einsum("kj,kjd->kd", self.weights, x_W[self.nodes])
         return np.vstack([self.anchor_W, p])
 
     def length(self, x_W: np.ndarray) -> float:
+        """The cable's length L.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        float
+            L, m.
+        """
         return float(np.linalg.norm(np.diff(self.points(x_W), axis=0), axis=1).sum())
 
     def length_gradient(self, x_W: np.ndarray):
-        """L (m) and dL/dp (K, 3) with respect to the via points."""
+        """The length and its gradient with respect to the via points.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        L : float
+            Length, m.
+        dL_dp : ndarray, shape (K, 3)
+            dL/dp per via point, m per m.
+        """
         L, dL, _, _ = self._segments(x_W)
         return L, dL
 
@@ -59,7 +108,22 @@ class CableRoute:
         return float(l.sum()), dL, n, l
 
     def length_derivatives(self, x_W: np.ndarray):
-        """L, dL/dp (K, 3) and d2L/dp2 (3K, 3K) with respect to the via points."""
+        """The length and its first two derivatives with respect to the via points.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        L : float
+            Length, m.
+        dL_dp : ndarray, shape (K, 3)
+            dL/dp per via point, m per m.
+        d2L_dp2 : ndarray, shape (3K, 3K)
+            d2L/dp2, 1/m, via point coordinates ravelled x, y, z per point.
+        """
         L, dL, n, l = self._segments(x_W)
         K = len(l)
         P = (np.eye(3)[None] - n[:, :, None] * n[:, None, :]) / l[:, None, None]
@@ -73,7 +137,14 @@ class CableRoute:
         return L, dL, H.reshape(3 * K, 3 * K)
 
     def embedding_matrix(self) -> np.ndarray:
-        """W (3K, 12K): via point coordinates = W @ element dofs of ``self.nodes``."""
+        """The via points as a linear map of the dofs of their tets.
+
+        Returns
+        -------
+        ndarray, shape (3K, 12K)
+            W with via point coordinates = W @ element dofs of ``self.nodes`` (ravelled
+            x, y, z per node), m per m.
+        """
         K = len(self.nodes)
         W = np.zeros((K, 3, K, 4, 3))
         for k in range(K):
@@ -86,7 +157,22 @@ def spring(d, k: float, eps: float):
     """One-sided spring on the stretch ``d`` (m): energy (J), tension dE/dd (N), d2E/dd2 (N/m).
 
     Exactly zero when slack (d <= 0), ``k/2 (d^2 - d eps + eps^2/3)`` beyond ``eps``, and
-    the cubic ``k d^3 / (6 eps)`` in between, so E is C2 and Newton sees no kink."""
+    the cubic ``k d^3 / (6 eps)`` in between, so E is C2 and Newton sees no kink.
+
+    Parameters
+    ----------
+    d : array_like
+        Stretches L - L*, m (any shape).
+    k : float
+        Stiffness when taut, N/m.
+    eps : float
+        Smoothing width, m.
+
+    Returns
+    -------
+    energy, tension, stiffness : ndarray
+        In J, N and N/m, each shaped as ``d``.
+    """
     d = np.asarray(d, dtype=float)
     dc = np.clip(d, 0.0, eps)  # cubic part
     dq = np.maximum(d - eps, 0.0)  # quadratic part beyond eps

@@ -118,30 +118,110 @@ class CableActuator(Actuator):
         return self.robot.check_command(u)
 
     def targets(self, u) -> np.ndarray:
-        """Free lengths L* = L0 + slack - r u (m,) in m for motor angles ``u`` (m,) rad."""
+        """The cables' free lengths L* = L0 + slack - r u.
+
+        Parameters
+        ----------
+        u : array_like, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            L*, m.
+        """
         return np.array([c.L0_m + c.slack_m for c in self.routes]) - self.robot.spool_radius_m * np.asarray(u)
 
     def lengths(self, x_W) -> np.ndarray:
-        """Cable lengths L (m,) in m at node positions ``x_W`` (N, 3) m."""
+        """The cables' lengths.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Lengths L, m.
+        """
         return self.set.lengths(x_W)
 
     def tensions(self, x_W, u) -> np.ndarray:
-        """Cable tensions (m,) in N at node positions ``x_W`` (N, 3) m and angles ``u`` rad."""
+        """The cables' tensions.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Tensions, N (0 where slack).
+        """
         return self.law(self.lengths(x_W) - self.targets(u))[1]
 
     def energy(self, x_W, u) -> float:
-        """Spring energy in J (see :meth:`Actuator.energy`)."""
+        """The springs' energy (see :meth:`Actuator.energy`).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        float
+            Energy, J.
+        """
         return float(np.sum(self.law(self.lengths(x_W) - self.targets(u))[0]))
 
     def energy_and_gradient(self, x_W, u):
-        """Energy (J), gradient A tau (n_free,) N and the stretches' :class:`Condensation`."""
+        """Energy, gradient A tau and the stretches' :class:`Condensation`, sharing the lengths.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        energy : float
+            J.
+        g : ndarray, shape (n_free,)
+            dE/dq, N.
+        condensation : Condensation
+            The m stretches.
+        """
         L, A, _ = self.set.jacobian(x_W)
         d = L - self.targets(u)
         e, tension, _ = self.law(d)
         return float(np.sum(e)), A @ tension, self._condensation(A, d)
 
     def gradient(self, x_W, u):
-        """Gradient A tau (n_free,) N and the stretches' :class:`Condensation`."""
+        """Gradient A tau and the stretches' :class:`Condensation`.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        g : ndarray, shape (n_free,)
+            dE/dq, N.
+        condensation : Condensation
+            The m stretches.
+        """
         L, A, _ = self.set.jacobian(x_W)
         d = L - self.targets(u)
         return A @ self.law(d)[1], self._condensation(A, d)
@@ -152,11 +232,30 @@ class CableActuator(Actuator):
         )
 
     def block_dofs(self) -> list[np.ndarray]:
-        """One dense block per cable over the dofs of its eyelets' tets (1, 12K)."""
+        """One dense block per cable over the dofs of its eyelets' tets.
+
+        Returns
+        -------
+        list of ndarray, shape (1, 12K)
+            Mesh dofs (ravelled x, y, z per node) of each cable's K eyelet tets.
+        """
         return [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in self.routes]
 
     def hessian_blocks(self, x_W, u) -> list[np.ndarray]:
-        """W^T (E'' g g^T + E' d2L/dp2) W per cable, g = dL/dp, ravelled."""
+        """W^T (E'' g g^T + E' d2L/dp2) W per cable, g = dL/dp, ravelled.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        list of ndarray, shape (144 K^2,)
+            Each cable's (12K, 12K) block over :meth:`block_dofs`, N/m.
+        """
         blocks = []
         for c, L_star in zip(self.routes, self.targets(u)):
             L, dL_dp, d2L_dp2 = c.length_derivatives(x_W)
@@ -167,7 +266,21 @@ class CableActuator(Actuator):
         return blocks
 
     def hessian_product(self, x_W, u):
-        """Springs along dL/dq, plus the taut cables turning: tension (d2L/dp2) dp."""
+        """Springs along dL/dq, plus the taut cables turning: tension (d2L/dp2) dp.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        callable
+            ``(acc, v, dx_W) -> acc + d2E/dq2 v`` for ``v`` (n_free,) m and the same
+            displacement on the nodes ``dx_W`` (N, 3) m; ``acc`` (n_free,) N.
+        """
         cables = self.set
         L, A, segments = cables.jacobian(x_W)
         _, tension, stiffness = self.law(L - self.targets(u))
@@ -180,13 +293,39 @@ class CableActuator(Actuator):
         return apply
 
     def mixed_derivative(self, x_W, u) -> np.ndarray:
-        """d2E/dq du = r A K (n_free, m) in N/rad."""
+        """How the motor angles change the forces: d2E/dq du = r A K.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (n_free, m)
+            d2E/dq du, N/rad.
+        """
         L, A, _ = self.set.jacobian(x_W)
         stiffness = self.law(L - self.targets(u))[2]
         return A * (stiffness * self.robot.spool_radius_m)
 
     def input_states(self, x_W, u) -> tuple[bool, ...]:
-        """Which cables pull (tension > 0)."""
+        """Which cables pull (tension > 0).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        tuple of bool, length m
+            True where the cable is taut.
+        """
         return tuple(bool(t > 0) for t in self.tensions(x_W, u))
 
     def geometry_force_derivative(self, x_W, u, P: np.ndarray):

@@ -8,7 +8,7 @@ one module with a :class:`Body` subclass decorated with :func:`register_body`.
 
 from lab.fem.bodies.base import BODIES, Body, FreeCoordinates, Marker, register_body
 from lab.fem.bodies.cylinder import CylinderBody
-from lab.fem.bodies.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, robot_mesh, save_mesh
+from lab.fem.bodies.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, save_mesh
 from lab.fem.bodies.mesh_spec import MeshSpec
 
 __all__ = [
@@ -23,6 +23,5 @@ __all__ = [
     "cylinder_mesh",
     "load_mesh",
     "register_body",
-    "robot_mesh",
     "save_mesh",
 ]

@@ -49,8 +49,15 @@ def register_body(name: str):
 
 @dataclass(frozen=True)
 class Marker:
-    """A body point embedded in the rest mesh: ``nodes`` (4,) of its tet and barycentric
-    ``weights`` (4,), so its position is ``weights @ x_W[nodes]`` (m)."""
+    """A body point embedded in the rest mesh: its position is ``weights @ x_W[nodes]`` (m).
+
+    Attributes
+    ----------
+    nodes : ndarray of int, shape (4,)
+        The nodes of the tet holding the point.
+    weights : ndarray, shape (4,)
+        Barycentric weights, non-negative and summing to 1.
+    """
 
     nodes: np.ndarray
     weights: np.ndarray
@@ -111,8 +118,16 @@ class Body(ABC):
 
 @dataclass(frozen=True)
 class FreeCoordinates:
-    """The unknowns of a body: ``free_dofs`` (n_free,) indices into the ravelled node
-    positions (3N,), and ``dof_to_free`` (3N,) the inverse map (-1 where clamped)."""
+    """The unknowns of a body: the free coordinates q (n_free,) among the ravelled node
+    positions x_W (3N,) (m), every coordinate of every unclamped node.
+
+    Attributes
+    ----------
+    free_dofs : ndarray of int, shape (n_free,)
+        Indices of the free coordinates in the ravelled node positions (3N,).
+    dof_to_free : ndarray of int, shape (3N,)
+        The inverse map: the index in q of each coordinate, -1 where clamped.
+    """
 
     free_dofs: np.ndarray
     dof_to_free: np.ndarray

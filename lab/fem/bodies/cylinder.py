@@ -1,6 +1,6 @@
 """The structured cylinder of a robot description, clamped at its base, with its tip marker.
 
-The body every description has today: :func:`lab.fem.bodies.mesh.robot_mesh` (or a given
+The body every description has today: ``lab.fem.bodies.mesh.robot_mesh`` (or a given
 mesh), the nodes of the base face x = min clamped, and the description's tip marker
 ``p_tip_marker_W`` as the marker ``"tip"``.
 """

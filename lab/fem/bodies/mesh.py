@@ -21,23 +21,43 @@ from lab.files import format_bytes
 
 @dataclass(frozen=True)
 class TetMesh:
-    """Rest node positions ``X_W`` (N, 3) in metres and tetrahedra ``tets`` (M, 4),
-    positively oriented (det[X1-X0, X2-X0, X3-X0] > 0)."""
+    """A tetrahedral mesh at rest, positively oriented (det[X1-X0, X2-X0, X3-X0] > 0).
+
+    Attributes
+    ----------
+    X_W : ndarray, shape (N, 3)
+        Rest node positions in frame W, m.
+    tets : ndarray of int, shape (M, 4)
+        Node indices of each tetrahedron.
+    """
 
     X_W: np.ndarray
     tets: np.ndarray
 
     @property
     def n_nodes(self) -> int:
+        """Number of nodes N."""
         return len(self.X_W)
 
     def volumes(self) -> np.ndarray:
-        """Rest volume of every tet (M,), m^3."""
+        """Rest volume of every tet.
+
+        Returns
+        -------
+        ndarray, shape (M,)
+            Signed volumes, m^3 (positive for an oriented mesh).
+        """
         X = self.X_W[self.tets]
         return np.linalg.det(np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)) / 6.0
 
     def surface_triangles(self) -> np.ndarray:
-        """Boundary faces (F, 3), wound counter-clockwise seen from outside."""
+        """The faces on the mesh's boundary.
+
+        Returns
+        -------
+        ndarray of int, shape (F, 3)
+            Node indices of each boundary triangle, wound counter-clockwise seen from outside.
+        """
         t = self.tets
         # Faces opposite vertex 0..3, each wound so its normal points out of the tet.
         faces = np.concatenate([t[:, [1, 2, 3]], t[:, [0, 3, 2]], t[:, [0, 1, 3]], t[:, [0, 2, 1]]])
@@ -118,6 +138,22 @@ def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) 
 
     ``n_rings`` rings across the radius and ``n_axial`` layers along the length give
     ``(1 + 3 n_rings (n_rings + 1)) (n_axial + 1)`` nodes and ``18 n_rings^2 n_axial`` tets.
+
+    Parameters
+    ----------
+    length_m : float
+        Length along +x, m.
+    radius_m : float
+        Radius, m.
+    n_rings : int
+        Rings across the radius (>= 1).
+    n_axial : int
+        Layers along the length (>= 1).
+
+    Returns
+    -------
+    TetMesh
+        The oriented mesh in frame W (the axis on +x, the base at x = 0).
     """
     check_mesh_size(n_rings, n_axial)  # before allocating anything
     disk, tris = _disk(radius_m, n_rings)
@@ -136,7 +172,20 @@ def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) 
 
 def robot_mesh(robot, n_rings: int | None = None, n_axial: int | None = None) -> TetMesh:
     """The structured cylinder mesh of a robot description, at its own resolution unless
-    ``n_rings``/``n_axial`` override it."""
+    ``n_rings``/``n_axial`` override it.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Gives ``length_m``, ``radius_m`` (m) and the default ``n_rings``, ``n_axial``.
+    n_rings, n_axial : int or None
+        Overrides of the description's resolution.
+
+    Returns
+    -------
+    TetMesh
+        The :func:`cylinder_mesh` of the robot, in frame W.
+    """
     n_rings = robot.n_rings if n_rings is None else n_rings
     n_axial = robot.n_axial if n_axial is None else n_axial
     return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
@@ -153,7 +202,20 @@ def _oriented(mesh: TetMesh) -> TetMesh:
 
 
 def load_mesh(path) -> TetMesh:
-    """Read a tetrahedral mesh (metres) with meshio: .msh, .vtu, .mesh, .xdmf, ..."""
+    """Read a tetrahedral mesh (metres) with meshio: .msh, .vtu, .mesh, .xdmf, ...
+
+    Only the tetrahedra and the nodes they use are kept; tets are reoriented positively.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file; its coordinates are read as m in frame W.
+
+    Returns
+    -------
+    TetMesh
+        The mesh (InputError if the file has no tetrahedra or a degenerate one).
+    """
     import meshio
 
     m = meshio.read(path)
@@ -167,6 +229,15 @@ def load_mesh(path) -> TetMesh:
 
 
 def save_mesh(path, mesh: TetMesh) -> None:
+    """Write a mesh's nodes (m) and tetrahedra with meshio, in the format of ``path``'s suffix.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write (.msh, .vtu, ...).
+    mesh : TetMesh
+        The mesh.
+    """
     import meshio
 
     meshio.write(path, meshio.Mesh(mesh.X_W, [("tetra", mesh.tets)]))
@@ -174,7 +245,24 @@ def save_mesh(path, mesh: TetMesh) -> None:
 
 def barycentric(mesh: TetMesh, p_W: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Embed points in the rest mesh: nodes (P, 4) and weights (P, 4) with
-    ``p = sum_k weights[:, k] * X_W[nodes[:, k]]``. Points outside raise ValueError."""
+    ``p = sum_k weights[:, k] * X_W[nodes[:, k]]``. Points outside raise ValueError.
+
+    Parameters
+    ----------
+    mesh : TetMesh
+        The rest mesh.
+    p_W : array_like, shape (P, 3) or (3,)
+        Points in frame W, m.
+    tol : float
+        How far below zero a barycentric weight may be for a point on a face.
+
+    Returns
+    -------
+    nodes : ndarray of int, shape (P, 4)
+        The nodes of the tet holding each point.
+    weights : ndarray, shape (P, 4)
+        Barycentric weights, non-negative and summing to 1.
+    """
     p_W = np.atleast_2d(np.asarray(p_W, dtype=float))
     X = mesh.X_W[mesh.tets]
     T = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)

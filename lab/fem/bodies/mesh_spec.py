@@ -18,7 +18,15 @@ __all__ = ["MeshSpec"]
 
 @dataclass(frozen=True)
 class MeshSpec(Spec):
-    """Mesh resolution overrides; ``None`` keeps the robot description's value."""
+    """Mesh resolution overrides; ``None`` keeps the robot description's value.
+
+    Attributes
+    ----------
+    n_rings : int or None
+        Rings across the radius (>= 1).
+    n_axial : int or None
+        Layers along the length (>= 1).
+    """
 
     n_rings: int | None = option(help="FEM mesh rings across the radius", type=int, check=positive_int)
     n_axial: int | None = option(help="FEM mesh layers along the length", type=int, check=positive_int)
@@ -29,17 +37,45 @@ class MeshSpec(Spec):
         return self.n_rings is None and self.n_axial is None
 
     def overrides(self) -> dict:
-        """The set fields as keyword arguments (``n_rings``/``n_axial``)."""
+        """The set fields as keyword arguments.
+
+        Returns
+        -------
+        dict of str to int
+            ``n_rings`` and/or ``n_axial``, those that are not None.
+        """
         return {k: v for k, v in (("n_rings", self.n_rings), ("n_axial", self.n_axial)) if v is not None}
 
     def resolve(self, robot) -> tuple[int, int]:
-        """(n_rings, n_axial) for ``robot``, checked to fit in memory (InputError if not)."""
+        """The resolution for ``robot``, checked to fit in memory (InputError if not).
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            Gives the default ``n_rings`` and ``n_axial``.
+
+        Returns
+        -------
+        n_rings, n_axial : int
+            This spec's values where set, else the robot's.
+        """
         n_rings = robot.n_rings if self.n_rings is None else self.n_rings
         n_axial = robot.n_axial if self.n_axial is None else self.n_axial
         check_mesh_size(n_rings, n_axial)
         return n_rings, n_axial
 
     def mesh(self, robot) -> TetMesh:
-        """The structured cylinder mesh of ``robot`` at the resolved resolution."""
+        """The structured cylinder mesh of ``robot`` at the resolved resolution.
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            Gives ``length_m``, ``radius_m`` (m) and the default resolution.
+
+        Returns
+        -------
+        TetMesh
+            The :func:`~lab.fem.bodies.mesh.cylinder_mesh` of the resolution ``resolve`` gives, in frame W.
+        """
         n_rings, n_axial = self.resolve(robot)
         return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)

@@ -2,19 +2,14 @@
 
 :class:`MaterialLaw` and :class:`Material` are the one interface (:mod:`.base`); the
 compressible neo-Hookean law (:mod:`.neo_hookean`) and the Storåkers/Ogden foam law
-(:mod:`.hyperfoam`) implement it. A new law is one module with a material class decorated
-with :func:`register_material`.
+(:mod:`.hyperfoam`) implement it, on the linear tetrahedra of :mod:`.elements`. A new law
+is one module with a material class decorated with :func:`register_material`.
 """
 
 from lab.fem.materials.base import MATERIALS, Material, MaterialLaw, register_material
-from lab.fem.materials.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_law, hyperfoam_matching
-from lab.fem.materials.neo_hookean import (
-    InvertedElementError,
-    NeoHookean,
-    NeoHookeanMaterial,
-    lame,
-    project_psd,
-)
+from lab.fem.materials.elements import InvertedElementError
+from lab.fem.materials.hyperfoam import Hyperfoam, HyperfoamMaterial, hyperfoam_matching
+from lab.fem.materials.neo_hookean import NeoHookean, NeoHookeanMaterial, lame
 
 __all__ = [
     "MATERIALS",
@@ -23,11 +18,9 @@ __all__ = [
     "register_material",
     "Hyperfoam",
     "HyperfoamMaterial",
-    "hyperfoam_law",
     "hyperfoam_matching",
     "InvertedElementError",
     "NeoHookean",
     "NeoHookeanMaterial",
     "lame",
-    "project_psd",
 ]

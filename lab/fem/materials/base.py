@@ -45,32 +45,124 @@ def register_material(name: str):
 @runtime_checkable
 class MaterialLaw(Protocol):
     """A law on a mesh's M elements: rest volumes ``V`` (M,) m^3 and the methods below,
-    each of node positions ``x_W`` (N, 3) m."""
+    each of node positions ``x_W`` (N, 3) m.
+
+    Attributes
+    ----------
+    V : ndarray, shape (M,)
+        Rest volume of each tet, m^3.
+    """
 
     V: np.ndarray
 
     def energy(self, x_W: np.ndarray) -> float:
-        """Elastic energy in J (+inf if an element is inverted)."""
+        """The elastic energy.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        float
+            Energy, J (+inf if an element is inverted).
+        """
 
     def energy_and_gradient(self, x_W: np.ndarray) -> tuple[float, np.ndarray]:
-        """Energy (J) and nodal gradient dE/dx (N, 3) in N, sharing the kinematics."""
+        """Energy and nodal gradient, sharing the kinematics.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        energy : float
+            J (+inf if an element is inverted).
+        gradient : ndarray, shape (N, 3) or None
+            dE/dx, N (None if an element is inverted).
+        """
 
     def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """dE/dx (N, 3) in N."""
+        """The elastic forces' negative, summed at the nodes.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            dE/dx, N.
+        """
 
     def gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """Per-element gradients (M, 4, 3) in N (the elastic force of each tet)."""
+        """Per-element gradients (the elastic force of each tet on its nodes, negated).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 4, 3)
+            dE_t/dx of each tet's four nodes, N.
+        """
 
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
-        """Exact element Hessians (M, 12, 12) in N/m, dofs ravelled x, y, z per node."""
+        """Exact element Hessians.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 12, 12)
+            d2E_t/dx2 per tet, N/m, dofs ravelled x, y, z per node.
+        """
 
     def hessian_product(self, x_W: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        """A function dx (N, 3) m -> d2E/dx2 dx (N, 3) N at ``x_W``."""
+        """Exact Hessian products at ``x_W``, without the element Hessians.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        callable
+            dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
+        """
 
 
 @runtime_checkable
 class Material(Protocol):
-    """The parameters of a law, without a mesh."""
+    """The parameters of a law, without a mesh; a dataclass of them (e.g.
+    :class:`~lab.fem.materials.neo_hookean.NeoHookeanMaterial`).
+
+    Attributes
+    ----------
+    *fields
+        The law's parameters, in SI units (Pa for moduli), scalar or one per tet (M,).
+    """
 
     def on_mesh(self, mesh) -> MaterialLaw:
-        """The law on ``mesh``'s elements (a :class:`~lab.fem.bodies.mesh.TetMesh`)."""
+        """The law on ``mesh``'s elements.
+
+        Parameters
+        ----------
+        mesh : TetMesh
+            The rest mesh (m, frame W).
+
+        Returns
+        -------
+        MaterialLaw
+            The law on its M tets.
+        """

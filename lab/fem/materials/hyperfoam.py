@@ -8,7 +8,8 @@ nu = beta / (1 + 2 beta) (beta = 0: no Poisson effect). A real foam arm is compr
 which the neo-Hookean law of :mod:`lab.fem.materials.neo_hookean` only matches at small strain.
 
 sum lam_i^alpha = tr C^(alpha/2), C = F^T F, needs the eigenvalues c_i of C for a real
-alpha: Jacobi rotations vectorised over the tets (``_eigh3``) give them. The Hessian is the
+alpha: Jacobi rotations vectorised over the tets (``_eigh3`` of
+:mod:`lab.fem.materials.elements`) give them. The Hessian is the
 Daleckii-Krein formula, whose divided differences of c^(alpha/2 - 1) are evaluated in a
 form without cancellation, and by their limit where two c_i coincide (``REPEATED_LOG_GAP``),
 so that energy, gradient and Hessian are exact and smooth through repeated stretches
@@ -26,15 +27,11 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials.base import register_material
-from lab.fem.materials.neo_hookean import InvertedElementError, TetElements, _det3, _inv3
+from lab.fem.materials.elements import InvertedElementError, TetElements, _det3, _eigh3, _inv3
 
 #: Two principal values c_p, c_q of C count as repeated when |ln c_p - ln c_q| is below
 #: this: their divided difference is then the two-term Taylor limit (error ~1e-24 there).
 REPEATED_LOG_GAP = 1e-6
-
-#: Most cyclic Jacobi sweeps for the eigenvalues of C (3 rotations each; they converge
-#: quadratically: 3-4 sweeps reach rounding for any C met, the loop stops there).
-JACOBI_SWEEPS = 8
 
 
 def _check_law(mu_pa, alpha, beta) -> None:
@@ -51,7 +48,24 @@ def hyperfoam_matching(youngs_modulus_pa, poisson_ratio, alpha):
     modulus ``youngs_modulus_pa`` (Pa, scalar or (M,)) and Poisson ratio in [0, 0.5):
     mu = E / (2 (1 + nu)) (as :func:`lab.fem.materials.neo_hookean.lame`), beta = nu / (1 - 2 nu).
     For N = 1 the match does not depend on ``alpha`` (nonzero, checked), which sets how
-    the foam stiffens at large strain."""
+    the foam stiffens at large strain.
+
+    Parameters
+    ----------
+    youngs_modulus_pa : float or array_like, shape (M,)
+        Young's modulus E, Pa.
+    poisson_ratio : float
+        Poisson ratio nu, in [0, 0.5).
+    alpha : float
+        The foam's stiffening exponent (nonzero).
+
+    Returns
+    -------
+    mu_pa : float or ndarray, shape (M,)
+        Initial shear modulus, Pa (shaped as ``youngs_modulus_pa``).
+    beta : float
+        The volumetric exponent (>= 0).
+    """
     E, nu = np.asarray(youngs_modulus_pa, float), float(poisson_ratio)
     if not (np.isfinite(nu) and 0 <= nu < 0.5):
         raise InputError(f"hyperfoam matching needs a Poisson ratio in [0, 0.5), got {poisson_ratio!r}")
@@ -67,7 +81,17 @@ def hyperfoam_matching(youngs_modulus_pa, poisson_ratio, alpha):
 class HyperfoamMaterial:
     """The law's parameters, mesh-free: ``mu_pa`` (Pa, scalar or one per tet (M,): the
     as-built softness and gradient scale it per tet), ``alpha`` != 0, ``beta`` >= 0.
-    What :class:`lab.fem.model.ArmFEM` takes as ``material``."""
+    What :class:`lab.fem.model.ArmFEM` takes as ``material``.
+
+    Attributes
+    ----------
+    mu_pa : float or ndarray, shape (M,)
+        Initial shear modulus, Pa.
+    alpha : float
+        Stiffening exponent (nonzero).
+    beta : float
+        Volumetric exponent (>= 0; Poisson ratio beta / (1 + 2 beta)).
+    """
 
     mu_pa: float | np.ndarray
     alpha: float
@@ -78,6 +102,7 @@ class HyperfoamMaterial:
 
     @property
     def poisson_ratio(self) -> float:
+        """The small-strain Poisson ratio beta / (1 + 2 beta)."""
         return self.beta / (1 + 2 * self.beta)
 
     def on_mesh(self, mesh: TetMesh) -> Hyperfoam:
@@ -113,35 +138,6 @@ def _divided_power(lc: np.ndarray, p: float) -> np.ndarray:
     safe = np.where(close, 1.0, x)
     ratio = np.where(close, p * (1 + (p * p - 1) * x * x / 6), np.sinh(p * safe) / np.sinh(safe))
     return np.exp((p - 1) * m) * ratio
-
-
-def _eigh3(C: np.ndarray, vectors: bool = True):
-    """Eigenvalues (M, 3) and eigenvectors Q (M, 3, 3) (columns; None unless ``vectors``) of
-    symmetric (M, 3, 3) matrices by cyclic Jacobi rotations on (M,) arrays: exact to rounding
-    at repeated eigenvalues too, and 2-3x faster than batched LAPACK for 3x3 blocks."""
-    a = {(i, j): C[:, i, j].copy() for i in range(3) for j in range(i, 3)}
-    one, zero = np.ones(len(C)), np.zeros(len(C))
-    V = {(i, j): (one if i == j else zero) for i in range(3) for j in range(3)} if vectors else None
-    for _ in range(JACOBI_SWEEPS):
-        scale = np.abs(a[0, 0]) + np.abs(a[1, 1]) + np.abs(a[2, 2])
-        if np.all(np.abs(a[0, 1]) + np.abs(a[0, 2]) + np.abs(a[1, 2]) <= 1e-18 * scale):
-            break
-        for p, q, r in ((0, 1, 2), (0, 2, 1), (1, 2, 0)):
-            apq = a[p, q]
-            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                theta = (a[q, q] - a[p, p]) / (2 * apq)
-                t = np.where(theta >= 0, 1.0, -1.0) / (np.abs(theta) + np.sqrt(theta * theta + 1))
-            t = np.where(apq == 0, 0.0, np.nan_to_num(t, nan=0.0, posinf=0.0, neginf=0.0))
-            c = 1 / np.sqrt(t * t + 1)
-            s = t * c
-            a[p, p], a[q, q], a[p, q] = a[p, p] - t * apq, a[q, q] + t * apq, zero
-            rp, rq = (min(r, p), max(r, p)), (min(r, q), max(r, q))
-            a[rp], a[rq] = c * a[rp] - s * a[rq], s * a[rp] + c * a[rq]
-            if vectors:
-                for k in range(3):
-                    V[k, p], V[k, q] = c * V[k, p] - s * V[k, q], s * V[k, p] + c * V[k, q]
-    w = np.stack([a[0, 0], a[1, 1], a[2, 2]], axis=1)
-    return w, (np.stack([np.stack([V[i, j] for j in range(3)], axis=1) for i in range(3)], axis=1) if vectors else None)
 
 
 def hyperfoam_law(F: np.ndarray, mu_pa, alpha: float, beta: float, order: int = 2):
@@ -186,8 +182,22 @@ def hyperfoam_law(F: np.ndarray, mu_pa, alpha: float, beta: float, order: int = 
 
 @dataclass(frozen=True)
 class Hyperfoam(TetElements):
-    """The hyperfoam law on a mesh's elements (:class:`TetElements`): ``mu`` (M,) in Pa,
-    ``alpha``, ``beta``. The interface of :class:`lab.fem.materials.neo_hookean.NeoHookean`."""
+    """The hyperfoam law on a mesh's elements (``TetElements``): ``mu`` (M,) in Pa,
+    ``alpha``, ``beta``. The interface of :class:`lab.fem.materials.neo_hookean.NeoHookean`.
+
+    Attributes
+    ----------
+    tets : ndarray of int, shape (M, 4)
+        The mesh's tets.
+    G : ndarray, shape (M, 4, 3)
+        Shape-function gradients, 1/m.
+    V : ndarray, shape (M,)
+        Rest volumes, m^3.
+    mu : ndarray, shape (M,)
+        Initial shear modulus, Pa.
+    alpha, beta : float
+        The law's exponents.
+    """
 
     mu: np.ndarray
     alpha: float
@@ -195,7 +205,22 @@ class Hyperfoam(TetElements):
 
     @classmethod
     def from_mesh(cls, mesh: TetMesh, mu_pa, alpha: float, beta: float) -> Hyperfoam:
-        """``mu_pa`` may be a scalar or one value per tet (M,)."""
+        """The law on ``mesh``'s elements.
+
+        Parameters
+        ----------
+        mesh : TetMesh
+            The rest mesh (m, frame W).
+        mu_pa : float or array_like, shape (M,)
+            Initial shear modulus, Pa, one for all tets or one per tet.
+        alpha, beta : float
+            The law's exponents (checked: alpha nonzero, beta >= 0).
+
+        Returns
+        -------
+        Hyperfoam
+            The law with per-tet ``mu``.
+        """
         _check_law(mu_pa, alpha, beta)
         M = len(mesh.tets)
         mu = np.asarray(mu_pa, float)
@@ -205,11 +230,39 @@ class Hyperfoam(TetElements):
         return cls(tets, G, V, np.broadcast_to(mu, (M,)).copy(), float(alpha), float(beta))
 
     def law(self, x_W: np.ndarray, order: int):
-        """:func:`hyperfoam_law` at node positions ``x_W`` (N, 3)."""
+        """``hyperfoam_law`` at node positions ``x_W`` (N, 3).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+        order : int
+            0: energy density only; 1: and stress; 2: and tangent.
+
+        Returns
+        -------
+        W : ndarray, shape (M,)
+            Energy density, J/m^3.
+        P : ndarray, shape (M, 3, 3) or None
+            First Piola-Kirchhoff stress, Pa.
+        A : ndarray, shape (M, 3, 3, 3, 3) or None
+            Tangent dP/dF, Pa.
+        """
         return hyperfoam_law(self.deformation_gradient(x_W), self.mu, self.alpha, self.beta, order)
 
     def energy(self, x_W: np.ndarray) -> float:
-        """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""
+        """Total elastic energy in J; +inf if any element is inverted (J <= 0).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        float
+            Energy, J.
+        """
         try:
             return float(self.V @ self.law(x_W, 0)[0])
         except InvertedElementError:
@@ -220,15 +273,50 @@ class Hyperfoam(TetElements):
         return W, self.V[:, None, None] * P
 
     def gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T."""
+        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 4, 3)
+            dE_t/dx of each tet's four nodes, N.
+        """
         return np.matmul(self.G, self._VP(x_W)[1].transpose(0, 2, 1))
 
     def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """dE/dx (N, 3) in N (B^T vec(V P))."""
+        """dE/dx (N, 3) in N (B^T vec(V P)).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            dE/dx, N.
+        """
         return (self._operators(len(x_W))[1] @ self._VP(x_W)[1].transpose(1, 2, 0).ravel()).reshape(-1, 3)
 
     def energy_and_gradient(self, x_W: np.ndarray):
-        """Total energy in J and dE/dx (N, 3) in N; (inf, None) if any element is inverted."""
+        """Total energy in J and dE/dx (N, 3) in N; (inf, None) if any element is inverted.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        energy : float
+            J.
+        gradient : ndarray, shape (N, 3) or None
+            dE/dx, N.
+        """
         try:
             W, VP = self._VP(x_W)
         except InvertedElementError:
@@ -242,13 +330,35 @@ class Hyperfoam(TetElements):
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
         """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i):
         H[a, i, b, k] = V A[i, j, k, l] G[a, j] G[b, l], as K (V A) K^T with K (M, 12, 9)
-        the map vec(dF) -> element dofs, K[(a, i), (i', j)] = d_ii' G[a, j]."""
+        the map vec(dF) -> element dofs, K[(a, i), (i', j)] = d_ii' G[a, j].
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 12, 12)
+            d2E_t/dx2 per tet, N/m.
+        """
         M = len(self.V)
         K = (np.eye(3)[None, None, :, :, None] * self.G[:, :, None, None, :]).reshape(M, 12, 9)
         return np.matmul(np.matmul(K, self._tangent(x_W)), K.transpose(0, 2, 1))
 
     def hessian_product(self, x_W: np.ndarray):
-        """A function dx (N, 3) -> d2E/dx2 dx (N, 3): exact Hessian products, dP = A : dF."""
+        """A function dx (N, 3) -> d2E/dx2 dx (N, 3): exact Hessian products, dP = A : dF.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        callable
+            dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
+        """
         A = self._tangent(x_W)
         B, B_T = self._operators(len(x_W))
         M = len(A)

@@ -2,12 +2,12 @@
 
 Energy density (Bonet & Wood):  psi(F) = mu/2 (tr F^T F - 3) - mu ln J + lam/2 (ln J)^2.
 
-F is linear in the node positions (m): one sparse matrix B (9M, 3N) (:class:`TetElements`,
-shared with the foam law of :mod:`lab.fem.materials.hyperfoam`) maps them to every
+F is linear in the node positions (m): one sparse matrix B (9M, 3N) (``TetElements`` of
+:mod:`lab.fem.materials.elements`, shared with the foam law of :mod:`lab.fem.materials.hyperfoam`) maps them to every
 element's F, kept as (3, 3, M), and B^T scatters the stresses back to the nodes,
 dE/dx = B^T vec(V P), with the first Piola-Kirchhoff stress P = mu F - (mu - lam ln J) F^-T.
 The element Hessian is exact, in closed form; it is indefinite under strong compression,
-so :func:`project_psd` clamps negative eigenvalues element by element when the solver
+so ``project_psd`` clamps negative eigenvalues element by element when the solver
 needs a descent direction. A tet with J <= 0 is inverted and has infinite energy.
 :meth:`NeoHookean.hessian_product` gives exact Hessian products the same way.
 
@@ -16,72 +16,33 @@ The closed forms per element and why this layout: docs/design/fem.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
-from lab.errors import LabRuntimeError
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials.base import register_material
+from lab.fem.materials.elements import InvertedElementError, TetElements, _det3, _inv3
 
 
 def lame(youngs_modulus_pa, poisson_ratio):
-    """(mu, lam) in Pa from Young's modulus and Poisson ratio (scalars or arrays)."""
+    """(mu, lam) in Pa from Young's modulus and Poisson ratio (scalars or arrays).
+
+    Parameters
+    ----------
+    youngs_modulus_pa : float or array_like
+        Young's modulus E, Pa.
+    poisson_ratio : float or array_like
+        Poisson ratio nu, in [0, 0.5).
+
+    Returns
+    -------
+    mu, lam : ndarray
+        Lamé parameters E / (2 (1 + nu)) and E nu / ((1 + nu)(1 - 2 nu)), Pa, broadcast
+        from the inputs.
+    """
     E, nu = np.asarray(youngs_modulus_pa, float), np.asarray(poisson_ratio, float)
     return E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-
-
-@dataclass(frozen=True)
-class TetElements:
-    """What every material law shares on a mesh: ``tets`` (M, 4), shape-function gradients
-    ``G`` (M, 4, 3) (F = x^T G per element) and rest volumes ``V`` (M,) in m^3, with the
-    sparse maps between node positions and deformation gradients."""
-
-    tets: np.ndarray
-    G: np.ndarray
-    V: np.ndarray
-    _B: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # see _operators
-
-    @staticmethod
-    def geometry(mesh: TetMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(tets, G, V)`` of a mesh."""
-        X = mesh.X_W[mesh.tets]
-        Dm = np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=-1)
-        Dm_inv = np.linalg.inv(Dm)  # F = Ds Dm^-1
-        G = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
-        return mesh.tets, G, np.linalg.det(Dm) / 6.0
-
-    def _operators(self, n_nodes: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        """B (9M, 3N) with vec(F) = B vec(x_W), rows ordered (i, j, element) so that each
-        F_ij is one contiguous (M,) array (elementwise work on those is ~3x faster than
-        on (M, 3, 3) slices), columns (node, axis); and B^T. Built once per node count."""
-        if n_nodes not in self._B:
-            M = len(self.tets)
-            rows = ((3 * np.arange(3)[:, None, None] + np.arange(3)[None, :, None]) * M + np.arange(M)[None, None, :])[
-                :, :, :, None
-            ]  # (i, j, M, 1)
-            cols = 3 * self.tets[None, None, :, :] + np.arange(3)[:, None, None, None]  # (i, 1, M, a)
-            vals = self.G.transpose(2, 0, 1)[None, :, :, :]  # G[m, a, j] at (1, j, M, a)
-            shape = (3, 3, M, 4)
-            B = sp.csr_matrix(
-                (
-                    np.broadcast_to(vals, shape).ravel(),
-                    (np.broadcast_to(rows, shape).ravel(), np.broadcast_to(cols, shape).ravel()),
-                ),
-                shape=(9 * M, 3 * n_nodes),
-            )
-            self._B[n_nodes] = (B, B.T.tocsr())
-        return self._B[n_nodes]
-
-    def _F(self, x_W) -> np.ndarray:
-        """F as (3, 3, M): F[i, j] is the (M,) array of F_ij."""
-        x_W = np.asarray(x_W, dtype=float)
-        return (self._operators(len(x_W))[0] @ x_W.ravel()).reshape(3, 3, -1)
-
-    def deformation_gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
-        return np.ascontiguousarray(self._F(x_W).transpose(2, 0, 1))
 
 
 @register_material("neo-hookean")
@@ -89,7 +50,15 @@ class TetElements:
 class NeoHookeanMaterial:
     """The neo-Hookean law's parameters, mesh-free: ``youngs_modulus_pa`` (Pa, scalar or
     one per tet (M,)) and ``poisson_ratio``; what :class:`lab.fem.model.ArmFEM` builds from
-    the description unless given another ``material``."""
+    the description unless given another ``material``.
+
+    Attributes
+    ----------
+    youngs_modulus_pa : float or ndarray, shape (M,)
+        Young's modulus, Pa.
+    poisson_ratio : float
+        Poisson ratio, in [0, 0.5).
+    """
 
     youngs_modulus_pa: float | np.ndarray
     poisson_ratio: float
@@ -113,21 +82,59 @@ class NeoHookeanMaterial:
 @dataclass(frozen=True)
 class NeoHookean(TetElements):
     """Neo-Hookean law on a mesh's elements (:class:`TetElements`), with Lamé parameters
-    ``mu``, ``lam`` (M,) in Pa."""
+    ``mu``, ``lam`` (M,) in Pa.
+
+    Attributes
+    ----------
+    tets : ndarray of int, shape (M, 4)
+        The mesh's tets.
+    G : ndarray, shape (M, 4, 3)
+        Shape-function gradients, 1/m.
+    V : ndarray, shape (M,)
+        Rest volumes, m^3.
+    mu, lam : ndarray, shape (M,)
+        Lamé parameters, Pa.
+    """
 
     mu: np.ndarray
     lam: np.ndarray
 
     @classmethod
     def from_mesh(cls, mesh: TetMesh, youngs_modulus_pa, poisson_ratio) -> NeoHookean:
-        """``youngs_modulus_pa`` may be a scalar or one value per tet (M,)."""
+        """The law on ``mesh``'s elements.
+
+        Parameters
+        ----------
+        mesh : TetMesh
+            The rest mesh (m, frame W).
+        youngs_modulus_pa : float or array_like, shape (M,)
+            Young's modulus, Pa, one for all tets or one per tet.
+        poisson_ratio : float
+            Poisson ratio, in [0, 0.5).
+
+        Returns
+        -------
+        NeoHookean
+            The law with per-tet Lamé parameters.
+        """
         tets, G, V = TetElements.geometry(mesh)
         mu, lam = lame(youngs_modulus_pa, poisson_ratio)
         M = len(mesh.tets)
         return cls(tets, G, V, np.broadcast_to(mu, (M,)).copy(), np.broadcast_to(lam, (M,)).copy())
 
     def energy(self, x_W: np.ndarray) -> float:
-        """Total elastic energy in J; +inf if any element is inverted (J <= 0)."""
+        """Total elastic energy in J; +inf if any element is inverted (J <= 0).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        float
+            Energy, J.
+        """
         F = self._F(x_W)
         J = (
             F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
@@ -172,14 +179,36 @@ class NeoHookean(TetElements):
         return F, logJ, cof, J, VP
 
     def gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T, the docstring's form."""
+        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T, the docstring's form.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 4, 3)
+            dE_t/dx of each tet's four nodes, N.
+        """
         k = self._stressed(x_W)
         if k is None:
             raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
         return np.matmul(self.G, k[4].transpose(2, 1, 0))
 
     def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """dE/dx (N, 3) in N, the element gradients summed at the nodes (B^T vec(V P))."""
+        """dE/dx (N, 3) in N, the element gradients summed at the nodes (B^T vec(V P)).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            dE/dx, N.
+        """
         k = self._stressed(x_W)
         if k is None:
             raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
@@ -187,7 +216,20 @@ class NeoHookean(TetElements):
 
     def energy_and_gradient(self, x_W: np.ndarray):
         """Total energy in J and dE/dx (N, 3) in N, computing F once; (inf, None) if any
-        element is inverted."""
+        element is inverted.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        energy : float
+            J.
+        gradient : ndarray, shape (N, 3) or None
+            dE/dx, N.
+        """
         k = self._stressed(x_W)
         if k is None:
             return np.inf, None
@@ -200,7 +242,18 @@ class NeoHookean(TetElements):
 
             dP = mu dF + lam tr(F^-1 dF) F^-T + c (F^-1 dF F^-1)^T,   c = mu - lam ln J
 
-        (per unit volume); each product costs about half a gradient."""
+        (per unit volume); each product costs about half a gradient.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        callable
+            dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
+        """
         k = self._stressed(x_W)
         if k is None:
             raise InvertedElementError(int(np.sum(_det3(self.deformation_gradient(x_W)) <= 0)))
@@ -220,7 +273,18 @@ class NeoHookean(TetElements):
         return apply
 
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
-        """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i)."""
+        """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M, 12, 12)
+            d2E_t/dx2 per tet, N/m.
+        """
         F, logJ, F_inv = self._kinematics(x_W)
         A = np.matmul(self.G, F_inv)
         M = len(self.V)
@@ -239,37 +303,6 @@ class NeoHookean(TetElements):
         for i in range(3):  # mu (G G^T)[a,b] d_ik
             H[:, :, i, :, i] += muGG
         return H_flat
-
-
-def _det3(F: np.ndarray) -> np.ndarray:
-    """Determinants of (M, 3, 3) matrices (closed form; faster than LAPACK for 3x3)."""
-    return (
-        F[:, 0, 0] * (F[:, 1, 1] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 1])
-        - F[:, 0, 1] * (F[:, 1, 0] * F[:, 2, 2] - F[:, 1, 2] * F[:, 2, 0])
-        + F[:, 0, 2] * (F[:, 1, 0] * F[:, 2, 1] - F[:, 1, 1] * F[:, 2, 0])
-    )
-
-
-def _inv3(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverses and determinants of (M, 3, 3) matrices by the adjugate (closed form,
-    ~2x faster than with np.cross); an inverted (J <= 0) matrix gives garbage but
-    finite entries unless J == 0."""
-    a, b, c = F[:, 0, 0], F[:, 0, 1], F[:, 0, 2]
-    d, e, f = F[:, 1, 0], F[:, 1, 1], F[:, 1, 2]
-    g, h, i = F[:, 2, 0], F[:, 2, 1], F[:, 2, 2]
-    adj = np.empty_like(F)
-    adj[:, 0, 0], adj[:, 0, 1], adj[:, 0, 2] = e * i - f * h, c * h - b * i, b * f - c * e
-    adj[:, 1, 0], adj[:, 1, 1], adj[:, 1, 2] = f * g - d * i, a * i - c * g, c * d - a * f
-    adj[:, 2, 0], adj[:, 2, 1], adj[:, 2, 2] = d * h - e * g, b * g - a * h, a * e - b * d
-    J = a * adj[:, 0, 0] + b * adj[:, 1, 0] + c * adj[:, 2, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return adj / J[:, None, None], J
-
-
-class InvertedElementError(LabRuntimeError):
-    def __init__(self, count: int):
-        super().__init__(f"{count} tetrahedra are inverted (det F <= 0)")
-        self.count = count
 
 
 def project_psd(H: np.ndarray, floor: float = 0.0) -> np.ndarray:

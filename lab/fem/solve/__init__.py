@@ -4,22 +4,16 @@
 sparse factorisations in :mod:`.linsolve`) give x(u) = argmin_x E(x, u) and dx/du;
 :class:`WalkPredictor` (:mod:`.warmstart`) warm-starts a walk of neighbouring solves;
 :class:`ParametrisedFEM` (:mod:`.parameters`) gives the FEM of as-built parameters theta and
-dx/dtheta. They use the model only through its generic interface
-(:class:`lab.fem.model.ArmFEM`: energy, gradient, Hessian, mixed derivative, the
-actuators' :class:`~lab.fem.actuators.Condensation`).
+dx/dtheta, theta laid out by :class:`ParameterLayout` (:mod:`.parameter_layout`). They use
+the model only through its generic interface (:class:`lab.fem.model.ArmFEM`: energy,
+gradient, Hessian, mixed derivative, the actuators'
+:class:`~lab.fem.actuators.Condensation`).
 """
 
 from lab.fem.solve.linsolve import SingularMatrixError, default_backend, factorize
-from lab.fem.solve.parameters import ParameterError, ParameterLayout, ParametrisedFEM, as_built_description
+from lab.fem.solve.parameter_layout import ParameterError, ParameterLayout
+from lab.fem.solve.parameters import ParametrisedFEM, as_built_description
 from lab.fem.solve.statics import StaticSolution, StaticSolveError, sensitivities, solve_static
-from lab.fem.solve.steps import (
-    Factorised,
-    condensed_step,
-    newton_step,
-    reused_sensitivity,
-    secant_step,
-    shifted_step,
-)
 from lab.fem.solve.warmstart import WalkPredictor
 
 __all__ = [
@@ -34,11 +28,5 @@ __all__ = [
     "StaticSolveError",
     "sensitivities",
     "solve_static",
-    "Factorised",
-    "condensed_step",
-    "newton_step",
-    "reused_sensitivity",
-    "secant_step",
-    "shifted_step",
     "WalkPredictor",
 ]

@@ -155,6 +155,14 @@ BACKENDS = {"splu": _SuperLU, "pardiso": _Pardiso}
 
 
 def default_backend() -> str:
+    """The sparse solver :func:`factorize` uses: ``LAB_LINEAR_SOLVER`` if set, else PARDISO
+    when it can be loaded, else SciPy's SuperLU.
+
+    Returns
+    -------
+    str
+        ``"pardiso"`` or ``"splu"`` (InputError for an unknown ``LAB_LINEAR_SOLVER``).
+    """
     choice = os.environ.get("LAB_LINEAR_SOLVER")
     if choice:
         if choice not in BACKENDS:
@@ -168,7 +176,22 @@ def factorize(H: sp.csr_matrix, backend: str | None = None):
 
     With the default backend, a PARDISO that fails before it has ever worked in this
     process (MKL not loadable) falls back to SciPy for the rest of the process, with one
-    warning; once it has worked, its errors are raised."""
+    warning; once it has worked, its errors are raised.
+
+    Parameters
+    ----------
+    H : scipy.sparse.csr_matrix, shape (n, n)
+        The symmetric matrix (a Hessian, N/m).
+    backend : str, optional
+        ``"pardiso"`` or ``"splu"``; default :func:`default_backend`.
+
+    Returns
+    -------
+    object
+        The factorisation: ``solve(b)`` gives H^-1 b for ``b`` (n,) or (n, k), and
+        ``n_negative`` the number of negative eigenvalues (None where unknown). A PARDISO
+        factorisation stays valid until the next call.
+    """
     name = backend or default_backend()
     if name != "pardiso" or backend is not None or os.environ.get("LAB_LINEAR_SOLVER"):
         return BACKENDS[name](H)

@@ -17,7 +17,6 @@ Each parameter, why (y, z) shifts by default (measured), and the derivatives: do
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -26,87 +25,25 @@ from lab.errors import InputError
 from lab.fem.bodies.mesh import TetMesh, robot_mesh
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
+from lab.fem.solve.parameter_layout import AXES, ParameterError, ParameterLayout
 from lab.fem.solve.statics import StaticSolution, solve_static
-
-#: The axes (of frame W) of each eyelet-shift option.
-AXES = {"yz": (1, 2), "xyz": (0, 1, 2)}
-
-
-class ParameterError(InputError):
-    """Parameters outside the model: |g| >= 1, an eyelet shifted out of the mesh, non-finite."""
-
-
-@dataclass(frozen=True)
-class ParameterLayout:
-    """Where each parameter sits in theta, for the cables ``cable_names`` and shift ``axes``."""
-
-    cable_names: tuple[str, ...]
-    axes: str = "yz"
-
-    def __post_init__(self):
-        if self.axes not in AXES:
-            raise InputError(f"eyelet-shift axes must be one of {sorted(AXES)}, got {self.axes!r}")
-
-    @property
-    def n_cables(self) -> int:
-        return len(self.cable_names)
-
-    @property
-    def size(self) -> int:
-        """p = 3 + (a + 1) m."""
-        return 3 + (len(AXES[self.axes]) + 1) * self.n_cables
-
-    def shift(self, c: int) -> slice:
-        """The slice of theta holding cable ``c``'s eyelet shift (a,) m."""
-        a = len(AXES[self.axes])
-        return slice(3 + a * c, 3 + a * (c + 1))
-
-    @property
-    def slack(self) -> slice:
-        return slice(self.size - self.n_cables, self.size)
-
-    @property
-    def names(self) -> list[str]:
-        """One name per parameter, e.g. ``via_shift_y_m[top]``."""
-        out = ["log_softness", "gradient_y", "gradient_z"]
-        out += [f"via_shift_{'xyz'[i]}_m[{n}]" for n in self.cable_names for i in AXES[self.axes]]
-        return out + [f"slack_m[{n}]" for n in self.cable_names]
-
-    @property
-    def units(self) -> list[str]:
-        return ["1"] * 3 + ["m"] * (self.size - 3)
-
-    def pack(self, softness=1.0, gradient=(0.0, 0.0), via_shift_m=None, slack_m=None) -> np.ndarray:
-        """theta (p,) from softness s > 0, gradient (g_y, g_z), shifts (m, 3) m in frame W and
-        slack (m,) m. A shift along an axis the layout does not hold must be zero."""
-        m, axes = self.n_cables, AXES[self.axes]
-        shift = np.zeros((m, 3)) if via_shift_m is None else np.asarray(via_shift_m, float).reshape(m, 3)
-        dropped = [i for i in range(3) if i not in axes]
-        if np.any(shift[:, dropped]):
-            raise ParameterError(f"eyelet shifts along x need axes='xyz', got {shift.tolist()}")
-        slack = np.zeros(m) if slack_m is None else np.asarray(slack_m, float).reshape(m)
-        return np.concatenate(
-            [[np.log(softness)], np.asarray(gradient, float).reshape(2), shift[:, axes].ravel(), slack]
-        )
-
-    def unpack(self, theta) -> dict:
-        """``{"softness", "gradient" (2,), "via_shift_m" (m, 3), "slack_m" (m,)}`` of theta."""
-        theta = np.asarray(theta, float)
-        if theta.shape != (self.size,):
-            raise ParameterError(f"expected {self.size} parameters ({', '.join(self.names)}), got shape {theta.shape}")
-        shift = np.zeros((self.n_cables, 3))
-        shift[:, AXES[self.axes]] = theta[3 : self.slack.start].reshape(self.n_cables, -1)
-        return {
-            "softness": float(np.exp(theta[0])),
-            "gradient": theta[1:3].copy(),
-            "via_shift_m": shift,
-            "slack_m": theta[self.slack].copy(),
-        }
 
 
 class ParametrisedFEM:
     """The FEM of ``robot`` as a function of theta (module docstring), on one fixed mesh
-    (``mesh``, else ``n_rings``/``n_axial``, else the description's resolution)."""
+    (``mesh``, else ``n_rings``/``n_axial``, else the description's resolution).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot; its theta is :attr:`nominal`.
+    n_rings, n_axial : int, optional
+        Mesh resolution overrides.
+    mesh : TetMesh, optional
+        The rest mesh in frame W (m); default the description's cylinder.
+    axes : str
+        The eyelet shifts' axes, ``"yz"`` or ``"xyz"`` (see :class:`ParameterLayout`).
+    """
 
     def __init__(
         self, robot: RobotDescription, *, n_rings=None, n_axial=None, mesh: TetMesh | None = None, axes: str = "yz"
@@ -123,7 +60,18 @@ class ParametrisedFEM:
         self._cached: tuple[bytes, ArmFEM] | None = None
 
     def check(self, theta) -> dict:
-        """:meth:`ParameterLayout.unpack`, refusing non-finite values or |g| >= 1."""
+        """:meth:`ParameterLayout.unpack`, refusing non-finite values or ``|g| >= 1``.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters (module docstring).
+
+        Returns
+        -------
+        dict
+            As :meth:`ParameterLayout.unpack` (ParameterError if refused).
+        """
         theta = np.asarray(theta, float)
         if not np.all(np.isfinite(theta)):
             raise ParameterError(f"parameters must be finite, got {theta.tolist()}")
@@ -133,19 +81,52 @@ class ParametrisedFEM:
         return v
 
     def youngs_modulus(self, theta) -> np.ndarray:
-        """Per-tet Young's modulus E_t (M,) in Pa."""
+        """Per-tet Young's modulus, s E (1 + g . c_t / R) at tet centroid c_t.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters (module docstring).
+
+        Returns
+        -------
+        ndarray, shape (M,)
+            E_t, Pa.
+        """
         v = self.check(theta)
         g = np.array([0.0, *v["gradient"]])
         return (self.robot.youngs_modulus_pa * v["softness"]) * (1.0 + self._centroids_W @ g / self.robot.radius_m)
 
     def description(self, theta) -> RobotDescription:
-        """The robot description of the arm at theta (see :func:`as_built_description`)."""
+        """The robot description of the arm at theta (see :func:`as_built_description`).
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters (module docstring).
+
+        Returns
+        -------
+        RobotDescription
+            The as-built description.
+        """
         self.check(theta)
         return as_built_description(self.robot, self.layout, theta)
 
     def fem(self, theta) -> ArmFEM:
         """The :class:`ArmFEM` at theta (the last one is cached). Raises
-        :class:`ParameterError` for an eyelet shifted out of the mesh."""
+        :class:`ParameterError` for an eyelet shifted out of the mesh.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters (module docstring).
+
+        Returns
+        -------
+        ArmFEM
+            The assembled model on this object's mesh.
+        """
         theta = np.asarray(theta, float)
         key = theta.tobytes()
         if self._cached is None or self._cached[0] != key:
@@ -167,7 +148,24 @@ class ParametrisedFEM:
         return self._cached[1]
 
     def solve(self, theta, u_motor, q0=None, **kwargs) -> StaticSolution:
-        """:func:`lab.fem.solve.statics.solve_static` of the FEM at theta."""
+        """:func:`lab.fem.solve.statics.solve_static` of the FEM at theta.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters.
+        u_motor : array_like, shape (m,)
+            Motor angles, rad.
+        q0 : ndarray, shape (n_free,), optional
+            Start, m; default rest.
+        **kwargs
+            More options of ``solve_static``.
+
+        Returns
+        -------
+        StaticSolution
+            The equilibrium.
+        """
         return solve_static(self.fem(theta), u_motor, q0, **kwargs)
 
     def force_derivative(self, theta, q: np.ndarray, u_motor) -> np.ndarray:
@@ -213,7 +211,28 @@ class ParametrisedFEM:
     def sensitivities(self, theta, q: np.ndarray, u_motor):
         """At an equilibrium q of the FEM at theta: dq/du (n_free, m) m/rad, dq/dtheta
         (n_free, p), and the tip Jacobians J_tip_u (3, m) and J_tip_theta (3, p), from one
-        factorisation of the exact Hessian."""
+        factorisation of the exact Hessian.
+
+        Parameters
+        ----------
+        theta : array_like, shape (p,)
+            The parameters.
+        q : ndarray, shape (n_free,)
+            An equilibrium of the FEM at theta, m.
+        u_motor : array_like, shape (m,)
+            Motor angles, rad.
+
+        Returns
+        -------
+        dq_du : ndarray, shape (n_free, m)
+            m/rad.
+        dq_dtheta : ndarray, shape (n_free, p)
+            m per unit of each parameter.
+        J_tip_u : ndarray, shape (3, m)
+            Tip in frame W, m/rad.
+        J_tip_theta : ndarray, shape (3, p)
+            Tip in frame W, m per unit of each parameter.
+        """
         fem = self.fem(theta)
         lu = factorize(fem.hessian(q, u_motor))
         m = self.robot.n_cables
@@ -224,7 +243,22 @@ class ParametrisedFEM:
 
 def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta) -> RobotDescription:
     """``robot`` at theta: modulus s E, ``stiffness_gradient`` [0, g], every cable's eyelets
-    shifted (its anchor kept) and its ``slack_m`` set."""
+    shifted (its anchor kept) and its ``slack_m`` set.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    layout : ParameterLayout
+        Where each parameter sits in theta.
+    theta : array_like, shape (p,)
+        The parameters.
+
+    Returns
+    -------
+    RobotDescription
+        The as-built robot.
+    """
     v = layout.unpack(theta)
     cables = tuple(
         dataclasses.replace(c, via_points_m=c.via_points_m + d, slack_m=float(s))

@@ -36,7 +36,7 @@ from lab.fem.solve.steps import (
 
 #: A step may reuse the last factorisation (a "chord" step: one solve instead of an
 #: assembly and a factorisation, BFGS-updated with the secant pairs of the steps taken
-#: since, :func:`lab.fem.solve.steps.secant_step`) when the previous step was within CHORD_WINDOW
+#: since, ``lab.fem.solve.steps.secant_step``) when the previous step was within CHORD_WINDOW
 #: tolerances (1e-3 m by default); it is kept only if it is at most CHORD_CONTRACTION
 #: of the previous step and passes the line search at full length, otherwise the
 #: Hessian is reassembled and refactorised where the chord step started. (Chord steps
@@ -55,7 +55,15 @@ CHORD_FINAL = 1e-3
 
 
 class StaticSolveError(LabRuntimeError):
-    """Newton did not reach equilibrium; ``.solution`` holds the last iterate."""
+    """Newton did not reach equilibrium; ``.solution`` holds the last iterate.
+
+    Parameters
+    ----------
+    message : str
+        What failed, with the inputs and the residual force.
+    solution : StaticSolution
+        The last iterate (``converged`` False).
+    """
 
     def __init__(self, message: str, solution: StaticSolution):
         super().__init__(message)
@@ -65,7 +73,35 @@ class StaticSolveError(LabRuntimeError):
 @dataclass
 class StaticSolution:
     """Equilibrium for inputs ``u_motor`` (n_inputs,) (the cables' motor angles in rad):
-    free coordinates ``q`` (n_free,) m, tip ``p_tip_W`` (3,) m, and how Newton got there."""
+    free coordinates ``q`` (n_free,) m, tip ``p_tip_W`` (3,) m, and how Newton got there.
+
+    Attributes
+    ----------
+    u_motor : ndarray, shape (n_inputs,)
+        The inputs, in the actuators' units (rad for the cables).
+    q : ndarray, shape (n_free,)
+        Free coordinates at the equilibrium (node positions in frame W), m.
+    p_tip_W : ndarray, shape (3,)
+        The tip marker in frame W, m.
+    converged : bool
+        Whether the solve met its tolerance.
+    status : str
+        ``"converged"``, ``"max_iter"``, ``"line_search_failed"`` or ``"indefinite"``.
+    iterations : int
+        Steps taken (Newton and chord).
+    grad_norm_n : float
+        Largest residual force at ``q``, N.
+    projected_steps : int
+        Steps with the PSD-projected Hessian (where shifts did not make it definite).
+    time_s : float
+        Wall time of the solve, s.
+    factorizations : int
+        Hessian assemblies and factorisations.
+    dq_du : ndarray, shape (n_free, n_inputs), optional
+        dq/du if asked, m per unit of input.
+    J_tip_u : ndarray, shape (3, n_inputs), optional
+        d p_tip / du if asked, m per unit of input (m/rad for the cables).
+    """
 
     u_motor: np.ndarray
     q: np.ndarray

@@ -1,14 +1,14 @@
 """The steps of :func:`lab.fem.solve.statics.solve_static`, and sensitivities from a reused factorisation.
 
-:func:`newton_step`: condensed Newton steps. An actuator may ask the statics for a
+``newton_step``: condensed Newton steps. An actuator may ask the statics for a
 :class:`~lab.fem.actuators.Condensation`: k coordinates e = A^T dq along which its force is
 a stiff one-dimensional law tau(e) (the cables: a taut cable often sits inside its 0.2 mm
 smoothing zone, where Newton's quadratic model of the spring is poor). Each step keeps that
 law exact in those k coordinates and linearises the rest: a k-dimensional equation
-(:func:`condensed_step`) around one (k + 1)-column solve with the factorisation; it has
-Newton's fixed point. :func:`secant_step`: chord steps near the equilibrium, reusing that
-factorisation with BFGS updates. :func:`shifted_step`: H + s I where the exact Hessian is
-indefinite (``SHIFTS``). :func:`reused_sensitivity`: dq/du = -H^-1 d2E/dq du from the last
+(``condensed_step``) around one (k + 1)-column solve with the factorisation; it has
+Newton's fixed point. ``secant_step``: chord steps near the equilibrium, reusing that
+factorisation with BFGS updates. ``shifted_step``: H + s I where the exact Hessian is
+indefinite (``SHIFTS``). ``reused_sensitivity``: dq/du = -H^-1 d2E/dq du from the last
 factorisation, the condensed law's stiffness corrected exactly (Woodbury) and the rest
 refined by conjugate gradients.
 
