@@ -18,7 +18,7 @@ The foam in time (the relaxation filter and its fits) is :mod:`lab.dynamics`.
 
 from lab.learn.active import ActiveSpec, active_sampling, pick_apart
 from lab.learn.active_design import active_settings, check_active, run_active
-from lab.learn.bayes import BROptions, effective_parameters, train_br
+from lab.learn.bayes import BROptions, train_br
 from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
@@ -38,10 +38,10 @@ from lab.learn.model_specs import (
     model_spec,
 )
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
-from lab.learn.network_size import check_network_size, n_parameters, training_bytes
+from lab.learn.network_size import check_network_size
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
-from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
+from lab.learn.split import Split, check_enough_data, minimum_samples
 from lab.learn.studies import (
     evaluate_splits,
     run_seeds,
@@ -55,7 +55,6 @@ from lab.learn.training_data import TrainingData
 
 __all__ = [
     "BROptions",
-    "effective_parameters",
     "train_br",
     "Ensemble",
     "calibration",
@@ -114,7 +113,6 @@ __all__ = [
     "Split",
     "check_enough_data",
     "minimum_samples",
-    "divide_random",
     "mse",
     "LMOptions",
     "TrainLog",
@@ -130,8 +128,6 @@ __all__ = [
     "train",
     "TrainSpec",
     "check_network_size",
-    "n_parameters",
-    "training_bytes",
     "mse_m2",
     "mean_distance_m",
     "error_report",
