@@ -1,7 +1,7 @@
 """One entry point for training the forward model: split, initialise, fit.
 
 :func:`train` draws a ``dividerand`` split (:mod:`lab.learn.split`) and Nguyen-Widrow
-initial weights (:func:`lab.learn.mlp.init_mlp`) from one seeded random stream, so a seed
+initial weights (:func:`lab.learn.mlp_init.init_mlp`) from one seeded random stream, so a seed
 fixes everything, then fits with MATLAB-faithful Levenberg-Marquardt
 (:mod:`lab.learn.lm`, the default) or Adam / L-BFGS (:mod:`lab.learn.gradient`), and
 records what is needed to reproduce the run in the model's metadata.
@@ -19,7 +19,8 @@ from lab.learn.bayes import BROptions, br_summary, train_br
 from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
-from lab.learn.mlp import MLP, init_mlp
+from lab.learn.mlp import MLP
+from lab.learn.mlp_init import init_mlp
 from lab.learn.network_size import check_network_size
 from lab.learn.split import Split, check_enough_data, divide
 from lab.learn.training_data import TrainingData
