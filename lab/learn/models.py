@@ -135,7 +135,18 @@ def net_options(algorithm: str = "lm", min_grad: float | None = None):
 def load_model(path):
     """Any lab model file, by the ``kind`` in its metadata (:data:`MODEL_KINDS`); raises
     :class:`lab.learn.model_io.ModelFileError` naming the file and the problem, an
-    unknown kind included."""
+    unknown kind included.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    object
+        The model: an MLP, ensemble, inverse, residual or peer model, by its kind.
+    """
     kind = file_metadata(path).get("kind")
     if kind not in MODEL_KINDS:
         raise ModelFileError(f"{path}: unknown model kind {kind!r} (known: {sorted(MODEL_KINDS)})")

@@ -58,7 +58,20 @@ def check_options(algorithm: str, options) -> None:
 
 
 def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
-    """SHA-256 of the training data as float64 arrays (shapes included), independent of file format."""
+    """SHA-256 of the training data as float64 arrays (shapes included), independent of file format.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Inputs, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Outputs, shape (N, n_y), m.
+
+    Returns
+    -------
+    str
+        The hex digest.
+    """
     h = hashlib.sha256()
     for a in (np.ascontiguousarray(u, dtype="<f8"), np.ascontiguousarray(y, dtype="<f8")):
         h.update(repr(a.shape).encode())
@@ -68,7 +81,20 @@ def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
 
 @dataclass
 class TrainResult:
-    """A trained network with its split, log and errors (``errors[set]`` = {mse_m2, mean_distance_m, n})."""
+    """A trained network with its split, log and errors.
+
+    Attributes
+    ----------
+    model : MLP
+        The trained network (best validation epoch), its record in ``metadata["training"]``.
+    split : Split
+        The rows of the training, validation and test sets.
+    log : TrainLog
+        What the trainer did.
+    errors : dict
+        ``errors[set]`` = {``mse_m2`` (m^2), ``mean_distance_m`` (m), ``n``} for
+        ``train``, ``validation``, ``test``.
+    """
 
     model: MLP
     split: Split
