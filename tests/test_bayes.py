@@ -5,7 +5,7 @@ import pytest
 
 from lab.learn.bayes import BROptions, _step, _systems, effective_parameters, train_br
 from lab.learn.lm import LMOptions, train_lm
-from lab.learn.mlp import init_mlp
+from lab.learn.mlp_init import init_mlp
 from lab.learn.train import train
 from lab.learn.training_data import TrainingData
 

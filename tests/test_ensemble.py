@@ -9,9 +9,10 @@ from helpers import fd_jacobian
 
 from lab.errors import InputError
 from lab.learn import load_model
-from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
+from lab.learn.ensemble import Ensemble, load_ensemble, train_ensemble
 from lab.learn.mlp import MLP
 from lab.learn.model_io import ModelFileError
+from lab.learn.spread_calibration import calibration
 
 
 def random_member(rng, sizes=(3, 6, 5, 3)):

@@ -13,7 +13,7 @@ from lab.control.command_set import CommandSet
 from lab.control.ik import IKConfig, IKSolver, grid_seeds
 from lab.control.soft_ik import FEMForwardMap
 from lab.errors import InputError
-from lab.learn.mlp import init_mlp
+from lab.learn.mlp_init import init_mlp
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from lab.control.ik_objective import Objective
 from lab.control.spread import DEFAULT_MAX_SPREAD_M, predicted_spread_m, spread_rows
 from lab.control.trajectories import circle
 from lab.data.dataset import read_dataset
-from lab.learn.mlp import init_mlp
+from lab.learn.mlp_init import init_mlp
 
 ANGLES = np.radians([45.0, 135.0, 225.0, 315.0])
 #: Tip displacement per rad of cable tension (3, 4) m/rad: each cable bends the tip

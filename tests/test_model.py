@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from helpers import fd_jacobian, fd_parameter_jacobian
 
-from lab.learn.mlp import MLP, init_mlp, load_model, minmax_gain
+from lab.learn.mlp import MLP, load_model, minmax_gain
+from lab.learn.mlp_init import init_mlp
 from lab.learn.model_io import ModelFileError
 
 ARCHS = [

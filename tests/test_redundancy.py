@@ -8,7 +8,7 @@ from lab.control.command_set import CommandSet
 from lab.control.ik import IKConfig, IKSolver
 from lab.control.redundancy import FrozenMotors, frozen_commands, motor_path_stats
 from lab.description import load_robot
-from lab.learn.mlp import init_mlp
+from lab.learn.mlp_init import init_mlp
 
 FREE = [0, 2, 4]
 

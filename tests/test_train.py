@@ -14,7 +14,8 @@ from lab.data.dataset import read_dataset, write_dataset
 from lab.learn.gradient import AdamOptions, LBFGSOptions
 from lab.learn.lm import LMOptions, train_lm
 from lab.learn.metrics import mean_distance_m, mse_m2, workspace_size_m
-from lab.learn.mlp import MLP, init_mlp, load_model
+from lab.learn.mlp import MLP, load_model
+from lab.learn.mlp_init import init_mlp
 from lab.learn.split import divide_random
 from lab.learn.studies import evaluate_splits, size_sweep, summarize
 from lab.learn.train import train

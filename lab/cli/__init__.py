@@ -66,6 +66,13 @@ _BAD_PATH_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotAD
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of ``python -m lab``: ``--debug`` and one subcommand per entry of :data:`COMMANDS`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; a parsed command's ``func(args)`` runs it.
+    """
     debug = argparse.ArgumentParser(add_help=False)
     debug.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help="show the Python traceback of an error"
@@ -92,8 +99,19 @@ def _of_value(err) -> bool:
 
 
 def main(argv=None) -> int:
-    """Run one command; returns the exit code: 0 success, 1 runtime failure, 2 bad input,
-    128 + the signal number when interrupted (130 for Ctrl-C)."""
+    """Run one command under the error policy of the module docstring.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``python -m lab`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 1 runtime failure, 2 bad input, 128 + the signal number
+        when interrupted (130 for Ctrl-C).
+    """
     args = build_parser().parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     try:

@@ -6,7 +6,7 @@ Each ``check_*`` takes the student's function, draws its own cases from its own 
 :func:`lab.course.grade` against ``lab``'s own implementation:
 :func:`lab.learn.active.pick_apart` for exercise 8.1, :class:`lab.learn.residual.GPCorrection`
 (what ``GPRModel`` evaluates) for 8.2, :meth:`lab.learn.Ensemble.predict_with_std` for 8.3
-and :func:`lab.learn.ensemble.calibration` for 8.4. The references live here, out of the
+and :func:`lab.learn.spread_calibration.calibration` for 8.4. The references live here, out of the
 student's sight: a grader cell in ``notebooks/08_data_efficiency.ipynb`` is one import and
 one call.
 
@@ -24,8 +24,8 @@ import numpy as np
 from lab.course.grading import Grade, grade
 from lab.learn import Ensemble
 from lab.learn.active import pick_apart
-from lab.learn.ensemble import calibration
 from lab.learn.residual import GPCorrection
+from lab.learn.spread_calibration import calibration
 
 __all__ = ["check_pick_apart", "check_gp_jacobian", "check_ensemble_spread", "check_calibration"]
 

@@ -145,7 +145,7 @@ def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
     """A model other than the plain network on the training part of train's own split
     (of ``groups`` when given); returns (model, errors per set, calibration or None,
     wall_s, training indices)."""
-    from lab.learn.ensemble import calibration
+    from lab.learn.spread_calibration import calibration
 
     check_enough_data(u, spec.ratios)
     split = outer_split(len(u), spec.ratios, spec.seed, groups)

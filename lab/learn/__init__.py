@@ -1,6 +1,6 @@
 """Stage 6: the learned forward model u -> y.
 
-:class:`MLP` (:mod:`.mlp`) with the Appendix's analytic Jacobian, stored by
+:class:`MLP` (:mod:`.mlp`, initialised by :mod:`.mlp_init`) with the Appendix's analytic Jacobian, stored by
 :mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
 Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
 point :func:`train` (``lab/learn/train.py``) on ``dividerand`` splits (:mod:`.split`); every trainer
@@ -12,21 +12,23 @@ dataset files by :mod:`.run_inputs`. History models of measured sequences and th
 past-fixed views: :mod:`.history`. Sim-to-real transfer from a few real samples:
 fine-tuning (:mod:`.finetune`) and the GP residual model (:mod:`.residual`), behind one
 call in :mod:`lab.transfer.data_methods`. Active sampling (:mod:`.active`), run from a
-design's settings by :mod:`.active_design`.
+design's settings by :mod:`.active_design`. How well a model's spread explains held-out errors:
+:mod:`.spread_calibration`.
 The foam in time (the relaxation filter and its fits) is :mod:`lab.dynamics`.
 """
 
 from lab.learn.active import ActiveSpec, active_sampling, pick_apart
 from lab.learn.active_design import active_settings, check_active, run_active
-from lab.learn.bayes import BROptions, effective_parameters, train_br
-from lab.learn.ensemble import Ensemble, calibration, load_ensemble, train_ensemble
+from lab.learn.bayes import BROptions, train_br
+from lab.learn.ensemble import Ensemble, load_ensemble, train_ensemble
 from lab.learn.finetune import finetune, finetune_fixed
 from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.history import MAX_HISTORY, at_rest, data_bounds, history_features, history_of, with_past
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, stop_message, train_lm
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
-from lab.learn.mlp import MLP, init_mlp, minmax_gain
+from lab.learn.mlp import MLP, minmax_gain
+from lab.learn.mlp_init import init_mlp
 from lab.learn.model_io import ModelFileError, file_metadata, model_arrays, read_model, save_model
 from lab.learn.model_specs import (
     EnsembleSpec,
@@ -38,10 +40,11 @@ from lab.learn.model_specs import (
     model_spec,
 )
 from lab.learn.models import MODEL_CHOICES, evaluate_model_splits, fit_model, load_model
-from lab.learn.network_size import check_network_size, n_parameters, training_bytes
+from lab.learn.network_size import check_network_size
 from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel, fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import GPCorrection, ResidualModel, fit_residual, load_residual
-from lab.learn.split import Split, check_enough_data, divide_random, minimum_samples
+from lab.learn.split import Split, check_enough_data, minimum_samples
+from lab.learn.spread_calibration import calibration
 from lab.learn.studies import (
     evaluate_splits,
     run_seeds,
@@ -55,7 +58,6 @@ from lab.learn.training_data import TrainingData
 
 __all__ = [
     "BROptions",
-    "effective_parameters",
     "train_br",
     "Ensemble",
     "calibration",
@@ -114,7 +116,6 @@ __all__ = [
     "Split",
     "check_enough_data",
     "minimum_samples",
-    "divide_random",
     "mse",
     "LMOptions",
     "TrainLog",
@@ -130,8 +131,6 @@ __all__ = [
     "train",
     "TrainSpec",
     "check_network_size",
-    "n_parameters",
-    "training_bytes",
     "mse_m2",
     "mean_distance_m",
     "error_report",

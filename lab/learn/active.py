@@ -55,7 +55,26 @@ def pick_apart(x_pool: np.ndarray, spread: np.ndarray, x_data: np.ndarray, n: in
     """Indices (n,) of ``n`` candidates of ``x_pool`` (P, m) chosen greedily by score
     ``spread * min(1, d / radius)``, ``d`` the distance of a candidate to the nearest row
     of ``x_data`` (N, m) or candidate already picked; ``spread`` (P,) >= 0. Ties: the
-    lowest index. Same units for ``x_pool``, ``x_data`` and ``radius``."""
+    lowest index. Same units for ``x_pool``, ``x_data`` and ``radius``.
+
+    Parameters
+    ----------
+    x_pool : numpy.ndarray
+        Candidates, shape (P, m), e.g. commands in rad.
+    spread : numpy.ndarray
+        The model's spread at each candidate, shape (P,), >= 0.
+    x_data : numpy.ndarray
+        Points already sampled, shape (N, m).
+    n : int
+        Candidates to pick (<= P).
+    radius : float
+        Distance below which a candidate's score shrinks, units of ``x_pool``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices into ``x_pool``, shape (n,), int, in the order picked.
+    """
     x_pool, spread = np.asarray(x_pool, float), np.asarray(spread, float)
     if n > len(x_pool):
         raise InputError(f"cannot pick {n} of a pool of {len(x_pool)}")

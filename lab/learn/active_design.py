@@ -34,7 +34,21 @@ def _active(design: DesignSpec) -> DesignSpec:
 
 def active_settings(design: DesignSpec, robot: RobotDescription) -> dict:
     """The settings of ``design`` (JSON-able): the sampler's metadata, and what a resumed
-    run (checkpoint or journal) must share."""
+    run (checkpoint or journal) must share.
+
+    Parameters
+    ----------
+    design : DesignSpec
+        A design with an active-sampling budget.
+    robot : RobotDescription
+        The robot sampled (its motors set the sampler's radius).
+
+    Returns
+    -------
+    dict
+        ``n``, ``batch``, ``seed``, ``n_initial``, ``pool_size``, ``radius`` (rad),
+        ``ensemble`` settings and the rest of the sampler's metadata.
+    """
     d = _active(design)
     return {
         "name": "active",
@@ -58,7 +72,15 @@ def active_settings(design: DesignSpec, robot: RobotDescription) -> dict:
 def check_active(design: DesignSpec, robot: RobotDescription) -> None:
     """Refuse (InputError) an ``--active`` budget whose initial Sobol design (half of it)
     has fewer samples than the first ensemble needs to train on (:func:`minimum_samples`
-    of each member's split), unless that design is the whole budget."""
+    of each member's split), unless that design is the whole budget.
+
+    Parameters
+    ----------
+    design : DesignSpec
+        A design with an active-sampling budget.
+    robot : RobotDescription
+        The robot sampled.
+    """
     d = _active(design)
     n_initial = default_initial(d.active)
     need = minimum_samples(robot.n_cables, member_ratios())

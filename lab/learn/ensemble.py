@@ -6,8 +6,8 @@ seeds (:func:`train_ensemble`) give, for a command u (rad): the mean of the memb
 the sample standard deviation across members times a post-hoc **spread scale** ``s`` (1
 unless fitted with :meth:`Ensemble.fit_spread_scale` on held-out data: deep ensembles of a
 few members are usually over-confident). :meth:`Ensemble.std_and_jacobian` also gives
-dstd/du, for IK that penalises the spread; :func:`calibration` measures how well the spread
-predicts held-out errors. One ``.npz`` file (no pickle) holds every member's arrays under
+dstd/du, for IK that penalises the spread; :func:`lab.learn.spread_calibration.calibration`
+measures how well the spread predicts held-out errors. One ``.npz`` file (no pickle) holds every member's arrays under
 ``m0.``, ``m1.``, ... and a ``metadata`` JSON with ``kind: "lab.ensemble"`` and the spread scale.
 
 The formulas: docs/design/learn.md.
@@ -19,22 +19,30 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import chi2
 
 from lab.errors import InputError
 from lab.files import atomic_open, json_default
 from lab.learn.mlp import ACTIVATIONS, MLP
 from lab.learn.model_io import FORMAT_VERSION, ModelFileError, _read_arrays, file_metadata, model_arrays, read_model
+from lab.learn.spread_calibration import GAUSS_1SIGMA, z_scores
 
-__all__ = ["ENSEMBLE_KIND", "Ensemble", "train_ensemble", "load_ensemble", "calibration", "member_ratios"]
+__all__ = ["ENSEMBLE_KIND", "Ensemble", "train_ensemble", "load_ensemble", "member_ratios"]
 
 ENSEMBLE_KIND = "lab.ensemble"
-GAUSS_1SIGMA, GAUSS_2SIGMA = 0.6827, 0.9545  # P(|z| <= 1), P(|z| <= 2) for z ~ N(0, 1)
 
 
 class Ensemble:
-    """``members`` (list of :class:`MLP`, K >= 2, equal n_u and n_y); ``spread_scale`` s > 0
-    multiplies the raw member spread; ``metadata`` is saved with the file."""
+    """K forward networks with a predictive mean, its Jacobian and a spread.
+
+    Parameters
+    ----------
+    members : sequence of MLP
+        K >= 2 networks with equal n_u and n_y.
+    metadata : dict, optional
+        Saved with the file.
+    spread_scale : float
+        s > 0, multiplies the raw member spread.
+    """
 
     kind = ENSEMBLE_KIND
     has_jacobian = True
@@ -60,34 +68,106 @@ class Ensemble:
         return f"Ensemble({len(self.members)} x {self.members[0]!r}, spread scale {self.spread_scale:.3g})"
 
     def member_predictions(self, u) -> np.ndarray:
-        """f_k(u) for every member: (K, N, n_y) m for u (N, n_u), or (K, n_y) for u (n_u,)."""
+        """f_k(u) for every member.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (K, N, n_y) or (K, n_y), m.
+        """
         return np.stack([m.predict(u) for m in self.members])
 
     def predict(self, u) -> np.ndarray:
-        """Mean prediction (N, n_y) m for u (N, n_u) rad; (n_y,) for a single u (n_u,)."""
+        """The mean prediction.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        """
         return self.member_predictions(u).mean(axis=0)
 
     def predict_and_jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Mean (N, n_y) m and its Jacobian, the mean of the members' (N, n_y, n_u) m/rad;
-        a single u (n_u,) gives (n_y,) and (n_y, n_u)."""
+        a single u (n_u,) gives (n_y,) and (n_y, n_u).
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        mean : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        J : numpy.ndarray
+            d mean / du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         parts = [m.predict_and_jacobian(u) for m in self.members]
         return np.mean([p[0] for p in parts], axis=0), np.mean([p[1] for p in parts], axis=0)
 
     def jacobian(self, u) -> np.ndarray:
-        """d mean / du (N, n_y, n_u) m/rad, or (n_y, n_u) for a single u."""
+        """The Jacobian of the mean.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            d mean / du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         return self.predict_and_jacobian(u)[1]
 
     def predict_with_std(self, u, scaled: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(mean, std), both (N, n_y) m for u (N, n_u) rad, or (n_y,) for one u: std is the
         sample standard deviation across members (ddof 1) per coordinate, times the spread
-        scale unless ``scaled=False``."""
+        scale unless ``scaled=False``.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+        scaled : bool
+            Multiply the spread by the spread scale.
+
+        Returns
+        -------
+        mean, std : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        """
         f = self.member_predictions(u)
         std = f.std(axis=0, ddof=1)
         return f.mean(axis=0), std * self.spread_scale if scaled else std
 
     def std_and_jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Scaled std (N, n_y) m and d std / du (N, n_y, n_u) m/rad (formula in the module
-        docstring; zero where the members agree exactly); (n_y,), (n_y, n_u) for one u."""
+        docstring; zero where the members agree exactly); (n_y,), (n_y, n_u) for one u.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        std : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        dstd : numpy.ndarray
+            d std / du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         parts = [m.predict_and_jacobian(u) for m in self.members]
         f, J = np.stack([p[0] for p in parts]), np.stack([p[1] for p in parts])
         df, dJ = f - f.mean(axis=0), J - J.mean(axis=0)
@@ -99,21 +179,45 @@ class Ensemble:
 
     def fit_spread_scale(self, u, y) -> float:
         """Set and return the spread scale s from held-out data u (N, n_u) rad, y (N, n_y) m:
-        the 68.27th percentile of |y - mean| / std_raw over all coordinates, so that 68.27 %
+        the 68.27th percentile of ``|y - mean| / std_raw`` over all coordinates, so that 68.27 %
         of those errors fall within 1 sigma (robust to a few outliers, unlike a Gaussian
-        maximum-likelihood scale)."""
+        maximum-likelihood scale).
+
+        Parameters
+        ----------
+        u : array_like
+            Held-out commands, shape (N, n_u), rad.
+        y : array_like
+            Their measured tips, shape (N, n_y), m.
+
+        Returns
+        -------
+        float
+            The spread scale s (> 0; 1 when the data cannot tell).
+        """
         u, y = np.asarray(u, float), np.asarray(y, float)
         if u.ndim != 2 or y.shape != (len(u), self.n_y) or len(u) < 1:
             raise InputError(f"expected u (N, {self.n_u}) and y (N, {self.n_y}) with N >= 1, got {u.shape}, {y.shape}")
         mean, std = self.predict_with_std(u, scaled=False)
-        z = _z_scores(y, mean, std)
+        z = z_scores(y, mean, std)
         s = float(np.quantile(z[np.isfinite(z)], GAUSS_1SIGMA)) if np.any(np.isfinite(z)) else 1.0
         self.spread_scale = s if np.isfinite(s) and s > 0 else 1.0
         self.metadata["spread_scale_fit"] = {"method": "quantile_68", "n": int(len(u)), "scale": self.spread_scale}
         return self.spread_scale
 
     def save(self, path) -> Path:
-        """Write every member and the metadata to one ``.npz`` atomically (no pickle)."""
+        """Write every member and the metadata to one ``.npz`` atomically (no pickle).
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         import datetime as _dt
 
         from lab.files import code_version
@@ -138,7 +242,18 @@ class Ensemble:
 
 def load_ensemble(path) -> Ensemble:
     """Read a file written by :meth:`Ensemble.save`; :class:`ModelFileError` naming the file
-    and the problem (missing, corrupt, another kind, a bad member or spread scale)."""
+    and the problem (missing, corrupt, another kind, a bad member or spread scale).
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    Ensemble
+        The members, metadata and spread scale as saved.
+    """
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"model file not found: {path}")
@@ -176,7 +291,26 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
     member k with seed ``run_seeds(seed, k)[k]`` (its own initial weights and validation
     split); ``train_kwargs`` (algorithm, epochs, options, activation, ratios, ...) go to
     every member, ``ratios`` defaulting to :func:`member_ratios`. ``n_jobs`` > 1 trains
-    members on joblib workers (results do not depend on it)."""
+    members on joblib workers (results do not depend on it).
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    hidden : tuple of int
+        Hidden layer widths of every member.
+    k, seed, n_jobs : int
+        Members (>= 2), the run's seed and worker processes.
+    **train_kwargs
+        Passed to :func:`lab.learn.train`.
+
+    Returns
+    -------
+    Ensemble
+        The trained members, spread scale 1.
+    """
     from lab.learn.studies import run_seeds
     from lab.learn.train import data_sha256
 
@@ -214,46 +348,3 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
         "n_samples": len(u),
     }
     return Ensemble(members, {"training": training, "units": {"u": "rad", "y": "m"}})
-
-
-def _z_scores(y_true, mean, std) -> np.ndarray:
-    err = np.abs(np.asarray(y_true, float) - mean)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(std > 0, err / np.where(std > 0, std, 1.0), np.where(err > 0, np.inf, 0.0))
-
-
-def calibration(y_true, mean, std) -> dict:
-    """How well a predicted spread explains held-out errors. ``y_true``, ``mean``, ``std``:
-    (N, n_y) m (std > 0; a zero std counts any error as outside every interval).
-
-    Per coordinate, ``z = |y_true - mean| / std`` over all N * n_y entries:
-    ``within_1sigma`` = fraction with z <= 1 and ``within_2sigma`` with z <= 2, to compare
-    with the Gaussian ``gaussian_1sigma`` = 0.6827 and ``gaussian_2sigma`` = 0.9545;
-    ``rms_z`` = sqrt(mean z^2) over the finite z (1 when calibrated; > 1 over-confident).
-    Per sample, the normalised error radius ``d = sqrt(sum_i z_i^2)`` is chi-distributed
-    with n_y degrees of freedom if the errors are independent Gaussians of the predicted
-    std; ``radius_within_68`` and ``radius_within_95`` are the fractions of samples with
-    d below chi(n_y)'s 0.6827 and 0.9545 quantiles (``chi_q68``, ``chi_q95``: 1.878 and
-    2.833 for n_y = 3). Fractions below the Gaussian reference mean over-confidence."""
-    y_true, mean, std = (np.asarray(a, float) for a in (y_true, mean, std))
-    if y_true.ndim != 2 or mean.shape != y_true.shape or std.shape != y_true.shape or len(y_true) == 0:
-        raise InputError(
-            f"y_true, mean and std must share one (N, n_y) shape, got {y_true.shape}, {mean.shape}, {std.shape}"
-        )
-    z = _z_scores(y_true, mean, std)
-    d = np.sqrt(np.sum(z * z, axis=1))
-    finite = np.isfinite(z)
-    n_y = y_true.shape[1]
-    q68, q95 = (float(np.sqrt(chi2.ppf(p, n_y))) for p in (GAUSS_1SIGMA, GAUSS_2SIGMA))
-    return {
-        "n": int(len(y_true)),
-        "within_1sigma": float(np.mean(z <= 1.0)),
-        "within_2sigma": float(np.mean(z <= 2.0)),
-        "gaussian_1sigma": GAUSS_1SIGMA,
-        "gaussian_2sigma": GAUSS_2SIGMA,
-        "rms_z": float(np.sqrt(np.mean(z[finite] ** 2))) if np.any(finite) else None,
-        "radius_within_68": float(np.mean(d <= q68)),
-        "radius_within_95": float(np.mean(d <= q95)),
-        "chi_q68": q68,
-        "chi_q95": q95,
-    }

@@ -39,7 +39,28 @@ def _free_mask(model, last_layer_only: bool) -> np.ndarray:
 
 def finetune_fixed(model, u, y, lam: float, last_layer_only: bool = False, max_iter: int = 100):
     """Fine-tune a copy of ``model`` on ``u`` (N, n_u) rad, ``y`` (N, n_y) m with the
-    prior weight ``lam`` fixed; returns the new model."""
+    prior weight ``lam`` fixed; returns the new model.
+
+    Parameters
+    ----------
+    model : MLP
+        The network trained on simulation (not changed).
+    u : numpy.ndarray
+        Real commands, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Real tips, shape (N, n_y), m.
+    lam : float
+        Weight of the prior towards the simulation's weights.
+    last_layer_only : bool
+        Fine-tune the output layer only.
+    max_iter : int
+        Most optimiser iterations.
+
+    Returns
+    -------
+    MLP
+        The fine-tuned copy.
+    """
     net = model.copy()
     theta0 = net.get_params()
     free = _free_mask(net, last_layer_only)
@@ -97,7 +118,30 @@ def finetune(
     """Fine-tune ``model`` (an :class:`lab.learn.mlp.MLP` trained on simulation) on the real
     samples ``u_real`` (N, n_u) rad, ``y_real`` (N, n_y) m, N >= 2; the prior weight is chosen
     by cross-validation from ``lambdas``. Returns the new model; its
-    ``metadata["finetune"]`` records the chosen ``lam`` and every candidate's CV error (m)."""
+    ``metadata["finetune"]`` records the chosen ``lam`` and every candidate's CV error (m).
+
+    Parameters
+    ----------
+    model : MLP
+        The network trained on simulation (not changed).
+    u_real : array_like
+        Real commands, shape (N, n_u), rad.
+    y_real : array_like
+        Real tips, shape (N, n_y), m.
+    last_layer_only : bool
+        Fine-tune the output layer only.
+    lambdas : sequence of float
+        Candidate prior weights.
+    seed : int
+        Seed of the cross-validation folds.
+    max_iter : int
+        Most optimiser iterations per fit.
+
+    Returns
+    -------
+    MLP
+        The fine-tuned copy.
+    """
     u, y = np.asarray(u_real, float), np.asarray(y_real, float)
     if u.ndim != 2 or u.shape[1] != model.n_u or y.shape != (len(u), model.n_y):
         raise InputError(f"expected u_real (N, {model.n_u}) and y_real (N, {model.n_y}), got {u.shape} and {y.shape}")

@@ -50,7 +50,22 @@ def history_features(u, seq_ids, k: int) -> np.ndarray:
 
     ``u`` (N, m) commands in measurement order; ``seq_ids`` (N,) the sequence of each row
     (a sequence is a run of equal consecutive ids, e.g. :func:`lab.data.sequences.sequence_ids`).
-    Before a sequence's first row, the past is that first command repeated."""
+    Before a sequence's first row, the past is that first command repeated.
+
+    Parameters
+    ----------
+    u : array_like
+        Commands in measurement order, shape (N, m), rad.
+    seq_ids : array_like
+        The sequence of each row, shape (N,).
+    k : int
+        Past commands, 0 to :data:`MAX_HISTORY`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (N, m (k+1)), rad.
+    """
     u = np.asarray(u, dtype=float)
     ids = np.asarray(seq_ids)
     k = _check_k(k)
@@ -90,7 +105,18 @@ def _history(model) -> tuple[int, int]:
 
 
 def history_of(model) -> int:
-    """K, the past commands ``model`` takes (``metadata["history"]["k"]``); 0 for an ordinary model."""
+    """K, the past commands ``model`` takes (``metadata["history"]["k"]``); 0 for an ordinary model.
+
+    Parameters
+    ----------
+    model : object
+        A forward model with ``n_u`` and ``metadata``.
+
+    Returns
+    -------
+    int
+        K, 0 to :data:`MAX_HISTORY`.
+    """
     return _history(model)[0]
 
 
@@ -208,7 +234,20 @@ def with_past(model, past_u) -> _InputMap:
     The result has ``n_u`` = m, ``n_y``, ``has_jacobian``, ``predict`` (u (N, m) or (m,)),
     ``predict_and_jacobian`` / ``jacobian`` (dy/du_t, exact: the base's first m columns)
     and, where the base has them, ``predict_with_std``, ``std_and_jacobian`` and
-    ``members`` (each member with the same past)."""
+    ``members`` (each member with the same past).
+
+    Parameters
+    ----------
+    model : object
+        A history model (or an ordinary one, k = 0).
+    past_u : array_like or None
+        The past commands, shape (k, m), rad, newest first.
+
+    Returns
+    -------
+    object
+        The view u (m,) rad -> y, with the interface above.
+    """
     k, m = _history(model)
     past = np.zeros((0, m)) if past_u is None and k == 0 else np.asarray(past_u, dtype=float)
     past = past.reshape(-1, m) if k == 0 and past.size == 0 else past
@@ -222,7 +261,18 @@ def with_past(model, past_u) -> _InputMap:
 def at_rest(model) -> _InputMap:
     """``model`` at rest: u (m,) -> f(u, u, ..., u), the robot held at one command; its
     Jacobian is the sum of the k+1 blocks of the base's (exact). The interface of
-    :func:`with_past`. For an ordinary model (k = 0), the model itself under another name."""
+    :func:`with_past`. For an ordinary model (k = 0), the model itself under another name.
+
+    Parameters
+    ----------
+    model : object
+        A history model (or an ordinary one).
+
+    Returns
+    -------
+    object
+        The view u (m,) rad -> y, with the interface of :func:`with_past`.
+    """
     k, m = _history(model)
     return _InputMap(model, "rest", k, m)
 
@@ -240,7 +290,18 @@ def record_data_bounds(model, u_motor) -> None:
 def data_bounds(model) -> tuple[np.ndarray, np.ndarray] | None:
     """(lo (m,), hi (m,)): the per-motor min/max of the commands ``model`` was trained on,
     units of the data's commands, from ``metadata["data_bounds"]``; None for a model saved
-    without them (before they were recorded). InputError if they are malformed."""
+    without them (before they were recorded). InputError if they are malformed.
+
+    Parameters
+    ----------
+    model : object
+        A forward model with ``metadata``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray or None
+        (lo, hi), each shape (m,), in the data's command units (rad for a shipped robot).
+    """
     b = (getattr(model, "metadata", None) or {}).get("data_bounds")
     if b is None:
         return None

@@ -34,7 +34,17 @@ INVERSE_KIND = "lab.inverse_mlp"
 class InverseModel:
     """A network ``net`` from tip y (n_y,) m to command u (n_u,) rad, and the command box
     ``u_lo, u_hi`` (n_u,) rad of its training data. ``n_u`` and ``n_y`` are the robot's
-    (motors, tip coordinates), i.e. the network's outputs and inputs."""
+    (motors, tip coordinates), i.e. the network's outputs and inputs.
+
+    Parameters
+    ----------
+    net : MLP
+        The network y (m) -> u (rad).
+    u_lo, u_hi : array_like
+        The command box of the training data, shape (n_u,), rad.
+    metadata : dict, optional
+        The training record, saved with the file.
+    """
 
     kind = INVERSE_KIND
     has_jacobian = False  # of the forward map, which this model does not have
@@ -54,13 +64,41 @@ class InverseModel:
 
     def command(self, y_target) -> np.ndarray:
         """u_motor (n_u,) rad for one tip target y (n_y,) m, or (N, n_u) for (N, n_y);
-        clipped to the training data's command box (the network extrapolates outside it)."""
+        clipped to the training data's command box (the network extrapolates outside it).
+
+        Parameters
+        ----------
+        y_target : array_like
+            Tip targets, shape (n_y,) or (N, n_y), m.
+
+        Returns
+        -------
+        numpy.ndarray
+            Commands, shape (n_u,) or (N, n_u), rad.
+        """
         y = np.asarray(y_target, float)
         if y.shape[-1:] != (self.n_y,) or y.ndim not in (1, 2):
             raise InputError(f"expected tip targets of shape ({self.n_y},) or (N, {self.n_y}), got {y.shape}")
         return np.clip(self.net.predict(y), self.u_lo, self.u_hi)
 
     def _no_forward(self, *_):
+        """The forward map and its Jacobian, which a direct inverse does not have: always raises.
+
+        Parameters
+        ----------
+        *_ : object
+            Ignored (the arguments of ``predict``, ``predict_and_jacobian`` or ``jacobian``).
+
+        Returns
+        -------
+        NoReturn
+            Never returns.
+
+        Raises
+        ------
+        InputError
+            Always, pointing to :meth:`command` and :func:`inverse_tip_errors`.
+        """
         raise InputError(
             "a direct inverse model u = g(y) has no forward map y(u) and no Jacobian: use command(y) for the "
             "commands, and a forward model (lab.learn.inverse.inverse_tip_errors) to judge them"
@@ -69,7 +107,18 @@ class InverseModel:
     predict = predict_and_jacobian = jacobian = _no_forward
 
     def save(self, path) -> Path:
-        """Write to ``path`` (.npz, atomic, no pickle); read back with :func:`load_inverse`."""
+        """Write to ``path`` (.npz, atomic, no pickle); read back with :func:`load_inverse`.
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         path = Path(path)
         meta = {
             **{k: v for k, v in self.metadata.items() if k not in ("format_version", "kind")},
@@ -90,7 +139,26 @@ def fit_inverse(u, y, hidden=(20, 20), seed: int = 0, **train_kwargs) -> Inverse
     a network y -> u by :func:`lab.learn.train` (``train_kwargs``: algorithm, ratios,
     epochs, options, ...; Levenberg-Marquardt with a dividerand split by default). The
     command box is the min/max of ``u``. ``metadata["training"]`` is the trainer's record
-    (its errors are command errors in rad)."""
+    (its errors are command errors in rad).
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    hidden : tuple of int
+        Hidden layer widths.
+    seed : int
+        Seed of the split and the initial weights.
+    **train_kwargs
+        Passed to :func:`lab.learn.train`.
+
+    Returns
+    -------
+    InverseModel
+        The trained network y -> u with the command box of ``u``.
+    """
     from lab.learn.train import train
 
     u, y = np.asarray(u, float), np.asarray(y, float)
@@ -106,7 +174,18 @@ def fit_inverse(u, y, hidden=(20, 20), seed: int = 0, **train_kwargs) -> Inverse
 
 
 def load_inverse(path) -> InverseModel:
-    """Read a file written by :meth:`InverseModel.save`; ModelFileError names the file and problem."""
+    """Read a file written by :meth:`InverseModel.save`; ModelFileError names the file and problem.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    InverseModel
+        The network, command box and metadata as saved.
+    """
     from lab.learn.model_io import read_model
 
     path = Path(path)
@@ -130,7 +209,22 @@ def load_inverse(path) -> InverseModel:
 def inverse_tip_errors(inverse: InverseModel, forward, y_targets) -> np.ndarray:
     """Tip error (N,) m of the direct inverse: ``|forward(g(y)) - y|`` for targets
     ``y_targets`` (N, n_y) m. ``forward`` is a forward model (anything with ``predict``:
-    a network, a peer, the simulator's wrapper) or a callable u (N, n_u) -> y (N, n_y)."""
+    a network, a peer, the simulator's wrapper) or a callable u (N, n_u) -> y (N, n_y).
+
+    Parameters
+    ----------
+    inverse : InverseModel
+        The direct inverse g.
+    forward : object or callable
+        The judge: a model with ``predict`` or a callable u (N, n_u) rad -> y (N, n_y) m.
+    y_targets : array_like
+        Tip targets, shape (N, n_y), m.
+
+    Returns
+    -------
+    numpy.ndarray
+        Tip errors, shape (N,), m.
+    """
     y = np.asarray(y_targets, float)
     if y.ndim != 2:
         raise InputError(f"expected y_targets of shape (N, {inverse.n_y}), got {y.shape}")

@@ -43,7 +43,18 @@ STOP_MESSAGES = {
 def stop_message(training: dict) -> str:
     """The stop phrase of a model's ``metadata["training"]``: :data:`STOP_MESSAGES` of its
     ``stop_reason``, else its stored ``stop_message`` (files written before the phrases lost
-    MATLAB's full stop keep it; it is dropped here), else ``"?"``."""
+    MATLAB's full stop keep it; it is dropped here), else ``"?"``.
+
+    Parameters
+    ----------
+    training : dict
+        A model's ``metadata["training"]``.
+
+    Returns
+    -------
+    str
+        The phrase, without a full stop.
+    """
     reason = training.get("stop_reason")
     if reason in STOP_MESSAGES:
         return STOP_MESSAGES[reason]
@@ -52,7 +63,22 @@ def stop_message(training: dict) -> str:
 
 def mse(model: MLP, u: np.ndarray, y: np.ndarray) -> float:
     """MATLAB ``mse`` of ``model`` on (u, y): mean over samples and coordinates of the squared
-    error (units of y squared); NaN for an empty set."""
+    error (units of y squared); NaN for an empty set.
+
+    Parameters
+    ----------
+    model : MLP
+        The network.
+    u : numpy.ndarray
+        Inputs, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Targets, shape (N, n_y), m.
+
+    Returns
+    -------
+    float
+        The mean squared error, m^2.
+    """
     return mse_m2(model.predict(u), y) if len(u) else float("nan")
 
 
@@ -70,7 +96,7 @@ class LMOptions:
     max_fail : int
         Consecutive epochs of worse validation error that stop training.
     min_grad : float
-        Gradient norm 2 |J^T e| / N_e at or below which training stops (m^2 per unit weight).
+        Gradient norm ``2 |J^T e| / N_e`` at or below which training stops (m^2 per unit weight).
     goal : float
         Training MSE at or below which training stops (m^2).
     max_jacobian_mb : float
@@ -90,7 +116,23 @@ class LMOptions:
 
 @dataclass
 class TrainLog:
-    """What a training run did: per-epoch record (MATLAB's ``tr``), why it stopped, best epoch."""
+    """What a training run did: per-epoch record (MATLAB's ``tr``), why it stopped, best epoch.
+
+    Attributes
+    ----------
+    algorithm : str
+        The trainer, e.g. ``"lm"``, ``"br"``, ``"adam"``, ``"lbfgs"``.
+    stop_reason : str
+        Why it stopped, a key of :data:`STOP_MESSAGES`.
+    epochs, best_epoch : int
+        Epochs run and the epoch whose weights were kept.
+    history : dict
+        Per-epoch arrays (MSE per set in m^2, mu, gradient norm, ...).
+    options : dict
+        The options it ran with.
+    wall_s : float
+        Wall time, s.
+    """
 
     algorithm: str
     stop_reason: str
@@ -160,7 +202,26 @@ def lm_step(model: MLP, u: np.ndarray, y: np.ndarray, mu: float, max_jacobian_mb
     """One Levenberg-Marquardt trial step as :func:`train_lm` takes it: ``dtheta``
     (n_params,) solving ``(J^T J / N_e + mu I) dtheta = -J^T e / N_e`` at ``model``'s
     parameters, for inputs ``u`` (N, n_u) rad and targets ``y`` (N, n_y) m; None if the
-    damped matrix is not numerically positive definite."""
+    damped matrix is not numerically positive definite.
+
+    Parameters
+    ----------
+    model : MLP
+        The network at its current parameters.
+    u : numpy.ndarray
+        Inputs, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Targets, shape (N, n_y), m.
+    mu : float
+        The damping.
+    max_jacobian_mb : float
+        Memory bound for J, MB.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        dtheta, shape (n_params,).
+    """
     y = np.asarray(y, float)
     _, JE, system = _jacobian_products(model, np.asarray(u, float), y, max_jacobian_mb)
     return _lm_step(system, JE, float(mu), y.size, np.empty_like(system[1]))

@@ -19,17 +19,54 @@ import numpy as np
 
 
 def mse_m2(y_hat: np.ndarray, y: np.ndarray) -> float:
-    """Mean over samples and coordinates of the squared error (m^2); NaN for no samples."""
+    """Mean over samples and coordinates of the squared error (m^2); NaN for no samples.
+
+    Parameters
+    ----------
+    y_hat, y : numpy.ndarray
+        Predicted and measured positions, shape (N, 3) (or (N, n_y)), m.
+
+    Returns
+    -------
+    float
+        The MSE, m^2.
+    """
     return float(np.mean((np.asarray(y_hat) - y) ** 2)) if len(y) else float("nan")
 
 
 def mean_distance_m(y_hat: np.ndarray, y: np.ndarray) -> float:
-    """Mean Euclidean distance between predicted and measured positions (m); NaN for none."""
+    """Mean Euclidean distance between predicted and measured positions (m); NaN for none.
+
+    Parameters
+    ----------
+    y_hat, y : numpy.ndarray
+        Predicted and measured positions, shape (N, 3) (or (N, n_y)), m.
+
+    Returns
+    -------
+    float
+        The mean distance, m.
+    """
     return float(np.mean(np.linalg.norm(np.asarray(y_hat) - y, axis=1))) if len(y) else float("nan")
 
 
 def error_report(model, u: np.ndarray, y: np.ndarray) -> dict:
-    """{"mse_m2", "mean_distance_m", "n"} of ``model`` on (u, y); None values for an empty set."""
+    """{"mse_m2", "mean_distance_m", "n"} of ``model`` on (u, y); None values for an empty set.
+
+    Parameters
+    ----------
+    model : object
+        A forward model with ``predict``.
+    u : numpy.ndarray
+        Commands, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Measured tips, shape (N, 3), m.
+
+    Returns
+    -------
+    dict
+        ``mse_m2`` (m^2), ``mean_distance_m`` (m) and ``n``.
+    """
     if len(u) == 0:
         return {"mse_m2": None, "mean_distance_m": None, "n": 0}
     y_hat = model.predict(u)
@@ -37,6 +74,17 @@ def error_report(model, u: np.ndarray, y: np.ndarray) -> dict:
 
 
 def workspace_size_m(p_tip: np.ndarray) -> float:
-    """Diagonal of the axis-aligned bounding box of tip positions (N, 3) m."""
+    """Diagonal of the axis-aligned bounding box of tip positions.
+
+    Parameters
+    ----------
+    p_tip : numpy.ndarray
+        Tip positions, shape (N, 3), m.
+
+    Returns
+    -------
+    float
+        The diagonal, m.
+    """
     p_tip = np.asarray(p_tip, dtype=float)
     return float(np.linalg.norm(p_tip.max(axis=0) - p_tip.min(axis=0)))

@@ -29,10 +29,6 @@ ACTIVATIONS = ("tanh", "logistic")
 # predict_and_jacobian cuts big batches into pieces whose largest temporary, (piece, n_y,
 # width), holds about this many numbers: they stay in cache and their memory is reused.
 _CHUNK_ELEMENTS = 2**15
-# Net-input interval over which each activation is "active" (MATLAB's tansig/logsig
-# 'active' ranges) and the interval its output covers; used by the Nguyen-Widrow init.
-_ACTIVE_RANGE = {"tanh": (-2.0, 2.0), "logistic": (-4.0, 4.0)}
-_OUTPUT_RANGE = {"tanh": (-1.0, 1.0), "logistic": (0.0, 1.0)}
 
 
 def _activate(name: str, z: np.ndarray) -> np.ndarray:
@@ -50,7 +46,18 @@ def _slope(name: str, a: np.ndarray, out: np.ndarray | None = None) -> np.ndarra
 
 
 def minmax_gain(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``mapminmax`` gain 2 / (hi - lo) per column; 1 where the column is constant."""
+    """``mapminmax`` gain 2 / (hi - lo) per column; 1 where the column is constant.
+
+    Parameters
+    ----------
+    lo, hi : array_like
+        Column minima and maxima, shape (n,), in the column's unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        Gains, shape (n,), per unit of the column.
+    """
     span = np.asarray(hi, float) - np.asarray(lo, float)
     safe = np.where(span > 0, span, 2.0)
     return 2.0 / safe
@@ -59,11 +66,19 @@ def minmax_gain(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 class MLP:
     """Feed-forward network u (n_u,) -> y (n_y,) with mapminmax normalisation.
 
-    ``weights[l]`` (n_{l+1}, n_l) and ``biases[l]`` (n_{l+1},) act on normalised
-    values; ``u_min, u_max`` (n_u,) and ``y_min, y_max`` (n_y,) are the data ranges
-    (units of u and y, here rad and m) mapped to [-1, 1]; treat them as read-only (the
-    gains are derived once). ``metadata`` holds the training record that
-    :mod:`lab.learn.model_io` saves with the model.
+    Parameters
+    ----------
+    weights, biases : sequence of array_like
+        ``weights[l]`` (n_{l+1}, n_l) and ``biases[l]`` (n_{l+1},), acting on normalised values.
+    u_min, u_max : array_like
+        The data range of u mapped to [-1, 1], shape (n_u,), units of u (here rad).
+    y_min, y_max : array_like
+        The data range of y mapped to [-1, 1], shape (n_y,), units of y (here m). Treat the
+        four ranges as read-only: the gains are derived once.
+    activation : str
+        Hidden activation, ``"tanh"`` or ``"logistic"``.
+    metadata : dict, optional
+        The training record that :mod:`lab.learn.model_io` saves with the model.
     """
 
     kind = "lab.mlp"  # the file kind (lab.learn.model_io.KIND); every lab model names its kind
@@ -124,19 +139,44 @@ class MLP:
         return f"MLP({'-'.join(map(str, self.layer_sizes))}, {self.activation}, {self.n_params} parameters)"
 
     def copy(self) -> MLP:
+        """A deep copy.
+
+        Returns
+        -------
+        MLP
+            The copy, sharing no array with this network.
+        """
         return copy.deepcopy(self)
 
     def save(self, path) -> None:
-        """Write to ``path`` (.npz, atomic, no pickle); read back with :func:`load_model`."""
+        """Write to ``path`` (.npz, atomic, no pickle); read back with :func:`load_model`.
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+        """
         save_model(self, path)
 
     # ---- parameters ----------------------------------------------------------------
     def get_params(self) -> np.ndarray:
-        """Flat parameter vector theta (n_params,): per layer W_l row-major, then b_l."""
+        """Flat parameter vector theta: per layer W_l row-major, then b_l.
+
+        Returns
+        -------
+        numpy.ndarray
+            theta, shape (n_params,) (a copy).
+        """
         return np.concatenate([np.concatenate([w.ravel(), b]) for w, b in zip(self.weights, self.biases)])
 
     def set_params(self, theta: np.ndarray) -> None:
-        """Overwrite all weights and biases from a flat vector (the order of :meth:`get_params`)."""
+        """Overwrite all weights and biases from a flat vector (the order of :meth:`get_params`).
+
+        Parameters
+        ----------
+        theta : array_like
+            Shape (n_params,).
+        """
         theta = np.asarray(theta, dtype=float)
         if theta.shape != (self.n_params,):
             raise InputError(f"expected {self.n_params} parameters, got shape {theta.shape}")
@@ -194,7 +234,18 @@ class MLP:
         return deltas
 
     def predict(self, u) -> np.ndarray:
-        """y (N, n_y) for u (N, n_u); a single u (n_u,) gives y (n_y,)."""
+        """The network's output.
+
+        Parameters
+        ----------
+        u : array_like
+            Inputs, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            y, shape (N, n_y) or (n_y,), m.
+        """
         u2, single = self._as_batch(u)
         y = self._denormalise(self._forward(u2)[1])
         return y[0] if single else y
@@ -202,7 +253,20 @@ class MLP:
     def predict_and_jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """y (N, n_y) and the network Jacobian dy/du (N, n_y, n_u), units of y per unit of u.
 
-        A single u (n_u,) gives y (n_y,) and dy/du (n_y, n_u)."""
+        A single u (n_u,) gives y (n_y,) and dy/du (n_y, n_u).
+
+        Parameters
+        ----------
+        u : array_like
+            Inputs, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        y : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        J : numpy.ndarray
+            dy/du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         u2, single = self._as_batch(u)
         if single:
             return self._one(u2[0])
@@ -229,12 +293,35 @@ class MLP:
         return self._denormalise(y_n), grad * self._J_scale[0]
 
     def jacobian(self, u) -> np.ndarray:
-        """Network Jacobian dy/du (N, n_y, n_u), or (n_y, n_u) for a single u (n_u,)."""
+        """The network Jacobian dy/du.
+
+        Parameters
+        ----------
+        u : array_like
+            Inputs, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            dy/du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         return self.predict_and_jacobian(u)[1]
 
     def parameter_jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """y (N, n_y) and d y / d theta (N * n_y, n_params), row ``i * n_y + k`` = sample i,
         output k, in units of y (the normalisation is folded in); columns follow :meth:`get_params`.
+
+        Parameters
+        ----------
+        u : array_like
+            Inputs, shape (N, n_u), rad.
+
+        Returns
+        -------
+        y : numpy.ndarray
+            Shape (N, n_y), m.
+        J : numpy.ndarray
+            dy/dtheta, shape (N * n_y, n_params), m per unit of theta.
         """
         u2, _ = self._as_batch(u)
         acts, y_n = self._forward(u2)
@@ -260,7 +347,20 @@ class MLP:
         """Vector-Jacobian product: sum_{i,k} dL_dy[i, k] * d y_k(u_i) / d theta (n_params,).
 
         Plain backpropagation (no (N n_y, n_params) matrix), for first-order training on
-        large datasets. ``dL_dy`` (N, n_y) is the loss gradient with respect to y."""
+        large datasets.
+
+        Parameters
+        ----------
+        u : array_like
+            Inputs, shape (N, n_u), rad.
+        dL_dy : numpy.ndarray
+            The loss gradient with respect to y, shape (N, n_y), per m.
+
+        Returns
+        -------
+        numpy.ndarray
+            dL/dtheta, shape (n_params,).
+        """
         u2, _ = self._as_batch(u)
         acts, _ = self._forward(u2)
         delta = np.asarray(dL_dy, float) / self.y_gain  # d L / d y_n
@@ -270,52 +370,6 @@ class MLP:
             if l:
                 delta = (delta @ self.weights[l]) * _slope(self.activation, acts[l])
         return np.concatenate(grads[::-1])
-
-
-def _nguyen_widrow(
-    rng: np.random.Generator, n_out: int, in_range: tuple[float, float], n_in: int, active: tuple[float, float]
-) -> tuple[np.ndarray, np.ndarray]:
-    """MATLAB ``initnw`` for one layer: weights of magnitude 0.7 n_out^(1/n_in) in random
-    directions, biases spread evenly so the neurons' active regions tile the input range."""
-    mag = 0.7 * n_out ** (1.0 / n_in)
-    w = rng.uniform(-1.0, 1.0, (n_out, n_in))
-    w *= mag / np.linalg.norm(w, axis=1, keepdims=True)
-    b = mag * np.linspace(-1.0, 1.0, n_out) * np.sign(w[:, 0]) if n_out > 1 else np.zeros(1)
-    half, mid = 0.5 * (active[1] - active[0]), 0.5 * (active[1] + active[0])
-    w, b = half * w, half * b + mid  # net inputs [-1, 1] -> active range
-    scale = 2.0 / (in_range[1] - in_range[0])  # inputs in_range -> [-1, 1]
-    shift = 1.0 - in_range[1] * scale
-    return w * scale, w @ np.full(n_in, shift) + b
-
-
-def init_mlp(u, y, hidden=(20, 20), activation: str = "tanh", seed: int | np.random.Generator = 0) -> MLP:
-    """A new network sized for data u (N, n_u), y (N, n_y), initialised like MATLAB.
-
-    Normalisation ranges are the columns' min/max over the given data (MATLAB configures
-    ``mapminmax`` on all data passed to ``train``). Hidden layers get Nguyen-Widrow
-    weights (``initnw``) for the activation's active range; the linear output layer gets
-    the same rule with its target range [-1, 1] as the active range. Deterministic for
-    an integer ``seed``.
-    """
-    u, y = np.asarray(u, float), np.asarray(y, float)
-    if u.ndim != 2 or y.ndim != 2 or len(u) != len(y) or len(u) == 0:
-        raise InputError(f"expected u (N, n_u) and y (N, n_y) with N >= 1, got {u.shape} and {y.shape}")
-    if activation not in ACTIVATIONS:
-        raise InputError(f"activation must be one of {ACTIVATIONS}, got {activation!r}")
-    hidden = tuple(int(h) for h in hidden)
-    if any(h < 1 for h in hidden):
-        raise InputError(f"hidden layer widths must be positive, got {hidden}")
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    sizes = (u.shape[1], *hidden, y.shape[1])
-    weights, biases, in_range = [], [], (-1.0, 1.0)
-    for l in range(len(sizes) - 1):
-        is_output = l == len(sizes) - 2
-        active = (-1.0, 1.0) if is_output else _ACTIVE_RANGE[activation]
-        w, b = _nguyen_widrow(rng, sizes[l + 1], in_range, sizes[l], active)
-        weights.append(w)
-        biases.append(b)
-        in_range = _OUTPUT_RANGE[activation]
-    return MLP(weights, biases, u.min(axis=0), u.max(axis=0), y.min(axis=0), y.max(axis=0), activation)
 
 
 def load_model(path):

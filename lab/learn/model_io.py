@@ -37,7 +37,19 @@ class ModelFileError(InputError):
 
 def model_arrays(model) -> dict[str, np.ndarray]:
     """The arrays of one network's ``.npz`` (``metadata`` JSON included), as :func:`save_model`
-    writes them; a composite model file (:mod:`lab.learn.residual`) stores them under a prefix."""
+    writes them; a composite model file (:mod:`lab.learn.residual`) stores them under a prefix.
+
+    Parameters
+    ----------
+    model : MLP
+        The network.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``metadata`` (JSON text), ``u_min``, ``u_max`` (n_u,) rad, ``y_min``, ``y_max``
+        (n_y,) m, and ``W{l}``, ``b{l}`` per layer.
+    """
     from lab.files import code_version
 
     meta = {
@@ -62,7 +74,20 @@ def model_arrays(model) -> dict[str, np.ndarray]:
 
 
 def save_model(model, path: str | Path) -> Path:
-    """Write ``model`` to ``path`` (``.npz``) atomically; returns the path."""
+    """Write ``model`` to ``path`` (``.npz``) atomically; returns the path.
+
+    Parameters
+    ----------
+    model : MLP
+        The network.
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     with atomic_open(path, "wb") as fh:
         np.savez(fh, **model_arrays(model))
@@ -71,7 +96,20 @@ def save_model(model, path: str | Path) -> Path:
 
 def file_metadata(path: str | Path, arrays: dict | None = None) -> dict:
     """The ``metadata`` JSON object of a model file (any kind), checked for a readable
-    ``format_version``; raises :class:`ModelFileError` naming the file and the problem."""
+    ``format_version``; raises :class:`ModelFileError` naming the file and the problem.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+    arrays : dict, optional
+        Its arrays, when already read.
+
+    Returns
+    -------
+    dict
+        The metadata (``kind``, ``format_version``, the training record, ...).
+    """
     path = Path(path)
     if arrays is None:
         if not path.is_file():
@@ -123,7 +161,22 @@ def read_model(path: str | Path, activations: tuple[str, ...], prefix: str = "")
     ``u_min``, ``u_max``, ``y_min``, ``y_max``). ``activations`` are the names the caller
     can build; ``prefix`` selects one network of a composite file (``"base."``).
     Raises :class:`ModelFileError` naming the file and the problem.
-    (:func:`lab.learn.mlp.load_model` builds the network; this module never imports it.)"""
+    (:func:`lab.learn.mlp.load_model` builds the network; this module never imports it.)
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+    activations : tuple of str
+        The activation names the caller can build.
+    prefix : str
+        The network's prefix in a composite file (``""`` for a plain one).
+
+    Returns
+    -------
+    dict
+        The keyword arguments of :class:`lab.learn.mlp.MLP`.
+    """
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"model file not found: {path}")

@@ -135,7 +135,18 @@ def net_options(algorithm: str = "lm", min_grad: float | None = None):
 def load_model(path):
     """Any lab model file, by the ``kind`` in its metadata (:data:`MODEL_KINDS`); raises
     :class:`lab.learn.model_io.ModelFileError` naming the file and the problem, an
-    unknown kind included."""
+    unknown kind included.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    object
+        The model: an MLP, ensemble, inverse, residual or peer model, by its kind.
+    """
     kind = file_metadata(path).get("kind")
     if kind not in MODEL_KINDS:
         raise ModelFileError(f"{path}: unknown model kind {kind!r} (known: {sorted(MODEL_KINDS)})")
@@ -189,7 +200,7 @@ def _one_split(u, y, spec, ratios, seed, forward, groups=None) -> dict:
         for key, value in err.items():
             row[f"{set_name}_{key}"] = float("nan") if value is None else value
     if name in ("ensemble", "gpr") and len(split.test):
-        from lab.learn.ensemble import calibration
+        from lab.learn.spread_calibration import calibration
 
         keys = ("within_1sigma", "within_2sigma", "radius_within_68")
         cal = calibration(y[split.test], *model.predict_with_std(u[split.test]))
@@ -247,7 +258,7 @@ def evaluate_model_splits(
         set ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m`` (NaN where empty);
         ensembles and GPs add the test calibration (``test_within_1sigma``,
         ``test_within_2sigma``, ``test_radius_within_68``,
-        :func:`lab.learn.ensemble.calibration`; an ensemble's spread scale is fitted on the
+        :func:`lab.learn.spread_calibration.calibration`; an ensemble's spread scale is fitted on the
         validation set when there is one, ``spread_scale``, and ``test_raw_*`` are the same
         before it); the inverse adds ``{set}_mean_command_error_rad``.
     """

@@ -54,7 +54,26 @@ def check_network_size(
 ) -> int:
     """Refuse (a FieldError naming ``TrainSpec.hidden``) training ``layer_sizes`` (n_u, hidden..., n_y)
     on ``n_train`` samples by ``algorithm`` when ``copies`` such runs at once (parallel
-    workers) would not fit in the memory available now; returns the estimate in bytes."""
+    workers) would not fit in the memory available now; returns the estimate in bytes.
+
+    Parameters
+    ----------
+    layer_sizes : sequence of int
+        (n_u, hidden..., n_y).
+    n_train : int
+        Training samples.
+    algorithm : str
+        ``"lm"``, ``"br"``, ``"adam"`` or ``"lbfgs"``.
+    copies : int
+        Runs at once.
+    available_bytes : int, optional
+        Memory available, bytes (default: measured now).
+
+    Returns
+    -------
+    int
+        The estimated peak memory of the ``copies`` runs, bytes.
+    """
     sizes = tuple(int(s) for s in layer_sizes)
     need = copies * training_bytes(sizes, n_train, algorithm)
     have = available_memory_bytes() if available_bytes is None else available_bytes

@@ -47,7 +47,23 @@ class KNNModel(PeerModel):
     """k-nearest-neighbour regression over the stored samples ``u_train`` (N, n_u) rad,
     ``y_train`` (N, n_y) m, distances measured on the scaled inputs. ``weights``:
     "distance" (inverse-distance average of the ``n_neighbors`` nearest, exact at a
-    training sample) or "uniform" (their plain mean)."""
+    training sample) or "uniform" (their plain mean).
+
+    Parameters
+    ----------
+    u_min, u_max : array_like
+        The input range the distances are scaled by, shape (n_u,), rad.
+    u_train : array_like
+        Stored commands, shape (N, n_u), rad.
+    y_train : array_like
+        Stored tips, shape (N, n_y), m.
+    n_neighbors : int
+        k, 1 to N.
+    weights : str
+        ``"distance"`` or ``"uniform"``.
+    metadata : dict, optional
+        The training record, saved with the file.
+    """
 
     kind = KNN_KIND
     has_jacobian = False
@@ -96,7 +112,24 @@ def fit_knn(u, y, n_neighbors: int = 5, *, weights: str = "distance") -> KNNMode
     motion capture at ~0.1 mm) the inverse-distance average interpolates, reproducing a
     sample exactly at its command, whereas the uniform mean of the k neighbours is biased
     towards their centroid by about the sample spacing (measured when the peers were
-    compared: distance weights are more accurate on both three-cable datasets)."""
+    compared: distance weights are more accurate on both three-cable datasets).
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    n_neighbors : int
+        k, 1 to N.
+    weights : str
+        ``"distance"`` or ``"uniform"``.
+
+    Returns
+    -------
+    KNNModel
+        The model over the N samples.
+    """
     u, y = check_data(u, y, need=1)
     t0 = time.perf_counter()
     meta = {"model": "KNeighborsRegressor", "units": dict(UNITS), "training": {"n_samples": len(u)}}
@@ -126,7 +159,18 @@ PEER_KINDS = {GPR_KIND: load_gpr, KNN_KIND: _load_knn, SKLEARN_MLP_KIND: load_sk
 def load_peer(path) -> GPRModel | KNNModel | SklearnMLPModel:
     """Read a peer model file (kind ``lab.gpr``, ``lab.knn`` or ``lab.sklearn_mlp``);
     :class:`ModelFileError` names the file and the problem (missing, corrupt, another
-    kind, a missing or malformed array)."""
+    kind, a missing or malformed array).
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+
+    Returns
+    -------
+    GPRModel, KNNModel or SklearnMLPModel
+        The model, by the file's kind.
+    """
     kind = file_metadata(path).get("kind")
     if kind not in PEER_KINDS:
         raise ModelFileError(f"{path}: kind {kind!r} is not a peer model ({', '.join(PEER_KINDS)})")

@@ -47,7 +47,27 @@ class GPRModel(PeerModel):
     standardised output units), ``length_scales`` (n_u,) and ``signal_variance`` on the
     scaled inputs, ``noise`` (white-noise variance, standardised units), ``y_mean`` and
     ``y_scale`` (n_y,) m. ``estimator`` is the fitted scikit-learn object right after
-    :func:`fit_gpr` (None after loading; never saved)."""
+    :func:`fit_gpr` (None after loading; never saved).
+
+    Parameters
+    ----------
+    u_min, u_max : array_like
+        The input range scaled to [-1, 1], shape (n_u,), rad.
+    u_train : array_like
+        Training commands, shape (N, n_u), rad.
+    alpha : array_like
+        ``(K + noise I)^-1 y``, shape (N, n_y), standardised output units.
+    length_scales : array_like
+        ARD length scales on the scaled inputs, shape (n_u,).
+    signal_variance : float
+        The RBF kernel's variance, standardised units (> 0).
+    noise : float
+        White-noise variance, standardised units (>= 0).
+    y_mean, y_scale : array_like
+        The outputs' standardisation, shape (n_y,), m.
+    metadata : dict, optional
+        The training record, saved with the file.
+    """
 
     kind = GPR_KIND
     has_jacobian = True
@@ -105,7 +125,20 @@ class GPRModel(PeerModel):
         (n_y,) for one u. The variance ``s2 + noise - k*^T (K + noise I)^-1 k*`` is one
         number per u in standardised units, scaled by ``y_scale`` per coordinate.
         ``include_noise`` (default, as scikit-learn's ``return_std``) gives the spread of
-        a new *measurement*; False that of the noise-free mean function."""
+        a new *measurement*; False that of the noise-free mean function.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+        include_noise : bool
+            Add the white noise to the variance.
+
+        Returns
+        -------
+        mean, std : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        """
         u2, single = self._as_batch(u)
         if self._chol is None:  # O(N^3) once: the factor is not stored in the file
             X = self.posterior.X
@@ -152,6 +185,26 @@ def fit_gpr(
     (fitting is O(N^3)), or with ``subsample=True`` a random subset of ``max_samples``
     rows (seeded by ``seed``, recorded in the metadata). ``metadata["training"]`` holds
     the fit time (s), the kernel, the log marginal likelihood and the length scales in rad.
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    seed : int
+        Seed of the restarts and of the subset.
+    n_restarts : int
+        Random restarts of the hyperparameter search.
+    max_samples : int
+        The most samples fitted.
+    subsample : bool
+        Fit a random subset of ``max_samples`` rows instead of refusing more.
+
+    Returns
+    -------
+    GPRModel
+        The posterior, with its fitted scikit-learn ``estimator``.
     """
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.gaussian_process import GaussianProcessRegressor

@@ -34,7 +34,21 @@ class SklearnMLPModel(PeerModel):
     """A fitted ``MLPRegressor``: ``coefs`` [(n_l, n_{l+1})], ``intercepts`` [(n_{l+1},)] on
     scaled inputs (``u_min, u_max`` (n_u,) rad) and standardised outputs (``y_mean,
     y_scale`` (n_y,) m). ``estimator`` is the scikit-learn object right after fitting
-    (None after loading; never saved)."""
+    (None after loading; never saved).
+
+    Parameters
+    ----------
+    u_min, u_max : array_like
+        The input range scaled to [-1, 1], shape (n_u,), rad.
+    coefs : sequence of array_like
+        ``coefs[l]`` of shape (n_l, n_{l+1}).
+    intercepts : sequence of array_like
+        ``intercepts[l]`` of shape (n_{l+1},).
+    y_mean, y_scale : array_like
+        The outputs' standardisation, shape (n_y,), m.
+    metadata : dict, optional
+        The training record, saved with the file.
+    """
 
     kind = SKLEARN_MLP_KIND
     has_jacobian = True
@@ -84,7 +98,30 @@ def fit_sklearn_mlp(
     ``y`` (N, n_y) m; ``alpha`` is scikit-learn's L2 penalty, ``max_iter`` the L-BFGS
     iteration limit, ``tol`` its gradient tolerance (tight: the default 1e-4 stops
     millimetres short on standardised outputs). ``metadata["training"]`` records the fit
-    time (s), iterations, final loss and whether L-BFGS converged before ``max_iter``."""
+    time (s), iterations, final loss and whether L-BFGS converged before ``max_iter``.
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    hidden : tuple of int
+        Hidden layer widths.
+    seed : int
+        Seed of the initial weights.
+    alpha : float
+        L2 penalty.
+    max_iter : int
+        L-BFGS iteration limit.
+    tol : float
+        Gradient tolerance.
+
+    Returns
+    -------
+    SklearnMLPModel
+        The fitted network, with its scikit-learn ``estimator``.
+    """
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPRegressor
 

@@ -32,7 +32,21 @@ RESIDUAL_KIND = "lab.residual"
 
 class GPCorrection:
     """Posterior mean of a GP with kernel ``s2 * RBF(length_scales)``: inputs ``X`` (N, n_u)
-    rad, weights ``alpha`` (N, n_y), constant ``offset`` (n_y,) m."""
+    rad, weights ``alpha`` (N, n_y), constant ``offset`` (n_y,) m.
+
+    Parameters
+    ----------
+    X : array_like
+        Inputs of the real samples, shape (N, n_u), rad.
+    alpha : array_like
+        Posterior weights, shape (N, n_y), m.
+    length_scales : array_like
+        RBF length scales, shape (n_u,), rad.
+    signal_variance : float
+        s2, the kernel's variance (dimensionless factor of ``alpha``).
+    offset : array_like
+        The constant the mean falls back to far from the data, shape (n_y,), m.
+    """
 
     def __init__(self, X, alpha, length_scales, signal_variance: float, offset):
         self.X, self.alpha = np.asarray(X, float), np.asarray(alpha, float)
@@ -46,7 +60,20 @@ class GPCorrection:
         return self.signal_variance * np.exp(-0.5 * np.sum(d * d, axis=2)), d
 
     def predict_and_jacobian(self, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """m (M, n_y) m and dm/du (M, n_y, n_u) m/rad for u2 (M, n_u) rad."""
+        """The posterior mean and its Jacobian.
+
+        Parameters
+        ----------
+        u2 : numpy.ndarray
+            Commands, shape (M, n_u), rad.
+
+        Returns
+        -------
+        m : numpy.ndarray
+            Shape (M, n_y), m.
+        dm : numpy.ndarray
+            dm/du, shape (M, n_y, n_u), m/rad.
+        """
         k, d = self._k(u2)
         m = k @ self.alpha + self.offset
         dk = -k[:, :, None] * d / self.length_scales  # dk/du (M, N, n_u)
@@ -56,7 +83,17 @@ class GPCorrection:
 class ResidualModel:
     """``base`` (an :class:`lab.learn.mlp.MLP` trained on simulation) plus ``correction``
     (:class:`GPCorrection`); the forward-map interface of the network (``predict``,
-    ``predict_and_jacobian``, ``jacobian``, ``n_u``, ``n_y``, ``save``)."""
+    ``predict_and_jacobian``, ``jacobian``, ``n_u``, ``n_y``, ``save``).
+
+    Parameters
+    ----------
+    base : MLP
+        The network trained on simulation.
+    correction : GPCorrection
+        The residual's posterior mean.
+    metadata : dict, optional
+        The fit's record, saved with the file.
+    """
 
     def __init__(self, base, correction: GPCorrection, metadata: dict | None = None):
         self.base, self.correction = base, correction
@@ -72,7 +109,20 @@ class ResidualModel:
         return f"ResidualModel({self.base!r} + GP on {len(self.correction.X)} real samples)"
 
     def predict_and_jacobian(self, u):
-        """y (N, n_y) m and dy/du (N, n_y, n_u) m/rad; a single u (n_u,) gives (n_y,), (n_y, n_u)."""
+        """y (N, n_y) m and dy/du (N, n_y, n_u) m/rad; a single u (n_u,) gives (n_y,), (n_y, n_u).
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        y : numpy.ndarray
+            Shape (N, n_y) or (n_y,), m.
+        J : numpy.ndarray
+            dy/du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         u = np.asarray(u, float)
         single = u.ndim == 1
         y, J = self.base.predict_and_jacobian(u[None] if single else u)
@@ -81,15 +131,48 @@ class ResidualModel:
         return (y[0], J[0]) if single else (y, J)
 
     def predict(self, u) -> np.ndarray:
-        """y (N, n_y) m for u (N, n_u) rad, or (n_y,) for one u."""
+        """The network plus the correction.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            y, shape (N, n_y) or (n_y,), m.
+        """
         return self.predict_and_jacobian(u)[0]
 
     def jacobian(self, u) -> np.ndarray:
-        """dy/du (N, n_y, n_u) m/rad, or (n_y, n_u) for one u."""
+        """The Jacobian of :meth:`predict`.
+
+        Parameters
+        ----------
+        u : array_like
+            Commands, shape (N, n_u) or (n_u,), rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            dy/du, shape (N, n_y, n_u) or (n_y, n_u), m/rad.
+        """
         return self.predict_and_jacobian(u)[1]
 
     def save(self, path) -> Path:
-        """Write both parts to one ``.npz`` atomically (no pickle)."""
+        """Write both parts to one ``.npz`` atomically (no pickle).
+
+        Parameters
+        ----------
+        path : str or Path
+            The model file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         path = Path(path)
         meta = {"format_version": FORMAT_VERSION, "kind": RESIDUAL_KIND, **self.metadata}
         arrays = {f"base.{k}": v for k, v in model_arrays(self.base).items()}
@@ -113,7 +196,24 @@ def fit_residual(base, u_real, y_real, seed: int = 0) -> ResidualModel:
     """Fit the GP correction to ``y_real - base(u_real)``: ``u_real`` (N, n_u) rad,
     ``y_real`` (N, n_y) m, N >= 1. Hyperparameters by maximum marginal likelihood
     (scikit-learn, a few seeded restarts); the white-noise level absorbs motion-capture
-    noise and hysteresis, which no function of u can fit."""
+    noise and hysteresis, which no function of u can fit.
+
+    Parameters
+    ----------
+    base : MLP
+        The network trained on simulation.
+    u_real : array_like
+        Real commands, shape (N, n_u), rad.
+    y_real : array_like
+        Real tips, shape (N, n_y), m.
+    seed : int
+        Seed of the restarts.
+
+    Returns
+    -------
+    ResidualModel
+        ``base`` plus the fitted correction.
+    """
     import warnings
 
     from sklearn.exceptions import ConvergenceWarning
@@ -152,7 +252,22 @@ def load_residual(path, network, activations) -> ResidualModel:
     """Read a file written by :meth:`ResidualModel.save`; ``network(**kwargs)`` builds the
     simulation network from :func:`lab.learn.model_io.read_model`'s keyword arguments
     (:func:`lab.learn.mlp.load_model` passes ``MLP``; this module never imports it).
-    Raises :class:`ModelFileError` naming the file and the problem."""
+    Raises :class:`ModelFileError` naming the file and the problem.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model file.
+    network : callable
+        Builds the simulation network from :func:`lab.learn.model_io.read_model`'s keyword arguments.
+    activations : tuple of str
+        The activation names ``network`` can build.
+
+    Returns
+    -------
+    ResidualModel
+        The network and the correction as saved.
+    """
     from lab.learn.model_io import read_model
 
     path = Path(path)

@@ -29,13 +29,26 @@ MIN_GROUPS, N_BLOCKS = 3, 10
 
 @dataclass
 class Split:
-    """Sample indices of the training, validation and test sets (sorted, disjoint)."""
+    """Sample indices of the training, validation and test sets (sorted, disjoint).
+
+    Attributes
+    ----------
+    train, validation, test : numpy.ndarray
+        Row indices of each set, int, sorted.
+    """
 
     train: np.ndarray
     validation: np.ndarray
     test: np.ndarray
 
     def sizes(self) -> dict:
+        """The number of rows of each set.
+
+        Returns
+        -------
+        dict
+            ``train``, ``validation``, ``test`` -> int.
+        """
         return {"train": len(self.train), "validation": len(self.validation), "test": len(self.test)}
 
 
@@ -118,7 +131,20 @@ def _sizes(n: int, ratios) -> tuple[int, int, int]:
 def minimum_samples(n_inputs: int, ratios) -> int:
     """The fewest samples a split ``ratios`` of an ``n_inputs``-input dataset may have: the
     training set needs ``n_inputs + 1`` samples (an affine map is the least a network must
-    fit) and every set the ratios ask for needs at least one."""
+    fit) and every set the ratios ask for needs at least one.
+
+    Parameters
+    ----------
+    n_inputs : int
+        Inputs n_u of the dataset.
+    ratios : sequence of float
+        (train, validation, test), normalised by their sum.
+
+    Returns
+    -------
+    int
+        The fewest samples.
+    """
     r = np.asarray(ratios, dtype=float)
     for n in range(1, 100_000):
         n_train, n_val, n_test = _sizes(n, r)
@@ -129,7 +155,15 @@ def minimum_samples(n_inputs: int, ratios) -> int:
 
 def check_enough_data(u: np.ndarray, ratios) -> None:
     """Raise InputError unless the commands ``u`` (N, n_u) can be split by ``ratios`` into
-    usable sets: at least :func:`minimum_samples` samples and as many *distinct* commands."""
+    usable sets: at least :func:`minimum_samples` samples and as many *distinct* commands.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Commands, shape (N, n_u), rad.
+    ratios : sequence of float
+        (train, validation, test).
+    """
     u = np.asarray(u, dtype=float)
     divide_random(max(len(u), 1), ratios)  # validates the ratios themselves
     need = minimum_samples(u.shape[1], ratios)

@@ -25,7 +25,20 @@ from lab.workers import kill_local_workers, watch_parent
 
 
 def run_seeds(seed: int, n: int) -> list[int]:
-    """``n`` independent integer seeds derived from ``seed`` (NumPy SeedSequence)."""
+    """``n`` independent integer seeds derived from ``seed`` (NumPy SeedSequence).
+
+    Parameters
+    ----------
+    seed : int
+        The study's seed.
+    n : int
+        Seeds wanted.
+
+    Returns
+    -------
+    list of int
+        ``n`` seeds, the same for the same ``seed``.
+    """
     return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(n)]
 
 
@@ -72,7 +85,32 @@ def evaluate_splits(
 
     Row keys: hidden, n_params, seed, epochs, best_epoch, stop_reason, wall_s and, for each
     of train/validation/test, ``{set}_n``, ``{set}_mse_m2``, ``{set}_mean_distance_m``
-    (NaN for an empty set). ``train_kwargs`` go to :func:`lab.learn.train.train`."""
+    (NaN for an empty set). ``train_kwargs`` go to :func:`lab.learn.train.train`.
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    hidden : tuple of int
+        Hidden layer widths.
+    n_splits : int
+        Random splits.
+    ratios : tuple of float
+        (train, validation, test).
+    seed : int
+        The study's seed (:func:`run_seeds`).
+    n_jobs : int
+        Worker processes.
+    **train_kwargs
+        Passed to :func:`lab.learn.train.train`.
+
+    Returns
+    -------
+    list of dict
+        One row per split, errors in m^2 and m, ``wall_s`` in s.
+    """
     check_enough_data(u, ratios)  # before any worker starts
     jobs = [(u, y, tuple(hidden), ratios, s, train_kwargs) for s in run_seeds(seed, n_splits)]
     rows = _run_all(jobs, n_jobs)
@@ -94,7 +132,34 @@ def size_sweep(
     **train_kwargs,
 ) -> list[dict]:
     """Figure 6: ``n_layers`` hidden layers of each width, ``n_runs`` splits each; one row per
-    (width, run) with the keys of :func:`evaluate_splits` plus ``width`` and ``run``."""
+    (width, run) with the keys of :func:`evaluate_splits` plus ``width`` and ``run``.
+
+    Parameters
+    ----------
+    u : array_like
+        Commands, shape (N, n_u), rad.
+    y : array_like
+        Tips, shape (N, n_y), m.
+    widths : sequence of int
+        Hidden layer widths to sweep.
+    n_layers : int
+        Hidden layers of each network.
+    n_runs : int
+        Random splits per width.
+    ratios : tuple of float
+        (train, validation, test).
+    seed : int
+        The study's seed (the same splits for every width).
+    n_jobs : int
+        Worker processes.
+    **train_kwargs
+        Passed to :func:`lab.learn.train.train`.
+
+    Returns
+    -------
+    list of dict
+        One row per (width, run), in the order of ``widths``.
+    """
     check_enough_data(u, ratios)  # before any worker starts
     seeds = run_seeds(seed, n_runs)
     jobs = [(u, y, (int(w),) * n_layers, ratios, s, train_kwargs) for w in widths for s in seeds]
@@ -110,7 +175,22 @@ def size_sweep(
 def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
     """Per value of ``by`` (in order of first appearance): n, mean, std (ddof=1), median,
     q25 and q75 (the quartiles, NumPy's default linear interpolation: the interquartile
-    range is q75 - q25), min, max of ``value`` (NaNs dropped)."""
+    range is q75 - q25), min, max of ``value`` (NaNs dropped).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of a study.
+    by : str
+        The key to group by (e.g. ``"width"``).
+    value : str
+        The key summarised (e.g. ``"test_mean_distance_m"``), in its unit.
+
+    Returns
+    -------
+    list of dict
+        One row per group: ``by``, ``n`` and the statistics, in the unit of ``value``.
+    """
     out = []
     for key in dict.fromkeys(r[by] for r in rows):
         v = np.array([r[value] for r in rows if r[by] == key], dtype=float)
@@ -132,7 +212,17 @@ def summarize(rows: list[dict], by: str, value: str) -> list[dict]:
 
 
 def write_csv(path, rows: list[dict], columns: list[str] | None = None) -> None:
-    """Write dict rows as CSV (atomic); floats with full precision (repr)."""
+    """Write dict rows as CSV (atomic); floats with full precision (repr).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    rows : list of dict
+        The rows.
+    columns : list of str, optional
+        The columns, in order (default: the first row's keys).
+    """
     columns = columns or list(rows[0])
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")

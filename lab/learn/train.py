@@ -1,7 +1,7 @@
 """One entry point for training the forward model: split, initialise, fit.
 
 :func:`train` draws a ``dividerand`` split (:mod:`lab.learn.split`) and Nguyen-Widrow
-initial weights (:func:`lab.learn.mlp.init_mlp`) from one seeded random stream, so a seed
+initial weights (:func:`lab.learn.mlp_init.init_mlp`) from one seeded random stream, so a seed
 fixes everything, then fits with MATLAB-faithful Levenberg-Marquardt
 (:mod:`lab.learn.lm`, the default) or Adam / L-BFGS (:mod:`lab.learn.gradient`), and
 records what is needed to reproduce the run in the model's metadata.
@@ -19,7 +19,8 @@ from lab.learn.bayes import BROptions, br_summary, train_br
 from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
 from lab.learn.metrics import error_report
-from lab.learn.mlp import MLP, init_mlp
+from lab.learn.mlp import MLP
+from lab.learn.mlp_init import init_mlp
 from lab.learn.network_size import check_network_size
 from lab.learn.split import Split, check_enough_data, divide
 from lab.learn.training_data import TrainingData
@@ -57,7 +58,20 @@ def check_options(algorithm: str, options) -> None:
 
 
 def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
-    """SHA-256 of the training data as float64 arrays (shapes included), independent of file format."""
+    """SHA-256 of the training data as float64 arrays (shapes included), independent of file format.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Inputs, shape (N, n_u), rad.
+    y : numpy.ndarray
+        Outputs, shape (N, n_y), m.
+
+    Returns
+    -------
+    str
+        The hex digest.
+    """
     h = hashlib.sha256()
     for a in (np.ascontiguousarray(u, dtype="<f8"), np.ascontiguousarray(y, dtype="<f8")):
         h.update(repr(a.shape).encode())
@@ -67,7 +81,20 @@ def data_sha256(u: np.ndarray, y: np.ndarray) -> str:
 
 @dataclass
 class TrainResult:
-    """A trained network with its split, log and errors (``errors[set]`` = {mse_m2, mean_distance_m, n})."""
+    """A trained network with its split, log and errors.
+
+    Attributes
+    ----------
+    model : MLP
+        The trained network (best validation epoch), its record in ``metadata["training"]``.
+    split : Split
+        The rows of the training, validation and test sets.
+    log : TrainLog
+        What the trainer did.
+    errors : dict
+        ``errors[set]`` = {``mse_m2`` (m^2), ``mean_distance_m`` (m), ``n``} for
+        ``train``, ``validation``, ``test``.
+    """
 
     model: MLP
     split: Split

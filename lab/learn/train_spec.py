@@ -198,14 +198,35 @@ class TrainSpec(Spec):
         )
 
     def n_train(self, n_samples: int) -> int:
-        """Samples in the training part of ``n_samples`` split by ``ratios`` (dividerand)."""
+        """Samples in the training part of ``n_samples`` split by ``ratios`` (dividerand).
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples of the dataset.
+
+        Returns
+        -------
+        int
+            Training samples.
+        """
         total = sum(self.ratios)
         return n_samples - sum(int(round(r / total * n_samples)) for r in self.ratios[1:])
 
     def check_fits(self, n_u: int, n_y: int, n_samples: int, copies: int = 1) -> None:
         """Refuse (InputError naming ``--hidden``) a network this spec would train on
         ``n_samples`` samples of ``n_u`` inputs and ``n_y`` outputs, ``copies`` runs at once,
-        that would not fit in the memory available now. Nothing to check for gpr and knn."""
+        that would not fit in the memory available now. Nothing to check for gpr and knn.
+
+        Parameters
+        ----------
+        n_u, n_y : int
+            Inputs and outputs of the data.
+        n_samples : int
+            Samples of the dataset.
+        copies : int
+            Runs at once.
+        """
         if self.model in ("gpr", "knn"):
             return
         sizes = (n_y, *self.hidden, n_u) if self.model == "inverse-mlp" else (n_u, *self.hidden, n_y)

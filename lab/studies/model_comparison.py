@@ -8,7 +8,7 @@ a dataset of fewer than three sequences is cut into contiguous blocks, ``group(b
 and the first 80 % of rows in measurement order against the rest (``sequential``, one
 split) -- and writes one row per fit: the test errors as 3-D distances (RMS, mean, median,
 max; m), for models with a spread the share of test coordinates within 1 and 2 sigma
-(:func:`lab.learn.ensemble.calibration`), the fit time. ``--ns`` adds learning-curve rows:
+(:func:`lab.learn.spread_calibration.calibration`), the fit time. ``--ns`` adds learning-curve rows:
 the same random splits, trained on N of their training rows. Rows are appended one at a
 time and the CSV and its sidecar (with the summary,
 :func:`lab.studies.comparison_spec.summarise`) rewritten atomically, so a run stopped in
@@ -102,8 +102,8 @@ def split_rows(kind: str, index: int, seed: int, n: int, seq_ids, fraction: floa
 def measure_row(data: dict, task: tuple) -> dict:
     """One row: ``task`` = (model, K, split kind, index, seed, N or None) on ``data``
     ({"u", "y", "seq", "name", "fraction"}); runs here or in a worker process."""
-    from lab.learn.ensemble import calibration
     from lab.learn.history import history_features
+    from lab.learn.spread_calibration import calibration
     from lab.workers import watch_parent
 
     watch_parent()

@@ -15,16 +15,13 @@ from lab.tracking.closed_loop import (
     DEFAULT_GAIN,
     MAX_PASSES,
     Correction,
-    TipMeasurement,
     correct_command,
     damped_pinv,
-    measure_tip,
     run_closed_loop,
-    tip_from_frames,
 )
 from lab.tracking.offline import SolvedTargets, run_offline, solve_targets
 from lab.tracking.points import PointLog
-from lab.tracking.stream import StreamPlan, StreamResult, plan_stream, stream_trajectory, target_at
+from lab.tracking.stream import StreamPlan, StreamResult, stream_trajectory
 from lab.tracking.stream_spec import StreamSpec
 from lab.tracking.track import (
     REQUIRED_KEYS,
@@ -44,12 +41,9 @@ __all__ = [
     "DEFAULT_GAIN",
     "MAX_PASSES",
     "Correction",
-    "TipMeasurement",
     "correct_command",
     "damped_pinv",
-    "measure_tip",
     "run_closed_loop",
-    "tip_from_frames",
     "TRACK_PROTOCOL",
     "REQUIRED_KEYS",
     "TrackResultError",
@@ -60,7 +54,5 @@ __all__ = [
     "StreamSpec",
     "StreamPlan",
     "StreamResult",
-    "plan_stream",
     "stream_trajectory",
-    "target_at",
 ]

@@ -67,7 +67,23 @@ class Correction(Spec):
     (0, 2) (the flag ``--gain``); ``damping``: lambda / sigma_max(J); ``max_step_rad``: largest
     change of any motor per correction, rad; ``window_s``: averaging window after settling, s;
     ``min_valid_fraction``: share of that window's frames that must be valid for a correction;
-    ``max_window_s``: how long the window may grow to collect them, s."""
+    ``max_window_s``: how long the window may grow to collect them, s.
+
+    Attributes
+    ----------
+    gain : float
+        Correction gain alpha, in (0, 2).
+    damping : float
+        Damping lambda as a fraction of J's largest singular value, in (0, 1).
+    max_step_rad : float
+        Largest change of any motor per correction, rad.
+    window_s : float
+        Averaging window after settling, s.
+    min_valid_fraction : float
+        Share of the window's frames that must be valid, in (0, 1].
+    max_window_s : float
+        Longest the window may grow, s (>= ``window_s``).
+    """
 
     gain: float = option(
         DEFAULT_GAIN,
@@ -144,8 +160,20 @@ def measure_tip(rig: Rig, u_motor, protocol: Protocol = TRACK_PROTOCOL, correcti
 
 
 def damped_pinv(J, damping: float = 1e-2) -> np.ndarray:
-    """``(J^T J + lambda^2 I)^-1 J^T`` (m, 3) rad/m for ``J`` (3, m) m/rad, ``lambda = damping
-    * sigma_max(J)``."""
+    """The damped pseudo-inverse ``(J^T J + lambda^2 I)^-1 J^T``, ``lambda = damping * sigma_max(J)``.
+
+    Parameters
+    ----------
+    J : array_like
+        Jacobian of the tip in the command, shape (3, m), m/rad.
+    damping : float
+        lambda as a fraction of J's largest singular value.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (m, 3), rad/m.
+    """
     J = np.asarray(J, dtype=float)
     lam2 = (damping * np.linalg.norm(J, 2)) ** 2
     return np.linalg.solve(J.T @ J + lam2 * np.eye(J.shape[1]), J.T)
@@ -157,7 +185,26 @@ def correct_command(
     """One correction of command ``u_motor`` (m,) rad (in ``commands``) towards ``target_W``
     (3,) m from the measured tip ``measured_W`` (3,) m, through ``forward.predict_and_jacobian``'s
     Jacobian at ``u_motor`` (docs/design/tracking.md). A non-finite measurement returns ``u_motor``
-    unchanged: NaN never enters a correction. The answer is always in ``commands``."""
+    unchanged: NaN never enters a correction. The answer is always in ``commands``.
+
+    Parameters
+    ----------
+    commands : CommandSet
+        The allowed commands (range and safety rules).
+    forward : object
+        The model, with ``predict_and_jacobian(u) -> (y (3,) m, J (3, m) m/rad)``.
+    u_motor : array_like
+        The current command, shape (m,), rad.
+    target_W, measured_W : array_like
+        Target and measured tip, shape (3,), m, frame W.
+    correction : Correction
+        Gain, damping and step limit.
+
+    Returns
+    -------
+    numpy.ndarray
+        The corrected command, shape (m,), rad, in ``commands``.
+    """
     u = np.asarray(u_motor, dtype=float)
     measured = np.asarray(measured_W, dtype=float)
     if not np.all(np.isfinite(measured)):
@@ -194,7 +241,38 @@ def run_closed_loop(
     docs/design/tracking.md) through ``solver.forward``'s Jacobian. ``progress(done, total)`` after each
     measurement; ``on_point(i, target_W, u_motor, sample)`` with each (e.g.
     :meth:`.track.PointLog.append`). Returns the final pass as a :class:`TrackResult` with
-    ``passes`` and ``info["closed_loop"]``; the rig is left open."""
+    ``passes`` and ``info["closed_loop"]``; the rig is left open.
+
+    Parameters
+    ----------
+    rig : Rig
+        The robot.
+    solver : IKSolver
+        The IK on the model; its ``forward`` needs a Jacobian.
+    targets_W : array_like
+        Targets, shape (N, 3), m, frame W.
+    mode : str
+        ``"ilc"`` (pass by pass) or ``"feedback"`` (point by point).
+    passes : int
+        Runs, 1 to :data:`MAX_PASSES`.
+    correction : Correction
+        The correction's settings.
+    name : str
+        The trajectory's name in the result.
+    protocol : Protocol
+        How each point is settled and read.
+    u0 : array_like, optional
+        Warm start of the first IK solve, shape (m,), rad.
+    progress : callable, optional
+        ``progress(done, total)`` after each measurement.
+    on_point : callable, optional
+        ``on_point(i, target_W, u_motor, sample)`` with each measurement.
+
+    Returns
+    -------
+    TrackResult
+        The final pass, with one summary per pass in ``passes``.
+    """
     if mode not in MODES:
         raise InputError(f"closed-loop mode must be one of {MODES}, got {mode!r}")
     if problem := check_passes(passes):

@@ -46,7 +46,33 @@ class SolvedTargets:
     (N, 3) m; ``commands`` (N, m) (the training data's units: rad for a shipped robot);
     ``reachable``, ``uncertain`` (N,) bool; ``spread_m`` (N,) m (NaN without a spread);
     ``iterations`` (N,). ``history``: the model's K; ``u_min``/``u_max`` (m,): the box the
-    commands were kept in; ``has_spread``; ``timings`` s; ``info`` free-form."""
+    commands were kept in; ``has_spread``; ``timings`` s; ``info`` free-form.
+
+    Attributes
+    ----------
+    trajectory : str
+        The trajectory's name.
+    targets_W, predicted_W : numpy.ndarray
+        Targets and the model's tips at the answers, shape (N, 3), m.
+    commands : numpy.ndarray
+        The IK's answers, shape (N, m), in the training data's units (rad for a shipped robot).
+    reachable, uncertain : numpy.ndarray
+        Per target, shape (N,), bool.
+    spread_m : numpy.ndarray
+        The model's spread at each answer, shape (N,), m (NaN without a spread).
+    iterations : numpy.ndarray
+        IK iterations per target, shape (N,), int.
+    history : int
+        The model's history length K (0: none).
+    u_min, u_max : numpy.ndarray
+        The box the commands were kept in, shape (m,).
+    has_spread : bool
+        Whether the model has a spread.
+    timings : dict
+        Wall times, s.
+    info : dict
+        Model, robot, the IK's settings and what it did.
+    """
 
     trajectory: str
     targets_W: np.ndarray
@@ -69,7 +95,13 @@ class SolvedTargets:
         return np.linalg.norm(self.predicted_W - self.targets_W, axis=1)
 
     def to_json(self) -> dict:
-        """The JSON document of the result file (docs/design/tracking.md)."""
+        """The JSON document of the result file (docs/design/tracking.md).
+
+        Returns
+        -------
+        dict
+            The document (kind ``lab.track.commands``), arrays as numpy arrays (m, s).
+        """
         e = self.errors_m
         return {
             "format_version": FORMAT_VERSION,
@@ -97,7 +129,13 @@ class SolvedTargets:
 
     def commands_csv(self) -> str:
         """``OUT.commands.csv``: ``u0..u{m-1},x_pred,y_pred,z_pred,error_m`` (and ``spread_m``
-        for a model with a spread), one row per target in order."""
+        for a model with a spread), one row per target in order.
+
+        Returns
+        -------
+        str
+            The CSV text, floats written with ``repr``.
+        """
         m = self.commands.shape[1]
         cols = [self.commands, self.predicted_W, self.errors_m[:, None]]
         header = [f"u{j}" for j in range(m)] + ["x_pred", "y_pred", "z_pred", "error_m"]
@@ -111,7 +149,18 @@ class SolvedTargets:
         return buf.getvalue()
 
     def summary(self, out) -> list[str]:
-        """What the run did, in a few lines for the terminal."""
+        """What the run did, in a few lines for the terminal.
+
+        Parameters
+        ----------
+        out : str or Path
+            The result file, named in the lines.
+
+        Returns
+        -------
+        list of str
+            The lines (errors in mm, IK time in ms).
+        """
         e = self.errors_m
         spread = f", {int(np.sum(self.uncertain))} uncertain" if self.has_spread else ""
         past = f" (history {self.history}: each target's past is the answers before it)" if self.history else ""
@@ -141,7 +190,26 @@ def solve_targets(model, targets_W, config: IKConfig | None = None, *, robot=Non
     warm-started from the previous answer. Returns a dict: ``commands`` (N, m),
     ``predicted`` (N, 3) m, ``reachable``, ``uncertain`` (N,) bool, ``spread_m`` (N,) m,
     ``iterations`` (N,), ``time_s`` (N,), ``solver`` (the first target's IKSolver),
-    ``info`` (the follow info; restart counts summed over the targets)."""
+    ``info`` (the follow info; restart counts summed over the targets).
+
+    Parameters
+    ----------
+    model : object
+        A forward model u -> tip (m), with or without history.
+    targets_W : array_like
+        Targets, shape (N, 3), m.
+    config : IKConfig, optional
+        The IK's settings (default: its defaults).
+    robot : RobotDescription, optional
+        Whose allowed commands (range, safety rules) the answers stay in.
+    bounds : tuple of numpy.ndarray, optional
+        The box (lo (m,), hi (m,)) in the training data's units.
+
+    Returns
+    -------
+    dict
+        The keys listed above.
+    """
     targets = np.atleast_2d(np.asarray(targets_W, dtype=float))
     k = history_of(model)
     if k == 0:
@@ -179,7 +247,26 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
     :class:`SolvedTargets`. InputError for a direct inverse model, a model with another
     number of outputs than the targets' 3 columns, a built-in trajectory for a model not
     trained on a shipped robot's data (those are in the shipped arms' frames), a model
-    without recorded data bounds nor a shipped robot, too many targets."""
+    without recorded data bounds nor a shipped robot, too many targets.
+
+    Parameters
+    ----------
+    spec : TrackSpec
+        The ``track`` settings, with a model and ``rig`` none.
+    out : str or Path
+        The result JSON file; the commands go to ``OUT.commands.csv``.
+    command : str, optional
+        The command line, recorded in ``info``.
+    say : callable, optional
+        Called with each note (str) for the terminal.
+    max_points : int
+        The most targets.
+
+    Returns
+    -------
+    SolvedTargets
+        The IK's answers, as written.
+    """
     say = say or (lambda line: None)
     t0 = time.perf_counter()
     model = load_model(spec.model)

@@ -31,7 +31,15 @@ class PointLog:
     """Append-only CSV of the measured points (module docstring). Made before any work: it
     reads what an earlier run kept (``n_kept``) and refuses (InputError) a file it did not
     write; the file is opened at the first :meth:`append`, so a run that fails before
-    measuring anything leaves it as it was."""
+    measuring anything leaves it as it was.
+
+    Parameters
+    ----------
+    path : str or Path
+        The points file, ``OUT.points.csv``.
+    n_motors : int
+        Motors m of the robot (the ``u`` columns).
+    """
 
     def __init__(self, path: str | Path, n_motors: int):
         self.path = Path(path)
@@ -76,7 +84,19 @@ class PointLog:
         os.fsync(self._fh.fileno())
 
     def append(self, i: int, target_W, u_motor, sample) -> None:
-        """One measured point: target (3,) m, command (m,) rad, the protocol's ``sample``."""
+        """One measured point, written and fsynced as one CSV line.
+
+        Parameters
+        ----------
+        i : int
+            The point's index in its run (or closed-loop pass).
+        target_W : array_like
+            The target, shape (3,), m, frame W.
+        u_motor : array_like
+            The command sent, shape (m,), rad.
+        sample : Sample
+            The capture protocol's reading (settled tip (3,) m, settled flag, times in s).
+        """
         if self._fh is None:
             self._open()
         values = [*np.asarray(target_W, float), *np.asarray(u_motor, float), *np.asarray(sample.p_tip_W, float)]
@@ -93,7 +113,13 @@ class PointLog:
             return max(0, sum(1 for line in fh if line.endswith(b"\n")) - 1)
 
     def note(self) -> str | None:
-        """What a stopped run says about the points on disk, or None when there are none."""
+        """What a stopped run says about the points on disk, or None when there are none.
+
+        Returns
+        -------
+        str or None
+            One line naming the file and how many points it holds.
+        """
         if self.n_new:
             kept = f", after {self.n_kept} kept from an earlier run" if self.n_kept else ""
             return f"(the {self.n_new} points measured so far are in {self.path}{kept})"

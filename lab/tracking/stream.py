@@ -57,7 +57,25 @@ class StreamPlan:
     """Knots of a streamed run: times ``t_s`` (K,) s from the start of the motion, desired
     tips ``p_des_W`` and equilibria ``p_in_W`` (K, 3) m, commands ``u_motor`` (K, m) rad and
     the model's tips there ``p_pred_W`` (K, 3) m, ``reachable`` (K,), ``ik_residual_m`` (K,),
-    ``ik_iterations`` (K,); ``timings`` s."""
+    ``ik_iterations`` (K,); ``timings`` s.
+
+    Attributes
+    ----------
+    t_s : numpy.ndarray
+        Knot times from the start of the motion, shape (K,), s.
+    p_des_W, p_in_W, p_pred_W : numpy.ndarray
+        Desired tips, the equilibria commanded for them and the model's tips, shape (K, 3), m.
+    u_motor : numpy.ndarray
+        Commands, shape (K, m), rad.
+    reachable : numpy.ndarray
+        Per knot, shape (K,), bool.
+    ik_residual_m : numpy.ndarray
+        The IK's residual, shape (K,), m.
+    ik_iterations : numpy.ndarray
+        IK iterations per knot, shape (K,), int.
+    timings : dict
+        Wall times of the inversion and the IK, s.
+    """
 
     t_s: np.ndarray
     p_des_W: np.ndarray
@@ -115,7 +133,27 @@ def plan_stream(
 @dataclass
 class StreamResult(TrackResult):
     """A streamed run (docs/design/tracking.md): the rows of :class:`TrackResult` are the valid
-    frames of the last period; ``t_s`` (N,) s their times since its start."""
+    frames of the last period; ``t_s`` (N,) s their times since its start.
+
+    Attributes
+    ----------
+    mode : str
+        ``"open-loop"`` or ``"feed-forward"`` (through a relaxation filter).
+    period_s : float
+        The trajectory's period, s.
+    n_periods : int
+        Periods streamed.
+    command_rate_hz : float
+        Commands per second, Hz.
+    lead_in_s : float
+        Settling at the first command, s.
+    t_s : numpy.ndarray or None
+        Times of the rows since the last period's start, shape (N,), s.
+    dynamic_model : dict or None
+        The relaxation filter fed forward through (``tau_s``, ``weight``, ``noise_sigma_m``).
+    knots : StreamPlan or None
+        The commanded knots.
+    """
 
     mode: str = "open-loop"
     period_s: float = float("nan")
@@ -127,6 +165,13 @@ class StreamResult(TrackResult):
     knots: StreamPlan | None = None
 
     def to_json(self) -> dict:
+        """The JSON document of the result file: :meth:`TrackResult.to_json` and the stream's fields.
+
+        Returns
+        -------
+        dict
+            The document, with ``mode``, ``period_s`` (s), ``t_s`` (N,) s and ``knots``.
+        """
         doc = super().to_json()
         k = self.knots
         doc.update(
@@ -169,7 +214,38 @@ def stream_trajectory(
     """Stream ``targets_W`` (N, 3) m, one period of ``period_s`` s, on ``rig``
     (docs/design/tracking.md): open loop, or feed-forward through ``relax``. The settings are checked as a
     :class:`StreamSpec` (InputError). ``progress(k, K)`` after each command. The rig is left
-    open (the caller owns it)."""
+    open (the caller owns it).
+
+    Parameters
+    ----------
+    rig : Rig
+        The robot.
+    solver : IKSolver
+        The IK on the model.
+    targets_W : array_like
+        Points along one period, shape (N, 3), m, frame W (N >= 3).
+    period_s : float
+        The period, s.
+    relax : Relaxation, optional
+        The foam's relaxation filter to feed forward through (default: open loop).
+    n_periods : int, optional
+        Periods streamed (default :func:`default_n_periods`).
+    command_rate_hz : float
+        Commands per second, Hz.
+    lead_in_s : float
+        Settling at the first command, s.
+    smoothing : float
+        Smoothing of the filter's inversion.
+    name : str
+        The trajectory's name in the result.
+    progress : callable, optional
+        ``progress(k, K)`` after each command.
+
+    Returns
+    -------
+    StreamResult
+        The valid frames of the last period against the path's targets at their times.
+    """
     if solver.commands.n != rig.robot.n_cables:
         raise InputError(
             f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"

@@ -60,7 +60,21 @@ class StreamSpec(Spec):
     """How a trajectory is streamed: ``period_s`` (s), ``n_periods`` (None: enough motion
     before the measured last period, :func:`default_n_periods`), ``command_rate_hz``,
     ``lead_in_s`` (s) and the inversion's ``smoothing``. Every value is bounded, and so is
-    the run: at most :data:`MAX_KNOTS` commands."""
+    the run: at most :data:`MAX_KNOTS` commands.
+
+    Attributes
+    ----------
+    period_s : float
+        One period of the trajectory, s, in :data:`PERIOD_RANGE_S`.
+    n_periods : int or None
+        Periods streamed (None: :func:`default_n_periods`).
+    lead_in_s : float
+        Settling at the first command before the motion, s, at most :data:`MAX_LEAD_IN_S`.
+    command_rate_hz : float
+        Commands per second, Hz, in :data:`COMMAND_RATE_RANGE_HZ`.
+    smoothing : float
+        Smoothing of the relaxation filter's inversion (>= 0).
+    """
 
     period_s: float = option(
         dataclasses.MISSING,

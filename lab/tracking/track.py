@@ -43,10 +43,35 @@ class TrackResultError(InputError):
 
 @dataclass
 class TrackResult:
-    """One trajectory run. Arrays: ``targets_W``, ``achieved_W``, ``predicted_W`` (N, 3) m;
-    ``commands`` (N, m) rad; ``ik_residual_m``, ``settle_wait_s`` (N,); ``reachable``,
-    ``settled`` (N,) bool; ``ik_iterations`` (N,). ``timings`` in seconds, ``info`` free-form;
-    ``uncertain`` (N,) bool and ``predicted_spread_m`` (N,) m (NaN without a spread)."""
+    """One trajectory run, N targets on a robot with m motors.
+
+    Attributes
+    ----------
+    trajectory : str
+        The trajectory's name.
+    targets_W, achieved_W, predicted_W : numpy.ndarray
+        Targets, measured settled tips and the model's tips, shape (N, 3), m, frame W.
+    commands : numpy.ndarray
+        Motor angles sent, shape (N, m), rad.
+    ik_residual_m : numpy.ndarray
+        The IK's residual |f(u) - target|, shape (N,), m.
+    reachable, settled : numpy.ndarray
+        Per target, shape (N,), bool.
+    ik_iterations : numpy.ndarray
+        IK iterations per target, shape (N,), int.
+    settle_wait_s : numpy.ndarray
+        Time from command to settled, shape (N,), s.
+    timings : dict
+        Wall times, s.
+    info : dict
+        Free-form: rig, robot, solver settings, protocol, code version.
+    uncertain : numpy.ndarray, optional
+        Targets the model's spread flagged, shape (N,), bool (default all False).
+    predicted_spread_m : numpy.ndarray, optional
+        The model's spread at each command, shape (N,), m (NaN without a spread).
+    passes : list of dict, optional
+        Closed loop: one summary per pass.
+    """
 
     trajectory: str
     targets_W: np.ndarray
@@ -86,7 +111,14 @@ class TrackResult:
         return float(np.max(self.errors_m))
 
     def to_json(self) -> dict:
-        """The JSON document of the result file (docs/design/tracking.md)."""
+        """The JSON document of the result file (docs/design/tracking.md).
+
+        Returns
+        -------
+        dict
+            Keys of :data:`REQUIRED_KEYS` and the rest of the result, arrays as numpy
+            arrays (m, rad, s; :func:`write_result` makes them JSON).
+        """
         return {
             "format_version": FORMAT_VERSION,
             "kind": KIND,
@@ -129,7 +161,32 @@ def run_trajectory(
     :data:`TRACK_PROTOCOL`). ``u0``: warm start of the first IK solve (default: a cold start).
     ``progress(i, n)`` is called after each point, ``on_point(i, target_W, u_motor, sample)``
     with what was measured there (e.g. :meth:`lab.tracking.points.PointLog.append`, so an interrupted run keeps
-    its measurements). The rig is left open (the caller owns it)."""
+    its measurements). The rig is left open (the caller owns it).
+
+    Parameters
+    ----------
+    rig : Rig
+        The robot (hardware, emulator or twin).
+    solver : IKSolver
+        The IK on the model (:class:`lab.control.IKSolver`).
+    targets_W : array_like
+        Targets, shape (N, 3), m, frame W.
+    name : str
+        The trajectory's name in the result.
+    protocol : Protocol
+        How each point is settled and read.
+    u0 : array_like, optional
+        Warm start of the first IK solve, shape (m,), rad.
+    progress : callable, optional
+        ``progress(i, n)`` after each point.
+    on_point : callable, optional
+        ``on_point(i, target_W, u_motor, sample)`` with each measurement.
+
+    Returns
+    -------
+    TrackResult
+        Commands, settled tips and errors of the N targets.
+    """
     targets = np.atleast_2d(check_targets(targets_W))
     if solver.commands.n != rig.robot.n_cables:
         raise InputError(
@@ -231,7 +288,22 @@ def _plain(obj):
 
 
 def write_result(path: str | Path, result: TrackResult, extra_info: dict | None = None) -> Path:
-    """Write ``result`` as JSON to ``path`` (atomic); ``extra_info`` is merged into ``info``."""
+    """Write ``result`` as JSON to ``path`` (atomic); ``extra_info`` is merged into ``info``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result file (``.json``).
+    result : TrackResult
+        The run.
+    extra_info : dict, optional
+        Merged into the file's ``info``.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     doc = result.to_json()
     doc["info"] = {**doc["info"], **(extra_info or {})}
     atomic_write_text(path, json.dumps(_plain(doc), indent=1, allow_nan=False) + "\n")
@@ -240,7 +312,19 @@ def write_result(path: str | Path, result: TrackResult, extra_info: dict | None 
 
 def read_result(path: str | Path) -> dict:
     """Load a result file (dict; arrays as numpy float arrays for the required keys);
-    :class:`TrackResultError` for a missing or corrupt file or a missing key."""
+    :class:`TrackResultError` for a missing or corrupt file or a missing key.
+
+    Parameters
+    ----------
+    path : str or Path
+        A result file of :func:`write_result`.
+
+    Returns
+    -------
+    dict
+        The document; ``targets``, ``achieved`` (N, 3) m, ``commands`` (N, m) rad and
+        ``errors_m`` (N,) m as float arrays (NaN for null).
+    """
     path = Path(path)
     try:
         doc = json.loads(path.read_text())

@@ -11,7 +11,7 @@ prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well posed with as few as 5 
 ``noise`` (default 0.5 mm per coordinate) weighs the data against it. Warm starts make most
 solves one or two Newton steps. The uncertainty is the Gauss-Newton (Laplace) covariance at
 the optimum. Whether the model explains the data at all is a chi-square test of the residual
-against ``noise`` (:func:`model_check`): a correct model leaves E[RSS] = (3N - p_eff) noise^2;
+against ``noise`` (:func:`lab.transfer.model_check`): a correct model leaves E[RSS] = (3N - p_eff) noise^2;
 above the 99.9 % quantile of chi2(3N - p_eff) the model is flagged, and the reported
 covariance is inflated by the reduced chi-square (Birge ratio) whenever that exceeds 1.
 
@@ -29,17 +29,15 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.fem.solve.parameter_layout import ParameterLayout
 from lab.fem.solve.parameters import ParametrisedFEM
+from lab.transfer.discrepancy import model_check
 from lab.transfer.samples import Samples
 
-__all__ = ["DEFAULT_PRIOR_STD", "DISCREPANCY_QUANTILE", "CalibrationResult", "calibrate", "model_check", "prior_std"]
+__all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "prior_std"]
 
 #: Prior standard deviations of each block of theta (the nominal is the prior mean):
 #: log softness 0.4 (E x/ 1.5), gradient 0.4 per component, eyelet shift 2 mm per axis,
 #: slack 3 mm -- about the half-widths of the as-built family's ranges.
 DEFAULT_PRIOR_STD = {"log_softness": 0.4, "gradient": 0.4, "via_shift_m": 2e-3, "slack_m": 3e-3}
-#: A residual above this quantile of chi2(3N - p_eff) is model error, not noise: a correct
-#: model with the right noise is flagged once in a thousand fits.
-DISCREPANCY_QUANTILE = 0.999
 
 
 @dataclass
@@ -47,8 +45,40 @@ class CalibrationResult:
     """What :func:`calibrate` found. ``theta`` (p,) in the units of ``layout``; ``covariance``
     (p, p) the reported one: ``covariance_raw`` (the Laplace covariance at the declared
     ``noise_m``) inflated by the Birge ratio when the reduced chi-square exceeds 1
-    (:func:`model_check`); ``residuals_m`` (N, 3) the tip misfit at ``theta`` in m;
-    ``p_eff`` the parameters the data determine (trace of the hat matrix)."""
+    (:func:`lab.transfer.model_check`); ``residuals_m`` (N, 3) the tip misfit at ``theta`` in m;
+    ``p_eff`` the parameters the data determine (trace of the hat matrix).
+
+    Attributes
+    ----------
+    layout : ParameterLayout
+        Names, units and blocks of theta (:mod:`lab.fem.solve.parameters`).
+    theta, theta_nominal : numpy.ndarray
+        Identified and nominal parameters, shape (p,).
+    covariance : numpy.ndarray
+        The reported covariance, shape (p, p).
+    prior_std : numpy.ndarray
+        Prior standard deviations, shape (p,).
+    noise_m, sigma_m : float
+        Declared noise and the noise the residuals imply, m per coordinate.
+    residuals_m : numpy.ndarray
+        Tip misfit x - y at ``theta``, shape (N, 3), m.
+    rms_nominal_m : float
+        RMS tip misfit of the nominal description, m.
+    iterations, n_solves : int
+        Levenberg-Marquardt iterations and FEM solves.
+    converged : bool
+        Whether the last step moved every parameter less than ``tol`` prior std.
+    wall_s : float
+        Wall time of the fit, s.
+    n_rings, n_axial : int
+        The mesh the parameters were identified on.
+    history : list of dict
+        One entry per iteration (``rms_m``, ``cost``, ...).
+    covariance_raw : numpy.ndarray or None
+        The Laplace covariance at ``noise_m``, shape (p, p).
+    p_eff : float or None
+        Parameters the data determine.
+    """
 
     layout: ParameterLayout
     theta: np.ndarray
@@ -72,7 +102,7 @@ class CalibrationResult:
     @property
     def std(self) -> np.ndarray:
         """One standard deviation of each parameter (p,): the reported one (inflated when the
-        model does not explain the data, see :func:`model_check`)."""
+        model does not explain the data, see :func:`lab.transfer.model_check`)."""
         return np.sqrt(np.diag(self.covariance))
 
     @property
@@ -82,7 +112,7 @@ class CalibrationResult:
 
     @property
     def check(self) -> dict:
-        """:func:`model_check` of this fit (the chi-square test, JSON-able)."""
+        """:func:`lab.transfer.model_check` of this fit (the chi-square test, JSON-able)."""
         return model_check(self.residuals_m, self.noise_m, self.layout.size, self.p_eff)
 
     @property
@@ -99,7 +129,14 @@ class CalibrationResult:
         """A JSON-able summary: each parameter's value, std (the reported one) and nominal,
         the fit, and the chi-square test of the residual against the noise
         (``model_discrepancy``, ``discrepancy``, ``std_reported``, ``std_raw``,
-        ``std_inflated``: :func:`model_check`)."""
+        ``std_inflated``: :func:`lab.transfer.model_check`).
+
+        Returns
+        -------
+        dict
+            JSON-able: ``parameters`` (name -> value, std, nominal, unit), ``rms_m``,
+            ``noise_m`` (m), ``iterations``, ``wall_s`` (s), ``mesh``, the test, ...
+        """
         check = self.check
         return {
             "parameters": {
@@ -130,7 +167,21 @@ class CalibrationResult:
 
 def prior_std(layout: ParameterLayout, std=None) -> np.ndarray:
     """Prior standard deviations (p,): ``std`` as an array (p,), or a dict overriding blocks
-    of :data:`DEFAULT_PRIOR_STD` (keys as there)."""
+    of :data:`DEFAULT_PRIOR_STD` (keys as there).
+
+    Parameters
+    ----------
+    layout : ParameterLayout
+        The parameter layout theta follows.
+    std : array_like or dict, optional
+        Standard deviations (p,) in theta's units, or a dict overriding blocks of
+        :data:`DEFAULT_PRIOR_STD`; default: those.
+
+    Returns
+    -------
+    numpy.ndarray
+        The prior standard deviation of each parameter, shape (p,).
+    """
     if std is not None and not isinstance(std, dict):
         s = np.asarray(std, float)
         if s.shape != (layout.size,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
@@ -182,8 +233,42 @@ def calibrate(
     std (see :func:`prior_std`). Converged when no parameter moves more than ``tol`` prior
     std in a step. ``log``: called with a progress line per iteration.
 
-    Raises InputError for bad data, LabRuntimeError if even the nominal FEM has no
-    equilibrium for a sample."""
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description (the prior mean).
+    u_real : array_like
+        Motor angles, shape (N, m), rad.
+    y_real : array_like
+        Tip positions, shape (N, 3), m, frame W.
+    n_rings, n_axial : int, optional
+        The mesh (default: the description's).
+    axes : str
+        Eyelet-shift components, ``"yz"`` or ``"xyz"``.
+    prior : array_like or dict, optional
+        Prior standard deviations (:func:`prior_std`).
+    noise_m : float
+        Declared noise of the tip positions, m per coordinate.
+    max_iter : int
+        Most Levenberg-Marquardt iterations.
+    tol : float
+        Convergence: largest step, in prior standard deviations.
+    log : callable, optional
+        Called with a progress line (str) per iteration.
+
+    Returns
+    -------
+    CalibrationResult
+        The identified theta, its covariance and the fit.
+
+    Raises
+    ------
+    InputError
+        For bad data.
+    LabRuntimeError
+        If even the nominal FEM has no equilibrium for a sample.
+    """
     t0 = time.perf_counter()
     u, y = _check_data(robot, u_real, y_real)
     if not (np.isfinite(noise_m) and noise_m > 0):
@@ -265,40 +350,3 @@ def _covariance(J: np.ndarray, residuals: np.ndarray, s: np.ndarray, noise_m: fl
     sigma = float(np.sqrt(np.sum(residuals**2) / max(J.shape[0] - p_eff, 1.0)))
     inflated = J.T @ J / max(sigma, noise_m) ** 2 + prior
     return np.linalg.inv(M + prior), np.linalg.inv(inflated), sigma, p_eff
-
-
-def model_check(residuals_m, noise_m: float, p: int, p_eff: float | None = None) -> dict:
-    """The chi-square test of a fit's residuals ``residuals_m`` (N, 3) m against the declared
-    noise ``noise_m`` (m per coordinate) for ``p`` parameters, ``p_eff`` of them determined by
-    the data (default ``p``; with a prior, the trace of the hat matrix). A correct model
-    leaves ``chi2 = RSS / noise^2 ~ chi2(dof)``, ``dof = 3N - p_eff``: RMS 3-D residual
-    ``noise sqrt(dof / N)``. ``model_discrepancy`` when chi2 exceeds the
-    :data:`DISCREPANCY_QUANTILE` quantile; ``std_inflation = max(1, sqrt(chi2 / dof))`` (the
-    Birge ratio, at least 1) scales the data's part of the standard deviations. Lengths in m."""
-    from scipy.stats import chi2 as chi2_dist
-
-    r = np.asarray(residuals_m, float)
-    n = len(r)
-    p_eff = float(p if p_eff is None else p_eff)
-    dof = max(3 * n - p_eff, 1.0)
-    chi2 = float(np.sum(r**2) / noise_m**2)
-    limit = float(chi2_dist.ppf(DISCREPANCY_QUANTILE, dof))
-    return {
-        "model_discrepancy": bool(chi2 > limit),
-        "test": f"chi-square of the residual against the noise, flagged above the {DISCREPANCY_QUANTILE:g} quantile",
-        "rms_m": float(np.sqrt(np.sum(r**2) / n)),
-        "expected_rms_m": float(noise_m * np.sqrt(dof / n)),
-        "threshold_rms_m": float(noise_m * np.sqrt(limit / n)),
-        "noise_m": float(noise_m),
-        "n_data": 3 * n,
-        "p": int(p),
-        "p_eff": p_eff,
-        "dof": dof,
-        "chi2": chi2,
-        "chi2_threshold": limit,
-        "quantile": DISCREPANCY_QUANTILE,
-        "p_value": float(chi2_dist.sf(chi2, dof)),
-        "reduced_chi2": chi2 / dof,
-        "birge_ratio": float(np.sqrt(chi2 / dof)),
-        "std_inflation": float(max(1.0, np.sqrt(chi2 / dof))),
-    }

@@ -50,8 +50,42 @@ def calibrated_model(
     calibration summary (values, std, fit) and the calibrated description as TOML text, so
     the model file says which physics it was trained on.
 
-    Raises InputError for bad data and LabRuntimeError when the calibrated FEM has no
-    equilibrium for more than a tenth of ``u_sim``."""
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description that is calibrated.
+    u_real : array_like
+        Real motor angles, shape (N, m), rad.
+    y_real : array_like
+        Real tip positions, shape (N, 3), m, frame W.
+    u_sim : array_like
+        Commands re-simulated on the calibrated FEM, shape (S, m), rad (S >= 10).
+    hidden : tuple of int
+        Hidden layer sizes of the network.
+    seed : int
+        Seed of the split and the initial weights.
+    n_rings, n_axial : int, optional
+        Mesh of calibration and re-simulation (default: the description's).
+    n_jobs : int
+        Worker processes of the re-simulation.
+    max_iter : int
+        Most Levenberg-Marquardt iterations of the calibration.
+    log : callable, optional
+        Called with a progress line (str).
+
+    Returns
+    -------
+    MLP
+        The trained network u (rad) -> tip (m, frame W), with the calibration in its
+        ``metadata["transfer"]``.
+
+    Raises
+    ------
+    InputError
+        For bad data.
+    LabRuntimeError
+        When the calibrated FEM has no equilibrium for more than a tenth of ``u_sim``.
+    """
     from lab.data.chunks import nearest_neighbour_chunks
     from lab.data.simulation import simulate
     from lab.learn.train import train

@@ -48,7 +48,23 @@ def true_theta(layout: ParameterLayout, defects, *, play_as_slack: bool = False)
     shifts along the axes of ``layout``; any other component is left out). ``play_as_slack``:
     slack plus play -- what the capture protocol's settled tips see, since a cable approached
     from the reset (contraction ``max(h, r u - h)``) pulls exactly like one with ``h`` more
-    slack once ``r u > 2 h``."""
+    slack once ``r u > 2 h``.
+
+    Parameters
+    ----------
+    layout : ParameterLayout
+        The calibration's parameter layout (:mod:`lab.fem.solve.parameters`).
+    defects : Defects
+        The as-built robot's defects (:class:`lab.asbuilt.arm.Defects`).
+    play_as_slack : bool
+        Count each cable's play (m) as slack.
+
+    Returns
+    -------
+    numpy.ndarray
+        theta, shape (p,): ln(softness), gradient (y, z), eyelet shifts (m) and slack (m)
+        in the order of ``layout``.
+    """
     g = defects.gradient * np.asarray(defects.gradient_direction_W)[1:]
     shifts = np.array([c.via_shift_m for c in defects.cables], float)
     shifts[:, [i for i in range(3) if i not in AXES[layout.axes]]] = 0.0  # not in theta
@@ -76,7 +92,32 @@ def recovery_rows(
     ``std`` (the reported one), ``std_raw``, ``std_inflated``, ``nominal``, plus ``n_real``,
     ``rms_nominal_m``, ``rms_m`` (tip misfit before and after, m), ``expected_rms_m``,
     ``reduced_chi2`` and ``model_discrepancy`` (the fit's chi-square test).
-    ``play_as_slack``: the true slack includes the play (:func:`true_theta`)."""
+    ``play_as_slack``: the true slack includes the play (:func:`true_theta`).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description that is calibrated.
+    defects : Defects
+        The emulated robot's defects (:class:`lab.asbuilt.arm.Defects`).
+    u_real : array_like
+        Commands, shape (N, m), rad.
+    label : str
+        The ``robot`` column of the rows.
+    seed : int
+        Seed of the motion-capture noise.
+    n_rings, n_axial : int, optional
+        The mesh of the robot and the fit (default: the description's).
+    noise_m : float, optional
+        The fit's declared noise, m per coordinate.
+    play_as_slack : bool
+        The true slack includes the play.
+
+    Returns
+    -------
+    list of dict
+        One row per parameter, keys as above (softness as a factor, lengths in m).
+    """
     from lab.rig.twin import AsBuiltBody, quasi_static_tips
     from lab.transfer.calibrate import calibrate
 
@@ -138,7 +179,30 @@ def family_recovery(
 ) -> list[dict]:
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
     :func:`lab.asbuilt.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
-    each), rows in the order of ``labels``; ``noise_m`` as there."""
+    each), rows in the order of ``labels``; ``noise_m`` as there.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description that is calibrated.
+    labels : sequence of str
+        The family's robots, e.g. ``"shipped"``, ``"random:3"``.
+    u_real : array_like
+        Commands, shape (N, m), rad.
+    seed : int
+        Seed of the motion-capture noise.
+    n_rings, n_axial : int, optional
+        The mesh of the robots and the fits (default: the description's).
+    n_jobs : int
+        Worker processes.
+    noise_m : float, optional
+        The fits' declared noise, m per coordinate.
+
+    Returns
+    -------
+    list of dict
+        The rows of :func:`recovery_rows` of every robot, in the order of ``labels``.
+    """
     from joblib import Parallel, delayed
 
     from lab.workers import worker_config
@@ -163,7 +227,19 @@ def recovery_summary(rows: list[dict]) -> list[dict]:
     in the block's unit: what calibration leaves against what the nominal robot gets
     wrong) and ``within_2std`` (the fraction of recovered values within two of their
     standard deviations of the truth: the coverage of the 2-sigma intervals), with rows
-    that have them also ``within_2std_raw`` and ``within_2std_inflated``."""
+    that have them also ``within_2std_raw`` and ``within_2std_inflated``.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of :func:`recovery_rows` (one or several robots).
+
+    Returns
+    -------
+    list of dict
+        One row per block: ``block``, ``unit``, ``n``, ``rms_error``, ``rms_spread`` and
+        the ``within_2std*`` fractions (0 to 1).
+    """
     out = {}
     for r in rows:
         out.setdefault(_block(r["parameter"]), []).append(r)

@@ -38,8 +38,21 @@ def _vec(v) -> str:
 
 
 def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
-    """``robot`` as TOML text (``header``: comment lines, without the ``#``). Floats are
-    written with ``repr``, so reading the text back gives the same description (sha256)."""
+    """``robot`` as TOML text. Floats are written with ``repr``, so reading the text back
+    gives the same description (sha256).
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The description to write (SI units, world frame W).
+    header : list of str
+        Comment lines for the top of the file, without the ``#``.
+
+    Returns
+    -------
+    str
+        The TOML text, in the format of ``lab/robots/*.toml``, ending in a newline.
+    """
     lines = [f"# {h}".rstrip() for h in header]
     lines += [
         "format_version = 1",
@@ -111,8 +124,30 @@ def _header(robot: RobotDescription, result, source: str | None, command: str | 
 
 
 def calibrated_toml(robot: RobotDescription, result, source: str | None = None, command: str | None = None) -> str:
-    """The TOML text of the calibrated robot (``source``: where the real samples came from;
-    ``command``: the command line that made it, recorded in a comment)."""
+    """The TOML text of the calibrated robot.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description the calibration started from.
+    result : CalibrationResult
+        The calibration (:func:`lab.transfer.calibrate`): identified theta, its mesh and fit.
+    source : str, optional
+        Where the real samples came from, recorded in a comment.
+    command : str, optional
+        The command line that made it, recorded in a comment.
+
+    Returns
+    -------
+    str
+        The TOML text: the as-built description on the calibration's mesh, with the
+        identified parameters, their standard deviations and the fit as comments.
+
+    Raises
+    ------
+    LabRuntimeError
+        When the text does not read back as the same description (sha256).
+    """
     built = as_built_description(robot, result.layout, result.theta)
     built = dataclasses.replace(
         built,
@@ -127,13 +162,47 @@ def calibrated_toml(robot: RobotDescription, result, source: str | None = None, 
 
 
 def calibrated_robot(robot: RobotDescription, result, source: str | None = None) -> RobotDescription:
-    """The calibrated robot as a description, read from the text :func:`calibrated_toml` writes."""
+    """The calibrated robot as a description, read from the text :func:`calibrated_toml` writes.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal description the calibration started from.
+    result : CalibrationResult
+        The calibration (:func:`lab.transfer.calibrate`).
+    source : str, optional
+        Where the real samples came from, recorded in a comment.
+
+    Returns
+    -------
+    RobotDescription
+        The as-built description (identified modulus, gradient, eyelets and slack).
+    """
     return parse_robot(tomllib.loads(calibrated_toml(robot, result, source)))
 
 
 def write_calibrated_robot(
     path, robot: RobotDescription, result, source: str | None = None, command: str | None = None
 ) -> RobotDescription:
-    """Write the calibrated robot to ``path`` (atomically) and return it as loaded from there."""
+    """Write the calibrated robot to ``path`` (atomically) and return it as loaded from there.
+
+    Parameters
+    ----------
+    path : str or Path
+        The robot TOML file to write.
+    robot : RobotDescription
+        The nominal description the calibration started from.
+    result : CalibrationResult
+        The calibration (:func:`lab.transfer.calibrate`).
+    source : str, optional
+        Where the real samples came from, recorded in a comment.
+    command : str, optional
+        The command line that made it, recorded in a comment.
+
+    Returns
+    -------
+    RobotDescription
+        The description as loaded from ``path``.
+    """
     atomic_write_text(path, calibrated_toml(robot, result, source, command))
     return load_robot(Path(path))
