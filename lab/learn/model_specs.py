@@ -42,11 +42,11 @@ class NetworkSpec:
     hidden : tuple of int
         Hidden layer widths.
     algorithm : str
-        One of :data:`lab.learn.train.ALGORITHMS`.
+        One of ``lab.learn.train.ALGORITHMS``.
     epochs : int, optional
         Maximum number of epochs (None: the options').
     options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
-        The algorithm's options (:data:`lab.learn.train.ALGORITHM_OPTIONS`); None: its defaults.
+        The algorithm's options (``lab.learn.train.ALGORITHM_OPTIONS``); None: its defaults.
     ratios : tuple of float, optional
         (train, validation, test) split of the data the model is fitted to; None:
         :func:`lab.learn.ensemble.member_ratios` (10 % validation, none for "br").

@@ -112,7 +112,7 @@ def net_options(algorithm: str = "lm", min_grad: float | None = None):
     Parameters
     ----------
     algorithm : str
-        One of :data:`lab.learn.train.ALGORITHMS`.
+        One of ``lab.learn.train.ALGORITHMS``.
     min_grad : float, optional
         The gradient stop (None: the algorithm's default).
 

@@ -37,9 +37,9 @@ def check_options(algorithm: str, options) -> None:
     Parameters
     ----------
     algorithm : str
-        One of :data:`ALGORITHMS`.
+        One of ``ALGORITHMS``.
     options : LMOptions, BROptions, AdamOptions, LBFGSOptions or None
-        None (the algorithm's defaults) or an object of :data:`ALGORITHM_OPTIONS` ``[algorithm]``.
+        None (the algorithm's defaults) or an object of ``ALGORITHM_OPTIONS`` ``[algorithm]``.
 
     Returns
     -------
@@ -133,7 +133,7 @@ def train(
     hidden : tuple of int
         Hidden layer widths.
     activation : str
-        Hidden activation, one of :data:`lab.learn.mlp.ACTIVATIONS`.
+        Hidden activation, one of ``lab.learn.mlp.ACTIVATIONS``.
     algorithm : str
         "lm" (:func:`lab.learn.lm.train_lm`), "br" (Bayesian regularisation,
         :func:`lab.learn.bayes.train_br`), "adam" or "lbfgs" (:mod:`lab.learn.gradient`).
@@ -144,7 +144,7 @@ def train(
     epochs : int, optional
         Overrides the options' maximum number of epochs.
     options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
-        The algorithm's options (:data:`ALGORITHM_OPTIONS`); None: its defaults. Another
+        The algorithm's options (``ALGORITHM_OPTIONS``); None: its defaults. Another
         type is an InputError.
     progress : callable, optional
         ``progress(epoch, history_row)``, called once per epoch.

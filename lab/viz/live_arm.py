@@ -39,7 +39,7 @@ class LiveArm:
     Parameters
     ----------
     vis : meshcat.Visualizer
-        The live viewer's scene (:attr:`lab.viz.live.LiveViewer.vis`).
+        The live viewer's scene (``LiveViewer.vis``, :mod:`lab.viz.live`).
     fem : ArmFEM
         The arm's FEM.
     prefix : str, optional
