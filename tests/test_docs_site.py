@@ -49,6 +49,8 @@ def test_nested_packages_export_through_their_parent():
         names = importlib.import_module(f"lab.{nested}").__all__
         missing = [n for n in names if n not in parent.__all__]
         assert not missing, f"lab.{nested} exports names its parent does not (no API entry): {missing}"
+
+
 #: The recorded runs together stay small in git (bytes; measured: about 0.6 MB).
 MAX_RECORDED_BYTES = 3_000_000
 
