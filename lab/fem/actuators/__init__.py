@@ -2,7 +2,8 @@
 
 :class:`Actuator` is the interface and :class:`Condensation` what an actuator may ask of the
 statics (:mod:`.base`); :class:`CableActuator` is the description's angle-controlled cables
-(:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`). A new actuator is one module
+(:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`); :mod:`.tension` drives the
+same cables as tendons by their tensions (``"tendons_tension"``). A new actuator is one module
 with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imported once
 (then :class:`lab.fem.ArmFEM` builds it by name).
 """
@@ -10,6 +11,7 @@ with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imp
 from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
+import lab.fem.actuators.tension  # noqa: F401, E402  (registers "tendons_tension")
 
 __all__ = [
     "ACTUATORS",
