@@ -135,3 +135,19 @@ def test_tension_equals_the_angle_that_produces_it(coarse_fem, tendons, u_motor_
     assert np.linalg.norm(pulled_by_tension.p_tip_W - angle.p_tip_W) < 1e-7
     assert np.abs(pulled_by_tension.q - angle.q).max() < 1e-7
     assert tendons.input_states(pulled_by_tension.q, tension) == coarse_fem.input_states(angle.q, u)
+
+
+def test_angle_cables_and_tension_tendons_at_once(three_cable, coarse_fem):
+    """Both on one body: the tendons' tension adds to the cables' pull on the same routes."""
+    both = ArmFEM(three_cable, **MESH, actuators=["cables", ("tendons_tension", {"tension_max_n": 5.0})])
+    assert both.n_inputs == 6 and both.input_names[3:] == tuple(f"tension_n[{c.name}]" for c in three_cable.cables)
+    u3 = np.array([1.5, 0.3, 0.0])
+    q = coarse_fem.rest_q() + 1e-3 * np.sin(np.arange(coarse_fem.n_free))
+    assert both.energy(q, np.r_[u3, 0, 0, 0]) == coarse_fem.energy(q, u3)
+    assert np.array_equal(both.gradient(q, np.r_[u3, 0, 0, 0]), coarse_fem.gradient(q, u3))
+    u = np.r_[u3, 0.0, 0.0, 1.0]
+    sol = solve_static(both, u, sensitivity=True)
+    assert sol.converged and np.abs(both.gradient(sol.q, u)).max() < 1e-8
+    assert sol.dq_du.shape == (both.n_free, 6)
+    M = both.mixed_derivative(sol.q, u)
+    assert np.abs(M - fd_jacobian(lambda w: both.gradient(sol.q, w), u, 1e-4)).max() < 1e-5 * np.abs(M).max()

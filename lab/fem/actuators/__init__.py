@@ -8,10 +8,10 @@ with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imp
 (then :class:`lab.fem.ArmFEM` builds it by name).
 """
 
+from lab.fem.actuators import tension  # noqa: F401  (registers "tendons_tension")
 from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
-import lab.fem.actuators.tension  # noqa: F401, E402  (registers "tendons_tension")
 
 __all__ = [
     "ACTUATORS",
