@@ -59,7 +59,7 @@ class ActuatedModel:
         u = np.asarray(u, dtype=float)
         if u.shape != (self.n_inputs,):
             raise InputError(f"expected {self.n_inputs} inputs {list(self.input_names)}, got shape {u.shape}")
-        return np.concatenate([a.check_input(u[a.inputs]) for a in self.actuators])
+        return np.concatenate([a.check_input(u[a.inputs]) for a in self.actuators] + [np.zeros(0)])
 
     def _split(self, u):
         u = np.asarray(u, dtype=float)
