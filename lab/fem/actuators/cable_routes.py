@@ -153,6 +153,48 @@ class CableRoute:
         return W.reshape(3 * K, 12 * K)
 
 
+def embed_routes(robot, body, slack_m=None) -> list[CableRoute]:
+    """The description's cables embedded in ``body``, each with its rest length.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        Its cables' anchors and via points (frame W, m).
+    body : Body
+        The body the via points are embedded in (an error names a via point no tet holds).
+    slack_m : array_like, shape (m,), optional
+        Extra free length per cable, m; default 0 for each.
+
+    Returns
+    -------
+    list of CableRoute
+        One route per cable, L0 measured on the rest mesh.
+    """
+    slack = np.zeros(len(robot.cables)) if slack_m is None else slack_m
+    routes = []
+    for cable, s in zip(robot.cables, slack):
+        nodes, weights = body.embed(cable.via_points_m, f"cable '{cable.name}' via point")
+        route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
+        routes.append(CableRoute(cable.anchor_m, nodes, weights, route.length(body.mesh.X_W), float(s)))
+    return routes
+
+
+def route_block_dofs(routes: list[CableRoute]) -> list[np.ndarray]:
+    """One dense Hessian block per route over the dofs of its via points' tets.
+
+    Parameters
+    ----------
+    routes : list of CableRoute
+        The routes.
+
+    Returns
+    -------
+    list of ndarray, shape (1, 12K)
+        Mesh dofs (ravelled x, y, z per node) of each route's K via-point tets.
+    """
+    return [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in routes]
+
+
 def spring(d, k: float, eps: float):
     """One-sided spring on the stretch ``d`` (m): energy (J), tension dE/dd (N), d2E/dd2 (N/m).
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
-from lab.fem.actuators.cable_routes import CableRoute, CableSet, spring
+from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs, spring
 
 
 @register_actuator("cables")
@@ -69,12 +69,7 @@ class CableActuator(Actuator):
             The cables, each with its rest length L0 at the rest mesh.
         """
         slack = [c.slack_m for c in robot.cables] if slack_m is None else np.asarray(slack_m, float)
-        routes = []
-        for cable, s in zip(robot.cables, slack):
-            nodes, weights = body.embed(cable.via_points_m, f"cable '{cable.name}' via point")
-            route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
-            routes.append(CableRoute(cable.anchor_m, nodes, weights, route.length(body.mesh.X_W), float(s)))
-        return cls(robot, routes, free, body.mesh, law)
+        return cls(robot, embed_routes(robot, body, slack), free, body.mesh, law)
 
     def springs(self, stretch_m):
         """The description's one-sided springs.
@@ -239,7 +234,7 @@ class CableActuator(Actuator):
         list of ndarray, shape (1, 12K)
             Mesh dofs (ravelled x, y, z per node) of each cable's K eyelet tets.
         """
-        return [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in self.routes]
+        return route_block_dofs(self.routes)
 
     def hessian_blocks(self, x_W, u) -> list[np.ndarray]:
         """W^T (E'' g g^T + E' d2L/dp2) W per cable, g = dL/dp, ravelled.

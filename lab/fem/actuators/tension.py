@@ -21,7 +21,7 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, register_actuator
-from lab.fem.actuators.cable_routes import CableRoute, CableSet
+from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs
 
 
 @register_actuator("tendons_tension")
@@ -76,12 +76,7 @@ class TensionTendonActuator(Actuator):
         """
         if tension_max_n is None:
             tension_max_n = robot.cable_stiffness_n_m * robot.spool_radius_m * robot.u_max_rad
-        routes = []
-        for cable in robot.cables:
-            nodes, weights = body.embed(cable.via_points_m, f"cable '{cable.name}' via point")
-            route = CableRoute(cable.anchor_m, nodes, weights, 0.0)
-            routes.append(CableRoute(cable.anchor_m, nodes, weights, route.length(body.mesh.X_W)))
-        return cls(robot, routes, free, tension_max_n)
+        return cls(robot, embed_routes(robot, body), free, tension_max_n)
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """[0, tension_max_n] N per tendon.
@@ -175,7 +170,7 @@ class TensionTendonActuator(Actuator):
         list of ndarray, shape (1, 12K)
             Mesh dofs (ravelled x, y, z per node) of each tendon's K via-point tets.
         """
-        return [(3 * c.nodes.ravel()[:, None] + np.arange(3)).reshape(1, -1) for c in self.routes]
+        return route_block_dofs(self.routes)
 
     def hessian_blocks(self, x_W, u) -> list[np.ndarray]:
         """T_c W^T (d2L_c/dp2) W per tendon, ravelled.
