@@ -48,6 +48,7 @@ LAYERS = [
     "__main__",
 ]
 SUBPACKAGES = [
+    "description",
     "fem",
     "fem.bodies",
     "fem.materials",

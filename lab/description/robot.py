@@ -1,0 +1,259 @@
+"""The validated, immutable description of a robot: its body, material, cables and markers.
+
+:class:`RobotDescription` is what :func:`lab.description.load_robot` returns. The body is
+:class:`BodyShape`: today's cylinder, a solid of revolution given by a radius profile
+(``"tapered"``), or a tetrahedral mesh or CAD geometry file (``"mesh"``). Each
+:class:`Cable` is controlled by its spool angle (rad) or by its tension (N); the inputs u of
+the robot are its cables in file order, each in its own unit (:attr:`RobotDescription.input_units`)
+and range (:attr:`RobotDescription.u_upper`). The observed points are the tip marker, then the
+named :class:`MarkerSpec` in file order (:attr:`RobotDescription.marker_names`).
+
+Optional fields left at their defaults (an as-built gradient or slack of zero, a cylinder
+body, no extra markers, angle control) do not change :attr:`RobotDescription.sha256`, so
+the hash of a description written before they existed is unchanged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from lab.errors import InputError
+
+FORMAT_VERSION = 1
+
+
+class DescriptionError(InputError):
+    """A robot description file is missing a field or has an invalid value."""
+
+
+@dataclass(frozen=True)
+class Cable:
+    """One cable: fixed anchor in the base plate, then eyelets (via points) in the body.
+
+    ``via_points_m`` (K, 3) are rest positions in frame W; the last one is where the
+    cable is tied off. ``anchor_m`` (3,) is where it leaves the base towards its spool or
+    its load. ``control`` is ``"angle"`` (the input is the spool angle, rad) or
+    ``"tension"`` (the input is the tension, N, at most ``tension_max_n``).
+    """
+
+    name: str
+    anchor_m: np.ndarray
+    via_points_m: np.ndarray
+    slack_m: float = 0.0  # free length beyond taut at rest, m (optional field)
+    control: str = "angle"
+    tension_max_n: float | None = None
+
+
+@dataclass(frozen=True)
+class SafetyLimit:
+    """Forbid commands with ``sum(u[cables]) > max_sum_over_u_max * u_max``."""
+
+    cables: tuple[int, ...]
+    max_sum_over_u_max: float
+
+
+@dataclass(frozen=True)
+class BodyShape:
+    """The body's geometry, frame W at rest, the base at x = 0 (m).
+
+    ``shape`` is ``"cylinder"`` (length and radius), ``"tapered"`` (``profile_m`` (S, 2):
+    stations [x, r], radius piecewise linear) or ``"mesh"`` (``mesh_file``, an absolute path,
+    its content hash ``mesh_sha256``, coordinates in ``mesh_unit``; a geometry file is meshed
+    with target size ``mesh_size_m`` and element order ``mesh_order``). The clamped nodes are
+    those at the base (``clamp = "base"``) or a named physical group (``clamp_group``).
+    """
+
+    shape: str = "cylinder"
+    profile_m: np.ndarray | None = None
+    mesh_file: str | None = None
+    mesh_sha256: str | None = None
+    mesh_unit: str = "m"
+    mesh_size_m: float | None = None
+    mesh_order: int = 1
+    clamp: str | None = "base"
+    clamp_group: str | None = None
+
+
+@dataclass(frozen=True)
+class MarkerSpec:
+    """A named observed point: ``position_m`` (3,) in the body frame at rest (frame W), m."""
+
+    name: str
+    position_m: np.ndarray
+
+
+#: Defaults that leave a description's hash as it was before the field existed.
+_DEFAULTS = {
+    "control": "angle",
+    "tension_max_n": None,
+    "markers": (),
+}
+
+
+def _unset(obj, key: str) -> bool:
+    """Whether ``key`` of ``obj`` is an optional field left at its default (or, for the
+    mesh file's path, never hashed: the body is hashed by its content)."""
+    value = getattr(obj, key)
+    if key == "mesh_file":
+        return True
+    if key == "body_shape":
+        return value.shape == "cylinder"
+    if key in ("slack_m", "stiffness_gradient"):
+        return not np.any(value)
+    if key in _DEFAULTS:
+        default = _DEFAULTS[key]
+        return value is None if default is None else (value == default if not isinstance(value, tuple) else not value)
+    return False
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """A robot: body, material, mounting, mesh, actuation, cables, markers and safety rules.
+
+    Lengths in m, moduli in Pa, densities in kg/m^3, angles in rad, tensions in N. For a
+    ``"tapered"`` body ``length_m`` and ``radius_m`` are the last station and the largest
+    radius; for a ``"mesh"`` body, the mesh's extent along x and its largest distance from
+    the x axis. Actuation fields are None for a robot whose cables are all tension-controlled.
+    """
+
+    name: str
+    summary: str
+    length_m: float
+    radius_m: float
+    youngs_modulus_pa: float
+    poisson_ratio: float
+    density_kg_m3: float
+    gravity_m_s2: np.ndarray
+    n_rings: int | None
+    n_axial: int | None
+    spool_radius_m: float | None
+    u_max_rad: float | None
+    cable_stiffness_n_m: float | None
+    slack_smoothing_m: float | None
+    cables: tuple[Cable, ...]
+    p_tip_marker_W: np.ndarray
+    safety_limits: tuple[SafetyLimit, ...]
+    source: dict = field(repr=False, compare=False)
+    stiffness_gradient: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (3,), x = 0
+    body_shape: BodyShape = field(default_factory=BodyShape)
+    markers: tuple[MarkerSpec, ...] = ()
+
+    @property
+    def n_cables(self) -> int:
+        """Number of cables, which is the number of inputs."""
+        return len(self.cables)
+
+    @property
+    def input_units(self) -> tuple[str, ...]:
+        """The unit of each input: ``"rad"`` for a spool angle, ``"N"`` for a tension."""
+        return tuple("N" if c.control == "tension" else "rad" for c in self.cables)
+
+    @property
+    def u_lower(self) -> np.ndarray:
+        """The smallest value of each input (m,): zero angle or zero tension."""
+        return np.zeros(self.n_cables)
+
+    @property
+    def u_upper(self) -> np.ndarray:
+        """The largest value of each input (m,): ``u_max_rad`` (rad) or ``tension_max_n`` (N)."""
+        return np.array([c.tension_max_n if c.control == "tension" else self.u_max_rad for c in self.cables], float)
+
+    @property
+    def all_angle(self) -> bool:
+        """Whether every cable is angle-controlled (today's robots)."""
+        return all(c.control == "angle" for c in self.cables)
+
+    @property
+    def marker_names(self) -> tuple[str, ...]:
+        """The observed points: ``"tip"`` first, then the named markers in file order."""
+        return ("tip",) + tuple(m.name for m in self.markers)
+
+    @property
+    def output_columns(self) -> list[str]:
+        """The output columns of a dataset: ``x, y, z``, then ``NAME_x, NAME_y, NAME_z`` per marker."""
+        return ["x", "y", "z"] + [f"{m.name}_{a}" for m in self.markers for a in "xyz"]
+
+    def radius_at(self, x_m) -> np.ndarray:
+        """The body's radius at positions x along its axis (cylinder or tapered), m.
+
+        Parameters
+        ----------
+        x_m : array_like
+            Positions along +x, m.
+
+        Returns
+        -------
+        ndarray
+            The radius there, m (shaped as ``x_m``).
+        """
+        profile = self.body_shape.profile_m
+        if profile is None:
+            return np.full(np.shape(x_m), self.radius_m)
+        return np.interp(x_m, profile[:, 0], profile[:, 1])
+
+    def youngs_modulus_at(self, points_W):
+        """Young's modulus in Pa at points (P, 3) m: a scalar without a stiffness gradient, else (P,)."""
+        if not np.any(self.stiffness_gradient):
+            return self.youngs_modulus_pa
+        return self.youngs_modulus_pa * (1.0 + np.asarray(points_W) @ self.stiffness_gradient / self.radius_m)
+
+    @property
+    def sha256(self) -> str:
+        """Hash of every field (stable across comments and formatting of the file, and
+        different for a description modified in code with ``dataclasses.replace``)."""
+
+        def plain(v):
+            if isinstance(v, np.ndarray):
+                return v.tolist()
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            if hasattr(v, "__dataclass_fields__"):  # optional fields left unset do not count
+                return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__ if not _unset(v, k)}
+            return v
+
+        fields = {k: v for k, v in plain(self).items() if k not in ("source", "summary")}
+        return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()
+
+    def is_safe(self, u_motor, tol: float = 1e-9) -> np.ndarray:
+        """Whether inputs satisfy the safety rule and their ranges ``[u_lower, u_upper]``.
+
+        ``u_motor``: (m,) or (N, m), each input in its unit. Returns a bool, or (N,) bools.
+        """
+        u = np.atleast_2d(np.asarray(u_motor, dtype=float))
+        if u.shape[1] != self.n_cables:
+            raise InputError(f"expected {self.n_cables} inputs, got {u.shape[1]}")
+        slack = tol * self.u_upper
+        ok = np.all(np.isfinite(u), axis=1)
+        ok &= np.all((u >= self.u_lower - slack) & (u <= self.u_upper + slack), axis=1)
+        for lim in self.safety_limits:
+            ok &= u[:, list(lim.cables)].sum(axis=1) <= lim.max_sum_over_u_max * self.u_max_rad + tol * self.u_max_rad
+        return ok if np.ndim(u_motor) == 2 else bool(ok[0])
+
+    def check_command(self, u_motor) -> np.ndarray:
+        """Return ``u_motor`` as a float array or raise InputError saying what is wrong."""
+        u = np.asarray(u_motor, dtype=float)
+        what = "motor angles" if self.all_angle else "inputs"
+        if u.shape != (self.n_cables,):
+            raise InputError(f"{self.name}: expected {self.n_cables} {what}, got shape {u.shape}")
+        if not np.all(np.isfinite(u)):
+            raise InputError(f"{self.name}: {what} must be finite, got {u.tolist()}")
+        if self.all_angle:
+            if np.any(u < -1e-9) or np.any(u > self.u_max_rad * (1 + 1e-9)):
+                raise InputError(f"{self.name}: motor angles {u.tolist()} rad outside [0, {self.u_max_rad}]")
+        else:
+            high = self.u_upper
+            bad = np.flatnonzero((u < -1e-9 * high) | (u > high * (1 + 1e-9)))
+            if len(bad):
+                i = int(bad[0])
+                c = self.cables[i]
+                raise InputError(
+                    f"{self.name}: input {i} (cable '{c.name}') {u[i]} {self.input_units[i]} outside "
+                    f"[0, {high[i]}] {self.input_units[i]}"
+                )
+        if not self.is_safe(u):
+            raise InputError(f"{self.name}: motor command {u.tolist()} rad violates the safety rule")
+        return u
