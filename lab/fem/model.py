@@ -54,7 +54,9 @@ class ArmFEM(ActuatedModel):
         ``mesh``, ``n_rings``, ``n_axial`` and ``clamp_tol_m`` must not be given).
     actuators : list, optional
         Names in :data:`lab.fem.actuators.ACTUATORS`, or ``(name, options)`` pairs, built
-        in order, each owning the next inputs of u; default ``["cables"]``.
+        in order, each owning the next inputs of u; default the description's cables, each
+        by its control (:func:`lab.fem.model_inputs.description_actuators`; ``["cables"]`` when
+        all are angle-controlled).
     """
 
     def __init__(
@@ -101,11 +103,12 @@ class ArmFEM(ActuatedModel):
         self.coordinates = FreeCoordinates.of(body)
         self.free_dofs = self.coordinates.free_dofs
         self.n_free = self.coordinates.n_free
-        self.actuators = self._build_actuators(["cables"] if actuators is None else actuators, cable_slack_m)
+        self.actuators = self._build_actuators(actuators, cable_slack_m)
         self.markers = body.markers()
         self.tip_nodes, self.tip_weights = self.markers["tip"].nodes, self.markers["tip"].weights
         self._build_pattern()
         self._S_tip = self.coordinates.point_matrix(self.markers["tip"])
+        self._S_markers = sp.vstack([self.coordinates.point_matrix(m) for m in self.markers.values()]).tocsr()
 
     # ---------------------------------------------------------------- coordinates
     @property
@@ -181,6 +184,36 @@ class ArmFEM(ActuatedModel):
         """
         return self._S_tip
 
+    @property
+    def marker_names(self) -> tuple[str, ...]:
+        """The observed points, ``"tip"`` first (the body's markers in order)."""
+        return tuple(self.markers)
+
+    def observe(self, x_W: np.ndarray) -> np.ndarray:
+        """Every marker's position.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+
+        Returns
+        -------
+        ndarray, shape (K, 3)
+            The markers of :attr:`marker_names` in frame W, m (row 0 is the tip).
+        """
+        return np.array([m.position(x_W) for m in self.markers.values()])
+
+    def marker_matrix(self) -> sp.csr_matrix:
+        """Every marker as a linear map of the free coordinates (each is linear in the nodes).
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix, shape (3K, n_free)
+            S with ``observe(x).ravel() = S q + const``.
+        """
+        return self._S_markers
+
     # ---------------------------------------------------------------- energy
     def energy(self, q: np.ndarray, u, with_gradient: bool = False):
         """The total energy.
@@ -248,7 +281,10 @@ class ArmFEM(ActuatedModel):
         """The condensation with its input slice moved to the actuator's place in u."""
         if condensation is not None:
             s = condensation.inputs
-            condensation.inputs = slice(act.inputs.start + s.start, act.inputs.start + s.stop)
+            if isinstance(act.inputs, slice):
+                condensation.inputs = slice(act.inputs.start + s.start, act.inputs.start + s.stop)
+            else:  # the actuator's inputs are scattered among u (cables of mixed control)
+                condensation.inputs = act.inputs[s]
         return condensation
 
     def hessian(self, q: np.ndarray, u, project: bool = False) -> sp.csr_matrix:
@@ -327,8 +363,12 @@ class ArmFEM(ActuatedModel):
             The mixed derivative.
         """
         x = self.to_nodes(q)
-        cols = [act.mixed_derivative(x, u_a) for act, u_a in self._split(u)]
-        return cols[0] if len(cols) == 1 else np.hstack([np.zeros((self.n_free, 0)), *cols])
+        if len(self.actuators) == 1:
+            return self.actuators[0].mixed_derivative(x, np.asarray(u, dtype=float))
+        out = np.zeros((self.n_free, self.n_inputs))
+        for act, u_a in self._split(u):
+            out[:, act.inputs] = act.mixed_derivative(x, u_a)
+        return out
 
     # ---------------------------------------------------------------- assembly pattern
     def _block_dofs(self) -> list[np.ndarray]:

@@ -15,11 +15,37 @@ from lab.fem.actuators import ACTUATORS
 from lab.fem.actuators.cable_routes import spring
 
 
+def description_actuators(robot) -> list:
+    """The actuators of a description's cables: ``["cables"]`` when every cable is
+    angle-controlled (today's robots), ``["tendons_tension"]`` when all are tension-controlled,
+    else both, each with the indices of its cables.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The description.
+
+    Returns
+    -------
+    list
+        Actuator names or ``(name, options)`` pairs for :class:`lab.fem.model.ArmFEM`.
+    """
+    angle = [i for i, c in enumerate(robot.cables) if c.control == "angle"]
+    tension = [i for i, c in enumerate(robot.cables) if c.control == "tension"]
+    if not tension:
+        return ["cables"]
+    if not angle:
+        return ["tendons_tension"]
+    return [("cables", {"cables": angle}), ("tendons_tension", {"cables": tension})]
+
+
 class ActuatedModel:
     """The actuator half of :class:`lab.fem.model.ArmFEM` (it sets ``robot``, ``body``,
     ``coordinates`` and ``free_dofs``, then calls :meth:`_build_actuators`)."""
 
     def _build_actuators(self, specs, cable_slack_m) -> list:
+        scattered = specs is None  # the description's own: each cable's input at its place in the file
+        specs = description_actuators(self.robot) if specs is None else specs
         built, start = [], 0
         for spec in specs:
             name, options = (spec, {}) if isinstance(spec, str) else spec
@@ -28,9 +54,13 @@ class ActuatedModel:
             if name == "cables":  # the description's cables: their slack and this model's spring law
                 options = {"slack_m": cable_slack_m, "law": self.cable_springs} | dict(options)
             act = ACTUATORS[name].build(self.robot, self.body, self.coordinates, **options)
-            act.inputs = slice(start, start + act.n_inputs)
+            if scattered and len(specs) > 1:
+                act.inputs = np.asarray(options["cables"], dtype=np.int64)
+            else:
+                act.inputs = slice(start, start + act.n_inputs)
             start += act.n_inputs
             built.append(act)
+        self.checks_description = scattered
         if sum(getattr(a, "condenses", False) for a in built) > 1:
             raise InputError("at most one actuator may ask the statics for a condensation")
         self.n_inputs = start
@@ -56,6 +86,8 @@ class ActuatedModel:
         """
         if len(self.actuators) == 1:
             return self.actuators[0].check_input(u)
+        if self.checks_description:  # mixed control: each input's range and the safety rules
+            return self.robot.check_command(u)
         u = np.asarray(u, dtype=float)
         if u.shape != (self.n_inputs,):
             raise InputError(f"expected {self.n_inputs} inputs {list(self.input_names)}, got shape {u.shape}")

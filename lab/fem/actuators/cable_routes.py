@@ -153,7 +153,7 @@ class CableRoute:
         return W.reshape(3 * K, 12 * K)
 
 
-def embed_routes(robot, body, slack_m=None) -> list[CableRoute]:
+def embed_routes(robot, body, slack_m=None, cables=None) -> list[CableRoute]:
     """The description's cables embedded in ``body``, each with its rest length.
 
     Parameters
@@ -164,15 +164,18 @@ def embed_routes(robot, body, slack_m=None) -> list[CableRoute]:
         The body the via points are embedded in (an error names a via point no tet holds).
     slack_m : array_like, shape (m,), optional
         Extra free length per cable, m; default 0 for each.
+    cables : sequence of int, optional
+        Which of the description's cables (indices); default all.
 
     Returns
     -------
     list of CableRoute
         One route per cable, L0 measured on the rest mesh.
     """
-    slack = np.zeros(len(robot.cables)) if slack_m is None else slack_m
+    chosen = [robot.cables[i] for i in (range(len(robot.cables)) if cables is None else cables)]
+    slack = np.zeros(len(chosen)) if slack_m is None else slack_m
     routes = []
-    for cable, s in zip(robot.cables, slack):
+    for cable, s in zip(chosen, slack):
         nodes, weights = body.embed(cable.via_points_m, f"cable '{cable.name}' via point")
         route = CableRoute(cable.anchor_m, nodes, weights, 0.0, float(s))
         routes.append(CableRoute(cable.anchor_m, nodes, weights, route.length(body.mesh.X_W), float(s)))

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.errors import InputError
+
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs, spring
 
@@ -40,14 +42,15 @@ class CableActuator(Actuator):
     input_unit = "rad"
     condenses = True
 
-    def __init__(self, robot, routes: list[CableRoute], free, mesh, law=None):
+    def __init__(self, robot, routes: list[CableRoute], free, mesh, law=None, cables=None):
         self.robot, self.routes, self.free, self.mesh = robot, routes, free, mesh
-        self.input_names = tuple(f"u_motor[{c.name}]" for c in robot.cables)
+        self.cable_indices = tuple(range(len(robot.cables)) if cables is None else cables)
+        self.input_names = tuple(f"u_motor[{robot.cables[i].name}]" for i in self.cable_indices)
         self.law = self.springs if law is None else law
         self.set = CableSet(routes, free.dof_to_free, free.n_free)
 
     @classmethod
-    def build(cls, robot, body, free, *, slack_m=None, law=None) -> CableActuator:
+    def build(cls, robot, body, free, *, slack_m=None, law=None, cables=None) -> CableActuator:
         """The description's cables embedded in ``body``.
 
         Parameters
@@ -62,14 +65,17 @@ class CableActuator(Actuator):
             Extra free length per cable, m; default the cables' ``slack_m``.
         law : callable, optional
             The springs' law (see the class).
+        cables : sequence of int, optional
+            Which of the description's cables (indices; default all, the motor angles in order).
 
         Returns
         -------
         CableActuator
             The cables, each with its rest length L0 at the rest mesh.
         """
-        slack = [c.slack_m for c in robot.cables] if slack_m is None else np.asarray(slack_m, float)
-        return cls(robot, embed_routes(robot, body, slack), free, body.mesh, law)
+        which = range(len(robot.cables)) if cables is None else cables
+        slack = [robot.cables[i].slack_m for i in which] if slack_m is None else np.asarray(slack_m, float)
+        return cls(robot, embed_routes(robot, body, slack, which), free, body.mesh, law, cables)
 
     def springs(self, stretch_m):
         """The description's one-sided springs.
@@ -110,7 +116,14 @@ class CableActuator(Actuator):
         ndarray, shape (m,)
             The angles as floats (InputError if refused).
         """
-        return self.robot.check_command(u)
+        if len(self.cable_indices) == len(self.robot.cables):
+            return self.robot.check_command(u)
+        u = np.asarray(u, dtype=float)  # some of the cables: the model checks the safety rules on all inputs
+        if u.shape != (len(self.routes),) or not np.all(np.isfinite(u)):
+            raise InputError(f"expected {len(self.routes)} finite motor angles, got {u.tolist()}")
+        if np.any(u < -1e-9) or np.any(u > self.robot.u_max_rad * (1 + 1e-9)):
+            raise InputError(f"motor angles {u.tolist()} rad outside [0, {self.robot.u_max_rad}]")
+        return u
 
     def targets(self, u) -> np.ndarray:
         """The cables' free lengths L* = L0 + slack - r u.

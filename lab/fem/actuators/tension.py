@@ -42,9 +42,10 @@ class TensionTendonActuator(Actuator):
 
     input_unit = "N"
 
-    def __init__(self, robot, routes: list[CableRoute], free, tension_max_n):
+    def __init__(self, robot, routes: list[CableRoute], free, tension_max_n, cables=None):
         self.robot, self.routes, self.free = robot, routes, free
-        self.input_names = tuple(f"tension_n[{c.name}]" for c in robot.cables)
+        self.cable_indices = tuple(range(len(robot.cables)) if cables is None else cables)
+        self.input_names = tuple(f"tension_n[{robot.cables[i].name}]" for i in self.cable_indices)
         high = np.broadcast_to(np.asarray(tension_max_n, float), (len(routes),)).copy()
         if not np.all(np.isfinite(high)) or np.any(high <= 0):
             raise InputError(f"tendons_tension: tension_max_n {high.tolist()} N must be finite and > 0")
@@ -53,7 +54,7 @@ class TensionTendonActuator(Actuator):
         self.L0_m = np.array([r.L0_m for r in routes])
 
     @classmethod
-    def build(cls, robot, body, free, *, tension_max_n=None) -> TensionTendonActuator:
+    def build(cls, robot, body, free, *, tension_max_n=None, cables=None) -> TensionTendonActuator:
         """The description's cables, routed through their via points in ``body``, as tendons.
 
         Parameters
@@ -65,18 +66,26 @@ class TensionTendonActuator(Actuator):
         free : FreeCoordinates
             Its free coordinates.
         tension_max_n : array_like, shape (m,) or scalar, optional
-            The largest tension of each tendon, N; default ``cable_stiffness_n_m *
-            spool_radius_m * u_max_rad``, the tension an angle-controlled cable of the same
-            description reaches at full travel on a rigid body.
+            The largest tension of each tendon, N; default each cable's ``tension_max_n``, or
+            for an angle-controlled one ``cable_stiffness_n_m * spool_radius_m * u_max_rad``,
+            the tension it reaches at full travel on a rigid body.
+        cables : sequence of int, optional
+            Which of the description's cables (indices); default all.
 
         Returns
         -------
         TensionTendonActuator
             The tendons, each with its rest length L0 at the rest mesh.
         """
+        which = list(range(len(robot.cables)) if cables is None else cables)
         if tension_max_n is None:
-            tension_max_n = robot.cable_stiffness_n_m * robot.spool_radius_m * robot.u_max_rad
-        return cls(robot, embed_routes(robot, body), free, tension_max_n)
+            tension_max_n = [
+                robot.cables[i].tension_max_n
+                if robot.cables[i].tension_max_n is not None
+                else robot.cable_stiffness_n_m * robot.spool_radius_m * robot.u_max_rad
+                for i in which
+            ]
+        return cls(robot, embed_routes(robot, body, None, which), free, tension_max_n, cables)
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """[0, tension_max_n] N per tendon.

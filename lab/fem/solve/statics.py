@@ -101,6 +101,10 @@ class StaticSolution:
         dq/du if asked, m per unit of input.
     J_tip_u : ndarray, shape (3, n_inputs), optional
         d p_tip / du if asked, m per unit of input (m/rad for the cables).
+    y_W : ndarray, shape (K, 3)
+        Every marker (:attr:`lab.fem.ArmFEM.marker_names`, the tip first) in frame W, m.
+    J_y_u : ndarray, shape (3K, n_inputs), optional
+        d y / du of the ravelled markers if asked, m per unit of input.
     """
 
     u_motor: np.ndarray
@@ -115,6 +119,8 @@ class StaticSolution:
     factorizations: int = 0  # Hessian assemblies + factorisations (iterations = all steps)
     dq_du: np.ndarray | None = field(default=None, repr=False)
     J_tip_u: np.ndarray | None = field(default=None, repr=False)
+    y_W: np.ndarray | None = field(default=None, repr=False)
+    J_y_u: np.ndarray | None = field(default=None, repr=False)
 
 
 def solve_static(
@@ -291,12 +297,14 @@ def solve_static(
         0.0,
         factorizations=n_fact,
     )
+    sol.y_W = fem.observe(x)
     if sensitivity and sol.converged:
         if sensitivity == "reuse" and fac is not None:
             sol.dq_du = reused_sensitivity(fem, fac, q, u, cond, refine_du)
             sol.J_tip_u = fem.tip_matrix() @ sol.dq_du
         else:
             sol.dq_du, sol.J_tip_u = sensitivities(fem, q, u)
+        sol.J_y_u = fem.marker_matrix() @ sol.dq_du
     sol.time_s = time.perf_counter() - t0
     if not sol.converged and raise_on_failure:
         raise StaticSolveError(

@@ -193,7 +193,8 @@ def reused_sensitivity(fem: ArmFEM, fac: Factorised, q, u, condensation, refine_
     """
     n_u = fem.n_inputs
     cols = slice(0, 0) if condensation is None else condensation.inputs
-    other = [j for j in range(n_u) if not cols.start <= j < cols.stop]
+    condensed = set(np.arange(n_u)[cols].tolist())  # cols: a slice or the inputs' indices
+    other = [j for j in range(n_u) if j not in condensed]
     if condensation is not None:
         A = condensation.A
         K = condensation.law(condensation.stretch)[2]
