@@ -286,7 +286,9 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
     any_angle = any(c.control == "angle" for c in cables)
     act = table(data, "actuation", required=any_angle)
     keys = ("spool_radius_m", "u_max_rad", "cable_stiffness_n_m", "slack_smoothing_m")
-    spool, u_max, k_cable, eps = (get(act, k, "actuation", positive=True) if k in act or any_angle else None for k in keys)
+    spool, u_max, k_cable, eps = (
+        get(act, k, "actuation", positive=True) if k in act or any_angle else None for k in keys
+    )
 
     p_tip = vec3(table(data, "tip_marker"), "position_m", "tip_marker")
     # The tip marker must be on the body, or embedding it in the mesh fails later, far from here.

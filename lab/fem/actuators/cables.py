@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 
 from lab.errors import InputError
-
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs, spring
 
