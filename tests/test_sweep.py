@@ -19,6 +19,7 @@ import pytest
 from filelock import FileLock
 from helpers import subprocess_env, wait_until
 from sweep import COARSE, ROOT, Case, run_case
+from sweep_bodies import BODY_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
 from sweep_foam import FOAM_CASES
@@ -926,6 +927,7 @@ CASES = [
     ),
     # --- rows of the commands and flags of real robots' data, one module each ---------------
     *IMPORT_CASES,
+    *BODY_CASES,
     *COMPARE_CASES,
     *INSPECT_CASES,
     *HISTORY_CASES,

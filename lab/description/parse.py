@@ -304,7 +304,7 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
     markers = parse_markers(data.get("markers"), length)
 
     limits = []
-    entries = table(data, "safety").get("limits", [])
+    entries = table(data, "safety", required=False).get("limits", [])
     if not isinstance(entries, list):
         raise DescriptionError(
             f"field 'safety.limits' must be a list of tables ([[safety.limits]]), got {type(entries).__name__} "
