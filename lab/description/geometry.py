@@ -196,7 +196,7 @@ def _read_mesh_file(path: Path, where: str):
 
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many kinds for a malformed file
+    except (Exception, SystemExit) as exc:  # meshio raises many kinds (and may exit) for a malformed file
         raise _err(where, path, f"meshio cannot read it: {type(exc).__name__}: {exc}") from None
     blocks = [i for i, c in enumerate(m.cells) if c.type == "tetra"]
     if not blocks:
@@ -268,16 +268,18 @@ def _checked(X, tets, groups, path, where: str, unit: str) -> BodyMesh:
     if not lo <= extent <= hi:
         hint = 'mesh_unit = "mm"?' if extent > hi else 'mesh_unit = "m" (is the file in metres)?'
         raise _err(
-            "body.mesh_unit", path, f"the body is {extent:.4g} m across in unit {unit!r}, outside [{lo}, {hi}] m: "
-            f"{hint}"
+            "body.mesh_unit",
+            path,
+            f"the body is {extent:.4g} m across in unit {unit!r}, outside [{lo}, {hi}] m: {hint}",
         )
     P = X[tets]
     vol = np.linalg.det(np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=-1)) / 6.0
     tiny = np.abs(vol) < DEGENERATE_FRACTION * np.median(np.abs(vol))
     if np.any(tiny):
         raise _err(
-            where, path, f"{int(tiny.sum())} degenerate (zero-volume) tetrahedra, the first is "
-            f"tet {int(np.argmax(tiny))}"
+            where,
+            path,
+            f"{int(tiny.sum())} degenerate (zero-volume) tetrahedra, the first is tet {int(np.argmax(tiny))}",
         )
     neg = vol < 0
     if np.all(neg):
@@ -293,8 +295,10 @@ def _checked(X, tets, groups, path, where: str, unit: str) -> BodyMesh:
     sizes = _pieces(tets)
     if len(sizes) > 1:
         raise _err(
-            where, path, f"the body is in {len(sizes)} disconnected pieces (tets joined through shared faces) of "
-            f"{sorted(sizes.tolist(), reverse=True)} tets"
+            where,
+            path,
+            f"the body is in {len(sizes)} disconnected pieces (tets joined through shared faces) of "
+            f"{sorted(sizes.tolist(), reverse=True)} tets",
         )
     return BodyMesh(X, np.ascontiguousarray(tets, np.int64), groups)
 
