@@ -134,7 +134,10 @@ def test_every_bad_body_file_is_refused_naming_the_field_and_the_file(tmp_path):
     bad(tmp_path, "cannot read", path=tmp_path / "junk.msh")
     flipped = mesh.tets.copy()
     flipped[[3, 7]] = flipped[[3, 7]][:, [1, 0, 2, 3]]
-    assert "2 of 72 tetrahedra are inverted" in bad(tmp_path, "inverted", path=write_mesh(tmp_path / "inv.vtu", mesh.X_W, flipped))
+    inv = write_mesh(tmp_path / "inv.vtu", mesh.X_W, flipped)
+    assert "2 of 72 tetrahedra are inverted (wound against the others), the first is tet 3" in bad(
+        tmp_path, "inverted", path=inv
+    )
     X = mesh.X_W.copy()
     t = mesh.tets[5]
     X[t[3]] = X[t[:3]].mean(axis=0)  # flatten one tet onto its face (its neighbours invert or survive)
