@@ -10,7 +10,8 @@ from scipy.spatial.transform import Rotation
 from lab.description import BodyShape, MarkerSpec
 from lab.errors import InputError
 from lab.fem import ArmFEM
-from lab.fem.bodies import CylinderBody, FreeCoordinates, MeshBody, barycentric, body_of, stalk_marker
+from lab.fem.bodies import CylinderBody, FreeCoordinates, MeshBody, barycentric, body_of
+from lab.fem.bodies.markers import stalk_marker
 from lab.fem.solve.statics import solve_static
 
 MARKERS = (

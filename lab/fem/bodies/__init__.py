@@ -12,7 +12,7 @@ setting of every command in :mod:`.mesh_spec`. A new body is one module with a
 from lab.errors import InputError
 from lab.fem.bodies.base import BODIES, Body, FreeCoordinates, Marker, register_body
 from lab.fem.bodies.cylinder import CylinderBody
-from lab.fem.bodies.markers import STALK_REACH, body_markers, stalk_marker
+from lab.fem.bodies.markers import STALK_REACH, body_markers
 from lab.fem.bodies.mesh import TetMesh, barycentric, cylinder_mesh, layered_mesh, load_mesh, save_mesh
 from lab.fem.bodies.mesh_body import MeshBody
 from lab.fem.bodies.mesh_spec import MeshSpec
@@ -70,6 +70,5 @@ __all__ = [
     "load_mesh",
     "register_body",
     "save_mesh",
-    "stalk_marker",
     "tapered_mesh",
 ]
