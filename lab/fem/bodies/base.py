@@ -49,14 +49,20 @@ def register_body(name: str):
 
 @dataclass(frozen=True)
 class Marker:
-    """A body point embedded in the rest mesh: its position is ``weights @ x_W[nodes]`` (m).
+    """A body point, linear in the node positions: its position is ``weights @ x_W[nodes]`` (m).
+
+    A point inside the body has the four nodes of the tet holding it and its barycentric
+    weights (non-negative). A point on a stalk outside the body (:mod:`.markers`) has the K
+    nodes of the neighbourhood whose affine motion it follows, with least-squares weights,
+    some negative. Either way the weights sum to 1, so a rigid motion of the nodes moves
+    the point rigidly.
 
     Attributes
     ----------
-    nodes : ndarray of int, shape (4,)
-        The nodes of the tet holding the point.
-    weights : ndarray, shape (4,)
-        Barycentric weights, non-negative and summing to 1.
+    nodes : ndarray of int, shape (K,)
+        The nodes the point depends on (K = 4 inside the body, K >= 16 on a stalk).
+    weights : ndarray, shape (K,)
+        Their weights, summing to 1.
     """
 
     nodes: np.ndarray

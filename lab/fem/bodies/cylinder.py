@@ -2,16 +2,16 @@
 
 The body every description has today: ``lab.fem.bodies.mesh.robot_mesh`` (or a given
 mesh), the nodes of the base face x = min clamped, and the description's tip marker
-``p_tip_marker_W`` as the marker ``"tip"``.
+``p_tip_marker_W`` as the marker ``"tip"``, then its ``markers`` (:mod:`.markers`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from lab.errors import InputError
 from lab.fem.bodies.base import Body, Marker, register_body
-from lab.fem.bodies.mesh import TetMesh, barycentric, robot_mesh
+from lab.fem.bodies.markers import body_markers, embed_points
+from lab.fem.bodies.mesh import TetMesh, robot_mesh
 
 
 @register_body("cylinder")
@@ -37,18 +37,18 @@ class CylinderBody(Body):
         self.clamped = X[:, 0] <= X[:, 0].min() + clamp_tol_m
 
     def markers(self) -> dict[str, Marker]:
-        """The tip marker.
+        """The tip marker, then the description's markers (inside, or on stalks).
 
         Returns
         -------
         dict of str to Marker
-            ``{"tip": ...}``, the description's ``p_tip_marker_W`` embedded.
+            ``{"tip": ..., NAME: ...}``: the description's ``p_tip_marker_W`` embedded
+            (barycentric), then ``robot.markers`` in order (:mod:`.markers`).
         """
-        nodes, weights = (a[0] for a in self.embed(self.robot.p_tip_marker_W, "the tip marker"))
-        return {"tip": Marker(nodes, weights)}
+        return body_markers(self, self.robot)
 
     def embed(self, points_W, what: str) -> tuple[np.ndarray, np.ndarray]:
-        """:func:`barycentric` embedding of ``points_W`` (m), naming the point outside.
+        """:func:`~lab.fem.bodies.mesh.barycentric` embedding of ``points_W`` (m), naming the point outside.
 
         Parameters
         ----------
@@ -62,18 +62,4 @@ class CylinderBody(Body):
         nodes, weights : ndarray, shape (P, 4)
             Each point's tet nodes and barycentric weights.
         """
-        mesh = self.mesh
-        points_W = np.atleast_2d(points_W)
-        try:
-            return barycentric(mesh, points_W)
-        except InputError:
-            for i, p in enumerate(points_W):
-                try:
-                    barycentric(mesh, p)
-                except InputError:
-                    which = f"{what} {i} " if len(points_W) > 1 else f"{what} "
-                    raise InputError(
-                        f"{which}{np.round(p, 6).tolist()} m lies outside the mesh of the body (a faceted "
-                        "cylinder, slightly inside the description's radius): move it inwards in the description"
-                    ) from None
-            raise
+        return embed_points(self.mesh, points_W, what, "a faceted cylinder, slightly inside the description's radius")

@@ -156,10 +156,37 @@ def cylinder_mesh(length_m: float, radius_m: float, n_rings: int, n_axial: int) 
         The oriented mesh in frame W (the axis on +x, the base at x = 0).
     """
     check_mesh_size(n_rings, n_axial)  # before allocating anything
-    disk, tris = _disk(radius_m, n_rings)
-    n_layer = len(disk)
     xs = np.linspace(0.0, length_m, n_axial + 1)
-    X = np.concatenate([np.column_stack([np.full(n_layer, x), disk]) for x in xs])
+    return layered_mesh(xs, np.full(len(xs), radius_m), n_rings)
+
+
+def layered_mesh(xs: np.ndarray, radii_m: np.ndarray, n_rings: int) -> TetMesh:
+    """Structured tet mesh of a solid of revolution along +x: one ring disk per layer.
+
+    The layers of :func:`cylinder_mesh`, each disk with its own radius; the topology
+    (node order, tets) depends only on ``n_rings`` and the number of layers.
+
+    Parameters
+    ----------
+    xs : ndarray, shape (L,)
+        The layers' positions along +x, increasing, m (L >= 2).
+    radii_m : ndarray, shape (L,)
+        The radius of each layer's disk, m.
+    n_rings : int
+        Rings across each disk (>= 1).
+
+    Returns
+    -------
+    TetMesh
+        The oriented mesh in frame W.
+    """
+    disks = {}
+    for r in radii_m:
+        if r not in disks:
+            disks[r] = _disk(r, n_rings)
+    disk, tris = disks[radii_m[0]]
+    n_layer, n_axial = len(disk), len(xs) - 1
+    X = np.concatenate([np.column_stack([np.full(n_layer, x), disks[r][0]]) for x, r in zip(xs, radii_m)])
     tris = np.sort(tris, axis=1)  # the prism split below relies on ascending node order
     tets = []
     for layer in range(n_axial):

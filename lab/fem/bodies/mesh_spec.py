@@ -75,7 +75,13 @@ class MeshSpec(Spec):
         Returns
         -------
         TetMesh
-            The :func:`~lab.fem.bodies.mesh.cylinder_mesh` of the resolution ``resolve`` gives, in frame W.
+            The :func:`~lab.fem.bodies.mesh.cylinder_mesh` (or, for a tapered body,
+            :func:`~lab.fem.bodies.tapered.tapered_mesh`) of the resolution ``resolve`` gives, in frame W.
         """
         n_rings, n_axial = self.resolve(robot)
+        shape = getattr(robot, "body_shape", None)
+        if shape is not None and shape.shape == "tapered":
+            from lab.fem.bodies.tapered import tapered_mesh
+
+            return tapered_mesh(shape.profile_m, n_rings, n_axial)
         return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
