@@ -20,7 +20,7 @@ import scipy.sparse as sp
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.bodies import CylinderBody, FreeCoordinates
+from lab.fem.bodies import CylinderBody, FreeCoordinates, body_of
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials import NeoHookeanMaterial
 from lab.fem.materials.neo_hookean import project_psd
@@ -35,7 +35,8 @@ class ArmFEM(ActuatedModel):
     robot : RobotDescription
         The description (geometry, material, cables, gravity).
     mesh : TetMesh, optional
-        The body's mesh instead of the description's structured cylinder.
+        A mesh clamped at its base instead of the description's body (:func:`lab.fem.bodies.body_of`:
+        its cylinder, tapered solid or mesh file).
     n_rings, n_axial : int, optional
         Override the description's mesh resolution.
     youngs_modulus_pa : ndarray, shape (M,), optional
@@ -43,8 +44,8 @@ class ArmFEM(ActuatedModel):
         description's (with its optional ``stiffness_gradient``).
     cable_slack_m : array_like, shape (m,), optional
         Extra free length per cable, m; default the cables' ``slack_m``.
-    clamp_tol_m : float
-        Nodes within this distance of the base plane are clamped, m.
+    clamp_tol_m : float, optional
+        Nodes within this distance of the base plane of ``mesh`` are clamped, m (default 1e-9).
     material : Material, optional
         Another law (:class:`lab.fem.materials.Material`, e.g.
         :class:`~lab.fem.materials.HyperfoamMaterial`, which holds its own per-tet
@@ -68,14 +69,17 @@ class ArmFEM(ActuatedModel):
         n_axial=None,
         youngs_modulus_pa=None,
         cable_slack_m=None,
-        clamp_tol_m: float = 1e-9,
+        clamp_tol_m: float | None = None,
         material=None,
         body=None,
         actuators=None,
     ):
         self.robot = robot
-        if body is None:
-            body = CylinderBody(robot, mesh, n_rings=n_rings, n_axial=n_axial, clamp_tol_m=clamp_tol_m)
+        if body is None and mesh is None and clamp_tol_m is None:
+            body = body_of(robot, n_rings=n_rings, n_axial=n_axial)  # the description's body
+        elif body is None:  # a given mesh (or base tolerance): clamped at its base, markers embedded
+            tol = 1e-9 if clamp_tol_m is None else clamp_tol_m
+            body = CylinderBody(robot, mesh, n_rings=n_rings, n_axial=n_axial, clamp_tol_m=tol)
         elif mesh is not None or n_rings is not None or n_axial is not None:
             raise InputError("give the mesh either in the body or as mesh/n_rings/n_axial, not both")
         self.body = body

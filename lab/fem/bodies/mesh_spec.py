@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from lab.errors import FieldError
 from lab.fem.bodies.mesh import TetMesh, check_mesh_size, cylinder_mesh
 from lab.specs import Spec, option, positive_int
 
@@ -56,9 +57,17 @@ class MeshSpec(Spec):
 
         Returns
         -------
-        n_rings, n_axial : int
-            This spec's values where set, else the robot's.
+        n_rings, n_axial : int or None
+            This spec's values where set, else the robot's; None for a body meshed from a file.
         """
+        shape = getattr(robot, "body_shape", None)
+        if shape is not None and shape.shape == "mesh":  # the mesh comes from the description's file
+            for name in self.overrides():
+                raise FieldError(
+                    f"MeshSpec.{name} is not used by robot {robot.name!r}: its body is meshed from body.mesh_file "
+                    "(set mesh.size_m there)"
+                )
+            return None, None
         n_rings = robot.n_rings if self.n_rings is None else self.n_rings
         n_axial = robot.n_axial if self.n_axial is None else self.n_axial
         check_mesh_size(n_rings, n_axial)
