@@ -1,0 +1,142 @@
+"""Which observed points the IK drives: the tip by default, any marker or set of markers on request.
+
+A forward map of a robot with K markers predicts ``y`` (3K,) m, the tip's x, y, z first,
+then each marker's, in the order of the robot's ``marker_names``. The IK's target is the
+concatenation of the positions of the markers it drives (``IKConfig.markers``, the tip
+alone by default: a (3,) target as ever). :func:`select_markers` gives the forward map the
+solver works through: the map itself when it predicts exactly those markers, else a
+:class:`MarkerForward` view of its rows (prediction, Jacobian, ensemble members and
+spread).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lab.errors import InputError
+from lab.learn.outputs import marker_rows, output_markers
+
+__all__ = ["MarkerForward", "forward_markers", "select_markers"]
+
+
+def forward_markers(forward) -> tuple[str, ...]:
+    """The markers a forward map predicts, in order (3 outputs each).
+
+    Parameters
+    ----------
+    forward : object
+        A forward map: ``marker_names`` (the FEM's map), or a model whose metadata names
+        its outputs (:func:`lab.learn.outputs.output_markers`; the tip for an older file).
+
+    Returns
+    -------
+    tuple of str
+        The marker names.
+
+    Raises
+    ------
+    InputError
+        When the names do not match the map's number of outputs ``n_y``.
+    """
+    names = getattr(forward, "marker_names", None)
+    names = tuple(names) if names is not None else output_markers(forward)
+    n_y = getattr(forward, "n_y", None)
+    if n_y is not None and int(n_y) != 3 * len(names):
+        raise InputError(
+            f"the model predicts {n_y} outputs, but its markers {list(names)} have {3 * len(names)} (x, y, z each): "
+            "the IK needs a model of marker positions"
+        )
+    return names
+
+
+class MarkerForward:
+    """The rows of some markers of a forward map, behind the same interface.
+
+    Parameters
+    ----------
+    forward : object
+        The forward map (``predict``, ``predict_and_jacobian``; optionally ``members``,
+        ``predict_with_std``).
+    rows : array_like of int
+        Its output rows to keep (3 per selected marker).
+    markers : tuple of str
+        The selected markers' names.
+    """
+
+    def __init__(self, forward, rows, markers: tuple[str, ...]):
+        self.forward, self.rows, self.marker_names = forward, np.asarray(rows, int), tuple(markers)
+        self.has_jacobian = bool(getattr(forward, "has_jacobian", True))
+        self.metadata = getattr(forward, "metadata", {})
+        if hasattr(forward, "n_u"):
+            self.n_u = forward.n_u
+        self.n_y = len(self.rows)
+        members = getattr(forward, "members", None)
+        if members is not None:
+            self.members = [MarkerForward(m, self.rows, self.marker_names) for m in members]
+        if callable(getattr(forward, "predict_with_std", None)):
+            self.predict_with_std = self._predict_with_std
+
+    def predict(self, u_motor) -> np.ndarray:
+        """The selected markers' positions for one or N commands.
+
+        Parameters
+        ----------
+        u_motor : array_like
+            Command(s) (m,) or (N, m), in the inputs' units.
+
+        Returns
+        -------
+        numpy.ndarray
+            Positions (3M,) or (N, 3M), m, for the M selected markers.
+        """
+        return np.asarray(self.forward.predict(u_motor), dtype=float)[..., self.rows]
+
+    def predict_and_jacobian(self, u_motor) -> tuple[np.ndarray, np.ndarray]:
+        """The selected markers' positions and their Jacobian at one command.
+
+        Parameters
+        ----------
+        u_motor : array_like
+            The command (m,).
+
+        Returns
+        -------
+        y : numpy.ndarray
+            Positions (3M,), m.
+        J : numpy.ndarray
+            Jacobian (3M, m), m per input unit.
+        """
+        y, J = self.forward.predict_and_jacobian(u_motor)
+        return np.asarray(y, dtype=float)[self.rows], np.asarray(J, dtype=float)[self.rows]
+
+    def _predict_with_std(self, u_motor, *args, **kwargs):
+        mean, std = self.forward.predict_with_std(u_motor, *args, **kwargs)
+        return np.asarray(mean, dtype=float)[..., self.rows], np.asarray(std, dtype=float)[..., self.rows]
+
+
+def select_markers(forward, markers) -> object:
+    """The forward map of the markers the IK drives.
+
+    Parameters
+    ----------
+    forward : object
+        The forward map of every marker (``n_y`` = 3K outputs).
+    markers : tuple of str
+        The markers to drive, in the target's order.
+
+    Returns
+    -------
+    object
+        ``forward`` itself when it predicts exactly ``markers`` in that order, else a
+        :class:`MarkerForward` of their rows.
+
+    Raises
+    ------
+    InputError
+        Naming an unknown marker and the known ones.
+    """
+    names = forward_markers(forward)
+    markers = tuple(markers)
+    if markers == names:
+        return forward
+    return MarkerForward(forward, marker_rows(names, markers, "the forward map"), markers)
