@@ -13,10 +13,54 @@ from __future__ import annotations
 
 import numpy as np
 
-from lab.errors import InputError
-from lab.learn.outputs import marker_rows, output_markers
+from collections.abc import Sequence
 
-__all__ = ["MarkerForward", "forward_markers", "select_markers"]
+from lab.errors import InputError
+
+__all__ = ["MarkerForward", "forward_markers", "marker_rows", "select_markers"]
+
+
+def marker_rows(available: Sequence[str], wanted: Sequence[str], where: str = "the model") -> np.ndarray:
+    """The output rows of some markers: 3 per marker, in ``wanted``'s order.
+
+    Parameters
+    ----------
+    available : sequence of str
+        The markers of the outputs, in order (3 rows each).
+    wanted : sequence of str
+        The markers to select (at least one, each once).
+    where : str
+        What has the outputs, for the error.
+
+    Returns
+    -------
+    numpy.ndarray
+        Row indices (3 len(wanted),) int.
+
+    Raises
+    ------
+    InputError
+        Naming an unknown or repeated marker, and the known ones.
+    """
+    available, wanted = list(available), list(wanted)
+    if not wanted:
+        raise InputError(f"markers: select at least one of {available}")
+    unknown = [w for w in wanted if w not in available]
+    if unknown:
+        raise InputError(f"markers: {unknown} not among the markers of {where} {available}")
+    if len(set(wanted)) != len(wanted):
+        raise InputError(f"markers: each marker once, got {wanted}")
+    return np.concatenate([3 * available.index(w) + np.arange(3) for w in wanted])
+
+
+def _model_markers(forward) -> tuple[str, ...]:
+    """``metadata["outputs"]["markers"]`` of a model (:func:`lab.learn.outputs.record_io`);
+    the tip alone for a model without them."""
+    meta = getattr(forward, "metadata", None) or {}
+    names = (meta.get("outputs") or {}).get("markers") if isinstance(meta, dict) else None
+    if isinstance(names, (list, tuple)) and names and all(isinstance(n, str) for n in names):
+        return tuple(names)
+    return ("tip",)
 
 
 def forward_markers(forward) -> tuple[str, ...]:
@@ -26,7 +70,7 @@ def forward_markers(forward) -> tuple[str, ...]:
     ----------
     forward : object
         A forward map: ``marker_names`` (the FEM's map), or a model whose metadata names
-        its outputs (:func:`lab.learn.outputs.output_markers`; the tip for an older file).
+        its outputs (``outputs.markers``; the tip for an older file).
 
     Returns
     -------
@@ -39,7 +83,7 @@ def forward_markers(forward) -> tuple[str, ...]:
         When the names do not match the map's number of outputs ``n_y``.
     """
     names = getattr(forward, "marker_names", None)
-    names = tuple(names) if names is not None else output_markers(forward)
+    names = tuple(names) if names is not None else _model_markers(forward)
     n_y = getattr(forward, "n_y", None)
     if n_y is not None and int(n_y) != 3 * len(names):
         raise InputError(

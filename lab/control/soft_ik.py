@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.control.markers import marker_rows
 from lab.errors import InputError
 from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import StaticSolveError, solve_static
@@ -36,8 +37,6 @@ class FEMForwardMap:
     """
 
     def __init__(self, fem: ArmFEM, tol_step_m: float = 1e-9, markers: tuple[str, ...] = ("tip",)):
-        from lab.learn.outputs import marker_rows
-
         self.fem = fem
         self.marker_names = tuple(markers)
         self._rows = None

@@ -6,19 +6,18 @@ it predicts ``y`` (3K,) m for K markers. :func:`record_io` writes the marker nam
 (``outputs.markers``) and each input's unit (``units.inputs``: ``"rad"`` for a spool angle,
 ``"N"`` for a tension) into a model's metadata; :func:`output_markers` and
 :func:`input_units` read them back, a model file written before these keys (none of them)
-reading as the tip only and angles in rad. :func:`marker_rows` gives the rows of ``y``
-(and of its Jacobian) that belong to some of the markers, for an IK that targets them.
+reading as the tip only and angles in rad. (The IK picks some markers' rows of ``y``
+through :mod:`lab.control.markers`, which reads ``outputs.markers`` itself: the IK takes any
+forward map and does not import this stage.)
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-
 from lab.errors import InputError
 
-__all__ = ["dataset_io", "input_units", "marker_rows", "output_markers", "record_io"]
+__all__ = ["dataset_io", "input_units", "output_markers", "record_io"]
 
 
 def _names(value) -> tuple[str, ...] | None:
@@ -34,7 +33,8 @@ def dataset_io(meta: dict, n_u: int, n_y: int, where: str = "dataset") -> tuple[
     ----------
     meta : dict
         The sidecar (``markers``: the observed points, tip first; ``input_units`` or
-        ``robot.input_units``: each input's unit). Missing keys: the tip only, rad.
+        ``robot.input_units``: each input's unit, or ``robot.u_unit`` for every input).
+        Missing keys: the tip only, rad.
     n_u : int
         The dataset's number of inputs.
     n_y : int
@@ -62,7 +62,12 @@ def dataset_io(meta: dict, n_u: int, n_y: int, where: str = "dataset") -> tuple[
     if 3 * len(markers) != n_y:
         raise InputError(f"{where}: sidecar markers {list(markers)} need {3 * len(markers)} output columns, got {n_y}")
     robot = meta.get("robot") if isinstance(meta.get("robot"), dict) else {}
-    units = _names(meta.get("input_units")) or _names(robot.get("input_units")) or ("rad",) * n_u
+    single = robot.get("u_unit") if isinstance(robot.get("u_unit"), str) and robot.get("u_unit") else None
+    units = (
+        _names(meta.get("input_units"))
+        or _names(robot.get("input_units"))
+        or ((single,) * n_u if single else ("rad",) * n_u)
+    )
     if len(units) != n_u:
         raise InputError(f"{where}: sidecar input_units {list(units)} name {len(units)} inputs, the data have {n_u}")
     return markers, units
@@ -128,36 +133,3 @@ def input_units(model, n_u: int) -> tuple[str, ...]:
     units = meta.get("units") if isinstance(meta.get("units"), dict) else {}
     found = _names(units.get("inputs"))
     return found if found is not None and len(found) == n_u else ("rad",) * n_u
-
-
-def marker_rows(available: Sequence[str], wanted: Sequence[str], where: str = "the model") -> np.ndarray:
-    """The output rows of some markers: 3 per marker, in ``wanted``'s order.
-
-    Parameters
-    ----------
-    available : sequence of str
-        The markers of the outputs, in order (3 rows each).
-    wanted : sequence of str
-        The markers to select (at least one, each once).
-    where : str
-        What has the outputs, for the error.
-
-    Returns
-    -------
-    numpy.ndarray
-        Row indices (3 len(wanted),) int.
-
-    Raises
-    ------
-    InputError
-        Naming an unknown or repeated marker, and the known ones.
-    """
-    available, wanted = list(available), list(wanted)
-    if not wanted:
-        raise InputError(f"markers: select at least one of {available}")
-    unknown = [w for w in wanted if w not in available]
-    if unknown:
-        raise InputError(f"markers: {unknown} not among the markers of {where} {available}")
-    if len(set(wanted)) != len(wanted):
-        raise InputError(f"markers: each marker once, got {wanted}")
-    return np.concatenate([3 * available.index(w) + np.arange(3) for w in wanted])
