@@ -128,7 +128,7 @@ def test_marker_names_in_the_config():
     for bad in ("", "tip,tip", ()):
         with pytest.raises(InputError, match="markers must be distinct marker names"):
             IKConfig(markers=bad)
-    with pytest.raises(InputError, match="outputs, but its markers"):
+    with pytest.raises(InputError, match="predicts 6 outputs, but the targets have 3 columns"):
         select_markers(type("M", (), {"n_y": 6, "metadata": {}})(), ("tip",))
 
 

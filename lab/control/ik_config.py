@@ -28,6 +28,11 @@ _INTS = ("max_iter", "seed_levels")
 _BOOLS = ("polish", "retry_cold", "record_history")
 
 
+def _comma_separated(text: str) -> tuple[str, ...]:
+    """The names of a comma-separated text (checked by :func:`_marker_names`)."""
+    return tuple(text.split(","))
+
+
 def _marker_names(value) -> tuple[str, ...]:
     """Marker names from a comma-separated text or a sequence of names."""
     names = value.split(",") if isinstance(value, str) else value
@@ -133,7 +138,7 @@ class IKConfig(Spec):
 
     markers: tuple[str, ...] = option(
         ("tip",),
-        type=_marker_names,
+        type=_comma_separated,
         help="comma-separated markers whose positions the IK drives (tip, or the robot's [[markers]] names; "
         "each follows the trajectory shifted by its rest offset from the tip)",
     )

@@ -87,8 +87,8 @@ def forward_markers(forward) -> tuple[str, ...]:
     n_y = getattr(forward, "n_y", None)
     if n_y is not None and int(n_y) != 3 * len(names):
         raise InputError(
-            f"the model predicts {n_y} outputs, but its markers {list(names)} have {3 * len(names)} (x, y, z each): "
-            "the IK needs a model of marker positions"
+            f"the model predicts {n_y} outputs, but the targets have 3 columns (x, y, z) per marker and its "
+            f"markers {list(names)} have {3 * len(names)}: the IK needs a model of the markers' positions"
         )
     return names
 
