@@ -58,8 +58,9 @@ def net(data):
 @pytest.mark.parametrize("kind", ["mlp", "ensemble", "gpr", "knn", "sklearn-mlp", "inverse-mlp"])
 def test_every_model_kind_fits_several_markers_and_names_them(kind, data, tmp_path):
     u, y = data[0][:60], data[1][:60]
-    settings = {"mlp": {"hidden": (5,), "epochs": 5}, "ensemble": {"hidden": (5,), "epochs": 5, "members": 2},
-                "inverse-mlp": {"hidden": (5,), "epochs": 5}, "sklearn-mlp": {"hidden": (5,)}}.get(kind, {})  # fmt: skip
+    net = {"hidden": (5,), "epochs": 5}
+    settings = {"mlp": net, "ensemble": {**net, "members": 2}, "inverse-mlp": net, "sklearn-mlp": {"hidden": (5,)}}
+    settings = settings.get(kind, {})
     model = fit_model(model_spec(kind, **settings), u, y)
     record_io(model, MARKERS, ("rad", "N", "rad"))
     model.save(tmp_path / "m.npz")

@@ -11,9 +11,9 @@ spread).
 
 from __future__ import annotations
 
-import numpy as np
-
 from collections.abc import Sequence
+
+import numpy as np
 
 from lab.errors import InputError
 

@@ -25,8 +25,8 @@ import numpy as np
 
 from lab.errors import InputError
 from lab.learn.metrics import workspace_size_m
-from lab.learn.outputs import dataset_io
 from lab.learn.models import fit_model, held_out_errors, load_model, net_options, outer_split
+from lab.learn.outputs import dataset_io
 from lab.learn.run_inputs import forward_model, inputs_and_groups, read_all, record_trained
 from lab.learn.split import check_enough_data
 from lab.learn.train import data_sha256, train
