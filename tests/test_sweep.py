@@ -934,6 +934,28 @@ CASES = [
     *RIG_NONE_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,
+    # --- markers the IK drives (track --markers) -------------------------------------------
+    Case(
+        "track-markers-unknown",
+        [*TRACK, "--markers", "elbow", "--out", "{dir}/r.json"],
+        2,
+        ("['elbow'] not among the markers", "'tip'"),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-markers-repeated",
+        [*TRACK, "--markers", "tip,tip", "--out", "{dir}/r.json"],
+        2,
+        ("markers must be distinct marker names",),
+        absent=("{dir}/r.json",),
+    ),
+    Case(
+        "track-markers-closed-loop",
+        [*TRACK, "--closed-loop", "ilc", "--markers", "tip,mid", "--out", "{dir}/r.json"],
+        2,
+        ("--markers tip,mid", "drive markers other than the tip open loop"),
+        absent=("{dir}/r.json",),
+    ),
 ]
 
 

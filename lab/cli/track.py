@@ -28,7 +28,7 @@ from lab.tracking.closed_loop import Correction
 from lab.tracking.stream_spec import StreamSpec
 
 #: The IK settings ``track`` has flags for (the rest keep :meth:`IKConfig.automatic`'s values).
-TRACK_IK_FIELDS = ("method", "reg_weight", "posture_weight", "spread_weight")
+TRACK_IK_FIELDS = ("method", "reg_weight", "posture_weight", "spread_weight", "markers")
 #: Flags (argparse names) that only a settled run uses, only a streamed one, only a closed loop,
 #: and those about a model's spread.
 SETTLED_ONLY = ("reg_weight", "posture_weight", "spread_weight", "max_spread_mm", "closed_loop", "passes", "gain")

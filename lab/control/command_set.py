@@ -56,12 +56,13 @@ class CommandSet:
 
     @classmethod
     def from_robot(cls, robot: RobotDescription) -> CommandSet:
-        """``[0, u_max]^m`` intersected with the robot's linear safety limits.
+        """The robot's input ranges ``[u_lower, u_upper]`` (angles in rad, tensions in N)
+        intersected with its linear safety limits (which concern angle cables).
 
         Parameters
         ----------
         robot : RobotDescription
-            Gives the number of motors m, ``u_max_rad`` and the safety limits.
+            Gives the number of inputs m, each input's range and the safety limits.
 
         Returns
         -------
@@ -74,7 +75,7 @@ class CommandSet:
         for i, lim in enumerate(robot.safety_limits):
             A[i, list(lim.cables)] = 1.0
             b[i] = lim.max_sum_over_u_max * robot.u_max_rad
-        return cls(np.zeros(m), np.full(m, robot.u_max_rad), A, b)
+        return cls(np.asarray(robot.u_lower, float), np.asarray(robot.u_upper, float), A, b)
 
     @property
     def n(self) -> int:

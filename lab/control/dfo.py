@@ -72,7 +72,7 @@ def dfo_solve(forward, commands: CommandSet, config: IKConfig, target, u, u_ref,
     config : IKConfig
         The solver's settings (``max_iter`` filled in).
     target : numpy.ndarray
-        The tip target (3,), m, frame W.
+        The target (3,) of the tip, or (3M,) of the M markers driven, m, frame W.
     u : numpy.ndarray
         The allowed start (m,), rad.
     u_ref : numpy.ndarray
@@ -86,6 +86,7 @@ def dfo_solve(forward, commands: CommandSet, config: IKConfig, target, u, u_ref,
         The solution; its ``time_s`` is filled in by :meth:`lab.control.ik.IKSolver.solve`.
     """
     cs, w, s_w = commands, reg_weight, config.spread_weight
+    n_t = len(target)  # 3 per marker driven
     R0 = _residuals(forward, s_w, target, u[None])
     r, obj = R0[0], float(_objective(w, R0, u[None], u_ref)[0])
     if not np.isfinite(obj):
@@ -93,9 +94,9 @@ def dfo_solve(forward, commands: CommandSet, config: IKConfig, target, u, u_ref,
     h, h_min, h_max = START_STEP_REL * cs.scale, MIN_STEP_REL * cs.scale, MAX_STEP_REL * cs.scale
     n_eval, mu, nu, eye, status, history = 1, None, 2.0, np.eye(cs.n), "max_iter", []
     objs_seen = [obj]
-    record(config, history, r[:3] + target, target)
+    record(config, history, r[:n_t] + target, target)
     for it in range(config.max_iter):  # noqa: B007 (it is the iteration count after the loop)
-        if s_w == 0 and np.linalg.norm(r[:3]) <= config.tol_m:
+        if s_w == 0 and np.linalg.norm(r[:n_t]) <= config.tol_m:
             status = "converged"
             break
         stalled = len(objs_seen) > STALL_ITERATIONS and (
@@ -143,8 +144,8 @@ def dfo_solve(forward, commands: CommandSet, config: IKConfig, target, u, u_ref,
                 u, r, obj, mu, nu = poll[best], RP[best], float(objs[best]), None, 2.0
             else:
                 h *= 0.5
-        record(config, history, r[:3] + target, target)
+        record(config, history, r[:n_t] + target, target)
         objs_seen.append(obj)
     else:
         it = config.max_iter
-    return conclude(config, u, r[:3] + target, obj, target, status, it, n_eval, history)
+    return conclude(config, u, r[:n_t] + target, obj, target, status, it, n_eval, history)

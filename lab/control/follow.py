@@ -184,7 +184,7 @@ def follow_trajectory(solver, targets_W, u0=None) -> TrajectoryIK:
         Per point: commands, predicted tips, residuals, reachability; its ``info`` says
         what was applied (the weights used, why, and the restart counts).
     """
-    targets = np.atleast_2d(check_targets(targets_W))
+    targets = np.atleast_2d(check_targets(targets_W, solver.n_tip))
     w_c, w_p, w_restart, to_posture, how = follow_weights(solver)
     w = w_c + w_p
     stats = {"slack_plateaus": 0, "restarts": 0, "recovered": 0}

@@ -23,6 +23,7 @@ from lab.control.follow import follow_trajectory
 from lab.control.ik_config import DEFAULT_MAX_ITER, METHODS, IKConfig
 from lab.control.ik_descent import ARMIJO, gd_solve, lm_solve
 from lab.control.ik_result import IKResult, TrajectoryIK, check_targets
+from lab.control.markers import select_markers
 from lab.control.soft_ik import FEMForwardMap
 from lab.control.spread import DEFAULT_MAX_SPREAD_M, has_spread, members_of, predicted_spread_m
 from lab.errors import InputError
@@ -151,6 +152,7 @@ class IKSolver:
             raise InputError(f"config must be an IKConfig (e.g. IKConfig(method='gd')), got {config!r}")
         if config.spread_weight > 0 and members_of(forward) is None:
             raise InputError("spread_weight > 0 needs a model with ensemble members (e.g. a deep ensemble)")
+        forward = select_markers(forward, config.markers)
         self.forward, self.commands = forward, commands
         self.n_tip = int(getattr(forward, "n_y", 3))
         self.redundant = commands.n > self.n_tip
@@ -159,8 +161,10 @@ class IKSolver:
         self.seeds = None
         if seeds is not None:
             u_s, y_s = (np.asarray(a, dtype=float) for a in seeds)
-            if u_s.ndim != 2 or u_s.shape[1] != commands.n or y_s.shape != (len(u_s), 3):
-                raise InputError(f"seeds must be (u (S, {commands.n}), y (S, 3)), got {u_s.shape}, {y_s.shape}")
+            if u_s.ndim != 2 or u_s.shape[1] != commands.n or y_s.shape != (len(u_s), self.n_tip):
+                raise InputError(
+                    f"seeds must be (u (S, {commands.n}), y (S, {self.n_tip})), got {u_s.shape}, {y_s.shape}"
+                )
             self.seeds = (u_s, y_s)
         self.centre = commands.project(0.5 * (commands.lo + commands.hi))
         method = config.method or ("lm" if getattr(forward, "has_jacobian", True) else "dfo")
@@ -219,15 +223,12 @@ class IKSolver:
             if fem is None:
                 raise InputError("need a model or an FEM (Soft IK) to solve the IK")
             commands = CommandSet.from_robot(robot)
-            return cls(FEMForwardMap(fem), commands, config.replace(method=config.method or "lm", max_spread_m=None))
+            forward = FEMForwardMap(fem, markers=config.markers)
+            return cls(forward, commands, config.replace(method=config.method or "lm", max_spread_m=None))
         check_forward(model)
         commands = command_set(robot, bounds)
+        model = select_markers(model, config.markers)
         n_u, n_y = getattr(model, "n_u", commands.n), getattr(model, "n_y", 3)
-        if n_y != 3:
-            raise InputError(
-                f"the model predicts {n_y} outputs, but the targets have 3 columns (x, y, z): the IK needs a "
-                "model of the tip position"
-            )
         if n_u != commands.n:
             raise InputError(
                 f"the model maps {n_u} inputs to {n_y} outputs, but "
@@ -289,9 +290,9 @@ class IKSolver:
         IKResult
             The command, the predicted tip, the residual and how the solve went.
         """
-        target = check_targets(target_W)
+        target = check_targets(target_W, self.n_tip)
         if target.ndim != 1:
-            raise InputError(f"solve takes one target (3,), got {target.shape}; use follow() for many")
+            raise InputError(f"solve takes one target ({self.n_tip},), got {target.shape}; use follow() for many")
         t0 = time.perf_counter()
         u = self.initial_guess(target) if u0 is None else np.asarray(u0, dtype=float)
         if u.shape != (self.commands.n,) or not np.all(np.isfinite(u)):

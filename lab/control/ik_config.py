@@ -28,6 +28,23 @@ _INTS = ("max_iter", "seed_levels")
 _BOOLS = ("polish", "retry_cold", "record_history")
 
 
+def _comma_separated(text: str) -> tuple[str, ...]:
+    """The names of a comma-separated text (checked by :func:`_marker_names`)."""
+    return tuple(text.split(","))
+
+
+def _marker_names(value) -> tuple[str, ...]:
+    """Marker names from a comma-separated text or a sequence of names."""
+    names = value.split(",") if isinstance(value, str) else value
+    try:
+        names = tuple(str(n).strip() for n in names)
+    except TypeError:
+        names = ()
+    if not names or not all(names) or len(set(names)) != len(names):
+        raise InputError(f"markers must be distinct marker names (e.g. tip or tip,mid), got {value!r}")
+    return names
+
+
 @dataclass(frozen=True)
 class IKConfig(Spec):
     """Settings of the IK (docs/design/ik.md). The defaults are a plain solver: bounded
@@ -60,6 +77,9 @@ class IKConfig(Spec):
         other starts; keep every iterate's tip residual.
     seed_levels : int or None
         Cold-start grid levels of ``for_model`` (None: 7, or 4 beyond 3 motors).
+    markers : tuple of str
+        The observed points the IK drives, in the target's order: ``("tip",)`` (a (3,)
+        target) by default; any of the robot's markers (3 target coordinates each).
     """
 
     method: str | None = option(
@@ -116,7 +136,15 @@ class IKConfig(Spec):
         None, cli=False, check=positive_int, help="cold-start grid levels of for_model (default 7, 4 beyond 3 motors)"
     )
 
+    markers: tuple[str, ...] = option(
+        ("tip",),
+        type=_comma_separated,
+        help="comma-separated markers whose positions the IK drives (tip, or the robot's [[markers]] names; "
+        "each follows the trajectory shifted by its rest offset from the tip)",
+    )
+
     def __post_init__(self):
+        object.__setattr__(self, "markers", _marker_names(self.markers))
         for name in _FLOATS + _INTS + _BOOLS:
             value = getattr(self, name)
             if value is None and name != "spread_weight":

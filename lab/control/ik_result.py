@@ -97,22 +97,24 @@ class TrajectoryIK:
     info: dict = field(default_factory=dict)
 
 
-def check_targets(targets) -> np.ndarray:
-    """Targets as a float array; ValueError naming the problem otherwise.
+def check_targets(targets, width: int = 3) -> np.ndarray:
+    """Targets as a float array; InputError naming the problem otherwise.
 
     Parameters
     ----------
     targets : array_like
-        One target (3,) or N targets (N, 3), m, frame W; finite.
+        One target (w,) or N targets (N, w), m, frame W; finite.
+    width : int
+        w: 3 per marker the IK drives (3 for the tip alone).
 
     Returns
     -------
     numpy.ndarray
-        The targets, (3,) or (N, 3), float.
+        The targets, (w,) or (N, w), float.
     """
     t = np.asarray(targets, dtype=float)
-    if t.shape[-1:] != (3,) or t.ndim not in (1, 2) or t.size == 0:
-        raise InputError(f"targets must be (3,) or (N, 3) positions in metres, got shape {t.shape}")
+    if t.shape[-1:] != (width,) or t.ndim not in (1, 2) or t.size == 0:
+        raise InputError(f"targets must be ({width},) or (N, {width}) positions in metres, got shape {t.shape}")
     if not np.all(np.isfinite(t)):
         bad = np.argwhere(~np.isfinite(np.atleast_2d(t)))[0, 0]
         raise InputError(f"target {bad} is not finite: {np.atleast_2d(t)[bad].tolist()} (NaN or inf)")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.control.markers import marker_rows
 from lab.errors import InputError
 from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import StaticSolveError, solve_static
@@ -30,10 +31,17 @@ class FEMForwardMap:
         The arm's FEM.
     tol_step_m : float
         The Newton tolerance (m) passed to :func:`solve_static`.
+    markers : tuple of str
+        The observed points it predicts (``fem.marker_names``), in order: the tip alone by
+        default ((3,) outputs); with others, their ``y_W`` rows ((3M,) outputs).
     """
 
-    def __init__(self, fem: ArmFEM, tol_step_m: float = 1e-9):
+    def __init__(self, fem: ArmFEM, tol_step_m: float = 1e-9, markers: tuple[str, ...] = ("tip",)):
         self.fem = fem
+        self.marker_names = tuple(markers)
+        self._rows = None
+        if self.marker_names != ("tip",):
+            self._rows = marker_rows(tuple(fem.marker_names), self.marker_names, f"robot {fem.robot.name}")
         self.tol_step_m = float(tol_step_m)
         self.n_solves = 0
         self.solve_time_s = 0.0
@@ -42,6 +50,10 @@ class FEMForwardMap:
     @property
     def n_u(self) -> int:
         return self.fem.robot.n_cables
+
+    @property
+    def n_y(self) -> int:
+        return 3 * len(self.marker_names)
 
     def reset(self) -> None:
         """Forget the warm start (the next solve starts from the rest shape)."""
@@ -53,18 +65,19 @@ class FEMForwardMap:
         Parameters
         ----------
         u_motor : array_like
-            The command (m,), rad.
+            The command (m,), each input in its unit (rad or N).
 
         Returns
         -------
         p_tip_W : numpy.ndarray
-            The tip (3,), m, frame W; NaN if the static solve failed.
+            The tip (3,) (or the markers' positions (3M,)), m, frame W; NaN if the static
+            solve failed.
         J_tip_u : numpy.ndarray
-            Its Jacobian (3, m), m/rad; NaN if the static solve failed.
+            Its Jacobian (3, m) (or (3M, m)), m per input unit; NaN if the static solve failed.
         """
         u = np.asarray(u_motor, dtype=float)
         if u.shape != (self.n_u,):
-            raise InputError(f"expected {self.n_u} motor angles, got shape {u.shape}")
+            raise InputError(f"expected {self.n_u} inputs, got shape {u.shape}")
         q0 = None
         if self._last is not None:
             u_last, q_last, dq_du = self._last
@@ -73,10 +86,12 @@ class FEMForwardMap:
         if sol is None and q0 is not None:  # the predictor overshot: plain warm start
             sol = self._solve(u, self._last[1])
         if sol is None:
-            nan = np.full(3, np.nan)
-            return nan, np.full((3, self.n_u), np.nan)
+            nan = np.full(self.n_y, np.nan)
+            return nan, np.full((self.n_y, self.n_u), np.nan)
         self._last = (u.copy(), sol.q, sol.dq_du)
-        return sol.p_tip_W.copy(), sol.J_tip_u.copy()
+        if self._rows is None:
+            return sol.p_tip_W.copy(), sol.J_tip_u.copy()
+        return np.asarray(sol.y_W, float).reshape(-1)[self._rows], np.asarray(sol.J_y_u, float)[self._rows]
 
     def predict(self, u_motor) -> np.ndarray:
         """The tip at the equilibrium for one or N commands (solved in order with warm starts).

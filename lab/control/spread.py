@@ -68,7 +68,7 @@ def predicted_spread_m(model, u_motor) -> float:
     members = members_of(model)
     if members is None:
         return float("nan")
-    y = np.array([np.asarray(m.predict(u), dtype=float).reshape(3) for m in members])
+    y = np.array([np.asarray(m.predict(u), dtype=float).reshape(-1) for m in members])
     return float(np.sqrt(np.sum((y - y.mean(axis=0)) ** 2) / len(members)))
 
 
@@ -110,5 +110,5 @@ def spread_penalty_batch(model, u_batch, weight: float) -> np.ndarray:
     if members is None:
         raise InputError("a spread penalty needs a model with ensemble members (e.g. a deep ensemble)")
     u = np.atleast_2d(np.asarray(u_batch, dtype=float))
-    y = np.array([np.asarray(m.predict(u), dtype=float).reshape(len(u), 3) for m in members])  # (K, N, 3)
+    y = np.array([np.asarray(m.predict(u), dtype=float).reshape(len(u), -1) for m in members])  # (K, N, 3M)
     return 0.5 * weight * np.sum((y - y.mean(axis=0)) ** 2, axis=(0, 2)) / len(members)

@@ -29,6 +29,7 @@ from lab.rig import RigSpec, make_rig
 from lab.rig.spec import RIG
 from lab.specs import Spec, at_most, option, positive, positive_int
 from lab.tracking.closed_loop import MODES, Correction, check_passes, run_closed_loop
+from lab.tracking.marker_targets import with_marker_offsets
 from lab.tracking.offline import run_offline
 from lab.tracking.points import PointLog
 from lab.tracking.stream import stream_trajectory
@@ -186,6 +187,14 @@ class TrackSpec(Spec):
             )
         if self.dynamic_model is not None and self.stream is None:
             raise self.field_error(f"{name('dynamic_model')} needs {name('stream')} T", "dynamic_model", "stream")
+        if self.ik.markers != ("tip",) and (self.stream is not None or self.closed_loop is not None):
+            used = "stream" if self.stream is not None else "closed_loop"
+            raise self.field_error(
+                f"IKConfig.markers {','.join(self.ik.markers)}: a "
+                f"{name(used)} run corrects or times the tip alone; drive markers other than the tip open loop",
+                "IKConfig.markers",
+                used,
+            )
         if not self.rig.has_rig:
             self._check_no_rig()
         fem_rigs = ("sim", "twin") if self.stream is not None else ("sim",)
@@ -265,6 +274,7 @@ def run(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Ca
     fem = ArmFEM(robot, **spec.mesh.overrides()) if (spec.rig.kind == "sim" or spec.soft_ik) else None
     model = None if spec.soft_ik else load_model(spec.model)
     solver = IKSolver.for_model(model, robot, spec.ik, fem=fem if spec.soft_ik else None)
+    solver = with_marker_offsets(solver, model, fem)
     for note in solver.notes:
         say(f"IK: {note}")
     name = spec.trajectory if spec.trajectory in BUILTIN + SIX_CABLE else Path(spec.trajectory).name

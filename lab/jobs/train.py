@@ -26,6 +26,7 @@ import numpy as np
 from lab.errors import InputError
 from lab.learn.metrics import workspace_size_m
 from lab.learn.models import fit_model, held_out_errors, load_model, net_options, outer_split
+from lab.learn.outputs import dataset_io
 from lab.learn.run_inputs import forward_model, inputs_and_groups, read_all, record_trained
 from lab.learn.split import check_enough_data
 from lab.learn.train import data_sha256, train
@@ -192,7 +193,8 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
     spec : TrainSpec
         The model and how it is trained (:class:`lab.learn.train_spec.TrainSpec`).
     data : str or Path
-        Dataset CSV (``u0..,x,y,z``; metres) with its ``.json`` sidecar.
+        Dataset CSV (``u0..,x,y,z`` and ``NAME_x,NAME_y,NAME_z`` per further marker; metres)
+        with its ``.json`` sidecar; the model predicts every marker's output columns.
     extra_data : sequence of str or Path
         More datasets of the same robot, appended to ``data`` before the split.
     init : str or Path, optional
@@ -213,6 +215,7 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
     from lab.learn.mlp import MLP
 
     u, y, meta, extra, ids = read_all(data, extra_data)
+    io = dataset_io(meta, u.shape[1], y.shape[1], str(data))
     x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
     forward_net = forward_model(spec, forward)
     init_model = None
@@ -241,7 +244,7 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
     else:
         model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_net, groups)
         stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
-    record_trained(model, spec, u, train_idx, meta)
+    record_trained(model, spec, u, train_idx, meta, io)
     file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
     training = model.metadata["training"]
     training.setdefault("data_sha256", data_sha256(u, y))

@@ -37,17 +37,25 @@ def mse_m2(y_hat: np.ndarray, y: np.ndarray) -> float:
 def mean_distance_m(y_hat: np.ndarray, y: np.ndarray) -> float:
     """Mean Euclidean distance between predicted and measured positions (m); NaN for none.
 
+    With several markers (n_y = 3K, K > 1) the mean is over samples and markers of each
+    marker's distance.
+
     Parameters
     ----------
     y_hat, y : numpy.ndarray
-        Predicted and measured positions, shape (N, 3) (or (N, n_y)), m.
+        Predicted and measured positions, shape (N, 3) (or (N, 3K) for K markers), m.
 
     Returns
     -------
     float
         The mean distance, m.
     """
-    return float(np.mean(np.linalg.norm(np.asarray(y_hat) - y, axis=1))) if len(y) else float("nan")
+    if not len(y):
+        return float("nan")
+    d = np.asarray(y_hat) - y
+    if d.ndim == 2 and d.shape[1] > 3 and d.shape[1] % 3 == 0:
+        return float(np.mean(np.linalg.norm(d.reshape(len(d), -1, 3), axis=2)))
+    return float(np.mean(np.linalg.norm(d, axis=1)))
 
 
 def error_report(model, u: np.ndarray, y: np.ndarray) -> dict:
@@ -79,7 +87,8 @@ def workspace_size_m(p_tip: np.ndarray) -> float:
     Parameters
     ----------
     p_tip : numpy.ndarray
-        Tip positions, shape (N, 3), m.
+        Tip positions, shape (N, 3), m; of (N, 3K) outputs of K markers, the first three
+        columns (the tip) count.
 
     Returns
     -------
@@ -87,4 +96,6 @@ def workspace_size_m(p_tip: np.ndarray) -> float:
         The diagonal, m.
     """
     p_tip = np.asarray(p_tip, dtype=float)
+    if p_tip.ndim == 2 and p_tip.shape[1] > 3:
+        p_tip = p_tip[:, :3]
     return float(np.linalg.norm(p_tip.max(axis=0) - p_tip.min(axis=0)))

@@ -26,6 +26,7 @@ from lab.data.sequences import sequence_ids
 from lab.errors import InputError
 from lab.learn.history import history_features, record_data_bounds, record_history
 from lab.learn.models import load_model
+from lab.learn.outputs import record_io
 from lab.learn.split import split_groups
 
 __all__ = ["forward_model", "inputs_and_groups", "read_all", "record_trained"]
@@ -48,7 +49,7 @@ def _check_not_twice(sources: list[tuple[str, np.ndarray]], what: str, rows: np.
 
 
 def read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list, np.ndarray]:
-    """(u (N, m), y (N, 3) m, DATA's sidecar, the extra files' provenance, the sequence of
+    """(u (N, m), y (N, 3K) m of K markers, DATA's sidecar, the extra files' provenance, the sequence of
     each row (N,) ints) of the dataset file ``data`` with ``extra_data`` files appended."""
     u, y, meta = read_dataset(data)
     ids = sequence_ids(meta, len(u), where=f"{data}.json")
@@ -65,6 +66,11 @@ def read_all(data, extra_data) -> tuple[np.ndarray, np.ndarray, dict, list, np.n
             raise InputError(
                 f"extra dataset {path}: robot {robot_x!r} with {u_x.shape[1]} motors, but {data} is robot "
                 f"{robot!r} with {u.shape[1]}"
+            )
+        if y_x.shape[1] != y.shape[1] or meta_x.get("markers") != meta.get("markers"):
+            raise InputError(
+                f"extra dataset {path}: markers {meta_x.get('markers') or ['tip']} ({y_x.shape[1]} output columns), "
+                f"but {data} has {meta.get('markers') or ['tip']} ({y.shape[1]})"
             )
         rows = np.hstack([u_x, y_x])
         _check_not_twice(sources, f"extra dataset {path}", rows)
@@ -102,9 +108,13 @@ def inputs_and_groups(spec, u, ids, data, log) -> tuple[np.ndarray, np.ndarray |
     return x, groups, info
 
 
-def record_trained(model, spec, u, train_idx, meta) -> None:
+def record_trained(model, spec, u, train_idx, meta, io=None) -> None:
     """Metadata every trained model gets: its history K (forward models), the per-motor box
-    of its training commands and, for a robot without an FEM, the sidecar's robot."""
+    of its training commands, its output markers and input units (``io``: the pair of
+    :func:`lab.learn.outputs.dataset_io`; None: the tip only, rad) and, for a robot without
+    an FEM, the sidecar's robot."""
+    markers, units = io if io is not None else (("tip",), ("rad",) * u.shape[1])
+    record_io(model, markers, units)
     if spec.model != "inverse-mlp":
         record_history(model, spec.history, u.shape[1])
     record_data_bounds(model, u[train_idx])

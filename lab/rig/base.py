@@ -48,10 +48,15 @@ class MocapFrame:
     p_tip_W : numpy.ndarray
         Tip marker position, shape (3,), in m in the robot frame W; all-NaN when the
         marker was not seen in this frame.
+    markers_W : numpy.ndarray or None
+        Every observed point of the robot (``robot.marker_names``: the tip first), shape
+        (K, 3), m, frame W, on a rig that observes them all (the simulated rig); None on a
+        rig that sees the tip alone.
     """
 
     t_s: float
     p_tip_W: np.ndarray
+    markers_W: np.ndarray | None = None
 
     @property
     def valid(self) -> bool:

@@ -16,7 +16,8 @@ from lab.rig.base import MocapFrame, Rig
 
 
 class SimRig(Rig):
-    """Quasi-static nominal FEM behind the rig interface (virtual clock, exact tip).
+    """Quasi-static nominal FEM behind the rig interface (virtual clock, exact tip and
+    every marker: ``MocapFrame.markers_W``; a tension-controlled cable's input in N).
 
     Parameters
     ----------
@@ -41,6 +42,7 @@ class SimRig(Rig):
     def _send(self, u_motor: np.ndarray) -> None:
         sol = solve_static(self.fem, u_motor, self._q)
         self._u, self._q, self._p_tip_W = u_motor.copy(), sol.q, sol.p_tip_W
+        self._y_W = np.asarray(sol.y_W, dtype=float).reshape(-1, 3)
         self.solve_time_s += sol.time_s
 
     def present_u(self) -> np.ndarray:
@@ -51,7 +53,7 @@ class SimRig(Rig):
 
     def next_frame(self) -> MocapFrame:
         self._t_s += 1.0 / self.frame_rate_hz
-        return MocapFrame(self._t_s, self._p_tip_W.copy())
+        return MocapFrame(self._t_s, self._p_tip_W.copy(), self._y_W.copy())
 
     def describe(self) -> dict:
         """JSON-able description of this rig for dataset/report metadata.

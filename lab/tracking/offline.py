@@ -26,12 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from lab.control.ik import IKConfig, IKSolver, check_forward
+from lab.control.markers import forward_markers
 from lab.control.spread import has_spread
 from lab.control.trajectories import BUILTIN, SIX_CABLE, load_trajectory
 from lab.description import load_robot, shipped_robots
+from lab.errors import InputError
 from lab.files import atomic_write_group, code_version
 from lab.learn.history import at_rest, data_bounds, history_of, past_commands, with_past
 from lab.learn.models import load_model
+from lab.tracking.marker_targets import with_marker_offsets
 from lab.tracking.track import _plain
 
 __all__ = ["SolvedTargets", "solve_targets", "run_offline", "trained_robot", "KIND"]
@@ -213,9 +216,13 @@ def solve_targets(model, targets_W, config: IKConfig | None = None, *, robot=Non
     targets = np.atleast_2d(np.asarray(targets_W, dtype=float))
     k = history_of(model)
     if k == 0:
-        solver = IKSolver.for_model(model, robot, config, bounds=bounds)
+        solver = with_marker_offsets(IKSolver.for_model(model, robot, config, bounds=bounds), model)
         plans = [solver.follow(targets)]
     else:
+        if config is not None and config.markers != ("tip",):
+            raise InputError(
+                f"IKConfig.markers {','.join(config.markers)}: a model with history (K = {k}) drives the tip alone"
+            )
         solver, plans = None, []
         for i, target in enumerate(targets):
             answers = np.array([p.u_motor[0] for p in plans])
@@ -271,12 +278,10 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
     t0 = time.perf_counter()
     model = load_model(spec.model)
     check_forward(model)
-    if getattr(model, "n_y", 3) != 3:
-        raise spec.field_error(
-            f"{spec.name_of('model')} {spec.model} predicts {model.n_y} outputs, but the targets have 3 columns "
-            "(x, y, z): the IK needs a model of the tip position",
-            "model",
-        )
+    try:
+        forward_markers(model)
+    except InputError as err:
+        raise spec.field_error(f"{spec.name_of('model')} {spec.model}: {err}", "model") from None
     robot_name = trained_robot(model)
     if spec.trajectory in BUILTIN + SIX_CABLE and robot_name is None:
         raise spec.field_error(

@@ -258,6 +258,11 @@ def run_info(rig: Rig, solver: IKSolver, plan, protocol: Protocol) -> dict:
             "max_spread_m": cfg.max_spread_m,
             "notes": list(solver.notes),
             "ik": {k: plan.info[k] for k in ("slack_plateaus", "restarts", "recovered")},
+            **(
+                {"markers": plan.info["markers"], "marker_offsets_m": plan.info["marker_offsets_m"]}
+                if "markers" in plan.info
+                else {}
+            ),
         },
         "protocol": protocol.as_dict(),
         "code_version": code_version(),
