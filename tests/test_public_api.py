@@ -20,6 +20,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: Exported names with no user in the repository, and why they are public all the same.
 EXPORT_EXCEPTIONS: dict[str, str] = {
+    "lab.fem.bodies.MeshBody": "the body a user builds from a mesh of their own and passes to ArmFEM(robot, body=...); "
+    "the description's own comes from body_of",
+    "lab.fem.bodies.TaperedBody": "the body a user builds at another resolution and passes to ArmFEM(robot, body=...); "
+    "the description's own comes from body_of",
     "lab.jobs.JOBS": "command name -> job module: how a notebook or script finds the run(spec) of a command "
     "it knows by its CLI name (lab.cli.COMMANDS's counterpart)",
     "lab.learn.TrainResult": "what train() returns (model, split, log, errors); its signature names it, so the "

@@ -34,10 +34,21 @@ class DescriptionError(InputError):
 class Cable:
     """One cable: fixed anchor in the base plate, then eyelets (via points) in the body.
 
-    ``via_points_m`` (K, 3) are rest positions in frame W; the last one is where the
-    cable is tied off. ``anchor_m`` (3,) is where it leaves the base towards its spool or
-    its load. ``control`` is ``"angle"`` (the input is the spool angle, rad) or
-    ``"tension"`` (the input is the tension, N, at most ``tension_max_n``).
+    Parameters
+    ----------
+    name : str
+        Its name (unique in the robot).
+    anchor_m : ndarray, shape (3,)
+        Where it leaves the base towards its spool or its load, frame W, m.
+    via_points_m : ndarray, shape (K, 3)
+        The eyelets' rest positions in frame W, m; the last is where it is tied off.
+    slack_m : float
+        Free length beyond taut at rest, m (an as-built field; negative: pre-tensioned).
+    control : str
+        ``"angle"`` (the input is the spool angle, rad) or ``"tension"`` (the input is the
+        tension, N).
+    tension_max_n : float or None
+        The largest tension of a tension-controlled cable, N.
     """
 
     name: str
@@ -50,7 +61,15 @@ class Cable:
 
 @dataclass(frozen=True)
 class SafetyLimit:
-    """Forbid commands with ``sum(u[cables]) > max_sum_over_u_max * u_max``."""
+    """Forbid commands with ``sum(u[cables]) > max_sum_over_u_max * u_max``.
+
+    Parameters
+    ----------
+    cables : tuple of int
+        Indices of angle-controlled cables.
+    max_sum_over_u_max : float
+        The largest sum of their angles, in units of ``u_max_rad``.
+    """
 
     cables: tuple[int, ...]
     max_sum_over_u_max: float
@@ -60,11 +79,26 @@ class SafetyLimit:
 class BodyShape:
     """The body's geometry, frame W at rest, the base at x = 0 (m).
 
-    ``shape`` is ``"cylinder"`` (length and radius), ``"tapered"`` (``profile_m`` (S, 2):
-    stations [x, r], radius piecewise linear) or ``"mesh"`` (``mesh_file``, an absolute path,
-    its content hash ``mesh_sha256``, coordinates in ``mesh_unit``; a geometry file is meshed
-    with target size ``mesh_size_m`` and element order ``mesh_order``). The clamped nodes are
-    those at the base (``clamp = "base"``) or a named physical group (``clamp_group``).
+    Parameters
+    ----------
+    shape : str
+        ``"cylinder"`` (the description's length and radius), ``"tapered"`` or ``"mesh"``.
+    profile_m : ndarray, shape (S, 2), optional
+        A tapered body's stations [x, r], m; the radius is piecewise linear between them.
+    mesh_file : str, optional
+        A mesh body's file (absolute path): a tet mesh (meshio) or a geometry (gmsh).
+    mesh_sha256 : str, optional
+        The file's content hash (the description's hash uses it, not the path).
+    mesh_unit : str
+        The file's length unit, ``"m"`` or ``"mm"``.
+    mesh_size_m : float, optional
+        Target element size of a meshed geometry, m.
+    mesh_order : int
+        Element order (1).
+    clamp : str or None
+        ``"base"``: the nodes at the smallest x are clamped.
+    clamp_group : str or None
+        Or: the nodes of this physical group of the file.
     """
 
     shape: str = "cylinder"
@@ -80,7 +114,15 @@ class BodyShape:
 
 @dataclass(frozen=True)
 class MarkerSpec:
-    """A named observed point: ``position_m`` (3,) in the body frame at rest (frame W), m."""
+    """A named observed point.
+
+    Parameters
+    ----------
+    name : str
+        Its name (letters, digits, ``_``, ``-``; not ``tip``); dataset columns ``NAME_x`` ...
+    position_m : ndarray, shape (3,)
+        Its position in the body frame at rest (frame W), m; inside the body or on a stalk.
+    """
 
     name: str
     position_m: np.ndarray
@@ -114,10 +156,37 @@ def _unset(obj, key: str) -> bool:
 class RobotDescription:
     """A robot: body, material, mounting, mesh, actuation, cables, markers and safety rules.
 
-    Lengths in m, moduli in Pa, densities in kg/m^3, angles in rad, tensions in N. For a
-    ``"tapered"`` body ``length_m`` and ``radius_m`` are the last station and the largest
-    radius; for a ``"mesh"`` body, the mesh's extent along x and its largest distance from
-    the x axis. Actuation fields are None for a robot whose cables are all tension-controlled.
+    Lengths in m, moduli in Pa, densities in kg/m^3, angles in rad, tensions in N.
+
+    Parameters
+    ----------
+    name, summary : str
+        The robot's name and one line about it.
+    length_m, radius_m : float
+        The body's length and largest radius, m (a tapered body: the last station and the
+        largest radius; a mesh body: its extent along x and its largest distance from the axis).
+    youngs_modulus_pa, poisson_ratio, density_kg_m3 : float
+        The neo-Hookean material.
+    gravity_m_s2 : ndarray, shape (3,)
+        Gravity in frame W, m/s^2.
+    n_rings, n_axial : int or None
+        The structured mesher's resolution (None for a mesh body).
+    spool_radius_m, u_max_rad, cable_stiffness_n_m, slack_smoothing_m : float or None
+        The angle-controlled cables' actuation (None when every cable is tension-controlled).
+    cables : tuple of Cable
+        The cables, whose inputs are u in this order.
+    p_tip_marker_W : ndarray, shape (3,)
+        The tip marker, m, the first observed point.
+    safety_limits : tuple of SafetyLimit
+        The safety rules.
+    source : dict
+        The parsed TOML document.
+    stiffness_gradient : ndarray, shape (3,)
+        The as-built stiffness gradient [0, g_y, g_z].
+    body_shape : BodyShape
+        The body's geometry.
+    markers : tuple of MarkerSpec
+        The observed points after the tip.
     """
 
     name: str
@@ -196,7 +265,18 @@ class RobotDescription:
         return np.interp(x_m, profile[:, 0], profile[:, 1])
 
     def youngs_modulus_at(self, points_W):
-        """Young's modulus in Pa at points (P, 3) m: a scalar without a stiffness gradient, else (P,)."""
+        """Young's modulus at points.
+
+        Parameters
+        ----------
+        points_W : array_like, shape (P, 3)
+            Points in frame W, m.
+
+        Returns
+        -------
+        float or ndarray, shape (P,)
+            The modulus in Pa: a scalar without a stiffness gradient.
+        """
         if not np.any(self.stiffness_gradient):
             return self.youngs_modulus_pa
         return self.youngs_modulus_pa * (1.0 + np.asarray(points_W) @ self.stiffness_gradient / self.radius_m)
@@ -221,7 +301,17 @@ class RobotDescription:
     def is_safe(self, u_motor, tol: float = 1e-9) -> np.ndarray:
         """Whether inputs satisfy the safety rule and their ranges ``[u_lower, u_upper]``.
 
-        ``u_motor``: (m,) or (N, m), each input in its unit. Returns a bool, or (N,) bools.
+        Parameters
+        ----------
+        u_motor : array_like, shape (m,) or (N, m)
+            Inputs, each in its unit (rad or N).
+        tol : float
+            Relative slack on each bound.
+
+        Returns
+        -------
+        bool or ndarray of bool, shape (N,)
+            Whether each command is allowed.
         """
         u = np.atleast_2d(np.asarray(u_motor, dtype=float))
         if u.shape[1] != self.n_cables:
@@ -234,7 +324,18 @@ class RobotDescription:
         return ok if np.ndim(u_motor) == 2 else bool(ok[0])
 
     def check_command(self, u_motor) -> np.ndarray:
-        """Return ``u_motor`` as a float array or raise InputError saying what is wrong."""
+        """Check one command.
+
+        Parameters
+        ----------
+        u_motor : array_like, shape (m,)
+            Inputs, each in its unit (rad or N).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The command as floats (InputError saying what is wrong otherwise).
+        """
         u = np.asarray(u_motor, dtype=float)
         what = "motor angles" if self.all_angle else "inputs"
         if u.shape != (self.n_cables,):
