@@ -121,6 +121,17 @@ def scaled_tips(name, scale=1.0, shift_m=(0.0, 0.0, 0.0), n=12):
     return setup
 
 
+def tendon_robot(path: Path):
+    """The three-cable description with its cables pulled by tension (3 N at most), no [actuation]."""
+    import re
+
+    text = (ROOT / "lab" / "robots" / "three-cable.toml").read_text()
+    text = re.sub(r"\[actuation\].*?(?=\[\[cables\]\])", "", text, flags=re.S)
+    text = re.sub(r"\[\[safety\.limits\]\].*", "", text, flags=re.S).replace('"three-cable"', '"three-tendon"')
+    stations = "stations_m = [0.04, 0.08, 0.12, 0.16, 0.20]\n"
+    path.write_text(text.replace(stations, stations + 'control = "tension"\ntension_max_n = 3.0\n'))
+
+
 def cut_short(name, keep_fields=True):
     """A setup writing ``name`` (no sidecar): data.csv cut within its last number (or, with
     ``keep_fields=False``, after its second-last comma), without the final newline."""
@@ -873,6 +884,25 @@ CASES = [
         ("misfits the tips of {dir}/off.csv by 0.1012 m RMS", "more than the 0.02 m"),
         absent=("{dir}/c.toml",),
         setup=scaled_tips("off.csv", shift_m=(0.0, 0.1, 0.0)),
+    ),
+    # --- calibrate --fit GROUPS (fit groups, density, tension tendons) ---------------------------------------------
+    Case(
+        "calibrate-fit-unknown-group",
+        ["calibrate", "{dir}/data.csv", "--fit", "softness,stiffness", "--out", "{dir}/c.toml"],
+        2,
+        (
+            "--fit must be a comma-separated subset of softness, gradient, eyelets, slack, density",
+            "unknown fit group 'stiffness'",
+        ),
+        absent=("{dir}/c.toml",),
+    ),  # fmt: skip
+    Case(
+        "calibrate-fit-slack-of-tension-tendons",
+        ["calibrate", "--robot", "{dir}/tendons.toml", "{dir}/data.csv", "--fit", "slack", "--out", "{dir}/c.toml"],
+        2,
+        ("--fit slack: three-tendon has no angle-controlled cable",),
+        absent=("{dir}/c.toml",),
+        setup=lambda d: tendon_robot(d / "tendons.toml"),
     ),
     Case(
         "defects-huge-mesh",

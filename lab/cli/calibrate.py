@@ -2,8 +2,9 @@
 the calibrated robot as a description TOML that every command accepts as ``--robot``.
 
 The real samples are a dataset from ``capture`` (any rig: ``twin``, ``twin:random:SEED``,
-``hardware:RIG.toml``); the fit's flags are :class:`lab.jobs.calibrate.CalibrationSpec`'s. The
-identified parameters (softness, stiffness gradient, eyelet shifts, slack per cable) and
+``hardware:RIG.toml``) or ``import-data``, with every marker it holds; the fit's flags are
+:class:`lab.jobs.calibrate.CalibrationSpec`'s (``--fit GROUPS`` among them). The
+identified parameters (softness, stiffness gradient, eyelet shifts, slack per cable, density) and
 their standard deviations are comments at the top of the TOML; a JSON summary goes to
 stdout (and to ``--report``), progress to stderr, ending with a line that says whether the
 calibrated model explains the samples at the declared noise (``--noise-m``: a chi-square
@@ -33,7 +34,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         parents=parents,
         help="identify the as-built FEM parameters from real samples; write a calibrated robot TOML",
         description="Fit softness, stiffness gradient, eyelet shifts and slack of each cable of the FEM "
-        "to real (u, y) samples (Levenberg-Marquardt with exact FEM sensitivities and a prior towards "
+        "(or the groups --fit names, density among them) to real (u, y) samples, every marker the data "
+        "hold (Levenberg-Marquardt with exact FEM sensitivities and a prior towards "
         "the nominal robot) and write the calibrated robot description, usable as --robot everywhere.",
     )
     c.add_argument("real", metavar="REAL.csv", help="real dataset CSV (u0..,x,y,z), e.g. from `capture`")

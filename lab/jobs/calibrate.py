@@ -1,10 +1,11 @@
 """``python -m lab calibrate``: identify the as-built FEM parameters from a real dataset file.
 
-:class:`CalibrationSpec` holds the fit's settings (``--noise-m``, ``--axes``,
+:class:`CalibrationSpec` holds the fit's settings (``--fit`` groups, ``--noise-m``, ``--axes``,
 ``--max-iter``) and its mesh (:class:`lab.fem.MeshSpec`, ``--n-rings``/``--n-axial``);
 :func:`run` checks the dataset against the nominal robot (its robot, its
-motor columns), runs :func:`lab.transfer.calibrate` and refuses a fit that did not
-converge, or whose misfit is far above what the FEM family can explain
+input columns, its markers: every marker in the data is fitted), runs
+:func:`lab.transfer.calibrate` and refuses a fit that did not converge, or whose misfit is
+far above what the FEM family can explain
 (:func:`misfit_limit_m`); nothing is written then. :func:`calibration_summary` is the
 JSON summary the command prints and writes; :func:`discrepancy_line` says in one line
 whether the calibrated model explains the samples at the declared noise (the chi-square
@@ -17,14 +18,32 @@ from dataclasses import dataclass, field
 
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.fem.solve.parameter_layout import GROUPS, parse_groups
 from lab.specs import Spec, option, positive, positive_int
 
-__all__ = ["CalibrationSpec", "run", "calibration_summary", "discrepancy_line", "misfit_limit_m"]
+__all__ = [
+    "CalibrationSpec",
+    "run",
+    "calibration_summary",
+    "data_markers",
+    "discrepancy_line",
+    "fit_groups",
+    "misfit_limit_m",
+]
 
 #: A calibrated misfit above this many noise levels is not noise (``--noise-m``: per coordinate).
 MISFIT_NOISE_FACTOR = 10.0
 #: ... nor above this fraction of the arm's length: what the FEM family cannot explain.
 MISFIT_LENGTH_FRACTION = 0.1
+
+
+def fit_groups(value) -> str | None:
+    """The check of :attr:`CalibrationSpec.fit`: None if every group is known, else the problem."""
+    try:
+        parse_groups(value)
+    except InputError as err:
+        return f"must be a comma-separated subset of {', '.join(GROUPS)} ({err})"
+    return None
 
 
 @dataclass(frozen=True)
@@ -33,6 +52,9 @@ class CalibrationSpec(Spec):
 
     Parameters
     ----------
+    fit : str, optional
+        The parameter groups fitted, comma-separated (softness, gradient, eyelets, slack,
+        density); None: softness, gradient, eyelets and, with angle-controlled cables, slack.
     noise_m : float
         Tip error per coordinate the fit expects, m (mocap noise plus what the static FEM
         cannot model); weighs the data against the prior.
@@ -44,6 +66,13 @@ class CalibrationSpec(Spec):
         The mesh of the FEM fitted (None fields: the description's).
     """
 
+    fit: str | None = option(
+        None,
+        type=str,
+        check=fit_groups,
+        help=f"parameter groups fitted, comma-separated: a subset of {', '.join(GROUPS)} (default: softness, "
+        "gradient, eyelets and, with angle-controlled cables, slack); density scales the body's mass",
+    )
     noise_m: float = option(
         5e-4,
         type=float,
@@ -122,23 +151,30 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
         in other units or frame; else LabRuntimeError).
     """
     from lab.data.dataset import read_dataset
-    from lab.transfer.calibrate import calibrate
+    from lab.transfer.calibrate import calibrate, default_groups
 
     n_rings, n_axial = spec.mesh.resolve(robot)
+    groups = default_groups(robot) if spec.fit is None else parse_groups(spec.fit)
+    if "slack" in groups and all(c.control == "tension" for c in robot.cables):
+        raise InputError(
+            f"--fit slack: {robot.name} has no angle-controlled cable (slack is a spool cable's free length; a "
+            "tendon held at a tension takes up its slack); fit softness, gradient, eyelets or density"
+        )
     u, y, meta = read_dataset(real)
     name = (meta.get("robot") or {}).get("name")
     if name is not None and name != robot.name:
         raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
     if u.shape[1] != robot.n_cables:
         raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
+    markers = data_markers(robot, real, y, meta)
     if log is not None:
         log(
-            f"{robot.name}: calibrating on {len(u)} real samples from {real}, mesh n_rings={n_rings} "
-            f"n_axial={n_axial}, eyelet shifts in {spec.axes}"
+            f"{robot.name}: calibrating {', '.join(groups)} on {len(u)} real samples of {', '.join(markers)} from "
+            f"{real}, mesh n_rings={n_rings} n_axial={n_axial}, eyelet shifts in {spec.axes}"
         )
     try:
         result = calibrate(robot, u, y, n_rings=n_rings, n_axial=n_axial, axes=spec.axes, noise_m=spec.noise_m,
-                           max_iter=spec.max_iter, log=log)  # fmt: skip
+                           max_iter=spec.max_iter, log=log, groups=groups, markers=markers)  # fmt: skip
     except InputError as err:
         raise InputError(f"{real}: {err}") from None
     _check_misfit(robot, real, spec, result)
@@ -148,6 +184,40 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
             f"{1e3 * result.rms_m:.3f} mm); nothing written: raise CalibrationSpec.max_iter, or check the data"
         )
     return result
+
+
+def data_markers(robot, real, y, meta: dict) -> tuple[str, ...]:
+    """The markers a dataset's outputs hold, in its column order: its sidecar's
+    ``markers``, else the tip alone for (N, 3) outputs, else all of the robot's.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot (its ``marker_names``).
+    real : str or Path
+        The dataset file (for the messages).
+    y : ndarray, shape (N, 3K)
+        Its outputs, m.
+    meta : dict
+        Its sidecar.
+
+    Returns
+    -------
+    tuple of str
+        Marker names (InputError for a marker the robot lacks or a column count that fits none).
+    """
+    names = meta.get("markers")
+    if names is None:
+        names = ("tip",) if y.shape[1] == 3 else robot.marker_names
+    names = tuple(names)
+    unknown = [k for k in names if k not in robot.marker_names]
+    if unknown:
+        raise InputError(
+            f"{real}: marker {unknown[0]!r} is not one of {robot.name}'s markers {list(robot.marker_names)}"
+        )
+    if y.shape[1] != 3 * len(names):
+        raise InputError(f"{real}: {y.shape[1]} output columns, but its markers {list(names)} need {3 * len(names)}")
+    return names
 
 
 def calibration_summary(robot, result, real, out, command: str) -> dict:

@@ -1,18 +1,21 @@
 """Calibrated physics: identify the as-built parameters theta of the FEM from N real samples.
 
-theta is :mod:`lab.fem.solve.parameters`' vector (log softness, stiffness gradient (y, z), eyelet
-shifts (m), slack per cable (m)). :func:`calibrate` minimises the whitened tip misfit plus a
-prior towards the nominal description, theta0:
+theta is :mod:`lab.fem.solve.parameters`' vector of the fitted groups (``softness``: log
+softness; ``gradient``: stiffness gradient (y, z); ``eyelets``: eyelet shifts (m); ``slack``:
+slack per angle-controlled cable (m); ``density``: the factor on the density; default the
+first four, or the first three for a robot without angle-controlled cables). The data are
+every observed marker of each sample, tip first, stacked (x, y, z) per marker: y_i (3K,).
+:func:`calibrate` minimises the whitened misfit plus a prior towards the nominal description, theta0:
 
-    C(theta) = sum_i |x_tip(u_i; theta) - y_i|^2 / noise^2 + sum_j ((theta_j - theta0_j) / s_j)^2
+    C(theta) = sum_i |y(u_i; theta) - y_i|^2 / noise^2 + sum_j ((theta_j - theta0_j) / s_j)^2
 
-by Levenberg-Marquardt with ``J = dx_tip/dtheta`` from the exact-Hessian sensitivities. The
+by Levenberg-Marquardt with ``J = dy/dtheta`` from the exact-Hessian sensitivities. The
 prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well posed with as few as 5 samples;
 ``noise`` (default 0.5 mm per coordinate) weighs the data against it. Warm starts make most
 solves one or two Newton steps. The uncertainty is the Gauss-Newton (Laplace) covariance at
 the optimum. Whether the model explains the data at all is a chi-square test of the residual
-against ``noise`` (:func:`lab.transfer.model_check`): a correct model leaves E[RSS] = (3N - p_eff) noise^2;
-above the 99.9 % quantile of chi2(3N - p_eff) the model is flagged, and the reported
+against ``noise`` (:func:`lab.transfer.model_check`): a correct model leaves E[RSS] = (3NK - p_eff) noise^2;
+above the 99.9 % quantile of chi2(3NK - p_eff) the model is flagged, and the reported
 covariance is inflated by the reduced chi-square (Birge ratio) whenever that exceeds 1.
 
 The prior, the warm starts, the covariance and the test in full: docs/design/transfer.md.
@@ -27,17 +30,13 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.solve.parameter_layout import ParameterLayout
+from lab.fem.solve.parameter_layout import ParameterLayout, parse_groups
 from lab.fem.solve.parameters import ParametrisedFEM
 from lab.transfer.discrepancy import model_check
+from lab.transfer.prior import DEFAULT_PRIOR_STD, default_groups, prior_std
 from lab.transfer.samples import Samples
 
-__all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "prior_std"]
-
-#: Prior standard deviations of each block of theta (the nominal is the prior mean):
-#: log softness 0.4 (E x/ 1.5), gradient 0.4 per component, eyelet shift 2 mm per axis,
-#: slack 3 mm -- about the half-widths of the as-built family's ranges.
-DEFAULT_PRIOR_STD = {"log_softness": 0.4, "gradient": 0.4, "via_shift_m": 2e-3, "slack_m": 3e-3}
+__all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "default_groups", "prior_std"]
 
 
 @dataclass
@@ -45,7 +44,7 @@ class CalibrationResult:
     """What :func:`calibrate` found. ``theta`` (p,) in the units of ``layout``; ``covariance``
     (p, p) the reported one: ``covariance_raw`` (the Laplace covariance at the declared
     ``noise_m``) inflated by the Birge ratio when the reduced chi-square exceeds 1
-    (:func:`lab.transfer.model_check`); ``residuals_m`` (N, 3) the tip misfit at ``theta`` in m;
+    (:func:`lab.transfer.model_check`); ``residuals_m`` (N, 3K) the markers' misfit at ``theta`` in m;
     ``p_eff`` the parameters the data determine (trace of the hat matrix).
 
     Attributes
@@ -61,9 +60,9 @@ class CalibrationResult:
     noise_m, sigma_m : float
         Declared noise and the noise the residuals imply, m per coordinate.
     residuals_m : numpy.ndarray
-        Tip misfit x - y at ``theta``, shape (N, 3), m.
+        Misfit x - y of the observed markers at ``theta``, shape (N, 3K), m.
     rms_nominal_m : float
-        RMS tip misfit of the nominal description, m.
+        RMS misfit of the nominal description per marker, m.
     iterations, n_solves : int
         Levenberg-Marquardt iterations and FEM solves.
     converged : bool
@@ -78,6 +77,8 @@ class CalibrationResult:
         The Laplace covariance at ``noise_m``, shape (p, p).
     p_eff : float or None
         Parameters the data determine.
+    markers : tuple of str
+        The observed markers, in the data's order (the tip first).
     """
 
     layout: ParameterLayout
@@ -98,6 +99,7 @@ class CalibrationResult:
     history: list = field(default_factory=list, repr=False)
     covariance_raw: np.ndarray | None = None
     p_eff: float | None = None
+    markers: tuple = ("tip",)
 
     @property
     def std(self) -> np.ndarray:
@@ -117,12 +119,12 @@ class CalibrationResult:
 
     @property
     def rms_m(self) -> float:
-        """RMS tip misfit |x - y| over the samples at ``theta``, in m."""
-        return float(np.sqrt(np.mean(np.sum(self.residuals_m**2, axis=1))))
+        """RMS misfit |x - y| over the samples and markers at ``theta``, in m."""
+        return _rms(self.residuals_m)
 
     @property
     def values(self) -> dict:
-        """theta unpacked: softness, gradient (2,), via_shift_m (m, 3), slack_m (m,)."""
+        """theta unpacked (:meth:`~lab.fem.solve.parameter_layout.ParameterLayout.unpack`)."""
         return self.layout.unpack(self.theta)
 
     def summary(self) -> dict:
@@ -157,6 +159,8 @@ class CalibrationResult:
             "wall_s": self.wall_s,
             "mesh": {"n_rings": self.n_rings, "n_axial": self.n_axial},
             "eyelet_shift_axes": self.layout.axes,
+            "fit_groups": list(self.layout.groups),
+            "markers": list(self.markers),
             "model_discrepancy": check["model_discrepancy"],
             "discrepancy": check,
             "std_reported": "inflated" if check["std_inflation"] > 1 else "raw",
@@ -165,43 +169,22 @@ class CalibrationResult:
         }
 
 
-def prior_std(layout: ParameterLayout, std=None) -> np.ndarray:
-    """Prior standard deviations (p,): ``std`` as an array (p,), or a dict overriding blocks
-    of :data:`DEFAULT_PRIOR_STD` (keys as there).
-
-    Parameters
-    ----------
-    layout : ParameterLayout
-        The parameter layout theta follows.
-    std : array_like or dict, optional
-        Standard deviations (p,) in theta's units, or a dict overriding blocks of
-        :data:`DEFAULT_PRIOR_STD`; default: those.
-
-    Returns
-    -------
-    numpy.ndarray
-        The prior standard deviation of each parameter, shape (p,).
-    """
-    if std is not None and not isinstance(std, dict):
-        s = np.asarray(std, float)
-        if s.shape != (layout.size,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
-            raise InputError(f"prior std must be {layout.size} positive numbers, got {s.tolist()}")
-        return s
-    d = {**DEFAULT_PRIOR_STD, **(std or {})}
-    unknown = set(d) - set(DEFAULT_PRIOR_STD)
-    if unknown or not all(np.isfinite(v) and v > 0 for v in d.values()):
-        raise InputError(f"prior std: positive values for {sorted(DEFAULT_PRIOR_STD)}, got {d}")
-    s = np.full(layout.size, d["via_shift_m"])
-    s[0], s[1:3], s[layout.slack] = d["log_softness"], d["gradient"], d["slack_m"]
-    return s
+def _rms(residuals: np.ndarray) -> float:
+    """RMS 3-D misfit per observed point of residuals (N, 3K), m."""
+    r = np.asarray(residuals)
+    return float(np.sqrt(np.mean(np.sum(r.reshape(-1, 3) ** 2, axis=1))))
 
 
-def _check_data(robot: RobotDescription, u, y) -> tuple[np.ndarray, np.ndarray]:
+def _check_data(robot: RobotDescription, u, y, markers) -> tuple[np.ndarray, np.ndarray]:
     u, y = np.asarray(u, float), np.asarray(y, float)
     if u.ndim != 2 or u.shape[1] != robot.n_cables or len(u) == 0:
         raise InputError(f"motor angles must be (N, {robot.n_cables}) for {robot.name}, got shape {u.shape}")
-    if y.shape != (len(u), 3):
-        raise InputError(f"tip positions must be ({len(u)}, 3), got shape {y.shape}")
+    if y.shape != (len(u), 3 * len(markers)):
+        what = "tip positions" if len(markers) == 1 else f"marker positions ({', '.join(markers)})"
+        raise InputError(f"{what} must be ({len(u)}, {3 * len(markers)}), got shape {y.shape}")
+    unknown = [k for k in markers if k not in robot.marker_names]
+    if unknown:
+        raise InputError(f"marker {unknown[0]!r} is not one of {robot.name}'s markers {list(robot.marker_names)}")
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
         raise InputError("motor angles and tip positions must be finite")
     bad = np.flatnonzero(~robot.is_safe(u))
@@ -226,9 +209,11 @@ def calibrate(
     max_iter: int = 30,
     tol: float = 1e-3,
     log=None,
+    groups=None,
+    markers=None,
 ) -> CalibrationResult:
-    """Identify theta of ``robot``'s FEM from real samples: motor angles ``u_real`` (N, m) rad
-    and tip positions ``y_real`` (N, 3) m (frame W). Mesh: ``n_rings``/``n_axial``, else
+    """Identify theta of ``robot``'s FEM from real samples: inputs ``u_real`` (N, m) (rad or
+    N per cable) and marker positions ``y_real`` (N, 3K) m (frame W). Mesh: ``n_rings``/``n_axial``, else
     the description's. ``axes``: eyelet-shift components ("yz" or "xyz"). ``prior``: prior
     std (see :func:`prior_std`). Converged when no parameter moves more than ``tol`` prior
     std in a step. ``log``: called with a progress line per iteration.
@@ -239,9 +224,9 @@ def calibrate(
     robot : RobotDescription
         The nominal description (the prior mean).
     u_real : array_like
-        Motor angles, shape (N, m), rad.
+        Inputs, shape (N, m): motor angles (rad) and tensions (N), each in its cable's unit.
     y_real : array_like
-        Tip positions, shape (N, 3), m, frame W.
+        Observed positions, shape (N, 3K), m, frame W: (x, y, z) of each of ``markers``.
     n_rings, n_axial : int, optional
         The mesh (default: the description's).
     axes : str
@@ -256,6 +241,12 @@ def calibrate(
         Convergence: largest step, in prior standard deviations.
     log : callable, optional
         Called with a progress line (str) per iteration.
+    groups : str or sequence of str, optional
+        The fitted groups (:func:`lab.fem.solve.parameter_layout.parse_groups`); default
+        :func:`default_groups`.
+    markers : sequence of str, optional
+        The markers the columns of ``y_real`` hold, in order (names of
+        ``robot.marker_names``); default all of them (K = 1, the tip, for today's robots).
 
     Returns
     -------
@@ -270,25 +261,27 @@ def calibrate(
         If even the nominal FEM has no equilibrium for a sample.
     """
     t0 = time.perf_counter()
-    u, y = _check_data(robot, u_real, y_real)
+    groups = default_groups(robot) if groups is None else parse_groups(groups)
+    markers = tuple(robot.marker_names if markers is None else markers)
+    u, y = _check_data(robot, u_real, y_real, markers)
     if not (np.isfinite(noise_m) and noise_m > 0):
         raise InputError(f"noise must be a positive length in m, got {noise_m}")
     n_rings = robot.n_rings if n_rings is None else int(n_rings)
     n_axial = robot.n_axial if n_axial is None else int(n_axial)
-    pf = ParametrisedFEM(robot, n_rings=n_rings, n_axial=n_axial, axes=axes)
+    pf = ParametrisedFEM(robot, n_rings=n_rings, n_axial=n_axial, axes=axes, groups=groups)
     lay, theta0 = pf.layout, pf.nominal
     s = prior_std(lay, prior)
-    samples = Samples(pf, u)
+    samples = Samples(pf, u, _marker_indices(pf.fem(theta0), markers))
     q, tips, (dq, J) = samples.first(theta0)
 
     def cost(theta, tips):
         return float(np.sum((tips - y) ** 2) / noise_m**2 + np.sum(((theta - theta0) / s) ** 2))
 
     theta, c, lam, converged, it = theta0.copy(), cost(theta0, tips), 1e-3, False, 0
-    rms0 = float(np.sqrt(np.mean(np.sum((tips - y) ** 2, axis=1))))
+    rms0 = _rms(tips - y)
     history = [{"iteration": 0, "rms_m": rms0, "cost": c}]
     if log:
-        log(f"nominal: RMS tip misfit {1e3 * rms0:.3f} mm over {len(u)} samples")
+        log(f"nominal: RMS {_what(markers)} misfit {1e3 * rms0:.3f} mm over {len(u)} samples")
     while it < max_iter and not converged:
         it += 1
         Jd = J.reshape(-1, lay.size) / noise_m
@@ -310,13 +303,14 @@ def calibrate(
         theta, c, (q, tips) = trial, c_trial, got
         dq, J = samples.sensitivities(theta, q)
         converged = bool(np.max(np.abs(step) / s) < tol)
-        rms = float(np.sqrt(np.mean(np.sum((tips - y) ** 2, axis=1))))
+        rms = _rms(tips - y)
         history.append(
             {"iteration": it, "rms_m": rms, "cost": c, "max_step_over_prior_std": float(np.max(abs(step) / s))}
         )
         if log:
             log(
-                f"iteration {it}: RMS tip misfit {1e3 * rms:.3f} mm, largest step {np.max(abs(step) / s):.2g} prior std"
+                f"iteration {it}: RMS {_what(markers)} misfit {1e3 * rms:.3f} mm, largest step "
+                f"{np.max(abs(step) / s):.2g} prior std"
             )
     cov_raw, cov, sigma, p_eff = _covariance(J.reshape(-1, lay.size), tips - y, s, noise_m)
     return CalibrationResult(
@@ -338,7 +332,20 @@ def calibrate(
         n_rings=n_rings,
         n_axial=n_axial,
         history=history,
+        markers=markers,
     )
+
+
+def _what(markers) -> str:
+    return "tip" if len(markers) == 1 else "marker"
+
+
+def _marker_indices(fem, markers) -> list[int]:
+    """Where each observed marker sits among the FEM's (``fem.marker_names``)."""
+    missing = [k for k in markers if k not in fem.marker_names]
+    if missing:
+        raise InputError(f"the FEM observes no marker {missing[0]!r} (it observes {list(fem.marker_names)})")
+    return [fem.marker_names.index(k) for k in markers]
 
 
 def _covariance(J: np.ndarray, residuals: np.ndarray, s: np.ndarray, noise_m: float):

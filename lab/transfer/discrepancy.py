@@ -1,7 +1,7 @@
 """Does a fitted model explain its samples? The chi-square test of the residual against the noise.
 
 A correct model with the right declared noise leaves ``chi2 = RSS / noise^2`` distributed as
-chi2(dof), ``dof = 3N - p_eff`` (``p_eff`` the parameters the data determine: with a prior,
+chi2(dof), ``dof = 3NK - p_eff`` (K observed markers) (``p_eff`` the parameters the data determine: with a prior,
 the trace of the hat matrix). :func:`model_check` flags a fit above the
 :data:`DISCREPANCY_QUANTILE` quantile as model error, and gives the Birge ratio by which
 :func:`lab.transfer.calibrate` inflates the reported standard deviations. The reasoning in
@@ -20,18 +20,18 @@ DISCREPANCY_QUANTILE = 0.999
 
 
 def model_check(residuals_m, noise_m: float, p: int, p_eff: float | None = None) -> dict:
-    """The chi-square test of a fit's residuals ``residuals_m`` (N, 3) m against the declared
+    """The chi-square test of a fit's residuals ``residuals_m`` (N, 3K) m against the declared
     noise ``noise_m`` (m per coordinate) for ``p`` parameters, ``p_eff`` of them determined by
     the data (default ``p``; with a prior, the trace of the hat matrix). A correct model
-    leaves ``chi2 = RSS / noise^2 ~ chi2(dof)``, ``dof = 3N - p_eff``: RMS 3-D residual
-    ``noise sqrt(dof / N)``. ``model_discrepancy`` when chi2 exceeds the
+    leaves ``chi2 = RSS / noise^2 ~ chi2(dof)``, ``dof = 3NK - p_eff``: RMS 3-D residual per
+    observed point ``noise sqrt(dof / NK)``. ``model_discrepancy`` when chi2 exceeds the
     :data:`DISCREPANCY_QUANTILE` quantile; ``std_inflation = max(1, sqrt(chi2 / dof))`` (the
     Birge ratio, at least 1) scales the data's part of the standard deviations. Lengths in m.
 
     Parameters
     ----------
     residuals_m : array_like
-        Tip residuals, shape (N, 3), m.
+        Residuals of the K observed markers, shape (N, 3K), m (the tip alone: (N, 3)).
     noise_m : float
         Declared noise, m per coordinate.
     p : int
@@ -48,7 +48,7 @@ def model_check(residuals_m, noise_m: float, p: int, p_eff: float | None = None)
     """
     from scipy.stats import chi2 as chi2_dist
 
-    r = np.asarray(residuals_m, float)
+    r = np.asarray(residuals_m, float).reshape(-1, 3)  # one row per observed point
     n = len(r)
     p_eff = float(p if p_eff is None else p_eff)
     dof = max(3 * n - p_eff, 1.0)

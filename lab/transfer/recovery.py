@@ -132,9 +132,10 @@ def recovery_rows(
     values, std, std_raw = res.theta.copy(), res.std.copy(), res.std_raw.copy()
     nominal = res.theta_nominal.copy()
     names, units = list(res.layout.names), list(res.layout.units)
-    values[0], truth[0], nominal[0] = np.exp(values[0]), np.exp(truth[0]), 1.0
-    std[0], std_raw[0] = values[0] * std[0], values[0] * std_raw[0]
-    names[0], units[0] = "softness", "1"
+    if "softness" in res.layout.groups:
+        values[0], truth[0], nominal[0] = np.exp(values[0]), np.exp(truth[0]), 1.0
+        std[0], std_raw[0] = values[0] * std[0], values[0] * std_raw[0]
+        names[0], units[0] = "softness", "1"
     return [
         {
             "robot": label,

@@ -59,10 +59,7 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
         f"name = {json.dumps(robot.name)}",
         f"summary = {json.dumps(robot.summary)}",
         "",
-        "[body]",
-        'shape = "cylinder"',
-        f"length_m = {_f(robot.length_m)}",
-        f"radius_m = {_f(robot.radius_m)}",
+        *_body_lines(robot),
         "",
         "[material]",
         'model = "neo-hookean"',
@@ -72,27 +69,22 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
     ]
     if np.any(robot.stiffness_gradient):
         lines.append(f"stiffness_gradient = {_vec(robot.stiffness_gradient)}")
-    lines += [
-        "",
-        "[mounting]",
-        f"gravity_m_s2 = {_vec(robot.gravity_m_s2)}",
-        "",
-        "[mesh]",
-        f"n_rings = {int(robot.n_rings)}",
-        f"n_axial = {int(robot.n_axial)}",
-        "",
-        "[actuation]",
-        f"spool_radius_m = {_f(robot.spool_radius_m)}",
-        f"u_max_rad = {_f(robot.u_max_rad)}",
-        f"cable_stiffness_n_m = {_f(robot.cable_stiffness_n_m)}",
-        f"slack_smoothing_m = {_f(robot.slack_smoothing_m)}",
-    ]
+    lines += ["", "[mounting]", f"gravity_m_s2 = {_vec(robot.gravity_m_s2)}", "", *_mesh_lines(robot)]
+    actuation = ("spool_radius_m", "u_max_rad", "cable_stiffness_n_m", "slack_smoothing_m")
+    if any(getattr(robot, k) is not None for k in actuation):  # none for a robot of tension tendons
+        lines += ["", "[actuation]"]
+        lines += [f"{k} = {_f(getattr(robot, k))}" for k in actuation if getattr(robot, k) is not None]
     for c in robot.cables:
         lines += ["", "[[cables]]", f"name = {json.dumps(c.name)}", f"anchor_m = {_vec(c.anchor_m)}"]
         lines += ["via_points_m = [", *(f"    {_vec(p)}," for p in c.via_points_m), "]"]
         if c.slack_m:
             lines.append(f"slack_m = {_f(c.slack_m)}")
-    lines += ["", "[tip_marker]", f"position_m = {_vec(robot.p_tip_marker_W)}", "", "[safety]"]
+        if c.control != "angle":
+            lines += [f"control = {json.dumps(c.control)}", f"tension_max_n = {_f(c.tension_max_n)}"]
+    lines += ["", "[tip_marker]", f"position_m = {_vec(robot.p_tip_marker_W)}"]
+    for m in robot.markers:
+        lines += ["", "[[markers]]", f"name = {json.dumps(m.name)}", f"position_m = {_vec(m.position_m)}"]
+    lines += ["", "[safety]"]
     for lim in robot.safety_limits:
         lines += [
             "[[safety.limits]]",
@@ -100,6 +92,30 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
             f"max_sum_over_u_max = {_f(lim.max_sum_over_u_max)}",
         ]
     return "\n".join(lines) + "\n"
+
+
+def _body_lines(robot: RobotDescription) -> list[str]:
+    """The ``[body]`` table: a cylinder, a radius profile or a mesh file (its absolute path)."""
+    shape = robot.body_shape
+    if shape.shape == "tapered":
+        rows = [f"    {_vec(p)}," for p in shape.profile_m]
+        return ["[body]", 'shape = "tapered"', "profile_m = [", *rows, "]"]
+    if shape.shape == "mesh":
+        out = ["[body]", 'shape = "mesh"', f"mesh_file = {json.dumps(shape.mesh_file)}"]
+        out.append(f"mesh_unit = {json.dumps(shape.mesh_unit)}")
+        if shape.clamp_group is not None:
+            return out + [f"clamp_group = {json.dumps(shape.clamp_group)}"]
+        return out + [f"clamp = {json.dumps(shape.clamp)}"]
+    return ["[body]", 'shape = "cylinder"', f"length_m = {_f(robot.length_m)}", f"radius_m = {_f(robot.radius_m)}"]
+
+
+def _mesh_lines(robot: RobotDescription) -> list[str]:
+    """The ``[mesh]`` table: the structured mesher's resolution, or a geometry's element size."""
+    if robot.body_shape.shape == "mesh":
+        shape = robot.body_shape
+        size = [] if shape.mesh_size_m is None else [f"size_m = {_f(shape.mesh_size_m)}"]
+        return ["[mesh]", *size, f"order = {int(shape.mesh_order)}"]
+    return ["[mesh]", f"n_rings = {int(robot.n_rings)}", f"n_axial = {int(robot.n_axial)}"]
 
 
 def _header(robot: RobotDescription, result, source: str | None, command: str | None) -> list[str]:
@@ -113,10 +129,17 @@ def _header(robot: RobotDescription, result, source: str | None, command: str | 
     ]
     for n, x, s, x0, unit in zip(lay.names, result.theta, result.std, result.theta_nominal, lay.units):
         out.append(f"  {n:<28} {x:+.6g} +- {s:.2g} {unit}   [{x0:+.6g}]")
-    out += [
+    gradient = robot.stiffness_gradient[1:] if v["gradient"] is None else v["gradient"]
+    line = (
         f"  softness = {v['softness']:.4g} (E = {v['softness'] * robot.youngs_modulus_pa:.6g} Pa), "
-        f"gradient |g| = {np.hypot(*v['gradient']):.3g}",
-        f"Tip misfit RMS {1e3 * result.rms_nominal_m:.3f} mm (nominal) -> {1e3 * result.rms_m:.3f} mm; "
+        f"gradient |g| = {np.hypot(*gradient):.3g}"
+    )
+    if "density" in lay.groups:
+        line += f", density = {v['density'] * robot.density_kg_m3:.6g} kg/m^3"
+    what = "Tip" if len(getattr(result, "markers", ("tip",))) == 1 else "Marker"
+    out += [
+        line,
+        f"{what} misfit RMS {1e3 * result.rms_nominal_m:.3f} mm (nominal) -> {1e3 * result.rms_m:.3f} mm; "
         f"residual noise {1e3 * result.sigma_m:.3f} mm; {result.iterations} iterations"
         + ("" if result.converged else " (NOT converged)"),
     ]

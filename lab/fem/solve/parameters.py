@@ -1,15 +1,22 @@
 """The as-built arm as a parametrised FEM: parameters theta -> :class:`ArmFEM`, and dx/dtheta.
 
 The same defects as the emulated as-built robot (``lab.asbuilt.arm``), as one vector
-theta (p,) = ``[ln s, g_y, g_z, delta_1, ..., delta_m, sigma_1, ..., sigma_m]``: log softness
+theta (p,) of the fitted groups (:mod:`lab.fem.solve.parameter_layout`; by default
+``[ln s, g_y, g_z, delta_1, ..., delta_m, sigma_1, ..., sigma_m]``): log softness
 ``ln s`` (s = E_as-built / E), stiffness gradient ``g`` across the section (dimensionless,
 |g| < 1), eyelet shift ``delta_c`` of cable c (m; (y, z) by default, (x, y, z) with
-``axes="xyz"``) and slack ``sigma_c`` (m, added to the free length: L* = L0 + sigma_c - r u).
-The nominal theta (:attr:`ParametrisedFEM.nominal`) gives exactly the FEM of ``ArmFEM(robot)``.
+``axes="xyz"``; angle- and tension-controlled cables alike), slack ``sigma_c`` of an
+angle-controlled cable (m, added to the free length: L* = L0 + sigma_c - r u) and the
+density factor ``theta_rho`` (the body's mass, hence its gravity load, scaled by it).
+A group not fitted keeps the description's value; the nominal theta gives exactly ``ArmFEM(robot)``.
 
 Sensitivities: at an equilibrium dE/dq = 0, so dq/dtheta = -H^-1 dg/dtheta and
-J_tip_theta = S dq/dtheta, with the exact Hessian H factorised once for dq/du and dq/dtheta
-together (as :func:`lab.fem.solve.statics.sensitivities`) and the mixed derivative dg/dtheta analytic.
+J_y_theta = S dq/dtheta (S the observed markers' rows of :meth:`ArmFEM.marker_matrix`), with
+the exact Hessian H factorised once for dq/du and dq/dtheta together (as
+:func:`lab.fem.solve.statics.sensitivities`) and the mixed derivative dg/dtheta analytic. The
+gravity load is -theta_rho f_g (f_g the nominal nodal weights), so dg/dtheta_rho = -f_g =
+-f_gravity(theta) / theta_rho on the free coordinates. A tension-controlled tendon's force
+T dL/dq moves with its eyelets as T d(dL/dq)/d delta (its tension is held, so no spring term).
 
 Each parameter, why (y, z) shifts by default (measured), and the derivatives: docs/design/fem.md.
 """
@@ -22,10 +29,11 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
+from lab.fem.actuators.cables import weight_gradients
 from lab.fem.bodies.mesh import TetMesh, robot_mesh
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
-from lab.fem.solve.parameter_layout import AXES, ParameterError, ParameterLayout
+from lab.fem.solve.parameter_layout import AXES, DEFAULT_GROUPS, ParameterError, ParameterLayout
 from lab.fem.solve.statics import StaticSolution, solve_static
 
 
@@ -43,21 +51,42 @@ class ParametrisedFEM:
         The rest mesh in frame W (m); default the description's cylinder.
     axes : str
         The eyelet shifts' axes, ``"yz"`` or ``"xyz"`` (see :class:`ParameterLayout`).
+    groups : sequence of str
+        The fitted groups (:data:`lab.fem.solve.parameter_layout.GROUPS`); default
+        today's (softness, gradient, eyelets, slack). ``slack`` needs an angle-controlled cable.
     """
 
     def __init__(
-        self, robot: RobotDescription, *, n_rings=None, n_axial=None, mesh: TetMesh | None = None, axes: str = "yz"
+        self,
+        robot: RobotDescription,
+        *,
+        n_rings=None,
+        n_axial=None,
+        mesh: TetMesh | None = None,
+        axes: str = "yz",
+        groups=DEFAULT_GROUPS,
     ):
         self.robot = robot
         self.mesh = robot_mesh(robot, n_rings, n_axial) if mesh is None else mesh
         mesh = self.mesh
-        self.layout = ParameterLayout(tuple(c.name for c in robot.cables), axes)
+        angle = tuple(i for i, c in enumerate(robot.cables) if c.control == "angle")
+        if "slack" in groups and not angle:
+            raise ParameterError(
+                f"fit group 'slack' needs an angle-controlled cable (a spool's free length); robot {robot.name!r} "
+                "has only tension-controlled tendons, whose held tension takes up any slack"
+            )
+        slack_cables = None if len(angle) == robot.n_cables else angle
+        self.layout = ParameterLayout(tuple(c.name for c in robot.cables), axes, tuple(groups), slack_cables)
         self._centroids_W = mesh.X_W[mesh.tets].mean(axis=1)
         self._section = self._centroids_W[:, 1:] / robot.radius_m  # c_t / R (M, 2)
         self.nominal = self.layout.pack(
             gradient=robot.stiffness_gradient[1:], slack_m=[c.slack_m for c in robot.cables]
         )
         self._cached: tuple[bytes, ArmFEM] | None = None
+
+    def _gradient(self, v: dict) -> np.ndarray:
+        """(g_y, g_z) at unpacked theta ``v``: fitted, else the description's."""
+        return self.robot.stiffness_gradient[1:] if v["gradient"] is None else v["gradient"]
 
     def check(self, theta) -> dict:
         """:meth:`ParameterLayout.unpack`, refusing non-finite values or ``|g| >= 1``.
@@ -76,8 +105,10 @@ class ParametrisedFEM:
         if not np.all(np.isfinite(theta)):
             raise ParameterError(f"parameters must be finite, got {theta.tolist()}")
         v = self.layout.unpack(theta)
-        if np.hypot(*v["gradient"]) >= 1:
-            raise ParameterError(f"stiffness gradient |g| must be < 1, got {v['gradient'].tolist()}")
+        if np.hypot(*self._gradient(v)) >= 1:
+            raise ParameterError(f"stiffness gradient |g| must be < 1, got {self._gradient(v).tolist()}")
+        if not v["density"] > 0:
+            raise ParameterError(f"the density factor must be > 0, got {v['density']}")
         return v
 
     def youngs_modulus(self, theta) -> np.ndarray:
@@ -94,7 +125,7 @@ class ParametrisedFEM:
             E_t, Pa.
         """
         v = self.check(theta)
-        g = np.array([0.0, *v["gradient"]])
+        g = np.array([0.0, *self._gradient(v)])
         return (self.robot.youngs_modulus_pa * v["softness"]) * (1.0 + self._centroids_W @ g / self.robot.radius_m)
 
     def description(self, theta) -> RobotDescription:
@@ -140,7 +171,7 @@ class ParametrisedFEM:
                     robot,
                     self.mesh,
                     youngs_modulus_pa=self.youngs_modulus(theta),
-                    cable_slack_m=robot_slack(robot),
+                    cable_slack_m=robot_slack(robot) if robot.all_angle else None,
                 )
             except InputError as err:
                 raise ParameterError(f"parameters outside the body: {err}") from None
@@ -171,8 +202,10 @@ class ParametrisedFEM:
     def force_derivative(self, theta, q: np.ndarray, u_motor) -> np.ndarray:
         """How the forces change with theta.
 
-        The material part scales each tet's elastic force; the cables' slack and eyelet
-        shifts come from :meth:`lab.fem.actuators.CableActuator.geometry_force_derivative`.
+        The material part scales each tet's elastic force; the gravity part is the nodal
+        weights over theta_rho; the cables' slack and eyelet shifts come from
+        :meth:`lab.fem.actuators.CableActuator.geometry_force_derivative`, a tension-
+        controlled tendon's shifts from :func:`tendon_shift_derivative`.
 
         Parameters
         ----------
@@ -181,7 +214,7 @@ class ParametrisedFEM:
         q : ndarray, shape (n_free,)
             Free coordinates, m.
         u_motor : array_like, shape (m,)
-            Motor angles, rad.
+            Inputs: motor angles (rad) and tensions (N), each in its cable's unit.
 
         Returns
         -------
@@ -190,28 +223,50 @@ class ParametrisedFEM:
         """
         fem, lay = self.fem(theta), self.layout
         theta = np.asarray(theta, float)
+        v = lay.unpack(theta)
         x = fem.to_nodes(q)
         out = np.zeros((fem.n_free, lay.size))
+        u = np.asarray(u_motor, float)
         # Material: each tet's elastic force scaled by d ln E_t / d(ln s, g_y, g_z).
-        el = fem.elastic.gradient(x)  # (M, 4, 3)
-        scale = np.column_stack([np.ones(len(el)), self._section / (1.0 + self._section @ theta[1:3])[:, None]])
-        dofs = (3 * self.mesh.tets[:, :, None] + np.arange(3)).ravel()
-        for j in range(3):
-            f = np.bincount(dofs, weights=(el * scale[:, j, None, None]).ravel(), minlength=3 * self.mesh.n_nodes)
-            out[:, j] = f[fem.free_dofs]
-        # Cables: slack shortens the stretch; shifts move eyelets, weights and rest length.
-        d_slack, d_shift = fem.actuator("cables").geometry_force_derivative(
-            x, np.asarray(u_motor, float), np.eye(3)[:, AXES[lay.axes]]
-        )
-        out[:, lay.slack] = d_slack
-        for c, col in enumerate(d_shift):
-            out[:, lay.shift(c)] = col
+        material = [g for g in ("softness", "gradient") if g in lay.groups]
+        if material:
+            el = fem.elastic.gradient(x)  # (M, 4, 3)
+            cols = []
+            if "softness" in material:
+                cols.append(np.ones(len(el)))
+            if "gradient" in material:
+                cols += list((self._section / (1.0 + self._section @ self._gradient(v))[:, None]).T)
+            scale = np.column_stack(cols)
+            dofs = (3 * self.mesh.tets[:, :, None] + np.arange(3)).ravel()
+            for j in range(scale.shape[1]):
+                f = np.bincount(dofs, weights=(el * scale[:, j, None, None]).ravel(), minlength=3 * self.mesh.n_nodes)
+                out[:, j] = f[fem.free_dofs]
+        if "density" in lay.groups:  # gravity -theta_rho f_g: dg/dtheta_rho = -f_g
+            out[:, lay.block("density")] = -(fem.f_gravity_W.ravel()[fem.free_dofs] / v["density"])[:, None]
+        if not ({"eyelets", "slack"} & set(lay.groups)):
+            return out
+        P = np.eye(3)[:, AXES[lay.axes]]
+        slack_col = {c: lay.slack.start + k for k, c in enumerate(lay.slack_indices)}
+        for act in fem.actuators:
+            u_a = u[act.inputs]
+            if act.kind == "cables":
+                # Cables: slack shortens the stretch; shifts move eyelets, weights and rest length.
+                d_slack, d_shift = act.geometry_force_derivative(x, u_a, P)
+            elif act.kind == "tendons_tension":
+                d_slack, d_shift = None, tendon_shift_derivative(act, self.mesh, x, u_a, P)
+            else:
+                continue
+            for k, c in enumerate(act.cable_indices):
+                if "slack" in lay.groups and d_slack is not None:
+                    out[:, slack_col[c]] = d_slack[:, k]
+                if "eyelets" in lay.groups:
+                    out[:, lay.shift(c)] = d_shift[k]
         return out
 
-    def sensitivities(self, theta, q: np.ndarray, u_motor):
-        """At an equilibrium q of the FEM at theta: dq/du (n_free, m) m/rad, dq/dtheta
-        (n_free, p), and the tip Jacobians J_tip_u (3, m) and J_tip_theta (3, p), from one
-        factorisation of the exact Hessian.
+    def sensitivities(self, theta, q: np.ndarray, u_motor, markers=None):
+        """At an equilibrium q of the FEM at theta: dq/du (n_free, m), dq/dtheta
+        (n_free, p), and the observed markers' Jacobians J_y_u (3K, m) and J_y_theta (3K, p)
+        from one factorisation of the exact Hessian.
 
         Parameters
         ----------
@@ -220,30 +275,95 @@ class ParametrisedFEM:
         q : ndarray, shape (n_free,)
             An equilibrium of the FEM at theta, m.
         u_motor : array_like, shape (m,)
-            Motor angles, rad.
+            Inputs (rad or N per cable).
+        markers : sequence of int, optional
+            Which of the FEM's markers (indices into ``fem.marker_names``, the tip is 0);
+            default the tip alone (K = 1).
 
         Returns
         -------
         dq_du : ndarray, shape (n_free, m)
-            m/rad.
+            m per unit of each input.
         dq_dtheta : ndarray, shape (n_free, p)
             m per unit of each parameter.
-        J_tip_u : ndarray, shape (3, m)
-            Tip in frame W, m/rad.
-        J_tip_theta : ndarray, shape (3, p)
-            Tip in frame W, m per unit of each parameter.
+        J_y_u : ndarray, shape (3K, m)
+            The markers in frame W, stacked (x, y, z) per marker, m per unit of each input.
+        J_y_theta : ndarray, shape (3K, p)
+            The same, m per unit of each parameter.
         """
         fem = self.fem(theta)
         lu = factorize(fem.hessian(q, u_motor))
         m = self.robot.n_cables
         dq = -lu.solve(np.hstack([fem.mixed_derivative(q, u_motor), self.force_derivative(theta, q, u_motor)]))
-        J = fem.tip_matrix() @ dq
+        J = marker_rows(fem, markers) @ dq
         return dq[:, :m], dq[:, m:], J[:, :m], J[:, m:]
+
+
+def marker_rows(fem: ArmFEM, markers=None):
+    """The rows of the observed markers as a linear map of the free coordinates.
+
+    Parameters
+    ----------
+    fem : ArmFEM
+        The model.
+    markers : sequence of int, optional
+        Indices into ``fem.marker_names`` (0 is the tip); default the tip alone.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix, shape (3K, n_free)
+        S with the markers' stacked positions = S q + const, m.
+    """
+    if markers is None or list(markers) == [0]:
+        return fem.tip_matrix()
+    rows = np.concatenate([3 * int(k) + np.arange(3) for k in markers])
+    return fem.marker_matrix()[rows]
+
+
+def tendon_shift_derivative(act, mesh: TetMesh, x_W: np.ndarray, tension_n, P: np.ndarray) -> list[np.ndarray]:
+    """How a tension-controlled tendon's forces change with its eyelets' shift.
+
+    The force T dL/dq with via points p_k = sum_j w_kj(p0_k + delta) x_j changes by
+    T d(dL/dq)/d delta (the path turning and the weights moving; no spring term).
+
+    Parameters
+    ----------
+    act : TensionTendonActuator
+        The tendons (``routes``, ``free``).
+    mesh : TetMesh
+        The body's rest mesh (the eyelets' weight gradients), m.
+    x_W : ndarray, shape (N, 3)
+        Node positions, m.
+    tension_n : array_like, shape (m_t,)
+        The tendons' tensions, N.
+    P : ndarray, shape (3, a)
+        The shift axes (columns of the identity).
+
+    Returns
+    -------
+    list of ndarray, shape (n_free, a)
+        dg/d shift of each tendon's eyelets (all together), N/m.
+    """
+    out = []
+    for t, route in zip(np.asarray(tension_n, float), act.routes):
+        grad_w = weight_gradients(mesh, route.nodes)
+        F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
+        dp = F @ P  # (K, 3, a)
+        _, dL, HL = route.length_derivatives(x_W)
+        K = len(route.nodes)
+        blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))
+        blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
+        free = act.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
+        col = np.zeros((act.free.n_free, P.shape[1]))
+        np.add.at(col, free[free >= 0], t * blk[free >= 0])
+        out.append(col)
+    return out
 
 
 def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta) -> RobotDescription:
     """``robot`` at theta: modulus s E, ``stiffness_gradient`` [0, g], every cable's eyelets
-    shifted (its anchor kept) and its ``slack_m`` set.
+    shifted (its anchor kept), its ``slack_m`` set and the density scaled by theta_rho; a
+    group the layout does not fit keeps the description's value.
 
     Parameters
     ----------
@@ -260,15 +380,18 @@ def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta
         The as-built robot.
     """
     v = layout.unpack(theta)
+    slack = [c.slack_m for c in robot.cables] if v["slack_m"] is None else v["slack_m"]
     cables = tuple(
         dataclasses.replace(c, via_points_m=c.via_points_m + d, slack_m=float(s))
-        for c, d, s in zip(robot.cables, v["via_shift_m"], v["slack_m"])
+        for c, d, s in zip(robot.cables, v["via_shift_m"], slack)
     )
+    extra = {"density_kg_m3": robot.density_kg_m3 * v["density"]} if "density" in layout.groups else {}
     return dataclasses.replace(
         robot,
         youngs_modulus_pa=robot.youngs_modulus_pa * v["softness"],
-        stiffness_gradient=np.array([0.0, *v["gradient"]]),
+        stiffness_gradient=robot.stiffness_gradient if v["gradient"] is None else np.array([0.0, *v["gradient"]]),
         cables=cables,
+        **extra,
     )
 
 
