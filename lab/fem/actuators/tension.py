@@ -22,6 +22,7 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs
+from lab.fem.actuators.cables import weight_gradients
 
 
 @register_actuator("tendons_tension")
@@ -85,7 +86,9 @@ class TensionTendonActuator(Actuator):
                 else robot.cable_stiffness_n_m * robot.spool_radius_m * robot.u_max_rad
                 for i in which
             ]
-        return cls(robot, embed_routes(robot, body, None, which), free, tension_max_n, cables)
+        act = cls(robot, embed_routes(robot, body, None, which), free, tension_max_n, cables)
+        act.mesh = body.mesh  # the eyelets' weight gradients (geometry_force_derivative)
+        return act
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """[0, tension_max_n] N per tendon.
@@ -261,3 +264,41 @@ class TensionTendonActuator(Actuator):
             True where the tendon's tension is positive.
         """
         return tuple(bool(t > 0) for t in np.asarray(u, float))
+
+    def geometry_force_derivative(self, x_W, u, P: np.ndarray):
+        """How the forces change with each tendon's eyelet shifts (as-built defects).
+
+        The force T dL/dq with via points p_k = sum_j w_kj(p0_k + delta) x_j changes by
+        T d(dL/dq)/d delta (the path turning and the weights moving; no spring term, and no
+        slack: a held tension takes it up).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions, m.
+        u : ndarray, shape (m,)
+            The tendons' tensions, N.
+        P : ndarray, shape (3, a)
+            The shift axes (columns of the identity).
+
+        Returns
+        -------
+        d_slack : None
+            Tendons held at a tension have no slack.
+        d_shift : list of ndarray, shape (n_free, a)
+            dg/d shift of each tendon's eyelets (all together), N/m.
+        """
+        out = []
+        for t, route in zip(np.asarray(u, float), self.routes):
+            grad_w = weight_gradients(self.mesh, route.nodes)
+            F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
+            dp = F @ P  # (K, 3, a)
+            _, dL, HL = route.length_derivatives(x_W)
+            K = len(route.nodes)
+            blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))
+            blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
+            free = self.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
+            col = np.zeros((self.free.n_free, P.shape[1]))
+            np.add.at(col, free[free >= 0], t * blk[free >= 0])
+            out.append(col)
+        return None, out

@@ -29,8 +29,8 @@ import numpy as np
 
 from lab.description import RobotDescription
 from lab.errors import InputError
-from lab.fem.actuators.cables import weight_gradients
-from lab.fem.bodies.mesh import TetMesh, robot_mesh
+from lab.fem.bodies import body_of
+from lab.fem.bodies.mesh import TetMesh
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
 from lab.fem.solve.parameter_layout import AXES, DEFAULT_GROUPS, ParameterError, ParameterLayout
@@ -48,7 +48,7 @@ class ParametrisedFEM:
     n_rings, n_axial : int, optional
         Mesh resolution overrides.
     mesh : TetMesh, optional
-        The rest mesh in frame W (m); default the description's cylinder.
+        The rest mesh in frame W (m), clamped at its base; default the description's body.
     axes : str
         The eyelet shifts' axes, ``"yz"`` or ``"xyz"`` (see :class:`ParameterLayout`).
     groups : sequence of str
@@ -67,8 +67,8 @@ class ParametrisedFEM:
         groups=DEFAULT_GROUPS,
     ):
         self.robot = robot
-        self.mesh = robot_mesh(robot, n_rings, n_axial) if mesh is None else mesh
-        mesh = self.mesh
+        self.body = body_of(robot, n_rings=n_rings, n_axial=n_axial) if mesh is None else None  # fixed in theta
+        self.mesh = mesh = self.body.mesh if mesh is None else mesh
         angle = tuple(i for i, c in enumerate(robot.cables) if c.control == "angle")
         if "slack" in groups and not angle:
             raise ParameterError(
@@ -169,7 +169,8 @@ class ParametrisedFEM:
             try:
                 fem = ArmFEM(
                     robot,
-                    self.mesh,
+                    None if self.body else self.mesh,
+                    body=self.body,
                     youngs_modulus_pa=self.youngs_modulus(theta),
                     cable_slack_m=robot_slack(robot) if robot.all_angle else None,
                 )
@@ -204,8 +205,8 @@ class ParametrisedFEM:
 
         The material part scales each tet's elastic force; the gravity part is the nodal
         weights over theta_rho; the cables' slack and eyelet shifts come from
-        :meth:`lab.fem.actuators.CableActuator.geometry_force_derivative`, a tension-
-        controlled tendon's shifts from :func:`tendon_shift_derivative`.
+        each actuator's ``geometry_force_derivative`` (the angle cables' and the tension
+        tendons').
 
         Parameters
         ----------
@@ -247,15 +248,10 @@ class ParametrisedFEM:
             return out
         P = np.eye(3)[:, AXES[lay.axes]]
         slack_col = {c: lay.slack.start + k for k, c in enumerate(lay.slack_indices)}
-        for act in fem.actuators:
-            u_a = u[act.inputs]
-            if act.kind == "cables":
-                # Cables: slack shortens the stretch; shifts move eyelets, weights and rest length.
-                d_slack, d_shift = act.geometry_force_derivative(x, u_a, P)
-            elif act.kind == "tendons_tension":
-                d_slack, d_shift = None, tendon_shift_derivative(act, self.mesh, x, u_a, P)
-            else:
+        for act in fem.actuators:  # slack shortens a cable's stretch; shifts move eyelets, weights, rest length
+            if not hasattr(act, "geometry_force_derivative"):
                 continue
+            d_slack, d_shift = act.geometry_force_derivative(x, u[act.inputs], P)
             for k, c in enumerate(act.cable_indices):
                 if "slack" in lay.groups and d_slack is not None:
                     out[:, slack_col[c]] = d_slack[:, k]
@@ -318,46 +314,6 @@ def marker_rows(fem: ArmFEM, markers=None):
         return fem.tip_matrix()
     rows = np.concatenate([3 * int(k) + np.arange(3) for k in markers])
     return fem.marker_matrix()[rows]
-
-
-def tendon_shift_derivative(act, mesh: TetMesh, x_W: np.ndarray, tension_n, P: np.ndarray) -> list[np.ndarray]:
-    """How a tension-controlled tendon's forces change with its eyelets' shift.
-
-    The force T dL/dq with via points p_k = sum_j w_kj(p0_k + delta) x_j changes by
-    T d(dL/dq)/d delta (the path turning and the weights moving; no spring term).
-
-    Parameters
-    ----------
-    act : TensionTendonActuator
-        The tendons (``routes``, ``free``).
-    mesh : TetMesh
-        The body's rest mesh (the eyelets' weight gradients), m.
-    x_W : ndarray, shape (N, 3)
-        Node positions, m.
-    tension_n : array_like, shape (m_t,)
-        The tendons' tensions, N.
-    P : ndarray, shape (3, a)
-        The shift axes (columns of the identity).
-
-    Returns
-    -------
-    list of ndarray, shape (n_free, a)
-        dg/d shift of each tendon's eyelets (all together), N/m.
-    """
-    out = []
-    for t, route in zip(np.asarray(tension_n, float), act.routes):
-        grad_w = weight_gradients(mesh, route.nodes)
-        F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
-        dp = F @ P  # (K, 3, a)
-        _, dL, HL = route.length_derivatives(x_W)
-        K = len(route.nodes)
-        blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))
-        blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
-        free = act.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
-        col = np.zeros((act.free.n_free, P.shape[1]))
-        np.add.at(col, free[free >= 0], t * blk[free >= 0])
-        out.append(col)
-    return out
 
 
 def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta) -> RobotDescription:
