@@ -3,6 +3,12 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# Meshes of bodies given as files are cached here, not in the user's ~/.cache (shared by the
+# workers, and by the commands the tests run in subprocesses, which inherit it).
+if "LAB_CACHE_DIR" not in os.environ:
+    import tempfile
+
+    os.environ["LAB_CACHE_DIR"] = tempfile.mkdtemp(prefix="lab-test-cache-")
 
 import pytest  # noqa: E402
 
