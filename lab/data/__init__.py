@@ -15,6 +15,9 @@ from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.dataset import (
     columns,
+    input_units,
+    marker_names,
+    output_columns,
     read_dataset,
     sidecar_path,
     write_dataset,
@@ -69,6 +72,9 @@ __all__ = [
     "fingerprint",
     "ChunkStore",
     "columns",
+    "output_columns",
+    "marker_names",
+    "input_units",
     "write_dataset",
     "sidecar_path",
     "read_dataset",
