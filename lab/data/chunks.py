@@ -45,9 +45,9 @@ def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int =
     Parameters
     ----------
     robot : RobotDescription
-        Gives m and ``u_max_rad``.
+        Gives m and each input's range.
     u_motor : numpy.ndarray
-        Grid commands (N, m), rad.
+        Grid commands (N, m), each input in its unit.
     target_size : int
         About how many commands per chunk; grouped by their leading grid indices.
 
@@ -56,9 +56,12 @@ def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int =
     list of Chunk
         The walks, covering every command once.
     """
-    levels = np.unique(u_motor)
-    spacing = np.min(np.diff(levels)) if len(levels) > 1 else robot.u_max_rad
-    keys = np.rint(u_motor / spacing).astype(int)
+    lo, hi = np.asarray(robot.u_lower, float), np.asarray(robot.u_upper, float)
+    keys = np.zeros(np.shape(u_motor), dtype=int)
+    for j in range(keys.shape[1]):  # each input's own grid step (its unit and range)
+        levels = np.unique(u_motor[:, j])
+        spacing = np.min(np.diff(levels)) if len(levels) > 1 else (hi[j] - lo[j] or 1.0)
+        keys[:, j] = np.rint((u_motor[:, j] - lo[j]) / spacing).astype(int)
     n_levels = keys.max() + 1
     lead = 0
     while lead < robot.n_cables - 1 and n_levels ** (robot.n_cables - lead) > target_size:

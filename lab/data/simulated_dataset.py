@@ -76,7 +76,7 @@ def simulate_fixed(
         The commands (N, m), rad.
     res : dict
         The solver's result (:func:`lab.data.simulation.simulate`: ``p_tip_W`` (N, 3) m,
-        per-sample stats, ``wall_s``, ``resumed_samples``).
+        ``y_W`` (N, 3K) m, per-sample stats, ``wall_s``, ``resumed_samples``).
     sampler : dict
         The sampler's metadata.
     """
@@ -134,7 +134,7 @@ def solve_batch(
     Returns
     -------
     dict
-        :func:`lab.data.simulation.simulate`'s result (``p_tip_W`` (B, 3) m, ...).
+        :func:`lab.data.simulation.simulate`'s result (``p_tip_W`` (B, 3) m, ``y_W`` (B, 3K) m, ...).
     """
     return simulation.simulate(
         robot,
@@ -163,9 +163,10 @@ def write_simulated(
     command: str,
     file=None,
 ) -> dict:
-    """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) rad and the
-    solver's result ``res``, then remove the ``checkpoint`` it now holds; returns the
-    metadata written. Prints where resumed samples came from and what was written.
+    """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) and the solver's
+    result ``res`` (every marker of the robot, the tip first), then remove the
+    ``checkpoint`` it now holds; returns the metadata written. Prints where resumed
+    samples came from and what was written.
 
     Parameters
     ----------
@@ -176,9 +177,10 @@ def write_simulated(
     n_rings, n_axial : int
         The mesh's resolution.
     u : numpy.ndarray
-        Commands (N, m), rad.
+        Commands (N, m), each input in its unit (rad, N).
     res : dict
-        :func:`lab.data.simulation.simulate`'s result for ``u``.
+        :func:`lab.data.simulation.simulate`'s result for ``u`` (``p_tip_W`` (N, 3) m and
+        ``y_W`` (N, 3K) m).
     sampler : dict
         The sampler's metadata.
     checkpoint : str or os.PathLike or None
@@ -223,7 +225,9 @@ def write_simulated(
         },
         "command": command,
     }
-    write_dataset(out, u, res["p_tip_W"], meta)
+    # the tip's columns are the solver's tip, exactly as a tip-only dataset always held it
+    y = np.hstack([res["p_tip_W"], np.asarray(res.get("y_W", res["p_tip_W"]))[:, 3:]])
+    write_dataset(out, u, y, meta, markers=robot.marker_names, units=robot.input_units)
     remove_checkpoint(checkpoint)  # the dataset now holds every chunk
     print(
         f"wrote {len(u)} samples to {out} in {res['wall_s']:.1f} s "

@@ -28,8 +28,8 @@ __all__ = ["run"]
 
 #: OS errors that mean the disk, the quota or the file-size limit is full.
 _NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
-#: Solver fields kept per sample.
-_STATS = ("iterations", "factorizations", "time_s")
+#: Fields kept per sample: the solver's counts and times, and every marker.
+_STATS = ("iterations", "factorizations", "time_s", "y_W")
 
 
 def run(
