@@ -1,7 +1,8 @@
 """The walks (chunks) that sampled commands are solved in.
 
 Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands of
-:mod:`lab.data.designs` into walks whose neighbours are close, so that
+:mod:`lab.data.designs` into walks whose neighbours are close (:func:`ordered_chunks` keeps
+given commands in their order), so that
 :func:`lab.data.simulation.simulate` can warm-start each solve from the last; they depend
 only on the commands, never on the number of workers.
 """
@@ -106,3 +107,22 @@ def nearest_neighbour_chunks(u_motor: np.ndarray, size: int = 64) -> list[Chunk]
                 cur = min(left, key=lambda i: np.linalg.norm(u_motor[i] - u_motor[cur]))
         chunks.append(Chunk(np.asarray(order)))
     return chunks
+
+
+def ordered_chunks(n: int, size: int = 64) -> list[Chunk]:
+    """Chunks of consecutive commands in the order given, never reordered (commands a lab
+    sent, ``simulate --commands``): chunk k walks commands ``k*size .. (k+1)*size - 1``.
+
+    Parameters
+    ----------
+    n : int
+        Number of commands.
+    size : int
+        Commands per chunk (the last may be shorter).
+
+    Returns
+    -------
+    list of Chunk
+        The walks, covering every command once, in order.
+    """
+    return [Chunk(np.arange(start, min(start + size, n))) for start in range(0, n, size)]

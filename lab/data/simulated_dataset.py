@@ -5,7 +5,8 @@
 directory so that a killed run resumes (:mod:`lab.data.chunkstore`);
 :func:`write_simulated` writes the samples with their metadata (robot, mesh, sampler,
 solver) as the CSV + JSON pair of :mod:`lab.data.dataset`, then removes the checkpoint.
-:func:`solve_batch` solves one batch without a checkpoint (an active design's batches are
+:func:`simulate_given` solves commands given in a file (``simulate --commands``) in their
+order, resumable the same way. :func:`solve_batch` solves one batch without a checkpoint (an active design's batches are
 kept by their caller).
 """
 
@@ -16,14 +17,14 @@ import sys
 import numpy as np
 
 from lab.data import simulation
-from lab.data.chunks import grid_chunks, nearest_neighbour_chunks
+from lab.data.chunks import grid_chunks, nearest_neighbour_chunks, ordered_chunks
 from lab.data.chunkstore import remove_checkpoint
 from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
 from lab.description import RobotDescription
 from lab.fem.bodies.mesh import cylinder_mesh
 
-__all__ = ["simulate_fixed", "solve_batch", "write_simulated", "announce"]
+__all__ = ["simulate_fixed", "simulate_given", "solve_batch", "write_simulated", "announce"]
 
 
 def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
@@ -100,6 +101,73 @@ def simulate_fixed(
         checkpoint=checkpoint,
         scheduler=scheduler,
     )
+    return u, res, sampler
+
+
+def simulate_given(
+    robot: RobotDescription,
+    u: np.ndarray,
+    source: dict,
+    n_rings: int,
+    n_axial: int,
+    *,
+    checkpoint,
+    jobs: int = 1,
+    chunk_size: int = 64,
+    progress: bool = False,
+    scheduler: str | None = None,
+    file=None,
+) -> tuple[np.ndarray, dict, dict]:
+    """Simulate given commands in the order given: consecutive chunks of ``chunk_size``
+    commands, each one walk warm-started from the last solve (the first from rest), never
+    reordered; each finished chunk kept in ``checkpoint``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    u : numpy.ndarray
+        The commands (N, m), each input in its unit, in the order sent.
+    source : dict
+        Where they come from (:func:`lab.data.commands_file.read_commands`'s record).
+    n_rings, n_axial : int
+        The mesh's resolution.
+    checkpoint : str or os.PathLike or None
+        Where finished chunks are kept.
+    jobs : int
+        Worker processes.
+    chunk_size : int
+        Commands per walk (and per checkpointed chunk).
+    progress : bool
+        Show a progress bar.
+    scheduler : str, optional
+        A Dask scheduler's address.
+    file : file-like, optional
+        Where the opening line goes (default stderr).
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The commands (N, m), as given.
+    res : dict
+        The solver's result (:func:`lab.data.simulation.simulate`).
+    sampler : dict
+        The sampler's metadata: ``name`` "commands", the file's record, ``chunk_size``.
+    """
+    chunks = ordered_chunks(len(u), size=chunk_size)
+    announce(robot, len(u), n_rings, n_axial, jobs, f" from {source['path']} in the order given", file=file)
+    res = simulation.simulate(
+        robot,
+        u,
+        chunks,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=jobs,
+        progress=progress,
+        checkpoint=checkpoint,
+        scheduler=scheduler,
+    )
+    sampler = {"name": "commands", **source, "order": "as given", "chunk_size": chunk_size, "n_safe": len(u)}
     return u, res, sampler
 
 
