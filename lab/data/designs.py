@@ -23,25 +23,14 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 
 
-def input_box(robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
-    """Each input's range: ``robot.u_lower`` and ``robot.u_upper`` (m,), in its unit.
-
-    Parameters
-    ----------
-    robot : RobotDescription
-        The robot.
-
-    Returns
-    -------
-    lower, upper : numpy.ndarray
-        (m,) each, float.
-    """
+def _input_box(robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
+    """Each input's range, ``robot.u_lower`` and ``robot.u_upper`` (m,) float, in its unit."""
     return np.asarray(robot.u_lower, float), np.asarray(robot.u_upper, float)
 
 
 def _unit_scale(robot: RobotDescription, u: np.ndarray) -> np.ndarray:
     """Commands (N, m) mapped to [0, 1]^m by each input's range (``u / u_max`` for today's robots)."""
-    lo, hi = input_box(robot)
+    lo, hi = _input_box(robot)
     span = hi - lo
     return (np.asarray(u, dtype=float) - lo) / np.where(span > 0, span, 1.0)
 
@@ -63,7 +52,7 @@ def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
     """
     if levels < 2:
         raise InputError("a grid needs at least 2 levels per motor")
-    lo, hi = input_box(robot)
+    lo, hi = _input_box(robot)
     axes = [np.linspace(lo[j], hi[j], levels) for j in range(robot.n_cables)]
     u = np.array(list(itertools.product(*axes)))
     return u[robot.is_safe(u)]
@@ -87,7 +76,7 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
     from scipy.stats import qmc
 
     sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
-    lo, hi = input_box(robot)
+    lo, hi = _input_box(robot)
     out = np.empty((0, robot.n_cables))
     m = int(np.ceil(np.log2(max(64, 2 * n))))
     while len(out) < n:
@@ -110,7 +99,7 @@ MAX_MAXIMIN_N = 2_000
 def axis_ranges(robot: RobotDescription) -> np.ndarray:
     """Largest safe value (m,) of each input with the others at 0: ``u_upper``, or less
     where a safety limit on a set of cables holding it caps their sum lower."""
-    hi = input_box(robot)[1].copy()
+    hi = _input_box(robot)[1].copy()
     for lim in robot.safety_limits:
         for c in lim.cables:
             hi[c] = min(hi[c], lim.max_sum_over_u_max * robot.u_max_rad)
@@ -237,7 +226,7 @@ def _repair_lhs(robot: RobotDescription, u: np.ndarray, rng, n_partners: int = 5
         if both[j, c] < 0:  # no swap fixes i: the one that most reduces the total violation
             gain = np.minimum(s_i, 0) + np.minimum(s_k, 0) - min(s[i], 0) - np.minimum(s[ks], 0)[None, :]
             j, c = np.unravel_index(int(np.argmax(gain)), gain.shape)
-            if gain[j, c] <= 1e-12 * float(np.max(input_box(robot)[1])):
+            if gain[j, c] <= 1e-12 * float(np.max(_input_box(robot)[1])):
                 return None
         k = int(ks[c])
         u[i, j], u[k, j] = u[k, j], u[i, j]
@@ -276,7 +265,7 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
         The commands (n, m), rad.
     """
     rng = np.random.default_rng(seed)
-    lo, hi = input_box(robot)
+    lo, hi = _input_box(robot)
     out = np.empty((0, robot.n_cables))
     for _ in range(1000):
         u = lo + rng.random((max(64, 2 * n), robot.n_cables)) * (hi - lo)
