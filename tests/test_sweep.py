@@ -955,6 +955,90 @@ CASES = [
             ("sim-model", [], "--sim-model old.npz (this run: {dir}/model.npz)", curve_file(sim_model="old.npz")),
         )
     ),
+    # --- simulate --commands, import-data --u-unit and --robot (datasets of several markers) ---
+    *(
+        Case(
+            f"simulate-commands-{name}",
+            [
+                "simulate",
+                "--commands",
+                "{dir}/U.csv",
+                *extra,
+                "--jobs",
+                "1",
+                "--no-progress",
+                *COARSE,
+                "--out",
+                "{dir}/o.csv",
+            ],
+            2,
+            words,
+            ("{dir}/U.csv",),
+            absent=("{dir}/o.csv", "{dir}/o.csv.json", "{dir}/o.csv.chunks"),
+            setup=write("U.csv", text) if text is not None else None,
+        )
+        for name, text, extra, words in (
+            ("missing", None, [], ("--commands", "U.csv", "not found")),
+            ("unknown-column", "u0,u1,u2,u7\n0,0,0,0\n", [], ("U.csv", "column 4 ('u7') names no input")),
+            ("missing-column", "u0,lower-left\n0,0\n", [], ("U.csv", "no column for input(s) u2")),
+            ("duplicate-column", "u0,u1,u2,top\n0,0,0,0\n", [], ("U.csv", "both give input u0")),
+            ("nan", "u0,u1,u2\n0,0,0\n0,nan,0\n", [], ("U.csv", "line 3, column 'u1'", "NaN")),
+            ("out-of-range", "u0,u1,u2\n0,0,9\n", [], ("U.csv", "line 2, column 'u2'", "outside")),
+            ("with-grid", "u0,u1,u2\n0,0,0\n", ["--grid", "3"], ("--grid is not used with --commands",)),
+            ("with-seed", "u0,u1,u2\n0,0,0\n", ["--seed", "1"], ("--seed is not used with --commands",)),
+            ("empty", "u0,u1,u2\n", [], ("U.csv", "no data rows")),
+        )
+    ),
+    *(
+        Case(
+            f"import-u-unit-{name}",
+            ["import-data", "{dir}/t.csv", "--u", "a,b,c", "--y", "x,y,z", *extra, "--out", "{dir}/o.csv"],
+            2,
+            words,
+            ("{dir}/t.csv",),
+            absent=("{dir}/o.csv", "{dir}/o.csv.json"),
+            setup=write("t.csv", text),
+        )
+        for name, text, extra, words in (
+            (
+                "negative-tension",
+                "a,b,c,x,y,z\n1,-3,2,1,2,3\n",
+                ["--u-unit", "N"],
+                ("t.csv", "line 2, column 'b'", "not plausible for a tension"),
+            ),
+            (
+                "huge-pressure",
+                "a,b,c,x,y,z\n1,3,2000,1,2,3\n",
+                ["--u-unit", "bar"],
+                ("t.csv", "column 'c'", "not plausible for a pressure"),
+            ),
+            (
+                "not-the-robots-kind",
+                "a,b,c,x,y,z\n1,3,2,1,2,3\n",
+                ["--u-unit", "N", "--robot", "{dir}/robot.toml"],
+                ("--u-unit 'N' is a tension", "input u0", "an angle"),
+            ),
+            (
+                "free-text-with-robot",
+                "a,b,c,x,y,z\n1,3,2,1,2,3\n",
+                ["--u-unit", "effort", "--robot", "three-cable"],
+                ("--u-unit 'effort'", "rad"),
+            ),
+            ("list-too-short", "a,b,c,x,y,z\n1,3,2,1,2,3\n", ["--u-unit", "N,N"], ("--u-unit 'N,N'", "got 2")),
+            (
+                "unnamed-markers",
+                "a,b,c,x,y,z,p,q,r\n1,3,2,1,2,3,4,5,6\n",
+                ["--y", "x,y,z,p,q,r"],
+                ("--y names 6 column(s)", "--markers"),
+            ),
+            (
+                "markers-count",
+                "a,b,c,x,y,z\n1,3,2,1,2,3\n",
+                ["--markers", "ring"],
+                ("--markers names 1 marker(s)", "0 triple(s)"),
+            ),
+        )
+    ),
     # --- rows of the commands and flags of real robots' data, one module each ---------------
     *IMPORT_CASES,
     *BODY_CASES,

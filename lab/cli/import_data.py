@@ -3,10 +3,12 @@
     python -m lab import-data runs.csv --u m1,m2,m3 --y tip_x,tip_y,tip_z --y-unit mm --group run --out mine.csv
     python -m lab import-data in1.csv in2.csv --observations obs1.csv obs2.csv --id ID \\
         --u u1,u2,u3,u4,u5,u6 --y x3,y3,z3 --u-unit effort --out trunk.csv
+    python -m lab import-data tendons.csv --robot tentacle.toml --u T1,T2 --u-unit N \\
+        --y x,y,z,ring_x,ring_y,ring_z --out tentacle.csv
 
-Each FILE holds the ``--u`` and ``--y`` columns; with ``--observations`` FILE i holds the
-inputs and OBS i the positions, paired row by row or on ``--id COL``. Every file or pair
-starts a measurement sequence (``--group COL``: also where COL changes). The flags are
+Each FILE holds the ``--u`` and ``--y`` columns (the tip's x,y,z, then each marker's); with
+``--observations`` FILE i holds the inputs and OBS i the positions, paired row by row or on
+``--id COL``. Every file or pair starts a measurement sequence (``--group COL``: also where COL changes). The flags are
 :class:`lab.data.import_spec.ImportSpec`; :func:`lab.jobs.import_data.run` reads,
 joins, converts to metres and writes the dataset and its sidecar (provenance, licence,
 dropped rows, sequence starts). The rules: docs/import-data.md.
@@ -19,7 +21,7 @@ import shlex
 import sys
 
 from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
-from lab.cli.paths import check_paths, check_writable, dataset_outputs, output_lock
+from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, output_lock
 from lab.data.import_spec import ImportSpec
 from lab.jobs import import_data as job
 
@@ -52,6 +54,8 @@ def run(args) -> int:
     spec = spec_from_args(ImportSpec, args)
     observations = args.observations or []
     inputs = {f"FILE {p}": p for p in args.files} | {f"--observations {p}": p for p in observations}
+    if spec.robot is not None:
+        inputs["--robot"] = existing(spec.robot)
     check_paths(inputs, dataset_outputs("--out", args.out))
     check_writable(args.out)
     with output_lock(args.out):

@@ -1,6 +1,7 @@
 """``python -m lab simulate``: (u, y) pairs of a robot from the FEM, written as a dataset.
 
-The flags become a :class:`lab.data.DesignSpec` (which commands) and a
+The flags become a :class:`lab.data.DesignSpec` (which commands; or ``--commands U.csv``,
+the commands a lab sent, solved in their order) and a
 :class:`lab.fem.MeshSpec` (which mesh); :func:`lab.jobs.simulate.run` does the rest,
 resumable from its checkpoint.
 """
@@ -11,12 +12,17 @@ import argparse
 import shlex
 import sys
 
-from lab.cli.flags import add_spec_flags, spec_from_args
+from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable, dataset_outputs, existing, ignore_file_size_signal, output_lock
 from lab.cli.sampling import add_design_flags, design_from_args
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.jobs import simulate as job
+from lab.jobs.simulate import CommandsSpec
 from lab.workers import default_jobs
+
+#: The sampling flags (DesignSpec's, and the design's seed), which ``--commands`` does not use.
+_SAMPLING = ("grid", "sobol", "lhs", "design", "n", "active", "batch", "ensemble_members", "ensemble_hidden",
+             "ensemble_epochs", "seed")  # fmt: skip
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -26,7 +32,10 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     )
     s.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
     add_design_flags(s)
-    s.add_argument("--seed", type=int, default=0, help="seed of the design (or of --active's picks and ensembles)")
+    s.add_argument(
+        "--seed", type=int, default=None, help="seed of the design (or of --active's picks and ensembles; default 0)"
+    )
+    add_spec_flags(s, CommandsSpec)
     add_spec_flags(
         s,
         MeshSpec,
@@ -62,10 +71,15 @@ def run(args) -> int:
     from lab.data.chunkstore import check_checkpoint
     from lab.description import load_robot
 
+    given = spec_from_args(CommandsSpec, args).commands
+    if given is not None:  # a flag the mode does not use is refused
+        refuse_unused(args, _SAMPLING, "with --commands: the file gives the commands and their order")
+    if args.seed is None:
+        args.seed = 0
     design, mesh = design_from_args(args), spec_from_args(MeshSpec, args)
     checkpoint = args.checkpoint or f"{args.out}.chunks"
     check_paths(
-        {"--robot": existing(args.robot)},
+        {"--robot": existing(args.robot), **({"--commands": given} if given is not None else {})},
         # the lock file is written (and removed) too: it must not be an input either
         {**dataset_outputs("--out", args.out), "--out lock": f"{args.out}.lock", "--checkpoint": checkpoint},
     )
@@ -86,5 +100,6 @@ def run(args) -> int:
             progress=not args.no_progress,
             scheduler=args.scheduler,
             restart=args.restart,
+            commands=given,
         )
     return 0

@@ -1,20 +1,25 @@
 """Stage 5: (u, y) data -- which commands to sample, simulating them, and dataset files.
 
 :mod:`.designs` picks safe motor commands (grids, Sobol, space-filling designs) and
-:mod:`.chunks` cuts them into walks; :mod:`.simulation` solves them with the FEM on joblib
-workers or a Dask cluster, resumable through :mod:`.chunkstore`; :mod:`.dataset` reads and
-writes the CSV + JSON-sidecar format that simulated and captured data share. The sampling
-flags are one :class:`DesignSpec` (:mod:`.design_spec`); :mod:`.simulated_dataset` writes a
-simulated fixed design as a dataset, and :mod:`.batchstore` keeps an active design's batches.
+:mod:`.chunks` cuts them into walks (:mod:`.commands_file` reads the commands a lab sent);
+:mod:`.simulation` solves them with the FEM on joblib workers or a Dask cluster, resumable
+through :mod:`.chunkstore`; :mod:`.dataset` reads and writes the CSV + JSON-sidecar format
+that simulated and captured data share. The sampling flags are one :class:`DesignSpec`
+(:mod:`.design_spec`); :mod:`.simulated_dataset` writes a simulated fixed design as a
+dataset, and :mod:`.batchstore` keeps an active design's batches.
 :mod:`.repeatability` and :mod:`.diagnostics` measure what a static model can reach on a
 dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspect``).
 :mod:`.importing` reads external measurements (:class:`ImportSpec`) into a dataset.
 """
 
-from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks
+from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks, ordered_chunks
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
+from lab.data.commands_file import read_commands
 from lab.data.dataset import (
     columns,
+    input_units,
+    marker_names,
+    output_columns,
     read_dataset,
     sidecar_path,
     write_dataset,
@@ -42,12 +47,15 @@ from lab.data.repeatability import (
     scaled_commands,
 )
 from lab.data.sequences import contiguous_blocks, sequence_ids, sequence_starts_of
-from lab.data.simulated_dataset import simulate_fixed, solve_batch, write_simulated
+from lab.data.simulated_dataset import simulate_fixed, simulate_given, solve_batch, write_simulated
 from lab.data.simulation import default_jobs, simulate, solve_chunk
 
 __all__ = [
     "DesignSpec",
     "simulate_fixed",
+    "simulate_given",
+    "read_commands",
+    "ordered_chunks",
     "solve_batch",
     "write_simulated",
     "Chunk",
@@ -69,6 +77,9 @@ __all__ = [
     "fingerprint",
     "ChunkStore",
     "columns",
+    "output_columns",
+    "marker_names",
+    "input_units",
     "write_dataset",
     "sidecar_path",
     "read_dataset",

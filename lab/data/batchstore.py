@@ -18,7 +18,7 @@ import zipfile
 
 import numpy as np
 
-from lab.data.chunkstore import _FIELDS, CheckpointError, ChunkStore
+from lab.data.chunkstore import _FIELDS, _OPTIONAL, CheckpointError, ChunkStore
 
 
 class BatchStore(ChunkStore):
@@ -26,12 +26,12 @@ class BatchStore(ChunkStore):
 
     def save_batch(self, i: int, result: dict, entry: dict) -> None:
         """Store batch ``i``: ``result`` with the chunk fields (``order``, ``u_motor``,
-        ``p_tip_W``, ``iterations``, ``factorizations``, ``time_s``) and its log ``entry``."""
+        ``p_tip_W``, ``iterations``, ``factorizations``, ``time_s``; ``y_W`` when present) and its log ``entry``."""
         self._ensure()
         tmp = self.directory / f".chunk_{i:05d}.tmp{os.getpid()}.npz"
         try:
             with open(tmp, "wb") as fh:
-                arrays = {k: np.asarray(result[k]) for k in _FIELDS}
+                arrays = {k: np.asarray(result[k]) for k in _FIELDS + _OPTIONAL if k in result}
                 np.savez(fh, **arrays, entry_json=np.array(json.dumps(entry, sort_keys=True)))
                 fh.flush()
                 os.fsync(fh.fileno())
@@ -49,6 +49,7 @@ class BatchStore(ChunkStore):
             try:
                 with np.load(self._path(i), allow_pickle=False) as z:
                     res = {k: z[k] for k in _FIELDS}
+                    res["y_W"] = z["y_W"] if "y_W" in z.files else res["p_tip_W"]
                     res["entry"] = json.loads(str(z["entry_json"]))
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
                 j = i

@@ -1,7 +1,8 @@
 """The walks (chunks) that sampled commands are solved in.
 
 Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the commands of
-:mod:`lab.data.designs` into walks whose neighbours are close, so that
+:mod:`lab.data.designs` into walks whose neighbours are close (:func:`ordered_chunks` keeps
+given commands in their order), so that
 :func:`lab.data.simulation.simulate` can warm-start each solve from the last; they depend
 only on the commands, never on the number of workers.
 """
@@ -45,9 +46,9 @@ def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int =
     Parameters
     ----------
     robot : RobotDescription
-        Gives m and ``u_max_rad``.
+        Gives m and each input's range.
     u_motor : numpy.ndarray
-        Grid commands (N, m), rad.
+        Grid commands (N, m), each input in its unit.
     target_size : int
         About how many commands per chunk; grouped by their leading grid indices.
 
@@ -56,9 +57,12 @@ def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int =
     list of Chunk
         The walks, covering every command once.
     """
-    levels = np.unique(u_motor)
-    spacing = np.min(np.diff(levels)) if len(levels) > 1 else robot.u_max_rad
-    keys = np.rint(u_motor / spacing).astype(int)
+    lo, hi = np.asarray(robot.u_lower, float), np.asarray(robot.u_upper, float)
+    keys = np.zeros(np.shape(u_motor), dtype=int)
+    for j in range(keys.shape[1]):  # each input's own grid step (its unit and range)
+        levels = np.unique(u_motor[:, j])
+        spacing = np.min(np.diff(levels)) if len(levels) > 1 else (hi[j] - lo[j] or 1.0)
+        keys[:, j] = np.rint((u_motor[:, j] - lo[j]) / spacing).astype(int)
     n_levels = keys.max() + 1
     lead = 0
     while lead < robot.n_cables - 1 and n_levels ** (robot.n_cables - lead) > target_size:
@@ -103,3 +107,22 @@ def nearest_neighbour_chunks(u_motor: np.ndarray, size: int = 64) -> list[Chunk]
                 cur = min(left, key=lambda i: np.linalg.norm(u_motor[i] - u_motor[cur]))
         chunks.append(Chunk(np.asarray(order)))
     return chunks
+
+
+def ordered_chunks(n: int, size: int = 64) -> list[Chunk]:
+    """Chunks of consecutive commands in the order given, never reordered (commands a lab
+    sent, ``simulate --commands``): chunk k walks commands ``k*size .. (k+1)*size - 1``.
+
+    Parameters
+    ----------
+    n : int
+        Number of commands.
+    size : int
+        Commands per chunk (the last may be shorter).
+
+    Returns
+    -------
+    list of Chunk
+        The walks, covering every command once, in order.
+    """
+    return [Chunk(np.arange(start, min(start + size, n))) for start in range(0, n, size)]

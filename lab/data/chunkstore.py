@@ -31,6 +31,8 @@ from lab.files import atomic_write_text
 
 FORMAT_VERSION = 1
 _FIELDS = ("order", "u_motor", "p_tip_W", "iterations", "factorizations", "time_s")
+#: Stored when present; a chunk saved without it (tip only) reads it as ``p_tip_W``.
+_OPTIONAL = ("y_W",)
 
 
 class CheckpointError(InputError):
@@ -169,13 +171,14 @@ class ChunkStore:
         i : int
             The chunk's index.
         result : dict
-            Its arrays (keys ``order``, ``u_motor`` rad, ``p_tip_W`` m, ...).
+            Its arrays (keys ``order``, ``u_motor`` (each input in its unit), ``p_tip_W`` m,
+            ``y_W`` m (every marker), ...).
         """
         self._ensure()
         tmp = self.directory / f".chunk_{i:05d}.tmp{os.getpid()}.npz"
         try:
             with open(tmp, "wb") as fh:
-                np.savez(fh, **{k: np.asarray(result[k]) for k in _FIELDS})
+                np.savez(fh, **{k: np.asarray(result[k]) for k in _FIELDS + _OPTIONAL if k in result})
                 fh.flush()
                 os.fsync(fh.fileno())
             os.replace(tmp, self._path(i))
@@ -208,6 +211,7 @@ class ChunkStore:
             try:
                 with np.load(path, allow_pickle=False) as z:
                     res = {k: z[k] for k in _FIELDS}
+                    res["y_W"] = z["y_W"] if "y_W" in z.files else res["p_tip_W"]
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
                 path.unlink()
                 continue

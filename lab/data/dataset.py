@@ -1,8 +1,12 @@
 """(u, y) datasets on disk: a plain CSV plus a JSON sidecar with versioned metadata.
 
-``DATA.csv`` has the header ``u0,...,u{m-1},x,y,z`` (motor angles in radians, tip
-position in metres, frame W) and one row per sample, nothing else. ``DATA.csv.json``
-holds the metadata (robot description and hash, mesh, sampler, code version, date).
+``DATA.csv`` has the header ``u0,...,u{m-1},x,y,z`` (the inputs, each in its unit: motor
+angles in radians, tensions in newtons; the tip position in metres, frame W), then, for a
+robot observed at several markers, ``NAME_x,NAME_y,NAME_z`` per further marker in the robot's
+order, and one row per sample, nothing else: the outputs y are (N, 3K), the tip first (a
+consumer that needs the tip takes ``y[:, :3]``). ``DATA.csv.json`` holds the metadata (robot
+description and hash, mesh, sampler, code version, date, the ``markers`` and each input's
+unit, ``input_units``). A tip-only dataset is written exactly as before markers existed.
 Both are written atomically (temporary file + rename), so a crash never leaves a
 half-written dataset behind. Nothing is pickled.
 """
@@ -28,23 +32,99 @@ class DatasetError(InputError):
     """A dataset file is missing, corrupt, or from an unsupported format version."""
 
 
-def columns(n_motors: int) -> list[str]:
+def output_columns(markers=("tip",)) -> list[str]:
+    """The output columns of a dataset observed at ``markers``.
+
+    Parameters
+    ----------
+    markers : sequence of str
+        The marker names, the tip first (its columns are ``x, y, z``).
+
+    Returns
+    -------
+    list of str
+        ``x, y, z``, then ``NAME_x, NAME_y, NAME_z`` per further marker (3K names).
+    """
+    return ["x", "y", "z"] + [f"{name}_{a}" for name in list(markers)[1:] for a in "xyz"]
+
+
+def columns(n_motors: int, markers=("tip",)) -> list[str]:
     """The dataset CSV's header.
 
     Parameters
     ----------
     n_motors : int
-        Number of motors m.
+        Number of inputs m.
+    markers : sequence of str
+        The marker names, the tip first (default: the tip only).
 
     Returns
     -------
     list of str
-        ``u0, ..., u{m-1}, x, y, z``.
+        ``u0, ..., u{m-1}, x, y, z`` and ``NAME_x, NAME_y, NAME_z`` per further marker.
     """
-    return [f"u{i}" for i in range(n_motors)] + ["x", "y", "z"]
+    return [f"u{i}" for i in range(n_motors)] + output_columns(markers)
 
 
-def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, metadata: dict) -> None:
+def marker_names(metadata: dict) -> tuple[str, ...]:
+    """The marker names of a dataset read by :func:`read_dataset`, the tip first.
+
+    Parameters
+    ----------
+    metadata : dict
+        Its metadata (the third value :func:`read_dataset` returns).
+
+    Returns
+    -------
+    tuple of str
+        ``("tip", ...)``: K names for outputs y of shape (N, 3K).
+    """
+    return tuple(metadata.get("markers") or ("tip",))
+
+
+def input_units(metadata: dict, n_inputs: int) -> tuple[str, ...]:
+    """The unit of each input of a dataset read by :func:`read_dataset`.
+
+    Parameters
+    ----------
+    metadata : dict
+        Its metadata.
+    n_inputs : int
+        Number of inputs m.
+
+    Returns
+    -------
+    tuple of str
+        m units: the sidecar's ``input_units``, else its ``units.u`` (one for all, or a list),
+        else ``"rad"`` (a dataset written before units were recorded).
+    """
+    units = metadata.get("input_units")
+    if units is None:
+        units = (metadata.get("units") or {}).get("u", "rad")
+    if isinstance(units, str):
+        return (units,) * n_inputs
+    return tuple(str(u) for u in units)
+
+
+def _check_names(markers) -> tuple[str, ...]:
+    names = tuple(markers)
+    if not names or any(not isinstance(n, str) or not n for n in names):
+        raise InputError(f"marker names must be non-empty text, the tip first, got {list(names)}")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise InputError(f"the marker {twice[0]!r} is named twice in {list(names)}")
+    return names
+
+
+def write_dataset(
+    path: str | Path,
+    u_motor: np.ndarray,
+    y_W: np.ndarray,
+    metadata: dict,
+    *,
+    markers=None,
+    units=None,
+) -> None:
     """Write a dataset as CSV + ``.json`` sidecar, both atomically.
 
     Parameters
@@ -52,25 +132,40 @@ def write_dataset(path: str | Path, u_motor: np.ndarray, p_tip_W: np.ndarray, me
     path : str or pathlib.Path
         The CSV file; the sidecar is :func:`sidecar_path` of it.
     u_motor : numpy.ndarray
-        Commands (N, m), rad.
-    p_tip_W : numpy.ndarray
-        Tips (N, 3), m, frame W.
+        Inputs (N, m), each in its unit (rad for angles).
+    y_W : numpy.ndarray
+        Marker positions (N, 3K), m, frame W, the tip first.
     metadata : dict
-        JSON-able fields added to the sidecar.
+        JSON-able fields added to the sidecar (its ``units`` replace the default ones).
+    markers : sequence of str, optional
+        The K marker names, the tip first; default ``metadata["markers"]``, else the tip only.
+    units : sequence of str, optional
+        The unit of each input (m,), e.g. ``"rad"`` or ``"N"``; default all ``"rad"``.
     """
-    u_motor, p_tip_W = np.asarray(u_motor, float), np.asarray(p_tip_W, float)
-    if u_motor.ndim != 2 or p_tip_W.shape != (len(u_motor), 3):
-        raise InputError(f"expected u (N, m) and y (N, 3), got {u_motor.shape} and {p_tip_W.shape}")
+    u_motor, y_W = np.asarray(u_motor, float), np.asarray(y_W, float)
+    names = _check_names(markers if markers is not None else metadata.get("markers", ("tip",)))
+    if u_motor.ndim != 2 or y_W.shape != (len(u_motor), 3 * len(names)):
+        raise InputError(
+            f"expected u (N, m) and y (N, {3 * len(names)}) for the markers {', '.join(names)}, "
+            f"got {u_motor.shape} and {y_W.shape}"
+        )
+    m = u_motor.shape[1]
+    units = tuple(units) if units is not None else ("rad",) * m
+    if len(units) != m:
+        raise InputError(f"expected one unit per input ({m}), got {list(units)}")
+    header = columns(m, names)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(columns(u_motor.shape[1]))
-    for row in np.hstack([u_motor, p_tip_W]):
+    writer.writerow(header)
+    for row in np.hstack([u_motor, y_W]):
         writer.writerow([repr(float(v)) for v in row])
     meta = {
         "format_version": FORMAT_VERSION,
         "kind": "lab.dataset",
-        "columns": columns(u_motor.shape[1]),
-        "units": {"u": "rad", "xyz": "m"},
+        "columns": header,
+        "units": {"u": "rad" if all(u == "rad" for u in units) else list(units), "xyz": "m"},
+        "input_units": list(units),
+        "markers": list(names),
         "n_samples": len(u_motor),
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "code_version": code_version(),
@@ -109,16 +204,17 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
     Returns
     -------
     u_motor : numpy.ndarray
-        Commands (N, m), rad.
-    p_tip_W : numpy.ndarray
-        Tips (N, 3), m, frame W.
+        Inputs (N, m), each in its unit (:func:`input_units`).
+    y_W : numpy.ndarray
+        Marker positions (N, 3K), m, frame W, the tip first (``y_W[:, :3]``).
     metadata : dict
-        The sidecar's fields ({} without one).
+        The sidecar's fields ({} without one); ``markers`` holds the marker names read from
+        the header when the sidecar lacks them and there are several (:func:`marker_names`).
 
     Raises
     ------
     DatasetError
-        Naming the problem for a missing file, a bad header, a non-numeric or non-finite
+        Naming the problem for a missing file, a bad header (naming the column), a non-numeric or non-finite
         value, a sidecar from a newer format, or a file cut short (one that does not match
         its sidecar's hash, or without one, whose last line lacks the newline every written
         row ends with).
@@ -152,13 +248,19 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
     if not rows:
         raise DatasetError(f"{path}: empty file")
     header = rows[0]
-    m = len(header) - 3
-    if m < 1 or header != columns(m):
-        raise DatasetError(f"{path}: header must be u0,...,u{{m-1}},x,y,z, got {','.join(header)}")
-    data = np.empty((len(rows) - 1, m + 3))
+    m, names = _parse_header(path, header)
+    if "markers" in meta and list(meta["markers"]) != list(names):
+        raise DatasetError(
+            f"{path}: the header's markers {', '.join(names)} differ from its sidecar's "
+            f"{', '.join(map(str, meta['markers']))}"
+        )
+    if len(names) > 1:
+        meta.setdefault("markers", list(names))
+    width = len(header)
+    data = np.empty((len(rows) - 1, width))
     for i, row in enumerate(rows[1:], start=2):
-        if len(row) != m + 3:
-            raise DatasetError(f"{path}: line {i} has {len(row)} fields, expected {m + 3}")
+        if len(row) != width:
+            raise DatasetError(f"{path}: line {i} has {len(row)} fields, expected {width}")
         try:
             data[i - 2] = [float(v) for v in row]
         except ValueError:
@@ -181,3 +283,36 @@ def read_dataset(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict]:
             "its csv_sha256 differs); regenerate the dataset with the command in the sidecar"
         )
     return data[:, :m], data[:, m:], meta
+
+
+def _parse_header(path, header: list[str]) -> tuple[int, tuple[str, ...]]:
+    """The number of inputs and the marker names of a dataset header; DatasetError naming
+    the first column that breaks ``u0..u{m-1}, x, y, z, NAME_x, NAME_y, NAME_z, ...``."""
+    form = "u0,...,u{m-1},x,y,z then NAME_x,NAME_y,NAME_z per further marker"
+    m = 0
+    while m < len(header) and header[m] == f"u{m}":
+        m += 1
+    rest = header[m:]
+    if m < 1:
+        raise DatasetError(f"{path}: header must be {form}, got {','.join(header)} (no input column u0)")
+    if rest[:3] != ["x", "y", "z"]:
+        j = next(j for j, want in enumerate("xyz") if j >= len(rest) or rest[j] != want)
+        where = f"column {m + j + 1} ({rest[j]!r})" if j < len(rest) else "after the inputs (too few columns)"
+        raise DatasetError(f"{path}: header must be {form}, got {','.join(header)}: {where} should be x, y, z")
+    names = ["tip"]
+    for k in range(3, len(rest), 3):
+        triple = rest[k : k + 3]
+        name = triple[0][:-2] if triple[0].endswith("_x") else None
+        want = [f"{name}_{a}" for a in "xyz"] if name else None
+        if not name or triple != want:
+            bad = next((j for j, c in enumerate(triple) if not want or j >= len(want) or c != want[j]), len(triple))
+            col = triple[bad] if bad < len(triple) else None
+            shown = f"column {m + k + bad + 1} ({col!r})" if col is not None else "the last marker (too few columns)"
+            raise DatasetError(
+                f"{path}: header must be {form}, got {','.join(header)}: {shown} breaks the marker triple "
+                f"{','.join(triple)} (expected NAME_x,NAME_y,NAME_z)"
+            )
+        if name in names:
+            raise DatasetError(f"{path}: the marker {name!r} is named twice in the header (column {m + k + 1})")
+        names.append(name)
+    return m, tuple(names)

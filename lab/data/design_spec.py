@@ -231,12 +231,12 @@ class DesignSpec(Spec):
         Parameters
         ----------
         robot : RobotDescription
-            Gives ``u_max`` and the safety limits.
+            Gives each input's range and the safety limits.
 
         Returns
         -------
         u_motor : numpy.ndarray
-            The commands (N, m), rad.
+            The commands (N, m), each input in its unit (rad, N).
         sampler : dict
             The sampler's metadata (JSON-able).
         """
@@ -259,6 +259,8 @@ class DesignSpec(Spec):
             "name": method,
             "n": n,
             "seed": self.seed,
-            "space": "safe set of [0, u_max]^m, distances in u / u_max",
+            "space": "safe set of [0, u_max]^m, distances in u / u_max"
+            if robot.all_angle
+            else "safe set of [u_lower, u_upper], distances in (u - u_lower) / (u_upper - u_lower)",
             "min_distance": min_distance(robot, u),
         }

@@ -1,8 +1,10 @@
 """Which motor commands to sample.
 
-Samplers give safe motor commands (N, m) in radians: :func:`grid_commands` (``levels``
-equally spaced angles per motor in [0, u_max], the paper's 7x7x7 grid, minus what the
-safety rule forbids), :func:`sobol_commands` (a scrambled Sobol sequence, seeded),
+Samplers give safe commands (N, m), each input in its unit (a spool angle in rad, a tension
+in N) and within its range ``[robot.u_lower, robot.u_upper]`` (the box written [0, u_max]^m
+below, as for today's angle-controlled robots, whose every input spans [0, u_max_rad]):
+:func:`grid_commands` (``levels`` equally spaced values per input, the paper's 7x7x7 grid,
+minus what the safety rule forbids), :func:`sobol_commands` (a scrambled Sobol sequence, seeded),
 :func:`lhs_commands` (a Latin hypercube, seeded, restricted to the safe set) and
 :func:`design_commands` (``n`` commands of a ``"random"``, ``"sobol"``, ``"maximin"`` or
 ``"lhs"`` design over the safe set, for capturing a few real samples); :func:`min_distance`
@@ -21,13 +23,25 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 
 
+def _input_box(robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
+    """Each input's range, ``robot.u_lower`` and ``robot.u_upper`` (m,) float, in its unit."""
+    return np.asarray(robot.u_lower, float), np.asarray(robot.u_upper, float)
+
+
+def _unit_scale(robot: RobotDescription, u: np.ndarray) -> np.ndarray:
+    """Commands (N, m) mapped to [0, 1]^m by each input's range (``u / u_max`` for today's robots)."""
+    lo, hi = _input_box(robot)
+    span = hi - lo
+    return (np.asarray(u, dtype=float) - lo) / np.where(span > 0, span, 1.0)
+
+
 def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
     """Safe points of the ``levels**m`` grid over [0, u_max]^m, in lexicographic order.
 
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     levels : int
         Angles per motor, >= 2.
 
@@ -38,8 +52,9 @@ def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
     """
     if levels < 2:
         raise InputError("a grid needs at least 2 levels per motor")
-    axis = np.linspace(0.0, robot.u_max_rad, levels)
-    u = np.array(list(itertools.product(axis, repeat=robot.n_cables)))
+    lo, hi = _input_box(robot)
+    axes = [np.linspace(lo[j], hi[j], levels) for j in range(robot.n_cables)]
+    u = np.array(list(itertools.product(*axes)))
     return u[robot.is_safe(u)]
 
 
@@ -49,7 +64,7 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     n, seed : int
         Number of commands, and the scrambling's seed.
 
@@ -61,12 +76,13 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
     from scipy.stats import qmc
 
     sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
+    lo, hi = _input_box(robot)
     out = np.empty((0, robot.n_cables))
     m = int(np.ceil(np.log2(max(64, 2 * n))))
     while len(out) < n:
         if m > 22:  # 4 million candidates and still short
             raise InputError(f"{robot.name}: its safety rule leaves almost no command; cannot draw {n}")
-        u = sampler.random_base2(m) * robot.u_max_rad
+        u = lo + sampler.random_base2(m) * (hi - lo)
         out = np.vstack([out, u[robot.is_safe(u)]])
         m = int(np.log2(sampler.num_generated))  # the next draw doubles the sequence (balance)
     return out[:n]
@@ -81,9 +97,9 @@ MAX_MAXIMIN_N = 2_000
 
 
 def axis_ranges(robot: RobotDescription) -> np.ndarray:
-    """Largest safe angle (m,) rad of each motor with the others at 0: ``u_max``, or less
+    """Largest safe value (m,) of each input with the others at 0: ``u_upper``, or less
     where a safety limit on a set of cables holding it caps their sum lower."""
-    hi = np.full(robot.n_cables, float(robot.u_max_rad))
+    hi = _input_box(robot)[1].copy()
     for lim in robot.safety_limits:
         for c in lim.cables:
             hi[c] = min(hi[c], lim.max_sum_over_u_max * robot.u_max_rad)
@@ -115,7 +131,7 @@ def empty_strata(robot: RobotDescription, u_motor: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     u_motor : numpy.ndarray
         The commands (N, m), rad.
 
@@ -210,7 +226,7 @@ def _repair_lhs(robot: RobotDescription, u: np.ndarray, rng, n_partners: int = 5
         if both[j, c] < 0:  # no swap fixes i: the one that most reduces the total violation
             gain = np.minimum(s_i, 0) + np.minimum(s_k, 0) - min(s[i], 0) - np.minimum(s[ks], 0)[None, :]
             j, c = np.unravel_index(int(np.argmax(gain)), gain.shape)
-            if gain[j, c] <= 1e-12 * robot.u_max_rad:
+            if gain[j, c] <= 1e-12 * float(np.max(_input_box(robot)[1])):
                 return None
         k = int(ks[c])
         u[i, j], u[k, j] = u[k, j], u[i, j]
@@ -239,7 +255,7 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     n, seed : int
         Number of commands, and the generator's seed.
 
@@ -249,9 +265,10 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
         The commands (n, m), rad.
     """
     rng = np.random.default_rng(seed)
+    lo, hi = _input_box(robot)
     out = np.empty((0, robot.n_cables))
     for _ in range(1000):
-        u = rng.random((max(64, 2 * n), robot.n_cables)) * robot.u_max_rad
+        u = lo + rng.random((max(64, 2 * n), robot.n_cables)) * (hi - lo)
         out = np.vstack([out, u[robot.is_safe(u)]])
         if len(out) >= n:
             return out[:n]
@@ -259,12 +276,13 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
 
 
 def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
-    """Smallest distance between two of the commands, in normalised command space ``u / u_max``.
+    """Smallest distance between two of the commands, in normalised command space ``u / u_max``
+    (each input scaled by its range: ``(u - u_lower) / (u_upper - u_lower)``).
 
     Parameters
     ----------
     robot : RobotDescription
-        Gives ``u_max_rad``.
+        Gives each input's range.
     u_motor : numpy.ndarray
         The commands (N, m), rad.
 
@@ -275,7 +293,7 @@ def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
     """
     from scipy.spatial.distance import pdist
 
-    u = np.asarray(u_motor, dtype=float) / robot.u_max_rad
+    u = _unit_scale(robot, u_motor)
     return float(pdist(u).min()) if len(u) > 1 else float("inf")
 
 
@@ -290,7 +308,7 @@ def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarr
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     n, seed : int
         Number of commands, and the pool's seed.
 
@@ -300,7 +318,7 @@ def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarr
         The commands (n, m), rad, in the order picked.
     """
     pool = sobol_commands(robot, min(max(4096, 32 * n), 131_072), seed=seed)
-    x = pool / robot.u_max_rad
+    x = _unit_scale(robot, pool)
     first = int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))
     return pool[greedy_maximin(x, first, n)]
 
@@ -339,7 +357,7 @@ def design_commands(robot: RobotDescription, n: int, method: str = "maximin", se
     Parameters
     ----------
     robot : RobotDescription
-        Gives m, ``u_max_rad`` and the safety rule.
+        Gives m, each input's range and the safety rule.
     n : int
         Number of commands, >= 1.
     method : str

@@ -5,8 +5,13 @@ published data set -- arrive as CSV files whose columns have their own names and
 :class:`ImportSpec` is the one setting that says how to read them: which columns are the
 motor inputs (``--u``, in order: they become ``u0..u{m-1}``), which the measured position
 (``--y``: the tip's x, y, z for a lab dataset; the library takes any number), the units
-(``--u-unit`` is free text kept in the sidecar; ``--y-unit`` m, mm or cm, converted to
-metres), where measurement sequences restart (``--group``), how to pair input rows with
+(``--u-unit``: a unit of :data:`U_UNITS` -- ``rad``, ``N`` for tensions, ``Pa``, ``kPa``,
+``bar`` for pressures, ``mL`` for volumes -- is converted to SI (rad, N, Pa, m^3) and its
+values checked for plausibility; any other text is kept in the sidecar as it is; ``--y-unit``
+m, mm or cm, converted to metres), the robot the data are from (``--robot``: then the unit
+must be of its inputs' kind, and the markers beyond the tip are its markers), the names of
+the markers whose x, y, z follow the tip's in ``--y`` (``--markers``), where measurement
+sequences restart (``--group``), how to pair input rows with
 observation rows (``--id``), whether bad rows are an error or dropped and counted
 (``--drop-bad-rows``), and the provenance kept with the data (``--licence``, ``--source``,
 ``--name``). The spec checks the column lists when it is built (a name given twice is an
@@ -19,10 +24,51 @@ from dataclasses import dataclass
 
 from lab.specs import Spec, option
 
-__all__ = ["ImportSpec", "Y_UNITS", "column_names"]
+__all__ = ["ImportSpec", "Y_UNITS", "U_UNITS", "PLAUSIBLE", "column_names", "markers_of_columns"]
 
 #: Position units ``--y-unit`` accepts, with their factor to metres.
 Y_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
+#: Input units ``--u-unit`` converts: unit -> (its SI unit, factor to it). Other text is kept as is.
+U_UNITS = {
+    "rad": ("rad", 1.0),
+    "N": ("N", 1.0),
+    "Pa": ("Pa", 1.0),
+    "kPa": ("Pa", 1e3),
+    "bar": ("Pa", 1e5),
+    "mL": ("m^3", 1e-6),
+}
+#: The plausible range of an input, per SI unit (after conversion): a tendon's tension (a little
+#: below zero for a load cell's offset, at most 10 kN), a gauge pressure (no lower than vacuum,
+#: at most 100 bar), a volume pumped in or out (at most 10 L). Angles are not checked (as before).
+PLAUSIBLE = {"N": (-1.0, 1e4), "Pa": (-101_325.0, 1e7), "m^3": (-1e-2, 1e-2)}
+#: What each SI input unit measures, for messages.
+KINDS = {"rad": "an angle", "N": "a tension", "Pa": "a pressure", "m^3": "a volume"}
+
+
+def markers_of_columns(names) -> tuple[str, ...] | None:
+    """The marker names of position columns written in a dataset's convention: ``x, y, z``
+    (or any first triple: the tip), then ``NAME_x, NAME_y, NAME_z`` per marker; None otherwise.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The position columns (3K).
+
+    Returns
+    -------
+    tuple of str or None
+        ``("tip", NAME, ...)``, or None when the columns after the tip's do not follow the convention.
+    """
+    names = list(names)
+    if len(names) % 3:
+        return None
+    out = ["tip"]
+    for k in range(3, len(names), 3):
+        stem = names[k][:-2] if names[k].endswith("_x") else ""
+        if not stem or names[k : k + 3] != [f"{stem}_{a}" for a in "xyz"] or stem in out:
+            return None
+        out.append(stem)
+    return tuple(out)
 
 
 def column_names(text: str) -> tuple[str, ...]:
@@ -50,9 +96,15 @@ class ImportSpec(Spec):
     u : tuple of str
         The input columns, in order (they become u0, u1, ...).
     y : tuple of str
-        The tip's x, y, z columns (exactly 3).
+        The tip's x, y, z columns, then each further marker's (3K).
+    markers : tuple of str or None
+        The names of the markers after the tip, in ``y``'s order (default: the robot's, or
+        the column names' ``NAME_x``).
+    robot : str or None
+        The robot the data are from (a shipped name or a TOML path).
     u_unit : str
-        The inputs' unit, free text kept in the sidecar (e.g. effort, mm, rad).
+        The inputs' unit: one of :data:`U_UNITS` (converted to SI), or free text kept in the
+        sidecar (e.g. effort, mm); a comma-separated list gives one unit of U_UNITS per input.
     y_unit : str
         The positions' unit (a key of ``Y_UNITS``); converted to metres.
     group : str or None
@@ -81,7 +133,21 @@ class ImportSpec(Spec):
         required=True,
     )
     u_unit: str = option(
-        "rad", help="the inputs' unit, free text kept in the sidecar (e.g. effort, mm, rad)", check=_text
+        "rad",
+        help="the inputs' unit: rad, N (tensions), Pa, kPa, bar (pressures, to Pa) or mL (volumes, to m^3), "
+        "converted to SI, or one per input, comma-separated; other text (e.g. effort) is kept in the sidecar as is",
+        check=_text,
+    )
+    markers: tuple[str, ...] | None = option(
+        help="the names of the markers whose x,y,z columns follow the tip's in --y, comma-separated "
+        "(default: --robot's markers, or NAME from columns NAME_x,NAME_y,NAME_z)",
+        type=column_names,
+        check=_names,
+    )
+    robot: str | None = option(
+        help="the robot the data are from (shipped name or TOML): the inputs' unit must be of its inputs' kind "
+        "and their number its inputs'",
+        check=_text,
     )
     y_unit: str = option("m", help="the positions' unit; converted to metres", choices=tuple(Y_UNITS))
     group: str | None = option(
@@ -108,11 +174,36 @@ class ImportSpec(Spec):
             raise self.field_error(
                 f"the column {both[0]!r} is given in both ImportSpec.u and ImportSpec.y: each column is one thing"
             )
+        units = column_names(self.u_unit)
+        if len(units) > 1:
+            bad = [u for u in units if u not in U_UNITS]
+            if bad or len(units) != len(self.u):
+                raise self.field_error(
+                    f"ImportSpec.u_unit {self.u_unit!r}: a list gives one unit of {', '.join(U_UNITS)} per input "
+                    f"column ({len(self.u)})" + (f", not {bad[0]!r}" if bad else f", got {len(units)}"),
+                    "u_unit",
+                )
+        if self.markers is not None and len(self.markers) != len(self.y) // 3 - 1:
+            raise self.field_error(
+                f"ImportSpec.markers names {len(self.markers)} marker(s) but ImportSpec.y has "
+                f"{len(self.y) // 3 - 1} triple(s) after the tip's",
+                "markers",
+                "y",
+            )
         if self.id is not None and self.id in (*self.u, *self.y):
             raise self.field_error(
                 f"ImportSpec.id {self.id!r} is also given in ImportSpec.u or ImportSpec.y: the ID column pairs "
                 "rows, it is no data"
             )
+
+    @property
+    def u_units(self) -> tuple[str, ...] | None:
+        """Each input's unit as given (one per ``u`` column) when ``u_unit`` names units of
+        :data:`U_UNITS`; None for free text."""
+        units = column_names(self.u_unit)
+        if len(units) == 1:
+            return units * len(self.u) if units[0] in U_UNITS else None
+        return units
 
     @property
     def y_scale(self) -> float:

@@ -24,7 +24,7 @@ import numpy as np
 
 from lab.data.csv_table import NON_NUMERIC, CsvTable, read_table
 from lab.data.dataset import write_dataset
-from lab.data.import_spec import ImportSpec
+from lab.data.import_spec import KINDS, PLAUSIBLE, U_UNITS, ImportSpec, markers_of_columns
 from lab.errors import FieldError, InputError
 
 __all__ = ["Measurements", "ImportResult", "read_measurements", "import_dataset"]
@@ -37,7 +37,8 @@ class Measurements:
     Attributes
     ----------
     u : numpy.ndarray
-        Inputs (N, m), in the spec's ``u_unit``.
+        Inputs (N, m), in the spec's ``u_unit`` converted to SI (:data:`U_UNITS`), or as read
+        for a free-text unit.
     y_m : numpy.ndarray
         Positions (N, d), m.
     sequence_starts : list of int
@@ -187,7 +188,7 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
     non_numeric = (kind == NON_NUMERIC).any(axis=1)
     dropped = {"nan": int((bad & ~non_numeric).sum()), "non_numeric": int(non_numeric.sum()), "unmatched_id": unmatched}
     keep = ~bad
-    u, y_m = u_all[rows_in[keep]], y_all[rows_obs[keep]] * spec.y_scale
+    u, y_m = _to_si(spec, inputs, rows_in[keep], u_all[rows_in[keep]]), y_all[rows_obs[keep]] * spec.y_scale
     starts = [0] if len(u) else []
     if spec.group is not None:
         table, rows = (inputs, rows_in) if inputs.has(spec.group) or not obs.has(spec.group) else (obs, rows_obs)
@@ -203,6 +204,78 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
         if spec.group is not None and t.has(spec.group) and spec.group not in s["columns"]:
             s["columns"].append(spec.group)
     return u, y_m, starts, {"sources": sources, "join": join, "dropped": dropped}
+
+
+def _to_si(spec: ImportSpec, table: CsvTable, rows: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The inputs (N, m) converted to SI per :data:`U_UNITS` (free text: as read); InputError
+    naming the file, line and column of the first value implausible for its unit."""
+    units = spec.u_units
+    if units is None:
+        return u
+    si = [U_UNITS[unit][0] for unit in units]
+    u = u * np.array([U_UNITS[unit][1] for unit in units])
+    for j, unit in enumerate(si):
+        if unit not in PLAUSIBLE:
+            continue
+        low, high = PLAUSIBLE[unit]
+        out = np.flatnonzero((u[:, j] < low) | (u[:, j] > high))
+        if len(out):
+            r = int(rows[out[0]])
+            name = spec.u[j]
+            text = table.rows[r][table.index(name, "ImportSpec.u")].strip()
+            raise InputError(
+                f"{table.path}: line {table.lines[r]}, column {name!r} (ImportSpec.u): {text} {units[j]} is not "
+                f"plausible for {KINDS[unit]} (from {low:g} to {high:g} {unit}); check ImportSpec.u_unit"
+            )
+    return u
+
+
+def _robot_check(spec: ImportSpec, robot) -> None:
+    """Refuse data whose inputs do not fit ``robot``: their number, or their unit's kind."""
+    if len(spec.u) != robot.n_cables:
+        raise InputError(
+            f"ImportSpec.u names {len(spec.u)} input column(s) but the robot {robot.name} (ImportSpec.robot) "
+            f"has {robot.n_cables} inputs ({', '.join(c.name for c in robot.cables)})"
+        )
+    units = spec.u_units
+    for j, want in enumerate(robot.input_units):
+        got = U_UNITS[units[j]][0] if units is not None else None
+        if got != want:
+            given = units[j] if units is not None else spec.u_unit
+            what = KINDS.get(got, "not a unit this package converts")
+            raise InputError(
+                f"ImportSpec.u_unit {given!r} is {what}, but input u{j} (column {spec.u[j]!r}) of {robot.name} "
+                f"(cable {robot.cables[j].name!r}) is {KINDS[want]} in {want}: give its unit "
+                f"({', '.join(u for u, (si, _) in U_UNITS.items() if si == want)})"
+            )
+
+
+def _marker_names(spec: ImportSpec, robot) -> tuple[str, ...]:
+    """The names of the markers of ``spec.y`` (the tip first); InputError when they cannot be told."""
+    k = len(spec.y) // 3
+    names = None
+    if len(spec.y) % 3 == 0:
+        if spec.markers is not None:
+            names = ("tip", *spec.markers)
+        elif k == 1:
+            names = ("tip",)
+        elif robot is not None and len(robot.marker_names) == k:
+            names = tuple(robot.marker_names)
+        else:
+            names = markers_of_columns(spec.y)
+    if names is None:
+        raise InputError(
+            f"ImportSpec.y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip's x,y,z "
+            "and then each marker's; give exactly 3 (the tip's, e.g. x3,y3,z3), or 3 per marker with the markers "
+            "after the tip named (ImportSpec.markers, a robot with as many markers, ImportSpec.robot, or columns "
+            "NAME_x,NAME_y,NAME_z); to read any columns, use lab.data.importing.read_measurements"
+        )
+    if robot is not None and tuple(names) != tuple(robot.marker_names):
+        raise InputError(
+            f"the markers of ImportSpec.y ({', '.join(names)}) are not those of {robot.name} (ImportSpec.robot): "
+            f"{', '.join(robot.marker_names)}"
+        )
+    return tuple(names)
 
 
 def read_measurements(spec: ImportSpec, files, observations=()) -> Measurements:
@@ -259,10 +332,13 @@ def read_measurements(spec: ImportSpec, files, observations=()) -> Measurements:
 
 def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: str | None = None) -> ImportResult:
     """Import ``files`` (and ``observations``) as :func:`read_measurements` does and write
-    the lab dataset ``out`` (u (N, m) in ``--u-unit``, tip (N, 3) metres) with its sidecar:
+    the lab dataset ``out`` (u (N, m) in ``--u-unit``, SI for a unit of
+    :data:`~lab.data.import_spec.U_UNITS`; every marker (N, 3K) metres, the tip first) with its sidecar:
     ``sequence_starts``, ``robot`` (kind "measured", input limits from the data), ``units``,
-    ``licence``, ``source``, ``row_groups``, ``notes``, ``import`` and ``command``. A lab
-    dataset holds the tip position, so ``--y`` must name exactly 3 columns.
+    ``licence``, ``source``, ``row_groups``, ``notes``, ``import`` and ``command``. ``--y``
+    names the tip's 3 columns, then 3 per marker (named by ``--markers``, the ``--robot``'s
+    markers or columns ``NAME_x, NAME_y, NAME_z``). With ``--robot``, the inputs' number and
+    unit must be its inputs'.
 
     Parameters
     ----------
@@ -282,28 +358,36 @@ def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: st
     ImportResult
         What was written.
     """
-    if len(spec.y) != 3:
-        raise InputError(
-            f"ImportSpec.y names {len(spec.y)} column(s) ({','.join(spec.y)}): a lab dataset holds the tip "
-            "position, give "
-            "exactly 3 (its x,y,z, e.g. x3,y3,z3); to read more, use lab.data.importing.read_measurements"
-        )
+    robot = None
+    if spec.robot is not None:
+        from lab.description import load_robot
+
+        robot = load_robot(spec.robot)
+        _robot_check(spec, robot)
+    names = _marker_names(spec, robot)
     m = read_measurements(spec, files, observations)
-    robot = {
-        "name": spec.name or Path(out).stem,
+    units = spec.u_units
+    si = [U_UNITS[u][0] for u in units] if units is not None else [spec.u_unit] * len(spec.u)
+    u_unit = si[0] if len(set(si)) == 1 else si
+    record = {
+        "name": spec.name or (robot.name if robot is not None else Path(out).stem),
         "kind": "measured",
         "n_motors": len(spec.u),
         "u_min": m.u.min(axis=0).tolist(),
         "u_max": m.u.max(axis=0).tolist(),
-        "u_unit": spec.u_unit,
+        "u_unit": u_unit,
         "y_unit": "m",
     }
+    if robot is not None:
+        record["description"] = {"name": robot.name, "sha256": robot.sha256}
     settings = {"u_columns": list(spec.u), "y_columns": list(spec.y), "y_unit_read": spec.y_unit}
+    if units is not None and list(units) != si:
+        settings["u_unit_read"] = spec.u_unit
     settings |= {"id": spec.id, "group": spec.group, "drop_bad_rows": spec.drop_bad_rows}
     meta = {
         "sequence_starts": m.sequence_starts,
-        "robot": robot,
-        "units": {"u": spec.u_unit, "xyz": "m"},
+        "robot": record,
+        "units": {"u": u_unit, "xyz": "m"},
         "licence": spec.licence,
         "source": spec.source,
         "row_groups": m.row_groups,
@@ -311,5 +395,5 @@ def import_dataset(spec: ImportSpec, files, out, *, observations=(), command: st
         "import": settings,
         "command": command,
     }
-    write_dataset(out, m.u, m.y_m, meta)
+    write_dataset(out, m.u, m.y_m, meta, markers=names, units=si)
     return ImportResult(str(out), len(m.u), len(m.sequence_starts), len(m.row_groups), m.dropped(), m.notes)

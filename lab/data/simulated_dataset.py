@@ -5,7 +5,8 @@
 directory so that a killed run resumes (:mod:`lab.data.chunkstore`);
 :func:`write_simulated` writes the samples with their metadata (robot, mesh, sampler,
 solver) as the CSV + JSON pair of :mod:`lab.data.dataset`, then removes the checkpoint.
-:func:`solve_batch` solves one batch without a checkpoint (an active design's batches are
+:func:`simulate_given` solves commands given in a file (``simulate --commands``) in their
+order, resumable the same way. :func:`solve_batch` solves one batch without a checkpoint (an active design's batches are
 kept by their caller).
 """
 
@@ -16,14 +17,14 @@ import sys
 import numpy as np
 
 from lab.data import simulation
-from lab.data.chunks import grid_chunks, nearest_neighbour_chunks
+from lab.data.chunks import grid_chunks, nearest_neighbour_chunks, ordered_chunks
 from lab.data.chunkstore import remove_checkpoint
 from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
 from lab.description import RobotDescription
 from lab.fem.bodies.mesh import cylinder_mesh
 
-__all__ = ["simulate_fixed", "solve_batch", "write_simulated", "announce"]
+__all__ = ["simulate_fixed", "simulate_given", "solve_batch", "write_simulated", "announce"]
 
 
 def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
@@ -76,7 +77,7 @@ def simulate_fixed(
         The commands (N, m), rad.
     res : dict
         The solver's result (:func:`lab.data.simulation.simulate`: ``p_tip_W`` (N, 3) m,
-        per-sample stats, ``wall_s``, ``resumed_samples``).
+        ``y_W`` (N, 3K) m, per-sample stats, ``wall_s``, ``resumed_samples``).
     sampler : dict
         The sampler's metadata.
     """
@@ -100,6 +101,73 @@ def simulate_fixed(
         checkpoint=checkpoint,
         scheduler=scheduler,
     )
+    return u, res, sampler
+
+
+def simulate_given(
+    robot: RobotDescription,
+    u: np.ndarray,
+    source: dict,
+    n_rings: int,
+    n_axial: int,
+    *,
+    checkpoint,
+    jobs: int = 1,
+    chunk_size: int = 64,
+    progress: bool = False,
+    scheduler: str | None = None,
+    file=None,
+) -> tuple[np.ndarray, dict, dict]:
+    """Simulate given commands in the order given: consecutive chunks of ``chunk_size``
+    commands, each one walk warm-started from the last solve (the first from rest), never
+    reordered; each finished chunk kept in ``checkpoint``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot.
+    u : numpy.ndarray
+        The commands (N, m), each input in its unit, in the order sent.
+    source : dict
+        Where they come from (:func:`lab.data.commands_file.read_commands`'s record).
+    n_rings, n_axial : int
+        The mesh's resolution.
+    checkpoint : str or os.PathLike or None
+        Where finished chunks are kept.
+    jobs : int
+        Worker processes.
+    chunk_size : int
+        Commands per walk (and per checkpointed chunk).
+    progress : bool
+        Show a progress bar.
+    scheduler : str, optional
+        A Dask scheduler's address.
+    file : file-like, optional
+        Where the opening line goes (default stderr).
+
+    Returns
+    -------
+    u : numpy.ndarray
+        The commands (N, m), as given.
+    res : dict
+        The solver's result (:func:`lab.data.simulation.simulate`).
+    sampler : dict
+        The sampler's metadata: ``name`` "commands", the file's record, ``chunk_size``.
+    """
+    chunks = ordered_chunks(len(u), size=chunk_size)
+    announce(robot, len(u), n_rings, n_axial, jobs, f" from {source['path']} in the order given", file=file)
+    res = simulation.simulate(
+        robot,
+        u,
+        chunks,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        n_jobs=jobs,
+        progress=progress,
+        checkpoint=checkpoint,
+        scheduler=scheduler,
+    )
+    sampler = {"name": "commands", **source, "order": "as given", "chunk_size": chunk_size, "n_safe": len(u)}
     return u, res, sampler
 
 
@@ -134,7 +202,7 @@ def solve_batch(
     Returns
     -------
     dict
-        :func:`lab.data.simulation.simulate`'s result (``p_tip_W`` (B, 3) m, ...).
+        :func:`lab.data.simulation.simulate`'s result (``p_tip_W`` (B, 3) m, ``y_W`` (B, 3K) m, ...).
     """
     return simulation.simulate(
         robot,
@@ -163,9 +231,10 @@ def write_simulated(
     command: str,
     file=None,
 ) -> dict:
-    """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) rad and the
-    solver's result ``res``, then remove the ``checkpoint`` it now holds; returns the
-    metadata written. Prints where resumed samples came from and what was written.
+    """Write the dataset ``out`` (+ ``out.json``) of commands ``u`` (N, m) and the solver's
+    result ``res`` (every marker of the robot, the tip first), then remove the
+    ``checkpoint`` it now holds; returns the metadata written. Prints where resumed
+    samples came from and what was written.
 
     Parameters
     ----------
@@ -176,9 +245,10 @@ def write_simulated(
     n_rings, n_axial : int
         The mesh's resolution.
     u : numpy.ndarray
-        Commands (N, m), rad.
+        Commands (N, m), each input in its unit (rad, N).
     res : dict
-        :func:`lab.data.simulation.simulate`'s result for ``u``.
+        :func:`lab.data.simulation.simulate`'s result for ``u`` (``p_tip_W`` (N, 3) m and
+        ``y_W`` (N, 3K) m).
     sampler : dict
         The sampler's metadata.
     checkpoint : str or os.PathLike or None
@@ -223,7 +293,9 @@ def write_simulated(
         },
         "command": command,
     }
-    write_dataset(out, u, res["p_tip_W"], meta)
+    # the tip's columns are the solver's tip, exactly as a tip-only dataset always held it
+    y = np.hstack([res["p_tip_W"], np.asarray(res.get("y_W", res["p_tip_W"]))[:, 3:]])
+    write_dataset(out, u, y, meta, markers=robot.marker_names, units=robot.input_units)
     remove_checkpoint(checkpoint)  # the dataset now holds every chunk
     print(
         f"wrote {len(u)} samples to {out} in {res['wall_s']:.1f} s "

@@ -18,6 +18,7 @@ import numpy as np
 
 from lab.data.chunks import Chunk
 from lab.description import RobotDescription
+from lab.errors import LabRuntimeError
 from lab.fem.model import ArmFEM
 from lab.fem.solve.statics import solve_static
 from lab.fem.solve.warmstart import WalkPredictor
@@ -54,18 +55,19 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
     n_rings, n_axial : int
         The mesh's resolution.
     u_chunk : numpy.ndarray
-        The walk's commands (K, m), rad, in order.
+        The walk's commands (L, m), each input in its unit (rad, N), in order.
 
     Returns
     -------
     dict
-        ``p_tip_W`` (K, 3) m, frame W; ``iterations`` (K,), ``factorizations`` (K,) and
-        ``time_s`` (K,) s.
+        ``p_tip_W`` (L, 3) m, frame W; ``y_W`` (L, 3K) m, frame W: every marker
+        (:attr:`lab.fem.ArmFEM.marker_names`, the tip first); ``iterations`` (L,),
+        ``factorizations`` (L,) and ``time_s`` (L,) s.
     """
     fem = _fem(robot, n_rings, n_axial)
     walk = [np.zeros(robot.n_cables)] + [np.asarray(u, float) for u in u_chunk]
     predictor = WalkPredictor(fem)
-    tips, iters, facts, times = [], [], [], []
+    tips, ys, iters, facts, times = [], [], [], [], []
     for k, u in enumerate(walk):
         steps = [walk[j + 1] - walk[j] for j in (k - 1, k) if 0 <= j < len(walk) - 1]
         kw = dict(sensitivity="reuse", raise_on_failure=False, refine_du=np.array(steps))
@@ -84,10 +86,11 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
         predictor.add(sol)
         if k == 0:
             continue  # the rest state every walk starts from
-        tips.append(sol.p_tip_W), times.append(time.perf_counter() - t0)
+        tips.append(sol.p_tip_W), ys.append(np.ravel(sol.y_W)), times.append(time.perf_counter() - t0)
         iters.append(sum(s.iterations for s in solves)), facts.append(sum(s.factorizations for s in solves))
     return {
         "p_tip_W": np.asarray(tips).reshape(-1, 3),
+        "y_W": np.asarray(ys).reshape(len(tips), 3 * len(fem.marker_names)),
         "iterations": np.asarray(iters),
         "factorizations": np.asarray(facts),
         "time_s": np.asarray(times),
@@ -111,14 +114,14 @@ def simulate(
     checkpoint: str | os.PathLike | None = None,
     scheduler: str | None = None,
 ) -> dict:
-    """Tip positions for commands, solved chunk by chunk.
+    """Tip and marker positions for commands, solved chunk by chunk.
 
     Parameters
     ----------
     robot : RobotDescription
         The robot.
     u_motor : numpy.ndarray
-        Commands (N, m), rad.
+        Commands (N, m), each input in its unit (rad, N).
     chunks : list of Chunk
         The walks covering every command (:mod:`lab.data.chunks`).
     n_rings, n_axial : int, optional
@@ -139,7 +142,8 @@ def simulate(
     Returns
     -------
     dict
-        ``p_tip_W`` (N, 3) m, frame W, plus per-sample ``iterations``, ``factorizations`` and
+        ``p_tip_W`` (N, 3) m, frame W, ``y_W`` (N, 3K) m, frame W (every marker of
+        ``robot.marker_names``, the tip first), plus per-sample ``iterations``, ``factorizations`` and
         ``time_s`` (s), ``wall_s`` (s) and ``resumed_samples`` (how many came from the checkpoint).
     """
     from joblib import Parallel, delayed, parallel_config
@@ -151,6 +155,8 @@ def simulate(
     n_rings, n_axial = n_rings or robot.n_rings, n_axial or robot.n_axial
     t0 = time.perf_counter()
     p_tip = np.full((len(u_motor), 3), np.nan)
+    n_markers = len(robot.marker_names)
+    y_all = np.full((len(u_motor), 3 * n_markers), np.nan)
     iters = np.zeros(len(u_motor), dtype=int)
     facts = np.zeros(len(u_motor), dtype=int)
     times = np.zeros(len(u_motor))
@@ -162,7 +168,14 @@ def simulate(
 
     def record(i, res):
         order = orders[i]
+        y = np.asarray(res["y_W"]).reshape(len(order), -1)
+        if y.shape[1] != y_all.shape[1]:
+            raise LabRuntimeError(
+                f"{robot.name}: the FEM observed {y.shape[1] // 3} marker(s) but the description names "
+                f"{n_markers} ({', '.join(robot.marker_names)})"
+            )
         p_tip[order], iters[order], times[order] = res["p_tip_W"], res["iterations"], res["time_s"]
+        y_all[order] = y
         facts[order] = res["factorizations"]
 
     for i, res in done.items():
@@ -198,6 +211,7 @@ def simulate(
             client.close()
     return {
         "p_tip_W": p_tip,
+        "y_W": y_all,
         "iterations": iters,
         "factorizations": facts,
         "time_s": times,

@@ -1,35 +1,58 @@
-"""``python -m lab simulate``: a sampling design simulated with the FEM into a dataset file, resumable.
+"""``python -m lab simulate``: a sampling design, or given commands, simulated with the FEM into a dataset.
 
 :func:`run` is what the command does with its :class:`lab.data.DesignSpec`: a grid or space-filling
 design is solved chunk by chunk (:func:`lab.data.simulated_dataset.simulate_fixed`); an
 ``--active`` one batch by batch as :func:`lab.learn.active_design.run_active` picks them,
 each batch saved in the checkpoint the moment it is solved
 (:class:`lab.data.batchstore.BatchStore`), so that the same call after a kill continues
-after the last saved batch. Everything that can be refused is refused before any work.
+after the last saved batch. ``--commands U.csv`` (:class:`CommandsSpec`): the commands a lab
+sent, solved in their order (:func:`lab.data.simulated_dataset.simulate_given`), resumable
+like a design. Everything that can be refused is refused before any work.
 """
 
 from __future__ import annotations
 
 import errno
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from lab.data.batchstore import BatchStore
 from lab.data.chunkstore import FORMAT_VERSION, clear_checkpoint
+from lab.data.commands_file import read_commands
 from lab.data.design_spec import DesignSpec
-from lab.data.simulated_dataset import announce, simulate_fixed, solve_batch, write_simulated
+from lab.data.simulated_dataset import announce, simulate_fixed, simulate_given, solve_batch, write_simulated
 from lab.description import RobotDescription
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.learn.active_design import active_settings, check_active, run_active
+from lab.specs import Spec, option
 
-__all__ = ["run"]
+__all__ = ["run", "CommandsSpec"]
+
+
+@dataclass(frozen=True)
+class CommandsSpec(Spec):
+    """Given commands instead of a sampling design.
+
+    Attributes
+    ----------
+    commands : str or None
+        A CSV file of the commands a lab sent, one row each, one column per input (``u0..``
+        or the cables' names), solved in the file's row order.
+    """
+
+    commands: str | None = option(
+        help="a CSV file of the commands a lab sent (one column per input, named u0.. or after the cables), "
+        "simulated in its row order instead of a sampling design"
+    )
+
 
 #: OS errors that mean the disk, the quota or the file-size limit is full.
 _NO_SPACE = {errno.ENOSPC, errno.EFBIG, getattr(errno, "EDQUOT", errno.ENOSPC)}
-#: Solver fields kept per sample.
-_STATS = ("iterations", "factorizations", "time_s")
+#: Fields kept per sample: the solver's counts and times, and every marker.
+_STATS = ("iterations", "factorizations", "time_s", "y_W")
 
 
 def run(
@@ -45,6 +68,7 @@ def run(
     progress: bool = False,
     scheduler: str | None = None,
     restart: bool = False,
+    commands=None,
     file=None,
 ) -> dict:
     """Simulate ``design`` for ``robot`` on the ``mesh`` and write the dataset ``out`` (+ ``out.json``).
@@ -73,6 +97,9 @@ def run(
         A Dask scheduler (``tcp://HOST:PORT``) to run the chunks on instead of local workers.
     restart : bool
         Discard the checkpoint's files first.
+    commands : str or Path, optional
+        A CSV file of commands to simulate in its row order instead of ``design``
+        (:func:`lab.data.commands_file.read_commands`).
     file : file-like, optional
         Where progress lines go (default stderr).
 
@@ -84,15 +111,21 @@ def run(
     """
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise InputError(f"--chunk-size must be a positive integer, got {chunk_size!r}")
-    design.check(robot)
-    if design.kind == "active":
-        check_active(design, robot)
+    given = None
+    if commands is not None:
+        given = read_commands(commands, robot)
+    else:
+        design.check(robot)
+        if design.kind == "active":
+            check_active(design, robot)
     n_rings, n_axial = mesh.resolve(robot)  # before any work: refuse what cannot fit in memory
     run = dict(jobs=jobs, chunk_size=chunk_size, progress=progress, scheduler=scheduler)
     try:
         if restart:
             clear_checkpoint(checkpoint)  # only the checkpoint's own files, never anything else
-        if design.kind == "active":
+        if given is not None:
+            u, res, sampler = simulate_given(robot, *given, n_rings, n_axial, checkpoint=checkpoint, file=file, **run)
+        elif design.kind == "active":
             u, res, sampler = _simulate_active(robot, design, n_rings, n_axial, checkpoint, file, run)
         else:
             u, res, sampler = simulate_fixed(robot, design, n_rings, n_axial, checkpoint=checkpoint, file=file, **run)
