@@ -377,7 +377,9 @@ CASES = [
     Case("train-out-under-a-file", [*TRAIN, "--out", "{dir}/traj.csv/m.npz"], 2, ("is a file",), INPUTS),
     Case("track-out-is-a-directory", [*TRACK, "--out", "{dir}"], 2, ("is a directory",), INPUTS),
     Case("capture-out-under-a-file", [*CAPTURE, "--out", "{dir}/model.npz/c.csv"], 2, ("is a file",), INPUTS),
-    Case("robot-is-a-directory", [*SIM, "--robot", "{dir}", "--out", "{dir}/o.csv"], 2, ("Is a directory",)),
+    Case(
+        "robot-is-a-directory", [*SIM, "--robot", "{dir}", "--out", "{dir}/o.csv"], 2, ("is a directory, not a file",)
+    ),
     Case("train-data-is-a-directory", ["train", "{dir}", "--out", "{dir}/m.npz"], 2, ("is a directory",)),
     # --- 7. one run per output ---------------------------------------------------------------
     Case(
