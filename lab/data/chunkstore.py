@@ -65,8 +65,8 @@ def fingerprint(robot_sha256: str, n_rings: int, n_axial: int, u_motor: np.ndarr
     return {
         "format_version": FORMAT_VERSION,
         "robot_sha256": robot_sha256,
-        "n_rings": int(n_rings),
-        "n_axial": int(n_axial),
+        "n_rings": None if n_rings is None else int(n_rings),  # None: a body meshed from its file
+        "n_axial": None if n_axial is None else int(n_axial),
         "n_samples": int(len(u_motor)),
         "n_chunks": len(orders),
         "commands_and_chunks_sha256": h.hexdigest(),

@@ -22,15 +22,16 @@ from lab.data.chunkstore import remove_checkpoint
 from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
 from lab.description import RobotDescription
-from lab.fem.bodies.mesh import cylinder_mesh
+from lab.fem.bodies import body_of
 
 __all__ = ["simulate_fixed", "simulate_given", "solve_batch", "write_simulated", "announce"]
 
 
 def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
     """The line that opens a simulation run (on ``file``, default stderr)."""
+    mesh = f"n_rings={n_rings} n_axial={n_axial}" if n_rings is not None else "from body.mesh_file"
     print(
-        f"{robot.name}: {n} safe commands{how}, mesh n_rings={n_rings} n_axial={n_axial}, {jobs} worker(s)",
+        f"{robot.name}: {n} safe commands{how}, mesh {mesh}, {jobs} worker(s)",
         file=sys.stderr if file is None else file,
     )
 
@@ -272,11 +273,11 @@ def write_simulated(
     file = sys.stderr if file is None else file
     if res["resumed_samples"]:
         print(f"resumed: {res['resumed_samples']} samples came from {checkpoint}", file=file)
-    mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)  # counts only
+    mesh = body_of(robot, n_rings=n_rings, n_axial=n_axial).mesh  # counts only (a cached mesh for a file)
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
         "mesh": {
-            "mesher": "cylinder",
+            "mesher": robot.body_shape.shape,
             "n_rings": n_rings,
             "n_axial": n_axial,
             "n_nodes": mesh.n_nodes,

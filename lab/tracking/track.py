@@ -123,7 +123,7 @@ class TrackResult:
             "format_version": FORMAT_VERSION,
             "kind": KIND,
             "trajectory": self.trajectory,
-            "units": {"positions": "m", "commands": "rad", "errors": "m", "timings": "s"},
+            "units": {"positions": "m", "commands": self.info.get("input_units", "rad"), "errors": "m", "timings": "s"},
             "targets": self.targets_W,
             "commands": self.commands,
             "achieved": self.achieved_W,
@@ -240,6 +240,7 @@ def run_info(rig: Rig, solver: IKSolver, plan, protocol: Protocol) -> dict:
         "rig": rig.describe(),
         "robot": rig.robot.name,
         "robot_sha256": rig.robot.sha256,
+        **({} if rig.robot.all_angle else {"input_units": list(rig.robot.input_units)}),
         "solver": {
             "method": cfg.method,
             "tol_m": cfg.tol_m,
