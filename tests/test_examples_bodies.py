@@ -38,7 +38,7 @@ def as_built(robot_path: Path, out: Path) -> Path:
     text = robot_path.read_text()
     data = tomllib.loads(text)
     E, rho = data["material"]["youngs_modulus_pa"], data["material"]["density_kg_m3"]
-    for key, old, new in (("youngs_modulus_pa", E, SOFTER * E), ("density_kg_m3", rho, DENSER * rho)):
+    for key, new in (("youngs_modulus_pa", SOFTER * E), ("density_kg_m3", DENSER * rho)):
         line = next(li for li in text.splitlines() if li.startswith(f"{key} ="))
         text = text.replace(line, f"{key} = {new!r}", 1)
     if "mesh_file" in data["body"]:  # the geometry stays where the example is
