@@ -112,25 +112,25 @@ BODY_CASES = [
         "tendon-tension-without-bound",
         TENTACLE,
         ("missing field 'cables[0].tension_max_n'",),
-        edit("tentacle.toml", "tension_max_n = 10.0\n", ""),
+        edit("tentacle.toml", "tension_max_n = 3.0\n", ""),
     ),
     case(
         "tendon-tension-bound-nan",
         TENTACLE,
         ("field 'cables[0].tension_max_n' must be a finite float",),
-        edit("tentacle.toml", "tension_max_n = 10.0", "tension_max_n = nan"),
+        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = nan"),
     ),
     case(
         "tendon-tension-bound-implausible",
         TENTACLE,
         ("field 'cables[0].tension_max_n' = 10000000.0 N is implausible",),
-        edit("tentacle.toml", "tension_max_n = 10.0", "tension_max_n = 1e7"),
+        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = 1e7"),
     ),
     case(
         "tendon-tension-with-slack",
         TENTACLE,
         ("field 'cables[0].slack_m' is not used by control = \"tension\"",),
-        edit("tentacle.toml", "tension_max_n = 10.0", "tension_max_n = 10.0\nslack_m = 0.001"),
+        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = 3.0\nslack_m = 0.001"),
     ),
     case(
         "tendon-angle-with-tension-bound",
@@ -142,7 +142,7 @@ BODY_CASES = [
         "tendon-angle-needs-actuation",
         TENTACLE,
         ("missing table [actuation]",),
-        edit("tentacle.toml", 'control = "tension"\ntension_max_n = 10.0\n', ""),
+        edit("tentacle.toml", 'control = "tension"\ntension_max_n = 3.0\n', ""),
     ),
     case(
         "marker-named-tip",
@@ -169,3 +169,71 @@ BODY_CASES = [
         edit("tentacle.toml", "position_m = [0.10, 0.0336, 0.0]", "position = [0.10, 0.0336, 0.0]"),
     ),
 ]
+
+
+def finger(old=None, new=None, extra=None):
+    """A setup copying the finger example (its geometry beside it) and editing its TOML."""
+
+    def setup(d):
+        for name in ("finger.toml", "finger.geo"):
+            shutil.copy(ROOT / "examples" / "robots" / name, d / name)
+        if extra is not None:
+            extra(d)
+        if old is not None:
+            p = d / "finger.toml"
+            text = p.read_text()
+            assert old in text, old
+            p.write_text(text.replace(old, new, 1))
+
+    return setup
+
+
+def _inverted_vtu(d):
+    """A two-tet mesh file whose second tet is wound the other way (an inverted element)."""
+    import meshio
+    import numpy as np
+
+    X = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01], [0.01, 0.01, 0.01]], float)
+    meshio.write(d / "body.vtu", meshio.Mesh(X, [("tetra", np.array([[0, 1, 2, 3], [1, 2, 3, 4]]))]))
+
+
+FINGER = [*SIM[:-2], "--robot", "{dir}/finger.toml", "--out", "{dir}/o.csv"]
+MESH_CASES = [
+    case(
+        "mesh-file-missing",
+        FINGER,
+        ("body.mesh_file", "nowhere.geo", "finger.toml"),
+        finger('mesh_file = "finger.geo"', 'mesh_file = "nowhere.geo"'),
+    ),
+    case(
+        "mesh-in-mm-given-as-m",
+        FINGER,
+        ("mesh_unit = \"mm\"?",),
+        finger('mesh_unit = "mm"', 'mesh_unit = "m"'),
+    ),
+    case(
+        "mesh-inverted-tets",
+        FINGER,
+        ("inverted",),
+        finger('mesh_file = "finger.geo"', 'mesh_file = "body.vtu"', _inverted_vtu),
+    ),
+    case(
+        "mesh-unknown-clamp-group",
+        FINGER,
+        ("'wrist'", "base"),
+        finger('clamp_group = "base"', 'clamp_group = "wrist"'),
+    ),
+    case(
+        "mesh-resolution-flag-refused",
+        [*SIM, "--robot", "{dir}/finger.toml", "--out", "{dir}/o.csv"],
+        ("--n-rings is not used by robot 'finger'", "body.mesh_file"),
+        finger(),
+    ),
+    case(
+        "marker-beyond-a-stalk",
+        TENTACLE,
+        ("markers[0].position_m",),
+        edit("tentacle.toml", "position_m = [0.10, 0.0336, 0.0]", "position_m = [0.10, 0.25, 0.0]"),
+    ),
+]
+BODY_CASES += MESH_CASES
