@@ -96,6 +96,6 @@ def run(args) -> int:
                 file=sys.stderr,
             )
         raise
-    write_dataset(spec.out, data.u_motor, data.p_tip_W, data.meta)
+    write_dataset(spec.out, data.u_motor, data.outputs, data.meta, **data.write_args())
     print(data.summary, file=sys.stderr)
     return 0
