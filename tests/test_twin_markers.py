@@ -157,3 +157,12 @@ def test_a_tension_tendon_is_held_in_newtons_on_the_twin(robots, coarse_defects)
     s = measure(rig, [1.5, 0.4, 0.0], QUICK)
     assert s.settled and s.markers_W.shape == (3, 3) and s.u_present[0] == 1.5
     assert np.max(np.abs(s.markers_W - body.quasi_static_markers([1.5, 0.4, 0.0]))) < 2e-3
+
+
+def test_cable_stiffness_is_refused_on_a_robot_with_tension_tendons(robots, coarse_defects):
+    from lab.asbuilt.arm import as_built_fem
+    from lab.asbuilt.fields import DefectsError
+
+    d = {**coarse_defects, "cables": [dict(c, stiffness_n_per_m=2e3) for c in coarse_defects["cables"]]}
+    with pytest.raises(DefectsError, match="stiffness_n_per_m"):
+        as_built_fem(robots[1], parse_defects(d, robots[1]))
