@@ -120,10 +120,12 @@ def test_mean_markers_leaves_out_unseen_frames():
     frames = [np.array([[0.0, 0, 0], [1.0, 1, 1]]), np.array([[2.0, 0, 0], [np.nan] * 3])]
     assert np.array_equal(mean_markers(frames, 2), [[1.0, 0, 0], [1.0, 1, 1]])
     assert np.isnan(mean_markers([], 2)).all()
-    tip_only = MocapFrame(0.0, np.zeros(3))  # a rig that sees the tip alone gives NaN for the others
+    tip_only = MocapFrame(0.0, np.zeros(3))  # a rig that sees the tip alone cannot capture markers
     from lab.capture.markers import frame_markers
+    from lab.rig.base import RigError
 
-    assert np.isnan(frame_markers(tip_only, 3)[1:]).all()
+    with pytest.raises(RigError, match="reports the tip alone"):
+        frame_markers(tip_only, 3, "hardware")
 
 
 def test_capture_journals_every_marker_on_the_twin(robots, coarse_defects, tmp_path):

@@ -3,7 +3,7 @@
 A robot with ``[[markers]]`` is observed at every marker, the tip first
 (``robot.marker_names``); a reading of the capture protocol is each marker's mean over the
 valid frames of its period (:func:`mean_markers`), the frames' markers as a rig gives them
-(:func:`frame_markers`: ``MocapFrame.markers_W``, or the tip alone). The settle test and the
+(:func:`frame_markers`: ``MocapFrame.markers_W``). The settle test and the
 predictive protocol watch the tip alone. :func:`reset_command` is the reset's contraction for
 angle cables and tension-controlled tendons alike.
 """
@@ -11,6 +11,8 @@ angle cables and tension-controlled tendons alike.
 from __future__ import annotations
 
 import numpy as np
+
+from lab.rig.base import RigError
 
 __all__ = ["frame_markers", "mean_markers", "reset_command"]
 
@@ -39,8 +41,9 @@ def reset_command(robot, protocol) -> np.ndarray:
     )
 
 
-def frame_markers(frame, n_markers: int) -> np.ndarray:
-    """A frame's markers (K, 3) m: its ``markers_W``, or the tip and NaN on a rig that sees the tip alone.
+def frame_markers(frame, n_markers: int, rig_kind: str = "this") -> np.ndarray:
+    """A frame's markers (K, 3) m: its ``markers_W``; a rig that sees the tip alone cannot
+    capture a robot with markers (:class:`~lab.rig.base.RigError`).
 
     Parameters
     ----------
@@ -48,17 +51,20 @@ def frame_markers(frame, n_markers: int) -> np.ndarray:
         The frame.
     n_markers : int
         The robot's K observed points (the tip first).
+    rig_kind : str
+        The rig's kind, for the message.
 
     Returns
     -------
     numpy.ndarray
         Shape (K, 3), m, frame W.
     """
-    if frame.markers_W is not None:
-        return np.asarray(frame.markers_W, dtype=float).reshape(n_markers, 3)
-    out = np.full((n_markers, 3), np.nan)
-    out[0] = frame.p_tip_W
-    return out
+    if frame.markers_W is None:
+        raise RigError(
+            f"the {rig_kind} rig reports the tip alone, but the robot has {n_markers - 1} more markers: "
+            "capture it on a rig that sees every marker, or describe the robot without [[markers]]"
+        )
+    return np.asarray(frame.markers_W, dtype=float).reshape(n_markers, 3)
 
 
 def mean_markers(markers: list, n_markers: int) -> np.ndarray:

@@ -259,7 +259,7 @@ class _Watcher:
             if frame.valid:
                 points.append(frame.p_tip_W)
                 if self.n_markers > 1:
-                    markers.append(frame_markers(frame, self.n_markers))
+                    markers.append(frame_markers(frame, self.n_markers, self.rig.kind))
                 self._t_seen = frame.t_s
             else:
                 self.n_invalid += 1
