@@ -97,3 +97,22 @@ def test_capture_a_tension_robot_in_newtons(coarse_defects, tmp_path):
     u, y, meta = read_dataset(out)
     assert meta["input_units"] == ["N", "rad", "rad"] and y.shape == (4, 9)
     assert np.all(u[:, 0] <= 2.0) and np.all(u[:, 1:] <= 3.0)
+
+
+def test_calibrated_transfer_fits_and_retrains_on_the_datas_markers(tmp_path):
+    from lab.description import load_robot
+    from lab.fem.model import ArmFEM
+    from lab.rig.sim import SimRig
+    from lab.transfer.calibrated import calibrated_model
+
+    robot = load_robot(_robot(tmp_path, "markers.toml"))
+    rig = SimRig(robot, ArmFEM(robot, n_rings=1, n_axial=4))
+    u = np.random.default_rng(1).uniform(0.0, 1.5, (12, 3))
+    y = []
+    for ui in u:
+        rig.send(ui)
+        y.append(rig.next_frame().markers_W[[0, 2]].ravel())  # the tip and "ring", in that order
+    model = calibrated_model(
+        robot, u, np.array(y), u[:10], hidden=(3,), n_rings=1, n_axial=4, max_iter=2, markers=("tip", "ring")
+    )
+    assert model.n_y == 6 and model.metadata["transfer"]["markers"] == ["tip", "ring"]
