@@ -1072,6 +1072,18 @@ CASES = [
         ("--markers tip,mid", "drive markers other than the tip open loop"),
         absent=("{dir}/r.json",),
     ),
+    # --- capture of a robot with markers -----------------------------------------------------
+    Case(
+        "capture-predictive-with-markers",
+        [*CAPTURE, "--robot", "{dir}/robot.toml", "--protocol", "predictive", "--out", "{dir}/c.csv"],
+        2,
+        ("--protocol predictive watches the tip alone", "mid", "--protocol wait"),
+        ("{dir}/robot.toml",),
+        setup=edit(
+            "robot.toml", "[tip_marker]", '[[markers]]\nname = "mid"\nposition_m = [0.1, 0.0, 0.0]\n\n[tip_marker]'
+        ),
+        absent=("{dir}/c.csv", "{dir}/c.journal.csv"),
+    ),
 ]
 
 

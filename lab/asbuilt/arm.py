@@ -18,22 +18,21 @@ warm-started from the nearest cached equilibrium. Every field: ``docs/design/rig
 from __future__ import annotations
 
 import dataclasses
-import time
-from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
+from lab.asbuilt.equilibria import EquilibriumCache
 from lab.asbuilt.fields import CableDefects, Defects, DefectsError
 from lab.asbuilt.parse import DEFECTS_FIELDS, FORMAT_VERSION, parse_defects
 from lab.description import RobotDescription, read_toml
-from lab.errors import InputError, LabRuntimeError
+from lab.errors import InputError
 from lab.fem.actuators.cable_routes import route_hessian, series_stiffness, spring
+from lab.fem.bodies import body_of
 from lab.fem.bodies.mesh import cylinder_mesh
 from lab.fem.materials.hyperfoam import HyperfoamMaterial
 from lab.fem.model import ArmFEM
-from lab.fem.solve.statics import solve_static
 
 __all__ = [
     "FORMAT_VERSION",
@@ -115,14 +114,14 @@ def as_built_robot(robot: RobotDescription, defects: Defects) -> RobotDescriptio
     for i, c in enumerate(cables):
         r = np.hypot(c.via_points_m[:, 1], c.via_points_m[:, 2])
         if (
-            np.any(r > robot.radius_m)
+            np.any(r > robot.radius_at(c.via_points_m[:, 0]))
             or np.any(c.via_points_m[:, 0] <= 0)
             or np.any(c.via_points_m[:, 0] > robot.length_m)
             or np.any(np.diff(c.via_points_m[:, 0]) <= 0)
         ):
             raise DefectsError(
                 f"field 'cables[{i}].via_shift_m' moves eyelets of {c.name!r} out of the body "
-                f"(radius {robot.radius_m} m, 0 < x <= {robot.length_m} m, increasing x)"
+                f"(radius {robot.radius_m} m or the profile's, 0 < x <= {robot.length_m} m, increasing x)"
             )
     return dataclasses.replace(robot, cables=cables)
 
@@ -160,16 +159,37 @@ def as_built_fem(
     body frame of a tilted base; stretching cables in series).
 
     Mesh resolution: the arguments, else the defects file's ``[emulator]``, else the
-    description's. Without the optional defects this is exactly the FEM it always was."""
+    description's. Without the optional defects this is exactly the FEM it always was.
+    A tapered or mesh body is the description's (:func:`lab.fem.bodies.body_of`; the
+    gradient's normalising radius stays ``radius_m``). A tension-controlled tendon holds
+    its tension whatever its length: its ``slack_m`` and ``play_m`` are not emulated, and a
+    cable ``stiffness_n_per_m`` is refused on a robot with such tendons."""
     built = as_built_robot(robot, defects)
     if defects.R_tilt is not None:
         built = dataclasses.replace(built, gravity_m_s2=defects.R_tilt.T @ robot.gravity_m_s2)
     n_rings = n_rings or defects.n_rings or robot.n_rings
     n_axial = n_axial or defects.n_axial or robot.n_axial
-    mesh = cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
-    centroids = mesh.X_W[mesh.tets].mean(axis=1)
-    kw = dict(_elastic_args(robot, defects, centroids), cable_slack_m=defects.slack_m)
     k_cable = [np.inf if c.stiffness_n_per_m is None else c.stiffness_n_per_m for c in defects.cables]
+    slack = defects.slack_m
+    if not robot.all_angle:
+        if not np.all(np.isinf(k_cable)):
+            raise DefectsError(
+                "field 'cables[].stiffness_n_per_m' is emulated for robots whose cables are all "
+                "angle-controlled; remove it (a tension-controlled tendon's stretch does not change its tension)"
+            )
+        slack = np.array([s_ for s_, c in zip(slack, robot.cables) if c.control == "angle"])
+    shape = getattr(robot.body_shape, "shape", "cylinder")
+    if shape == "cylinder":
+        body, mesh = None, cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
+        tet_mesh = mesh
+    else:
+        res = {} if shape == "mesh" else {"n_rings": n_rings, "n_axial": n_axial}
+        body, mesh = body_of(built, **res), None
+        tet_mesh = body.mesh
+    centroids = tet_mesh.X_W[tet_mesh.tets].mean(axis=1)
+    kw = dict(_elastic_args(robot, defects, centroids), cable_slack_m=slack)
+    if body is not None:
+        kw["body"] = body
     try:
         if np.all(np.isinf(k_cable)):
             return ArmFEM(built, mesh, **kw)
@@ -233,66 +253,3 @@ class SeriesCableFEM(ArmFEM):
                 block = dk_c * route_hessian(c, x, L_star, 1.0, eps)
                 H.data += np.bincount(slot, weights=block[np.ix_(keep, keep)].ravel(), minlength=len(H.data))
         return H
-
-
-class EquilibriumCache:
-    """Tip equilibria of an FEM for *effective* cable contractions ``y`` (m,) m.
-
-    ``y`` is what the cables really pulled in (after friction play); the FEM is solved
-    at the motor angles ``y / spool_radius``. Each new equilibrium is warm-started from
-    the nearest cached one, predicted forward with its sensitivity; the last
-    ``max_entries`` are kept (least recently used dropped). Keys are ``y`` rounded to
-    1 nm, so a repeated state (e.g. the reset) costs nothing.
-    """
-
-    def __init__(self, fem: ArmFEM, max_entries: int = 256):
-        self.fem = fem
-        self.max_entries = int(max_entries)
-        self._r = fem.robot.spool_radius_m
-        self._entries: OrderedDict[tuple, tuple] = OrderedDict()  # key -> (u_eff, q, dq_du, p_tip_W)
-        self.n_solves = 0
-        self.solve_time_s = 0.0
-
-    def tip(self, contraction_m) -> np.ndarray:
-        """Equilibrium tip position p_tip_W (3,) m for effective contractions (m,) m."""
-        y = np.asarray(contraction_m, dtype=float)
-        key = tuple(np.rint(y * 1e9).astype(np.int64).tolist())
-        if key in self._entries:
-            self._entries.move_to_end(key)
-            return self._entries[key][3].copy()
-        u_eff = y / self._r
-        t0 = time.perf_counter()
-        sol = self._solve(u_eff)
-        self.solve_time_s += time.perf_counter() - t0
-        self.n_solves += 1
-        self._entries[key] = (u_eff, sol.q, sol.dq_du, sol.p_tip_W)
-        if len(self._entries) > self.max_entries:
-            self._entries.popitem(last=False)
-        return sol.p_tip_W.copy()
-
-    def _solve(self, u_eff: np.ndarray):
-        kw = dict(sensitivity="reuse", raise_on_failure=False, check_command=False)
-        start = None
-        if self._entries:
-            keys = list(self._entries)
-            dist = [np.abs(self._entries[k][0] - u_eff).sum() for k in keys]
-            start = self._entries[keys[int(np.argmin(dist))]]
-        if start is not None and start[2] is not None:
-            sol = solve_static(self.fem, u_eff, start[1] + start[2] @ (u_eff - start[0]), **kw)
-            if sol.converged:
-                return sol
-        sol = solve_static(self.fem, u_eff, **kw)  # cold start from rest
-        if sol.converged:
-            return sol
-        # Continuation from rest in small steps for a far, hard command.
-        prev = solve_static(self.fem, np.zeros_like(u_eff), **kw)
-        for a in np.linspace(0.1, 1.0, 10):
-            prev = solve_static(self.fem, a * u_eff, prev.q, **kw)
-            if not prev.converged:
-                break
-        if not prev.converged:
-            raise LabRuntimeError(
-                f"as-built FEM: no equilibrium found for effective motor angles "
-                f"{u_eff.tolist()} rad ({prev.status}, residual {prev.grad_norm_n:.3g} N)"
-            )
-        return prev

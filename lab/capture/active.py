@@ -65,7 +65,9 @@ class JournaledBatches:
         """The samples so far, ``u`` (N, m) rad and ``y`` (N, 3) m, after finishing a batch
         that a kill interrupted (as planned in the journal)."""
         m = self.rig.robot.n_cables
-        u_done, y_done, notes = journal_samples(self.journal, m, self.protocol, header=self.header)
+        u_done, y_done, notes = journal_samples(
+            self.journal, m, self.protocol, header=self.header, markers=self.rig.robot.marker_names
+        )
         plans = planned_batches(notes)
         if plans and plans[-1]["n_before"] + len(plans[-1]["u"]) > len(u_done):  # killed inside a batch
             plan = plans[-1]

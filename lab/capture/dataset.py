@@ -63,12 +63,41 @@ class CapturedDataset:
         per-sample settle times), JSON-ready.
     summary : str
         The line (or two, with the repeat check) printed after writing it.
+    y_W : numpy.ndarray or None
+        Every marker (the tip first), shape (N, 3K), m, frame W, in the same order;
+        ``p_tip_W`` when None (a robot observed at its tip alone).
+    markers : tuple of str
+        The K marker names, the tip first.
+    input_units : tuple of str or None
+        Each input's unit (``"rad"``, ``"N"``); None: all radians (today's robots).
     """
 
     u_motor: np.ndarray
     p_tip_W: np.ndarray
     meta: dict
     summary: str
+    y_W: np.ndarray | None = None
+    markers: tuple = ("tip",)
+    input_units: tuple | None = None
+
+    def write_args(self) -> dict:
+        """The keyword arguments of :func:`lab.data.dataset.write_dataset` beyond today's
+        (none for a tip-only robot of angle inputs, whose file is written as always).
+
+        Returns
+        -------
+        dict
+            ``markers`` and ``units`` when the robot has markers or inputs other than angles.
+        """
+        if len(self.markers) == 1 and self.input_units is None:
+            return {}
+        units = self.input_units or ("rad",) * self.u_motor.shape[1]
+        return {"markers": tuple(self.markers), "units": tuple(units)}
+
+    @property
+    def outputs(self) -> np.ndarray:
+        """The dataset's outputs y (N, 3K) m: every marker, the tip first."""
+        return self.p_tip_W if self.y_W is None else self.y_W
 
 
 def _stats(a: np.ndarray) -> dict:
@@ -97,6 +126,10 @@ def captured_dataset(
     n = len(u)
     y = np.empty_like(res.p_tip_W)
     y[order] = res.p_tip_W  # back to grid (design) order
+    y_all = None
+    if len(res.markers) > 1:
+        y_all = np.empty_like(res.y_W)
+        y_all[order] = res.y_W
     settled = np.empty(n, bool)
     settled[order] = res.settled
     per_sample = {name: np.empty(n) for name in ("sample_s", "settle_s")}
@@ -150,4 +183,5 @@ def captured_dataset(
         + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else "")
     )
     check = repeat_check_line(res)
-    return CapturedDataset(u, y, meta, summary + (f"\n{check}" if check else ""))
+    units = None if robot.all_angle else tuple(robot.input_units)
+    return CapturedDataset(u, y, meta, summary + (f"\n{check}" if check else ""), y_all, tuple(res.markers), units)

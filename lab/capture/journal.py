@@ -228,3 +228,65 @@ class Journal:
     def __exit__(self, *exc):
         self.close()
         return False
+
+
+def journal_columns(n_motors: int, predictive: bool = False, markers=("tip",)) -> list[str]:
+    """The journal's columns; the predictive protocol adds ``pred_std_m`` (3-D std of the
+    predicted tip, m; NaN when waited for) and ``predicted`` (1: recorded from the prediction).
+
+    Parameters
+    ----------
+    n_motors : int
+        Number of motors m: columns ``u0..u{m-1}`` and ``present_u0..``.
+    predictive : bool
+        Whether the journal is of the predictive protocol.
+    markers : sequence of str
+        The robot's observed points, the tip first: ``NAME_x, NAME_y, NAME_z`` follow the
+        tip's columns for every further one (none for a robot observed at its tip alone).
+
+    Returns
+    -------
+    list of str
+        ``index``, the inputs (rad or N), the tip ``x``, ``y``, ``z`` (m, frame W), the other
+        markers' columns (m), the settle statistics and times (s), the present inputs,
+        ``session`` and, for the predictive protocol, its two columns.
+    """
+    u = [f"u{i}" for i in range(n_motors)]
+    return (
+        [
+            "index",
+            *u,
+            "x",
+            "y",
+            "z",
+            *marker_columns(markers),
+            "settled",
+            "t_start_s",
+            "t_command_s",
+            "t_arrived_s",
+            "t_done_s",
+            "n_readings",
+            "deviation_m",
+            "n_frames",
+            "n_invalid_frames",
+        ]
+        + [f"present_{c}" for c in u]
+        + ["session"]
+        + (["pred_std_m", "predicted"] if predictive else [])
+    )
+
+
+def marker_columns(markers) -> list[str]:
+    """The columns of every marker but the tip: ``NAME_x, NAME_y, NAME_z`` in order.
+
+    Parameters
+    ----------
+    markers : sequence of str
+        The observed points, the tip first.
+
+    Returns
+    -------
+    list of str
+        3(K-1) column names.
+    """
+    return [f"{name}_{a}" for name in list(markers)[1:] for a in "xyz"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.capture.markers import reset_command
 from lab.capture.protocol import Protocol, Sample, SettleDetector
 from lab.capture.recorder import StreamRecorder
 from lab.capture.tip_filter import TipFilter
@@ -67,7 +68,7 @@ class PredictiveSampler:
         m = self.rig.robot.n_cables
         # each sample's reset pose is its own: the cables' play leaves it where the previous sample
         # came from (the release then erases that memory, so the rest pose is one and the same)
-        rec.go_to(np.full(m, p.reset_u_rad), f"reset{self.n_learned}", p.motion_timeout_s)
+        rec.go_to(reset_command(self.rig.robot, p), f"reset{self.n_learned}", p.motion_timeout_s)
         rec.go_to(np.zeros(m), "rest", p.motion_timeout_s)
         goal = rec.command(u_motor, f"target{self.n_learned}")
         move, detector = rec.move, SettleDetector(p.n_previous, p.settle_tol_m)
@@ -124,7 +125,7 @@ class PredictiveSampler:
         # The reset pose depends on the cables' play on the way in: known only roughly in advance.
         f.jitter("reset", p.reset_jitter_m)
         f.jitter("rest", p.pose_jitter_m)
-        self._move(np.full(m, p.reset_u_rad), "target", "reset")
+        self._move(reset_command(self.rig.robot, p), "target", "reset")
         self._move(np.zeros(m), "reset", "rest")
         f.forget("target")
         goal = rec.command(u_motor, "target")

@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from lab.capture.markers import frame_markers, mean_markers, reset_command
 from lab.errors import InputError
 from lab.rig.base import MocapError, Rig, RigError
 
@@ -215,6 +216,10 @@ class Sample:
         Predictive protocol: 3-D std (m) of the predicted settled tip (NaN when waited for).
     predicted : bool
         Predictive protocol: recorded from the prediction (False: waited for).
+    markers_W : numpy.ndarray or None
+        Every marker of the robot (the tip first) at the recorded reading, shape (K, 3),
+        m, frame W (each the mean of its valid frames, NaN if unseen); None for a robot
+        observed at its tip alone.
     """
 
     u_motor: np.ndarray
@@ -231,6 +236,7 @@ class Sample:
     n_invalid_frames: int
     pred_std_m: float = float("nan")
     predicted: bool = False
+    markers_W: np.ndarray | None = None
 
 
 class _Watcher:
@@ -241,15 +247,19 @@ class _Watcher:
         self.rig, self.protocol = rig, protocol
         self.n_frames = self.n_invalid = 0
         self._t_seen = rig.now()
+        self.n_markers = len(rig.robot.marker_names)
+        self.markers_W = None  # the last reading of every marker (K, 3), for a robot with markers
 
     def read(self) -> np.ndarray:
         end = self.rig.now() + self.protocol.reading_period_s
-        points = []
+        points, markers = [], []
         while self.rig.now() < end - 1e-9:
             frame = self.rig.next_frame()
             self.n_frames += 1
             if frame.valid:
                 points.append(frame.p_tip_W)
+                if self.n_markers > 1:
+                    markers.append(frame_markers(frame, self.n_markers, self.rig.kind))
                 self._t_seen = frame.t_s
             else:
                 self.n_invalid += 1
@@ -258,6 +268,8 @@ class _Watcher:
                         f"tip marker not seen for {frame.t_s - self._t_seen:.1f} s "
                         f"(limit {self.protocol.max_occlusion_s} s)"
                     )
+        if self.n_markers > 1:
+            self.markers_W = mean_markers(markers, self.n_markers)
         return np.mean(points, axis=0) if points else np.full(3, np.nan)
 
     def arrived(self, goal: np.ndarray) -> bool:
@@ -298,18 +310,19 @@ def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
     t_start = rig.now()
     if protocol.reset:
         m = rig.robot.n_cables
-        watch.go_to(np.full(m, protocol.reset_u_rad))  # contract all together ...
+        watch.go_to(reset_command(rig.robot, protocol))  # contract all together ...
         watch.go_to(np.zeros(m))  # ... and release
     goal = rig.send(u_motor)
     t_command = rig.now()
     detector = SettleDetector(protocol.n_previous, protocol.settle_tol_m)
     t_arrived, last_valid, settled, n_readings = None, None, False, 0
+    last_markers = None
     while True:
         reading = watch.read()
         n_readings += 1
         valid = bool(np.all(np.isfinite(reading)))
         if valid:
-            last_valid = reading
+            last_valid, last_markers = reading, watch.markers_W
         if t_arrived is None:
             if watch.arrived(goal):
                 t_arrived = rig.now()
@@ -339,4 +352,5 @@ def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
         detector.deviation_m if protocol.wait else float("nan"),
         watch.n_frames,
         watch.n_invalid,
+        markers_W=last_markers,
     )

@@ -16,53 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lab.capture.journal import Journal
+from lab.capture.journal import Journal, journal_columns, marker_columns
 from lab.capture.protocol import Protocol, measure
 from lab.capture.repeat_check import repeat_note
 from lab.errors import InputError
 from lab.rig.base import Rig
-
-
-def journal_columns(n_motors: int, predictive: bool = False) -> list[str]:
-    """The journal's columns; the predictive protocol adds ``pred_std_m`` (3-D std of the
-    predicted tip, m; NaN when waited for) and ``predicted`` (1: recorded from the prediction).
-
-    Parameters
-    ----------
-    n_motors : int
-        Number of motors m: columns ``u0..u{m-1}`` and ``present_u0..``.
-    predictive : bool
-        Whether the journal is of the predictive protocol.
-
-    Returns
-    -------
-    list of str
-        ``index``, the commands (rad), the tip ``x``, ``y``, ``z`` (m, frame W), the settle
-        statistics and times (s), the present motor angles (rad), ``session`` and, for the
-        predictive protocol, its two columns.
-    """
-    u = [f"u{i}" for i in range(n_motors)]
-    return (
-        [
-            "index",
-            *u,
-            "x",
-            "y",
-            "z",
-            "settled",
-            "t_start_s",
-            "t_command_s",
-            "t_arrived_s",
-            "t_done_s",
-            "n_readings",
-            "deviation_m",
-            "n_frames",
-            "n_invalid_frames",
-        ]
-        + [f"present_{c}" for c in u]
-        + ["session"]
-        + (["pred_std_m", "predicted"] if predictive else [])
-    )
 
 
 @dataclass
@@ -95,6 +53,11 @@ class Capture:
         Predictive protocol: 3-D std (m) of each predicted tip, shape (N,); NaN when waited for.
     predicted : numpy.ndarray or None
         Predictive protocol: recorded from the prediction, shape (N,), bool.
+    y_W : numpy.ndarray or None
+        Every marker (the tip first), shape (N, 3K), m, frame W; ``p_tip_W`` when None
+        (a robot observed at its tip alone).
+    markers : tuple of str
+        The K marker names, the tip first.
     """
 
     u_motor: np.ndarray
@@ -110,6 +73,8 @@ class Capture:
     new_samples: int
     pred_std_m: np.ndarray | None = None
     predicted: np.ndarray | None = None
+    y_W: np.ndarray | None = None
+    markers: tuple = ("tip",)
 
     @property
     def repeat_check(self) -> dict | None:
@@ -123,6 +88,8 @@ class Capture:
             self.pred_std_m = np.full(n, np.nan)
         if self.predicted is None:
             self.predicted = np.zeros(n, dtype=bool)
+        if self.y_W is None:
+            self.y_W = self.p_tip_W
 
     @property
     def wall_s(self) -> float:
@@ -215,7 +182,14 @@ def capture(
         rig.robot.check_command(u)  # fail before moving anything
     full_header = _full_header(header, protocol, None if open_ended else commands)
     predictive = protocol.kind == "predictive"
-    cols = journal_columns(m, predictive)
+    markers = tuple(rig.robot.marker_names)
+    if predictive and len(markers) > 1:
+        raise InputError(
+            f"the predictive protocol watches the tip alone; robot {rig.robot.name!r} has markers "
+            f"{', '.join(markers[1:])}: capture it with the waiting protocol"
+        )
+    cols = journal_columns(m, predictive, markers)
+    others = marker_columns(markers)
     with Journal.open(journal_path, full_header, cols) as journal:
         done = len(journal.rows)
         if done > len(commands):
@@ -241,6 +215,7 @@ def capture(
                         "x": s.p_tip_W[0],
                         "y": s.p_tip_W[1],
                         "z": s.p_tip_W[2],
+                        **_other_markers(others, s.markers_W),
                         "settled": int(s.settled),
                         "t_start_s": s.t_start_s,
                         "t_command_s": s.t_command_s,
@@ -291,7 +266,17 @@ def capture(
         new_samples=len(rows) - done,
         pred_std_m=col["pred_std_m"] if predictive else None,
         predicted=col["predicted"].astype(bool) if predictive else None,
+        y_W=np.column_stack([col[c] for c in ["x", "y", "z", *others]]) if others else None,
+        markers=markers,
     )
+
+
+def _other_markers(columns: list[str], markers_W) -> dict:
+    """A sample's other markers by journal column (NaN where not seen)."""
+    if not columns:
+        return {}
+    values = np.full(len(columns), np.nan) if markers_W is None else np.asarray(markers_W, float).ravel()[3:]
+    return dict(zip(columns, values.tolist()))
 
 
 def _sampler(rig: Rig, protocol: Protocol, journal, relaxation):
@@ -315,7 +300,9 @@ def _full_header(header: dict | None, protocol: Protocol, commands: np.ndarray |
     return {"kind": "lab.capture", **(header or {}), "protocol": protocol.as_dict(), "commands": listed}
 
 
-def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol(), *, header: dict | None = None):
+def journal_samples(
+    journal_path, n_motors: int, protocol: Protocol = Protocol(), *, header: dict | None = None, markers=("tip",)
+):
     """What an open-ended capture's journal holds; empty if there is no journal.
     Raises JournalError for a journal of other settings (as :func:`capture` would).
 
@@ -329,6 +316,8 @@ def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol()
         The capture settings it was written with.
     header : dict, optional
         The extra identity it was written with.
+    markers : sequence of str
+        The robot's observed points, the tip first (its journal's marker columns).
 
     Returns
     -------
@@ -344,7 +333,7 @@ def journal_samples(journal_path, n_motors: int, protocol: Protocol = Protocol()
     empty = np.empty((0, n_motors)), np.empty((0, 3)), []
     if not Path(journal_path).exists():
         return empty
-    cols = journal_columns(n_motors, protocol.kind == "predictive")
+    cols = journal_columns(n_motors, protocol.kind == "predictive", markers)
     with Journal.open(journal_path, _full_header(header, protocol, None), cols) as journal:
         rows, notes = journal.rows, journal.notes
     if not rows:

@@ -11,7 +11,9 @@ the dataset OUT (+ OUT.json) in grid (or design) order. With --active N --batch 
 is picked where an ensemble fitted to the samples so far disagrees most (rows in capture
 order; --order does not apply). Killed or failed, it keeps every sample so far and the same
 command continues where it stopped (an active run first finishes its batch); the rig is
-closed (torque off). Flags: lab.rig.CaptureSpec; the run: lab.jobs.capture.run.
+closed (torque off). A robot with [[markers]] is captured at every marker (columns NAME_x,
+NAME_y, NAME_z after the tip's; the waiting protocol only); a tension-controlled tendon's
+input is in N. Flags: lab.rig.CaptureSpec; the run: lab.jobs.capture.run.
 """
 
 from __future__ import annotations
@@ -96,6 +98,6 @@ def run(args) -> int:
                 file=sys.stderr,
             )
         raise
-    write_dataset(spec.out, data.u_motor, data.p_tip_W, data.meta)
+    write_dataset(spec.out, data.u_motor, data.outputs, data.meta, **data.write_args())
     print(data.summary, file=sys.stderr)
     return 0

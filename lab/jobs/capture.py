@@ -20,6 +20,7 @@ import numpy as np
 
 from lab.capture.dataset import CapturedDataset, capture_header, captured_dataset, planned_commands
 from lab.capture.spec import CaptureSpec
+from lab.errors import InputError
 
 __all__ = ["run"]
 
@@ -49,6 +50,11 @@ def run(spec: CaptureSpec, *, file=None) -> CapturedDataset:
     file = sys.stderr if file is None else file
     robot = load_robot(spec.robot)
     protocol, relaxation = spec.protocol.protocol(), spec.protocol.relaxation()
+    if protocol.kind == "predictive" and len(robot.marker_names) > 1:  # before the rig moves
+        raise InputError(
+            f"--protocol predictive watches the tip alone; robot {robot.name!r} has markers "
+            f"{', '.join(robot.marker_names[1:])}: capture it with --protocol wait"
+        )
     active = spec.design.kind == "active"
     if active:
         from lab.learn.active_design import check_active

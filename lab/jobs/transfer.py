@@ -91,14 +91,59 @@ def _check_robot(robot, meta: dict, what: str, n_u: int) -> None:
 
 
 def _read(path, what: str, robot):
-    """The dataset ``path`` of flag ``what``: (u (N, n_u) rad, y (N, 3) m, metadata), not empty."""
+    """The dataset ``path`` of flag ``what``: (u (N, n_u), y (N, 3K) m, metadata), not empty,
+    with its markers (:func:`dataset_markers`) and input units fitting the robot."""
     from lab.data.dataset import read_dataset
 
     u, y, meta = read_dataset(path)
     if len(u) == 0:
         raise FieldError(f"{what} {path} holds no samples")
     _check_robot(robot, meta, f"{what} {path}", u.shape[1])
+    dataset_markers(robot, meta, y, f"{what} {path}")
+    units = meta.get("input_units")
+    if robot is not None and units is not None and tuple(units) != tuple(robot.input_units):
+        raise FieldError(
+            f"{what} {path} has inputs in {', '.join(map(str, units))}, but TransferSpec.robot {robot.name}'s "
+            f"are in {', '.join(robot.input_units)}"
+        )
     return u, y, meta
+
+
+def dataset_markers(robot, meta: dict, y, what: str = "the dataset") -> tuple[str, ...]:
+    """The markers a dataset's outputs hold, in column order: its sidecar's ``markers``, else
+    the tip alone (3 columns) or, with a robot, the robot's markers.
+
+    Parameters
+    ----------
+    robot : RobotDescription or None
+        The robot the data must fit (its ``marker_names``), if known.
+    meta : dict
+        The dataset's sidecar.
+    y : numpy.ndarray
+        Its outputs, shape (N, 3K), m.
+    what : str
+        The dataset's flag and path, for the messages.
+
+    Returns
+    -------
+    tuple of str
+        The K marker names, the tip first (FieldError for a marker the robot lacks or a
+        column count that fits none).
+    """
+    names = meta.get("markers")
+    if names is None:
+        names = ("tip",) if y.shape[1] == 3 or robot is None else robot.marker_names
+    names = tuple(names)
+    if robot is not None:
+        unknown = [k for k in names if k not in robot.marker_names]
+        if unknown:
+            raise FieldError(
+                f"{what}: marker {unknown[0]!r} is not one of TransferSpec.robot {robot.name}'s markers "
+                f"{list(robot.marker_names)}"
+            )
+    if y.shape[1] != 3 * len(names):
+        raise FieldError(f"{what}: {y.shape[1]} output columns, but its markers {list(names)} need {3 * len(names)}")
+    return names
 
 
 def run(spec: TransferSpec, *, command: str = "", log=None):
@@ -118,16 +163,17 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
     model : object
         The forward model (an MLP or a residual model), ready to save.
     real : tuple of ndarray
-        The real data: u (N, n_u) rad and y (N, 3) m. InputError for files or data that do
+        The real data: u (N, n_u) and y (N, 3K) m. InputError for files or data that do
         not fit the method or the robot.
     """
     from lab.description import load_robot
 
     log = log or (lambda line: None)
     robot = load_robot(spec.robot) if spec.robot else None
-    u_real, y_real, _ = _read(spec.real, "TransferSpec.real", robot)
+    u_real, y_real, real_meta = _read(spec.real, "TransferSpec.real", robot)
+    markers = dataset_markers(robot, real_meta, y_real)
     if spec.method == "calibrated":
-        model = _calibrated(spec, robot, u_real, y_real, log)
+        model = _calibrated(spec, robot, u_real, y_real, markers, log)
         model.metadata["transfer"].update({"real": str(spec.real), "sim": spec.sim, "command": command})
         return model, (u_real, y_real)
     from lab.learn.mlp import load_model
@@ -145,12 +191,18 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
                     f"has {robot.n_cables} motors"
                 )
         else:
-            u_sim, y_sim, _ = _read(spec.sim, "TransferSpec.sim", robot)
+            u_sim, y_sim, sim_meta = _read(spec.sim, "TransferSpec.sim", robot)
             if u_sim.shape[1] != u_real.shape[1]:
                 raise FieldError(
                     f"TransferSpec.sim {spec.sim} has {u_sim.shape[1]} motor columns, but TransferSpec.real "
                     f"{spec.real} has "
                     f"{u_real.shape[1]}: they are not of one robot"
+                )
+            sim_markers = dataset_markers(robot, sim_meta, y_sim, f"TransferSpec.sim {spec.sim}")
+            if sim_markers != markers:
+                raise FieldError(
+                    f"TransferSpec.sim {spec.sim} holds the markers {', '.join(sim_markers)}, but TransferSpec.real "
+                    f"{spec.real} holds {', '.join(markers)}: simulate the same markers"
                 )
             log(f"training {list(hidden)} on {len(u_sim)} simulated samples ({spec.sim})")
             sim_model = train(u_sim, y_sim, hidden, seed=seed).model
@@ -167,7 +219,7 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
     return model, (u_real, y_real)
 
 
-def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
+def _calibrated(spec: TransferSpec, robot, u_real, y_real, markers, log):
     from lab.transfer.calibrated import MIN_RESIMULATED, calibrated_model
 
     n_rings, n_axial = spec.mesh.resolve(robot)
@@ -177,7 +229,7 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
             f"TransferSpec.sim {spec.sim} holds {len(u_sim)} commands; the calibrated FEM re-simulates at least "
             f"{MIN_RESIMULATED}"
         )
-    spec.train.check_fits(robot.n_cables, 3, len(u_sim))  # before the calibration and re-simulation
+    spec.train.check_fits(robot.n_cables, 3 * len(markers), len(u_sim))  # before the calibration and re-simulation
     log(
         f"calibrated: {len(u_real)} real samples from {spec.real}; mesh n_rings={n_rings} n_axial={n_axial}; "
         f"then {len(u_sim)} commands of {spec.sim} re-simulated"
@@ -185,27 +237,31 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, log):
     try:
         return calibrated_model(
             robot, u_real, y_real, u_sim, hidden=tuple(spec.train.hidden), seed=spec.train.seed,
-            n_rings=n_rings, n_axial=n_axial, n_jobs=spec.jobs, log=log,
+            n_rings=n_rings, n_axial=n_axial, n_jobs=spec.jobs, log=log, markers=markers,
         )  # fmt: skip
     except InputError as err:  # the real samples: the commands of TransferSpec.sim were checked above
         raise FieldError(f"TransferSpec.real {spec.real}: {err}") from None
 
 
 def fit_mean_distance_mm(model, u, y) -> float:
-    """Mean distance between ``model``'s predictions and the tips.
+    """Mean distance between ``model``'s predictions and the markers.
 
     Parameters
     ----------
     model : object
         A forward model with ``predict(u)``.
     u : ndarray, shape (N, n_u)
-        Commands, rad.
-    y : ndarray, shape (N, 3)
-        Tips, m.
+        Commands, each in its unit.
+    y : ndarray, shape (N, 3K)
+        Markers (the tip first), m.
 
     Returns
     -------
     float
-        Mean Euclidean distance, mm.
+        Mean Euclidean distance over the samples and the K markers, mm.
     """
-    return 1e3 * float(np.mean(np.linalg.norm(model.predict(u) - y, axis=1)))
+    y = np.asarray(y, dtype=float)
+    if y.shape[1] == 3:  # the tip alone, as always
+        return 1e3 * float(np.mean(np.linalg.norm(model.predict(u) - y, axis=1)))
+    d = (np.asarray(model.predict(u)) - y).reshape(len(y), -1, 3)
+    return 1e3 * float(np.mean(np.linalg.norm(d, axis=2)))

@@ -3,7 +3,10 @@
 The twin rig (:class:`~lab.rig.twin.TwinRig`) passes the true tip of its as-built body
 through this model once per frame: Gaussian noise per axis and occlusion bursts reported as
 NaN frames, drawn in blocks from one seeded generator so that the sequence depends only on
-the seed. The defects file gives the parameters (``[mocap]``); the design:
+the seed. A robot's other markers (:meth:`MocapModel.observe_markers`) get their own noise
+from a second generator of the same seed, so the tip's sequence is the same with or
+without them, and are hidden with it (one occlusion process per frame). The defects file
+gives the parameters (``[mocap]``); the design:
 ``docs/design/rig.md``.
 """
 
@@ -44,6 +47,7 @@ class MocapModel:
         self.p_burst_start = float(dropout_rate_hz) / float(frame_rate_hz)
         self.dropout_max_frames = int(dropout_max_frames)
         self._rng = np.random.default_rng(seed)
+        self._marker_rng = np.random.default_rng([int(seed), 1])  # the other markers' noise
         self._i = self._BLOCK
         self._left = 0  # frames still occluded in the current burst
         self._burst_ended = False  # a burst ended last frame: this one is seen
@@ -99,3 +103,24 @@ class MocapModel:
             self._burst_ended = self._left == 0
             return np.full(3, np.nan)
         return p_true_W + self._noise[i]
+
+    def observe_markers(self, points_true_W: np.ndarray) -> np.ndarray:
+        """One frame's measurement of every marker: the tip (row 0) by :meth:`observe`, the
+        others with their own Gaussian noise, all NaN in a frame the tip is occluded in.
+
+        Parameters
+        ----------
+        points_true_W : numpy.ndarray
+            True marker positions, shape (K, 3), in m in the frame W, the tip first.
+
+        Returns
+        -------
+        numpy.ndarray
+            The measured positions, shape (K, 3), in m; every row NaN while occluded.
+        """
+        p = np.asarray(points_true_W, dtype=float).reshape(-1, 3)
+        out = np.empty_like(p)
+        out[0] = self.observe(p[0])
+        noise = self.noise_sigma_m * self._marker_rng.standard_normal((len(p) - 1, 3))
+        out[1:] = p[1:] + noise if np.all(np.isfinite(out[0])) else np.nan
+        return out

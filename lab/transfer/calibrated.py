@@ -1,9 +1,11 @@
 """The ``calibrated`` transfer method: calibrate the FEM, re-simulate, retrain.
 
 From N real samples, :func:`lab.transfer.calibrate` identifies the as-built parameters
-theta (softness, stiffness gradient, eyelet shifts, slack per cable); the calibrated
-description then simulates the same commands as the simulated dataset (e.g. the 308
-lattice points), and a fresh network is trained on those tips. Unlike the data-only
+theta (:func:`lab.transfer.prior.default_groups`: softness, stiffness gradient, eyelet
+shifts and, with an angle-controlled cable, slack per cable) on every marker the data
+holds; the calibrated description then simulates the same commands as the simulated
+dataset (e.g. the 308 lattice points), and a fresh network is trained on those markers
+(the data's, in its column order: the tip alone for a tip-only dataset, as always). Unlike the data-only
 methods, the real samples never enter the network directly: they only move the physics.
 What the static FEM cannot represent (lag, hysteresis, play, friction) stays as bias.
 
@@ -40,10 +42,11 @@ def calibrated_model(
     n_jobs: int = 1,
     max_iter: int = 30,
     log=None,
+    markers=None,
 ):
     """A network for the real arm by calibrated physics.
 
-    ``u_real`` (N, m) rad and ``y_real`` (N, 3) m: the real samples; ``u_sim`` (S, m) rad:
+    ``u_real`` (N, m) and ``y_real`` (N, 3K) m: the real samples; ``u_sim`` (S, m):
     the commands re-simulated on the calibrated FEM (those of the simulated dataset).
     Mesh of calibration and re-simulation: ``n_rings``/``n_axial`` (default: the
     description's). Returns the trained MLP; its ``metadata["transfer"]`` holds the
@@ -55,11 +58,11 @@ def calibrated_model(
     robot : RobotDescription
         The nominal description that is calibrated.
     u_real : array_like
-        Real motor angles, shape (N, m), rad.
+        Real inputs, shape (N, m), each in its unit (rad, N).
     y_real : array_like
-        Real tip positions, shape (N, 3), m, frame W.
+        Real marker positions, shape (N, 3K), m, frame W: (x, y, z) of each of ``markers``.
     u_sim : array_like
-        Commands re-simulated on the calibrated FEM, shape (S, m), rad (S >= 10).
+        Commands re-simulated on the calibrated FEM, shape (S, m), in the inputs' units (S >= 10).
     hidden : tuple of int
         Hidden layer sizes of the network.
     seed : int
@@ -72,12 +75,15 @@ def calibrated_model(
         Most Levenberg-Marquardt iterations of the calibration.
     log : callable, optional
         Called with a progress line (str).
+    markers : sequence of str, optional
+        The markers the columns of ``y_real`` hold, in order (names of
+        ``robot.marker_names``); default the tip alone.
 
     Returns
     -------
     MLP
-        The trained network u (rad) -> tip (m, frame W), with the calibration in its
-        ``metadata["transfer"]``.
+        The trained network u -> the markers (m, frame W; the tip alone for a tip-only
+        dataset), with the calibration in its ``metadata["transfer"]``.
 
     Raises
     ------
@@ -95,7 +101,11 @@ def calibrated_model(
         raise InputError(
             f"expected at least {MIN_RESIMULATED} commands to re-simulate, (S, {robot.n_cables}) rad; got {u_sim.shape}"
         )
-    result = calibrate(robot, u_real, y_real, n_rings=n_rings, n_axial=n_axial, max_iter=max_iter, log=log)
+    markers = ("tip",) if markers is None else tuple(markers)
+    # the groups: calibrate's default, lab.transfer.prior.default_groups (slack only with an angle cable)
+    result = calibrate(
+        robot, u_real, y_real, n_rings=n_rings, n_axial=n_axial, max_iter=max_iter, log=log, markers=markers
+    )
     cal = calibrated_robot(robot, result)
     sim = simulate(
         cal,
@@ -110,7 +120,7 @@ def calibrated_model(
         raise LabRuntimeError(
             f"the calibrated FEM found no equilibrium for {len(u_sim) - ok.sum()} of {len(u_sim)} commands"
         )
-    model = train(u_sim[ok], sim["p_tip_W"][ok], tuple(hidden), seed=seed).model
+    model = train(u_sim[ok], _resimulated(sim, robot, markers)[ok], tuple(hidden), seed=seed).model
     model.metadata["transfer"] = {
         "method": "calibrated",
         "n_real": int(len(np.asarray(u_real))),
@@ -120,4 +130,18 @@ def calibrated_model(
         "calibration": result.summary(),
         "calibrated_robot_toml": calibrated_toml(robot, result),
     }
+    if markers != ("tip",):
+        model.metadata["transfer"]["markers"] = list(markers)
     return model
+
+
+def _resimulated(sim: dict, robot: RobotDescription, markers: tuple) -> np.ndarray:
+    """The re-simulated outputs of ``markers`` (S, 3K) m: the tips for a tip-only dataset,
+    else those markers' columns of the simulation's ``y_W`` (every marker of the robot)."""
+    if markers == ("tip",):
+        return sim["p_tip_W"]
+    y_all = sim.get("y_W")
+    if y_all is None:
+        raise LabRuntimeError("the re-simulation returned the tip alone; markers need its y_W (every marker)")
+    y_all = np.asarray(y_all).reshape(len(sim["p_tip_W"]), -1, 3)
+    return y_all[:, [robot.marker_names.index(k) for k in markers]].reshape(len(y_all), -1)

@@ -9,7 +9,8 @@ simulated data (or none) and N real samples, and returns a forward model for IK.
   (:mod:`lab.learn.residual`).
 
 The physics-based method (``calibrated``: identify the as-built parameters through the
-FEM, re-simulate, retrain) is :mod:`lab.transfer.calibrated`.
+FEM, re-simulate, retrain) is :mod:`lab.transfer.calibrated`. Every method maps the inputs
+to whatever outputs the data holds: the tip (N, 3), or every marker (N, 3K), the tip first.
 """
 
 from __future__ import annotations
@@ -31,9 +32,9 @@ def transfer_model(method: str, u_real, y_real, sim_model=None, *, hidden=(20, 2
     method : str
         One of :data:`DATA_METHODS`.
     u_real : array_like, shape (N, n_u)
-        Real commands, rad.
+        Real inputs, each in its unit (rad for angles, N for tensions).
     y_real : array_like, shape (N, n_y)
-        Real tips, m.
+        Real outputs, m: the tip (n_y = 3) or every marker, the tip first (n_y = 3K).
     sim_model : MLP, optional
         The network trained on simulation (not used by ``real-only``).
     hidden : tuple of int
