@@ -63,6 +63,7 @@ def plot_body(ax, fem, q=None, *, dims=(0, 2), unit: str = "cm", alpha: float = 
 
     x = fem.X_W.copy() if q is None else fem.to_nodes(np.asarray(q, float))
     s, d = UNITS[unit], list(dims)
+    before = (ax.get_xlim(), ax.get_ylim()) if ax.has_data() else None  # another body drawn already: keep it in view
     tris = s * x[fem.mesh.surface_triangles()][:, :, d]
     ax.add_collection(
         PolyCollection(tris, facecolor=(*FOAM_RGB, alpha), edgecolor=(*FOAM_RGB, min(1.0, 2 * alpha)), linewidth=0.2)
@@ -85,8 +86,12 @@ def plot_body(ax, fem, q=None, *, dims=(0, 2), unit: str = "cm", alpha: float = 
     pts = np.vstack([x, y])[:, d] * s
     lo, hi = pts.min(0), pts.max(0)
     pad = 0.08 * (hi - lo).max()
-    ax.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    lo, hi = lo - pad, hi + pad
+    if before is not None:
+        lo = np.minimum(lo, [before[0][0], before[1][0]])
+        hi = np.maximum(hi, [before[0][1], before[1][1]])
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel(f"{'xyz'[d[0]]} [{unit}]")
     ax.set_ylabel(f"{'xyz'[d[1]]} [{unit}]")
