@@ -4,9 +4,9 @@ Each ``check_*`` takes the student's function, draws its own cases from its own 
 ``np.random.default_rng`` (the chapter's random stream is untouched) and calls
 :func:`lab.course.grade` against ``lab``'s own implementation or an independent computation:
 for exercise 11.1 the radius of :func:`lab.fem.bodies.tapered_mesh`'s layers (its mesh's
-outermost nodes, which lie on the profile); for 11.2 a least-squares fit written here with
+outermost nodes, which lie on the profile); for 11.3 a least-squares fit written here with
 :func:`numpy.linalg.lstsq`, the affine motion :mod:`lab.fem.bodies.markers` gives a stalk
-marker; for 11.3 the description's one-sided spring,
+marker; for 11.2 the description's one-sided spring,
 :func:`lab.fem.actuators.cable_routes.spring`. The references live here, out of the
 student's sight: a grader cell in ``notebooks/11_any_soft_body.ipynb`` is one import and
 one call.
@@ -93,7 +93,7 @@ def _stalk_case(rng: np.random.Generator) -> tuple:
 
 
 def check_stalk_marker(student, *, show: bool = True) -> Grade:
-    """Exercise 11.2: ``student(X_nodes, x_nodes, X_a, P)`` -> (3,) m, the marker on a stalk
+    """Exercise 11.3: ``student(X_nodes, x_nodes, X_a, P)`` -> (3,) m, the marker on a stalk
     at rest point ``P`` moved with the least-squares affine motion x ~ c + F (X - X_a) of the
     nodes (rest ``X_nodes`` (n, 3) m, deformed ``x_nodes`` (n, 3) m) about ``X_a`` (3,) m,
     against a least-squares fit on 6 random neighbourhoods (16-40 nodes, rotated, stretched
@@ -116,7 +116,7 @@ def _spring_tension(L_m, L0_m, r_m, u_rad, k_n_m, eps_m):
 
 
 def check_cable_tension(student, *, show: bool = True) -> Grade:
-    """Exercise 11.3: ``student(L_m, L0_m, r_m, u_rad, k_n_m, eps_m)`` -> tensions (P,) N of
+    """Exercise 11.2: ``student(L_m, L0_m, r_m, u_rad, k_n_m, eps_m)`` -> tensions (P,) N of
     angle-controlled cables of lengths ``L_m`` (P,) m, rest length ``L0_m`` m, spool radius
     ``r_m`` m at angles ``u_rad`` (P,) rad, against the description's one-sided spring
     (:func:`lab.fem.actuators.cable_routes.spring`) on 5 random cases, each with slack cables,
