@@ -112,6 +112,14 @@ SYLLABUS = (
         "add history; solve the IK for a robot without an FEM",
         "chapters 3, 4, 8",
     ),
+    Chapter(
+        "11_any_soft_body.ipynb",
+        "beyond the paper: other labs' robots (tapered, CAD-meshed, tension-driven, markers on stalks)",
+        "describe a body by its profile or a CAD file; drive tendons by angle and by tension and show they agree; "
+        "put markers on stalks and solve the IK for one; calibrate stiffness and density of an emulated as-built "
+        "tentacle from a few poses of every marker",
+        "chapters 1, 4, 5",
+    ),
 )
 
 

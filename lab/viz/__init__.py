@@ -1,7 +1,8 @@
 """Drawing: the arm in matplotlib and meshcat (:mod:`.arm`), meshcat animations
 (:mod:`.animation`), trajectory-tracking figures (:mod:`.tracking`), Figure 1's set-up
 (:mod:`.setup`), the interactive arm of chapter 01 (:mod:`.sliders`), the live meshcat
-viewer a kernel serves (:mod:`.live`, :mod:`.live_arm`) and a dataset's diagnostics (:mod:`.real_data`).
+viewer a kernel serves (:mod:`.live`, :mod:`.live_arm`), a dataset's diagnostics (:mod:`.real_data`)
+and any body with its tendons and markers (:mod:`.bodies`).
 """
 
 from lab.viz.animation import (
@@ -33,6 +34,7 @@ from lab.viz.arm import (
     static_html,
     stop_visualizer,
 )
+from lab.viz.bodies import MARKER_COLORS, TENDON_COLORS, plot_body, plot_body_views
 from lab.viz.capture_rate import PROTOCOL_STYLES, plot_capture_rate
 from lab.viz.closed_loop import MODEL_COLORS, TRAJECTORY_MARKERS, plot_closed_loop
 from lab.viz.dynamics import MODE_STYLES, plot_period_curve, plot_streamed_trajectory
@@ -58,6 +60,10 @@ from lab.viz.training import plot_lm_training
 from lab.viz.transfer import METHOD_COLORS, PAPER_MEAN_CM, plot_transfer_curve
 
 __all__ = [
+    "MARKER_COLORS",
+    "TENDON_COLORS",
+    "plot_body",
+    "plot_body_views",
     "FOAM_RGB",
     "CABLE_RGB",
     "TIP_RGB",
