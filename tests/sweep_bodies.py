@@ -112,37 +112,37 @@ BODY_CASES = [
         "tendon-tension-without-bound",
         TENTACLE,
         ("missing field 'cables[0].tension_max_n'",),
-        edit("tentacle.toml", "tension_max_n = 3.0\n", ""),
+        edit("tentacle.toml", "tension_max_n = 2.0\n", ""),
     ),
     case(
         "tendon-tension-bound-nan",
         TENTACLE,
         ("field 'cables[0].tension_max_n' must be a finite float",),
-        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = nan"),
+        edit("tentacle.toml", "tension_max_n = 2.0", "tension_max_n = nan"),
     ),
     case(
         "tendon-tension-bound-implausible",
         TENTACLE,
         ("field 'cables[0].tension_max_n' = 10000000.0 N is implausible",),
-        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = 1e7"),
+        edit("tentacle.toml", "tension_max_n = 2.0", "tension_max_n = 1e7"),
     ),
     case(
         "tendon-tension-with-slack",
         TENTACLE,
         ("field 'cables[0].slack_m' is not used by control = \"tension\"",),
-        edit("tentacle.toml", "tension_max_n = 3.0", "tension_max_n = 3.0\nslack_m = 0.001"),
+        edit("tentacle.toml", "tension_max_n = 2.0", "tension_max_n = 2.0\nslack_m = 0.001"),
     ),
     case(
         "tendon-angle-with-tension-bound",
         ROBOT,
         ("field 'cables[0].tension_max_n' is not used by control = \"angle\"",),
-        edit("robot.toml", 'name = "top"', 'name = "top"\ntension_max_n = 3.0'),
+        edit("robot.toml", 'name = "top"', 'name = "top"\ntension_max_n = 2.0'),
     ),
     case(
         "tendon-angle-needs-actuation",
         TENTACLE,
         ("missing table [actuation]",),
-        edit("tentacle.toml", 'control = "tension"\ntension_max_n = 3.0\n', ""),
+        edit("tentacle.toml", 'control = "tension"\ntension_max_n = 2.0\n', ""),
     ),
     case(
         "marker-named-tip",
@@ -197,7 +197,7 @@ def _inverted_vtu(d):
     meshio.write(d / "body.vtu", meshio.Mesh(X, [("tetra", np.array([[0, 1, 2, 3], [1, 2, 3, 4]]))]))
 
 
-FINGER = [*SIM[:-2], "--robot", "{dir}/finger.toml", "--out", "{dir}/o.csv"]
+FINGER = [*SIM[:-4], "--robot", "{dir}/finger.toml", "--out", "{dir}/o.csv"]
 MESH_CASES = [
     case(
         "mesh-file-missing",
@@ -208,7 +208,7 @@ MESH_CASES = [
     case(
         "mesh-in-mm-given-as-m",
         FINGER,
-        ("mesh_unit = \"mm\"?",),
+        ('mesh_unit = "mm"?',),
         finger('mesh_unit = "mm"', 'mesh_unit = "m"'),
     ),
     case(

@@ -45,6 +45,8 @@ GEOMETRY_SUFFIXES = (".geo", ".step", ".stp", ".brep")
 UNITS = {"m": 1.0, "mm": 1e-3}
 #: A body's extent (m) outside this range is taken for a unit mistake.
 PLAUSIBLE_EXTENT_M = (1e-3, 5.0)
+#: The most tets a geometry may be meshed into (about 2 GB for the FEM; a smaller size_m is refused).
+MAX_GEOMETRY_TETS = 2_000_000
 #: A tet whose |volume| is below this fraction of the median is degenerate.
 DEGENERATE_FRACTION = 1e-12
 #: Version of the cached arrays; bump it when reading or checking changes the result.
@@ -183,7 +185,7 @@ def read_body_mesh(shape, where: str = "body.mesh_file") -> BodyMesh:
         return mesh
     scale = UNITS[shape.mesh_unit]
     if geometry:
-        X, tets, groups = _mesh_geometry(path, shape.mesh_size_m / scale, where)
+        X, tets, groups = _mesh_geometry(path, shape.mesh_size_m / scale, where, shape.mesh_unit)
     else:
         X, tets, groups = _read_mesh_file(path, where)
     mesh = _checked(X * scale, tets, groups, path, where, shape.mesh_unit)
@@ -212,8 +214,12 @@ def _read_mesh_file(path: Path, where: str):
     return np.asarray(m.points, float)[:, :3], tets, groups
 
 
-def _mesh_geometry(path: Path, size: float, where: str):
-    """Mesh a geometry with gmsh's Python API: one thread, target size ``size`` in the file's unit."""
+def _mesh_geometry(path: Path, size: float, where: str, unit: str):
+    """Mesh a geometry with gmsh's Python API: one thread, target size ``size`` in the file's unit.
+
+    Before meshing, the geometry's bounding box must be plausible in ``unit`` and hold at
+    most :data:`MAX_GEOMETRY_TETS` tets of the target size (a unit mistake would otherwise
+    ask gmsh for billions)."""
     import gmsh
 
     gmsh.initialize(["-nt", "1"], readConfigFiles=False, interruptible=False)
@@ -235,6 +241,17 @@ def _mesh_geometry(path: Path, size: float, where: str):
             raise _err(where, path, f"gmsh cannot read it: {exc}") from None
         options()  # after the file, whose own settings would otherwise win
         gmsh.model.mesh.clear()
+        box = np.array(gmsh.model.getBoundingBox(-1, -1), float)
+        sides = box[3:] - box[:3]
+        _check_extent(float(np.max(sides)) * UNITS[unit], path, unit)
+        estimate = 6.0 * float(np.prod(np.maximum(sides, size))) / size**3  # about 6 tets per cube of the size
+        if estimate > MAX_GEOMETRY_TETS:
+            raise _err(
+                "mesh.size_m",
+                path,
+                f"{size * UNITS[unit]:g} m elements on a body of {np.round(sides * UNITS[unit], 4).tolist()} m would "
+                f"make about {estimate:.2g} tets (at most {MAX_GEOMETRY_TETS:.0e}); use a larger size_m",
+            )
         try:
             gmsh.model.mesh.generate(3)
         except Exception as exc:
@@ -256,14 +273,8 @@ def _mesh_geometry(path: Path, size: float, where: str):
         gmsh.finalize()
 
 
-def _checked(X, tets, groups, path, where: str, unit: str) -> BodyMesh:
-    """Drop unused nodes, check size, volumes, orientation and connectedness."""
-    used = np.unique(tets)
-    remap = np.full(len(X), -1, np.int64)
-    remap[used] = np.arange(len(used))
-    X, tets = np.ascontiguousarray(X[used]), remap[tets]
-    groups = {k: np.unique(remap[v][remap[v] >= 0]) for k, v in groups.items()}
-    extent = float(np.max(X.max(axis=0) - X.min(axis=0)))
+def _check_extent(extent: float, path, unit: str) -> None:
+    """Refuse a body whose largest side (m) is implausible: a unit mistake."""
     lo, hi = PLAUSIBLE_EXTENT_M
     if not lo <= extent <= hi:
         hint = 'mesh_unit = "mm"?' if extent > hi else 'mesh_unit = "m" (is the file in metres)?'
@@ -272,6 +283,16 @@ def _checked(X, tets, groups, path, where: str, unit: str) -> BodyMesh:
             path,
             f"the body is {extent:.4g} m across in unit {unit!r}, outside [{lo}, {hi}] m: {hint}",
         )
+
+
+def _checked(X, tets, groups, path, where: str, unit: str) -> BodyMesh:
+    """Drop unused nodes, check size, volumes, orientation and connectedness."""
+    used = np.unique(tets)
+    remap = np.full(len(X), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    X, tets = np.ascontiguousarray(X[used]), remap[tets]
+    groups = {k: np.unique(remap[v][remap[v] >= 0]) for k, v in groups.items()}
+    _check_extent(float(np.max(X.max(axis=0) - X.min(axis=0))), path, unit)
     P = X[tets]
     vol = np.linalg.det(np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=-1)) / 6.0
     tiny = np.abs(vol) < DEGENERATE_FRACTION * np.median(np.abs(vol))
