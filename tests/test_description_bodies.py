@@ -51,7 +51,7 @@ def test_tapered_tentacle_with_markers_and_tensions():
     robot = load_robot(EXAMPLES / "tentacle.toml")
     assert robot.body_shape.shape == "tapered" and robot.length_m == 0.30 and robot.radius_m == 0.030
     assert robot.radius_at(0.175) == pytest.approx(0.027 + (0.010 - 0.027) * 0.5)
-    assert robot.input_units == ("N", "N") and np.array_equal(robot.u_upper, [2.0, 2.0])
+    assert robot.input_units == ("N", "N") and np.array_equal(robot.u_upper, [1.5, 1.5])
     assert robot.spool_radius_m is None and robot.u_max_rad is None and robot.safety_limits == ()
     assert robot.marker_names == ("tip", "upper", "middle", "lower")
     assert robot.output_columns[3:6] == ["upper_x", "upper_y", "upper_z"]

@@ -27,7 +27,7 @@ from lab.fem.solve.statics import solve_static
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "robots"
 CASES = {
-    "tentacle": (["--n-rings", "1", "--n-axial", "8"], [[0.5, 0.0], [1.5, 0.0], [0.0, 1.0], [0.0, 2.0]]),
+    "tentacle": (["--n-rings", "1", "--n-axial", "8"], [[0.5, 0.0], [1.0, 0.0], [0.0, 0.75], [0.0, 1.5]]),
     "finger": ([], [[0.5, 0.5], [1.5, 0.5], [2.5, 1.0], [1.0, 1.5]]),
 }
 SOFTER, DENSER = 0.8, 1.3
