@@ -38,7 +38,7 @@ def test_inputs_outside_the_bounds_are_refused(three_cable):
     fem = ArmFEM(three_cable, **MESH, actuators=[("tendons_tension", {"tension_max_n": 5.0})])
     assert np.array_equal(fem.check_input([0.0, 5.0, 1.0]), [0.0, 5.0, 1.0])
     for bad in ([0.0, 5.5, 0.0], [-0.1, 0.0, 0.0], [np.nan, 0.0, 0.0]):
-        with pytest.raises(InputError, match=r"tendons_tension inputs .* N outside"):
+        with pytest.raises(InputError, match=r"tendons_tension inputs .* N outside their range"):
             fem.check_input(bad)
     with pytest.raises(InputError, match="tendons_tension inputs"):
         solve_static(fem, [6.0, 0.0, 0.0])

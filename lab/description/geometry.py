@@ -67,9 +67,9 @@ class BodyMesh:
         Node positions (frame W at rest), m; every node is used by a tet.
     tets : ndarray of int64, shape (M, 4)
         Node indices of each tetrahedron, positively oriented.
-    groups : dict of str to ndarray of int
-        Node indices of each named physical group of the file (gmsh physical groups,
-        meshio cell sets and point sets).
+    groups : dict
+        Node indices (ndarray of int) of each named physical group of the file, by name
+        (gmsh physical groups, meshio cell sets and point sets).
     """
 
     X_m: np.ndarray

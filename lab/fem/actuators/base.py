@@ -145,8 +145,14 @@ class Actuator(ABC):
         """
         u = np.asarray(u, float).reshape(self.n_inputs)
         low, high = self.input_bounds()
-        if not np.all(np.isfinite(u)) or np.any(u < low) or np.any(u > high):
-            raise InputError(f"{self.kind} inputs {u.tolist()} {self.input_unit} outside [{low}, {high}]")
+        slack = 1e-9 * np.abs(high - low)  # rounding, as the description's check allows
+        bad = ~np.isfinite(u) | (u < low - slack) | (u > high + slack)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(
+                f"{self.kind} inputs {u.tolist()} {self.input_unit} outside their range: {self.input_names[i]} = "
+                f"{u[i]} {self.input_unit}, range [{low[i]}, {high[i]}]"
+            )
         return u
 
     @abstractmethod

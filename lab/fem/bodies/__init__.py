@@ -4,7 +4,7 @@
 cylinder (:class:`CylinderBody`), the tapered solid of revolution (:class:`TaperedBody`)
 and the mesh or CAD file (:class:`MeshBody`), and :func:`body_of` picks the one a
 description asks for. Meshes, meshing and embedding live in :mod:`.mesh` and
-:mod:`.tapered`, markers inside the body or on stalks in :mod:`.markers`, the resolution
+:mod:`.tapered`, markers inside the body or on stalks in :mod:`lab.fem.bodies.markers`, the resolution
 setting of every command in :mod:`.mesh_spec`. A new body is one module with a
 :class:`Body` subclass decorated with :func:`register_body`.
 """
@@ -12,8 +12,7 @@ setting of every command in :mod:`.mesh_spec`. A new body is one module with a
 from lab.errors import InputError
 from lab.fem.bodies.base import BODIES, Body, FreeCoordinates, Marker, register_body
 from lab.fem.bodies.cylinder import CylinderBody
-from lab.fem.bodies.markers import STALK_REACH, body_markers
-from lab.fem.bodies.mesh import TetMesh, barycentric, cylinder_mesh, layered_mesh, load_mesh, save_mesh
+from lab.fem.bodies.mesh import TetMesh, barycentric, cylinder_mesh, load_mesh, save_mesh
 from lab.fem.bodies.mesh_body import MeshBody
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.fem.bodies.tapered import TaperedBody, tapered_mesh
@@ -53,7 +52,6 @@ def body_of(robot, *, n_rings=None, n_axial=None) -> Body:
 
 __all__ = [
     "BODIES",
-    "STALK_REACH",
     "Body",
     "CylinderBody",
     "FreeCoordinates",
@@ -63,10 +61,8 @@ __all__ = [
     "TaperedBody",
     "TetMesh",
     "barycentric",
-    "body_markers",
     "body_of",
     "cylinder_mesh",
-    "layered_mesh",
     "load_mesh",
     "register_body",
     "save_mesh",

@@ -52,7 +52,7 @@ class Marker:
     """A body point, linear in the node positions: its position is ``weights @ x_W[nodes]`` (m).
 
     A point inside the body has the four nodes of the tet holding it and its barycentric
-    weights (non-negative). A point on a stalk outside the body (:mod:`.markers`) has the K
+    weights (non-negative). A point on a stalk outside the body (:mod:`lab.fem.bodies.markers`) has the K
     nodes of the neighbourhood whose affine motion it follows, with least-squares weights,
     some negative. Either way the weights sum to 1, so a rigid motion of the nodes moves
     the point rigidly.

@@ -2,7 +2,7 @@
 
 The body every description has today: ``lab.fem.bodies.mesh.robot_mesh`` (or a given
 mesh), the nodes of the base face x = min clamped, and the description's tip marker
-``p_tip_marker_W`` as the marker ``"tip"``, then its ``markers`` (:mod:`.markers`).
+``p_tip_marker_W`` as the marker ``"tip"``, then its ``markers`` (:mod:`lab.fem.bodies.markers`).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class CylinderBody(Body):
         -------
         dict of str to Marker
             ``{"tip": ..., NAME: ...}``: the description's ``p_tip_marker_W`` embedded
-            (barycentric), then ``robot.markers`` in order (:mod:`.markers`).
+            (barycentric), then ``robot.markers`` in order (:mod:`lab.fem.bodies.markers`).
         """
         return body_markers(self, self.robot)
 

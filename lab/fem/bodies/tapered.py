@@ -3,7 +3,7 @@
 :func:`tapered_mesh` is the structured cylinder mesher of :mod:`.mesh` with each layer's
 disk scaled to the profile's radius there; a two-station profile of constant radius gives
 :func:`~lab.fem.bodies.mesh.cylinder_mesh` bit for bit. :class:`TaperedBody` clamps its
-base and embeds its markers (:mod:`.markers`) like the cylinder.
+base and embeds its markers (:mod:`lab.fem.bodies.markers`) like the cylinder.
 """
 
 from __future__ import annotations
