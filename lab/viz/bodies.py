@@ -98,7 +98,7 @@ def plot_body(ax, fem, q=None, *, dims=(0, 2), unit: str = "cm", alpha: float = 
     return y
 
 
-def plot_body_views(fem, q=None, *, views=((0, 2), (0, 1)), unit: str = "cm", title: str = "", figsize=(11, 4)):
+def plot_body_views(fem, q=None, *, views=((0, 2), (0, 1)), unit: str = "cm", title: str = "", figsize=(11, 3)):
     """A figure of ``fem``'s body at ``q`` in several projections (:func:`plot_body`).
 
     Parameters
