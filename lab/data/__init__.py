@@ -17,6 +17,7 @@ from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.commands_file import read_commands
 from lab.data.dataset import (
     columns,
+    dataset_markers,
     input_units,
     marker_names,
     output_columns,
@@ -79,6 +80,7 @@ __all__ = [
     "columns",
     "output_columns",
     "marker_names",
+    "dataset_markers",
     "input_units",
     "write_dataset",
     "sidecar_path",

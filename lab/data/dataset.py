@@ -82,6 +82,40 @@ def marker_names(metadata: dict) -> tuple[str, ...]:
     return tuple(metadata.get("markers") or ("tip",))
 
 
+def dataset_markers(metadata: dict, y, robot=None, what: str = "the dataset") -> tuple[str, ...]:
+    """The markers a dataset's outputs hold, checked against its columns and a robot.
+
+    Parameters
+    ----------
+    metadata : dict
+        Its metadata (:func:`read_dataset` names the markers of its header there).
+    y : numpy.ndarray
+        Its outputs, shape (N, 3K), m.
+    robot : RobotDescription, optional
+        The robot the data must fit: every marker must be one of its ``marker_names``.
+    what : str
+        The dataset, for the messages (e.g. its path).
+
+    Returns
+    -------
+    tuple of str
+        The K marker names in column order, the tip first (DatasetError for a marker the
+        robot lacks or a column count that does not fit them).
+    """
+    names = marker_names(metadata)
+    if robot is not None:
+        unknown = [k for k in names if k not in robot.marker_names]
+        if unknown:
+            raise DatasetError(
+                f"{what}: marker {unknown[0]!r} is not one of robot {robot.name}'s markers {list(robot.marker_names)}"
+            )
+    if np.shape(y)[1] != 3 * len(names):
+        raise DatasetError(
+            f"{what}: {np.shape(y)[1]} output columns, but its markers {list(names)} need {3 * len(names)}"
+        )
+    return names
+
+
 def input_units(metadata: dict, n_inputs: int) -> tuple[str, ...]:
     """The unit of each input of a dataset read by :func:`read_dataset`.
 

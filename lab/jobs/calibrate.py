@@ -25,7 +25,6 @@ __all__ = [
     "CalibrationSpec",
     "run",
     "calibration_summary",
-    "data_markers",
     "discrepancy_line",
     "fit_groups",
     "misfit_limit_m",
@@ -150,7 +149,7 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
         :func:`misfit_limit_m` is refused too (InputError beyond twice the arm's length: data
         in other units or frame; else LabRuntimeError).
     """
-    from lab.data.dataset import read_dataset
+    from lab.data.dataset import dataset_markers, read_dataset
     from lab.transfer.calibrate import calibrate, default_groups
 
     n_rings, n_axial = spec.mesh.resolve(robot)
@@ -166,7 +165,7 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
         raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
     if u.shape[1] != robot.n_cables:
         raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
-    markers = data_markers(robot, real, y, meta)
+    markers = dataset_markers(meta, y, robot, str(real))
     if log is not None:
         log(
             f"{robot.name}: calibrating {', '.join(groups)} on {len(u)} real samples of {', '.join(markers)} from "
@@ -184,40 +183,6 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
             f"{1e3 * result.rms_m:.3f} mm); nothing written: raise CalibrationSpec.max_iter, or check the data"
         )
     return result
-
-
-def data_markers(robot, real, y, meta: dict) -> tuple[str, ...]:
-    """The markers a dataset's outputs hold, in its column order: its sidecar's
-    ``markers``, else the tip alone for (N, 3) outputs, else all of the robot's.
-
-    Parameters
-    ----------
-    robot : RobotDescription
-        The nominal robot (its ``marker_names``).
-    real : str or Path
-        The dataset file (for the messages).
-    y : ndarray, shape (N, 3K)
-        Its outputs, m.
-    meta : dict
-        Its sidecar.
-
-    Returns
-    -------
-    tuple of str
-        Marker names (InputError for a marker the robot lacks or a column count that fits none).
-    """
-    names = meta.get("markers")
-    if names is None:
-        names = ("tip",) if y.shape[1] == 3 else robot.marker_names
-    names = tuple(names)
-    unknown = [k for k in names if k not in robot.marker_names]
-    if unknown:
-        raise InputError(
-            f"{real}: marker {unknown[0]!r} is not one of {robot.name}'s markers {list(robot.marker_names)}"
-        )
-    if y.shape[1] != 3 * len(names):
-        raise InputError(f"{real}: {y.shape[1]} output columns, but its markers {list(names)} need {3 * len(names)}")
-    return names
 
 
 def calibration_summary(robot, result, real, out, command: str) -> dict:

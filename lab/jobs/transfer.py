@@ -92,14 +92,14 @@ def _check_robot(robot, meta: dict, what: str, n_u: int) -> None:
 
 def _read(path, what: str, robot):
     """The dataset ``path`` of flag ``what``: (u (N, n_u), y (N, 3K) m, metadata), not empty,
-    with its markers (:func:`dataset_markers`) and input units fitting the robot."""
+    with its markers (:func:`lab.data.dataset.dataset_markers`) and input units fitting the robot."""
     from lab.data.dataset import read_dataset
 
     u, y, meta = read_dataset(path)
     if len(u) == 0:
         raise FieldError(f"{what} {path} holds no samples")
     _check_robot(robot, meta, f"{what} {path}", u.shape[1])
-    dataset_markers(robot, meta, y, f"{what} {path}")
+    _markers(robot, meta, y, f"{what} {path}")
     units = meta.get("input_units")
     if robot is not None and units is not None and tuple(units) != tuple(robot.input_units):
         raise FieldError(
@@ -109,41 +109,14 @@ def _read(path, what: str, robot):
     return u, y, meta
 
 
-def dataset_markers(robot, meta: dict, y, what: str = "the dataset") -> tuple[str, ...]:
-    """The markers a dataset's outputs hold, in column order: its sidecar's ``markers``, else
-    the tip alone (3 columns) or, with a robot, the robot's markers.
+def _markers(robot, meta: dict, y, what: str = "TransferSpec.real") -> tuple[str, ...]:
+    """:func:`lab.data.dataset.dataset_markers`, its error naming the setting."""
+    from lab.data.dataset import DatasetError, dataset_markers
 
-    Parameters
-    ----------
-    robot : RobotDescription or None
-        The robot the data must fit (its ``marker_names``), if known.
-    meta : dict
-        The dataset's sidecar.
-    y : numpy.ndarray
-        Its outputs, shape (N, 3K), m.
-    what : str
-        The dataset's flag and path, for the messages.
-
-    Returns
-    -------
-    tuple of str
-        The K marker names, the tip first (FieldError for a marker the robot lacks or a
-        column count that fits none).
-    """
-    names = meta.get("markers")
-    if names is None:
-        names = ("tip",) if y.shape[1] == 3 or robot is None else robot.marker_names
-    names = tuple(names)
-    if robot is not None:
-        unknown = [k for k in names if k not in robot.marker_names]
-        if unknown:
-            raise FieldError(
-                f"{what}: marker {unknown[0]!r} is not one of TransferSpec.robot {robot.name}'s markers "
-                f"{list(robot.marker_names)}"
-            )
-    if y.shape[1] != 3 * len(names):
-        raise FieldError(f"{what}: {y.shape[1]} output columns, but its markers {list(names)} need {3 * len(names)}")
-    return names
+    try:
+        return dataset_markers(meta, y, robot, what)
+    except DatasetError as err:
+        raise FieldError(str(err)) from None
 
 
 def run(spec: TransferSpec, *, command: str = "", log=None):
@@ -171,7 +144,7 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
     log = log or (lambda line: None)
     robot = load_robot(spec.robot) if spec.robot else None
     u_real, y_real, real_meta = _read(spec.real, "TransferSpec.real", robot)
-    markers = dataset_markers(robot, real_meta, y_real)
+    markers = _markers(robot, real_meta, y_real)
     if spec.method == "calibrated":
         model = _calibrated(spec, robot, u_real, y_real, markers, log)
         model.metadata["transfer"].update({"real": str(spec.real), "sim": spec.sim, "command": command})
@@ -198,7 +171,7 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
                     f"{spec.real} has "
                     f"{u_real.shape[1]}: they are not of one robot"
                 )
-            sim_markers = dataset_markers(robot, sim_meta, y_sim, f"TransferSpec.sim {spec.sim}")
+            sim_markers = _markers(robot, sim_meta, y_sim, f"TransferSpec.sim {spec.sim}")
             if sim_markers != markers:
                 raise FieldError(
                     f"TransferSpec.sim {spec.sim} holds the markers {', '.join(sim_markers)}, but TransferSpec.real "
