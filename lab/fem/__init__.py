@@ -6,7 +6,7 @@ The concepts, one folder each, so a new one has an obvious home:
   markers); the description's body is :func:`body_of`'s: :class:`CylinderBody`,
   :class:`TaperedBody` or :class:`MeshBody`.
 - :mod:`.materials`: the material law (:class:`MaterialLaw`), neo-Hookean
-  (:class:`NeoHookean`) or compressible foam (:class:`Hyperfoam`).
+  (:class:`NeoHookean`), compressible foam (:class:`Hyperfoam`) or silicone (:class:`Yeoh`).
 - :mod:`.actuators`: what drives the body (:class:`Actuator`), e.g. the description's
   angle-controlled cables (:class:`CableActuator`); an actuator may ask the statics for a
   :class:`Condensation`.
@@ -56,9 +56,12 @@ from lab.fem.materials import (
     MaterialLaw,
     NeoHookean,
     NeoHookeanMaterial,
+    Yeoh,
+    YeohMaterial,
     hyperfoam_matching,
     lame,
     register_material,
+    yeoh_matching,
 )
 from lab.fem.model import ArmFEM
 from lab.fem.solve import (
@@ -107,6 +110,8 @@ __all__ = [
     "TaperedBody",
     "TetMesh",
     "WalkPredictor",
+    "Yeoh",
+    "YeohMaterial",
     "as_built_description",
     "barycentric",
     "body_of",
@@ -124,4 +129,5 @@ __all__ = [
     "solve_static",
     "spring",
     "tapered_mesh",
+    "yeoh_matching",
 ]
