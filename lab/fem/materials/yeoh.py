@@ -16,7 +16,7 @@ g = dI1bar/dF = J^(-2/3) (2 F - (2/3) I1 F^-T) and f(x) = sum_i C_i0 x^i,
     P = f'(x) g + kappa (J - 1) J F^-T,
     A = f'' g (x) g + f' d2I1bar/dF2 + kappa J (2J - 1) F^-T (x) F^-T - kappa (J - 1) J F^-T_il F^-T_kj.
 
-:class:`Yeoh` sums them over the elements (:class:`~lab.fem.materials.density.DensityLaw`);
+:class:`Yeoh` sums them over the elements (:class:`~lab.fem.materials.energy_density.EnergyDensityLaw`);
 :class:`YeohMaterial` is what ``ArmFEM``'s ``material`` takes, with C_i0 scalar or one per
 tet. An element with J <= 0 is inverted: infinite energy, :class:`InvertedElementError`.
 Linear tets lock as nu -> 1/2 (benchmarks/bench_yeoh_locking.py): the Ecoflex arm's sag under
@@ -35,8 +35,8 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials.base import register_material
-from lab.fem.materials.density import DensityLaw
 from lab.fem.materials.elements import InvertedElementError, TetElements, _det3, _inv3
+from lab.fem.materials.energy_density import EnergyDensityLaw
 
 
 def yeoh_matching(c10_pa, poisson_ratio):
@@ -190,7 +190,7 @@ class YeohMaterial:
 
 
 @dataclass(frozen=True)
-class Yeoh(DensityLaw):
+class Yeoh(EnergyDensityLaw):
     """The Yeoh law on a mesh's elements: ``c10``, ``c20``, ``c30``, ``kappa`` (M,) in Pa.
 
     Attributes

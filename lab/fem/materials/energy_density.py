@@ -4,7 +4,7 @@ A hyperelastic law whose energy density W(F) J/m^3, first Piola-Kirchhoff stress
 P = dW/dF Pa and tangent A = d2W/dF2 Pa come from one function ``law(x_W, order)``
 needs nothing else to be a :class:`~lab.fem.materials.base.MaterialLaw`: the energy is
 sum_t V_t W_t, the nodal gradient B^T vec(V P) and the element Hessians K (V A) K^T, K the
-map from vec(dF) to the element's dofs (:class:`DensityLaw`). The Yeoh law of
+map from vec(dF) to the element's dofs (:class:`EnergyDensityLaw`). The Yeoh law of
 :mod:`lab.fem.materials.yeoh` is one; the foam law of :mod:`lab.fem.materials.hyperfoam`
 does the same sums itself.
 """
@@ -19,7 +19,7 @@ from lab.fem.materials.elements import InvertedElementError, TetElements
 
 
 @dataclass(frozen=True)
-class DensityLaw(TetElements):
+class EnergyDensityLaw(TetElements):
     """The element sums of a density law; a subclass defines ``law(x_W, order)`` returning
     W (M,) J/m^3, P (M, 3, 3) Pa (order >= 1, else None) and A (M, 3, 3, 3, 3) Pa (order 2,
     else None), raising :class:`InvertedElementError` where det F <= 0."""
