@@ -24,7 +24,7 @@ from lab.fem import (
     sensitivities,
     solve_static,
 )
-from lab.fem.actuators.chamber import cavity_volume
+from lab.fem.actuators.chamber_surfaces import cavity_volume
 from lab.fem.bodies.base import Marker
 
 E_PA, NU = 1e5, 0.3

@@ -5,7 +5,7 @@ statics (:mod:`.base`); :class:`CableActuator` is the description's angle-contro
 (:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`); :mod:`.tension` drives the
 same cables as tendons by their tensions (``"tendons_tension"``); :mod:`.chamber` holds
 cavities of the body at gauge pressures (``"chambers_pressure"``, :class:`PressureChamberActuator`,
-on the cavities :func:`cavity_surfaces` finds). A new actuator is one module
+on the cavities :func:`cavity_surfaces` finds, :mod:`.chamber_surfaces`). A new actuator is one module
 with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imported once
 (then :class:`lab.fem.ArmFEM` builds it by name).
 """
@@ -14,7 +14,8 @@ from lab.fem.actuators import tension  # noqa: F401  (registers "tendons_tension
 from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
-from lab.fem.actuators.chamber import PressureChamberActuator, cavity_surfaces
+from lab.fem.actuators.chamber import PressureChamberActuator
+from lab.fem.actuators.chamber_surfaces import cavity_surfaces
 
 __all__ = [
     "ACTUATORS",
