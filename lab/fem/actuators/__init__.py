@@ -3,7 +3,9 @@
 :class:`Actuator` is the interface and :class:`Condensation` what an actuator may ask of the
 statics (:mod:`.base`); :class:`CableActuator` is the description's angle-controlled cables
 (:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`); :mod:`.tension` drives the
-same cables as tendons by their tensions (``"tendons_tension"``). A new actuator is one module
+same cables as tendons by their tensions (``"tendons_tension"``); :mod:`.chamber` holds
+cavities of the body at gauge pressures (``"chambers_pressure"``, :class:`PressureChamberActuator`,
+on the cavities :func:`cavity_surfaces` finds, :mod:`.chamber_surfaces`). A new actuator is one module
 with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imported once
 (then :class:`lab.fem.ArmFEM` builds it by name).
 """
@@ -12,6 +14,8 @@ from lab.fem.actuators import tension  # noqa: F401  (registers "tendons_tension
 from lab.fem.actuators.base import ACTUATORS, Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
+from lab.fem.actuators.chamber import PressureChamberActuator
+from lab.fem.actuators.chamber_surfaces import cavity_surfaces
 
 __all__ = [
     "ACTUATORS",
@@ -20,5 +24,7 @@ __all__ = [
     "register_actuator",
     "CableActuator",
     "CableRoute",
+    "PressureChamberActuator",
+    "cavity_surfaces",
     "spring",
 ]
