@@ -5,8 +5,7 @@ P = dW/dF Pa and tangent A = d2W/dF2 Pa come from one function ``law(x_W, order)
 needs nothing else to be a :class:`~lab.fem.materials.base.MaterialLaw`: the energy is
 sum_t V_t W_t, the nodal gradient B^T vec(V P) and the element Hessians K (V A) K^T, K the
 map from vec(dF) to the element's dofs (:class:`EnergyDensityLaw`). The Yeoh law of
-:mod:`lab.fem.materials.yeoh` is one; the foam law of :mod:`lab.fem.materials.hyperfoam`
-does the same sums itself.
+:mod:`lab.fem.materials.yeoh` and the foam law of :mod:`lab.fem.materials.hyperfoam` are two.
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ from lab.errors import InputError
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.materials.base import register_material
 from lab.fem.materials.elements import InvertedElementError, TetElements, _det3, _eigh3, _inv3
+from lab.fem.materials.energy_density import EnergyDensityLaw
 
 #: Two principal values c_p, c_q of C count as repeated when |ln c_p - ln c_q| is below
 #: this: their divided difference is then the two-term Taylor limit (error ~1e-24 there).
@@ -181,9 +182,10 @@ def hyperfoam_law(F: np.ndarray, mu_pa, alpha: float, beta: float, order: int = 
 
 
 @dataclass(frozen=True)
-class Hyperfoam(TetElements):
-    """The hyperfoam law on a mesh's elements (``TetElements``): ``mu`` (M,) in Pa,
-    ``alpha``, ``beta``. The interface of :class:`lab.fem.materials.neo_hookean.NeoHookean`.
+class Hyperfoam(EnergyDensityLaw):
+    """The hyperfoam law on a mesh's elements: ``mu`` (M,) in Pa, ``alpha``, ``beta``. The
+    element sums (energy, gradients, Hessians, products) are
+    :class:`~lab.fem.materials.energy_density.EnergyDensityLaw`'s.
 
     Attributes
     ----------
@@ -249,123 +251,3 @@ class Hyperfoam(TetElements):
             Tangent dP/dF, Pa.
         """
         return hyperfoam_law(self.deformation_gradient(x_W), self.mu, self.alpha, self.beta, order)
-
-    def energy(self, x_W: np.ndarray) -> float:
-        """Total elastic energy in J; +inf if any element is inverted (J <= 0).
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        float
-            Energy, J.
-        """
-        try:
-            return float(self.V @ self.law(x_W, 0)[0])
-        except InvertedElementError:
-            return np.inf
-
-    def _VP(self, x_W):
-        W, P, _ = self.law(x_W, 1)
-        return W, self.V[:, None, None] * P
-
-    def gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """Per-element gradients (M, 4, 3) in N: grad = G (V P)^T.
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        ndarray, shape (M, 4, 3)
-            dE_t/dx of each tet's four nodes, N.
-        """
-        return np.matmul(self.G, self._VP(x_W)[1].transpose(0, 2, 1))
-
-    def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
-        """dE/dx (N, 3) in N (B^T vec(V P)).
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        ndarray, shape (N, 3)
-            dE/dx, N.
-        """
-        return (self._operators(len(x_W))[1] @ self._VP(x_W)[1].transpose(1, 2, 0).ravel()).reshape(-1, 3)
-
-    def energy_and_gradient(self, x_W: np.ndarray):
-        """Total energy in J and dE/dx (N, 3) in N; (inf, None) if any element is inverted.
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        energy : float
-            J.
-        gradient : ndarray, shape (N, 3) or None
-            dE/dx, N.
-        """
-        try:
-            W, VP = self._VP(x_W)
-        except InvertedElementError:
-            return np.inf, None
-        return float(self.V @ W), (self._operators(len(x_W))[1] @ VP.transpose(1, 2, 0).ravel()).reshape(-1, 3)
-
-    def _tangent(self, x_W) -> np.ndarray:
-        """V A (M, 9, 9), rows (i, j), columns (k, l)."""
-        return (self.law(x_W, 2)[2] * self.V[:, None, None, None, None]).reshape(-1, 9, 9)
-
-    def hessian(self, x_W: np.ndarray) -> np.ndarray:
-        """Exact per-element Hessians (M, 12, 12) in N/m, dof order (node a, axis i):
-        H[a, i, b, k] = V A[i, j, k, l] G[a, j] G[b, l], as K (V A) K^T with K (M, 12, 9)
-        the map vec(dF) -> element dofs, K[(a, i), (i', j)] = d_ii' G[a, j].
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        ndarray, shape (M, 12, 12)
-            d2E_t/dx2 per tet, N/m.
-        """
-        M = len(self.V)
-        K = (np.eye(3)[None, None, :, :, None] * self.G[:, :, None, None, :]).reshape(M, 12, 9)
-        return np.matmul(np.matmul(K, self._tangent(x_W)), K.transpose(0, 2, 1))
-
-    def hessian_product(self, x_W: np.ndarray):
-        """A function dx (N, 3) -> d2E/dx2 dx (N, 3): exact Hessian products, dP = A : dF.
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions in frame W, m.
-
-        Returns
-        -------
-        callable
-            dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
-        """
-        A = self._tangent(x_W)
-        B, B_T = self._operators(len(x_W))
-        M = len(A)
-
-        def apply(dx: np.ndarray) -> np.ndarray:
-            dF = (B @ np.asarray(dx, float).ravel()).reshape(9, M).T
-            dP = np.matmul(A, dF[:, :, None])[:, :, 0]
-            return (B_T @ dP.T.ravel()).reshape(-1, 3)
-
-        return apply
