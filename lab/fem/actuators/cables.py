@@ -16,6 +16,7 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs, spring
+from lab.fem.actuators.eyelet_shifts import eyelet_shift_force
 
 
 @register_actuator("cables")
@@ -359,24 +360,8 @@ class CableActuator(Actuator):
         _, tension, stiffness = self.law(stretch)
         d_shift = []
         for c, route in enumerate(self.routes):
-            grad_w = weight_gradients(self.mesh, route.nodes)
-            F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
-            dp = F @ P  # (K, 3, a)
-            _, dL, HL = route.length_derivatives(x_W)
+            col, dL, dp = eyelet_shift_force(route, self.mesh, self.free, x_W, P, tension[c])
             _, dL0 = route.length_gradient(self.mesh.X_W)
             dd = np.einsum("ki,kia->a", dL, dp) - dL0.sum(axis=0) @ P
-            K = len(route.nodes)
-            blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))  # (12K, a)
-            blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
-            free = self.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
-            col = np.zeros((self.free.n_free, P.shape[1]))
-            np.add.at(col, free[free >= 0], tension[c] * blk[free >= 0])
             d_shift.append(col + stiffness[c] * np.outer(A[:, c], dd))
         return -A * stiffness, d_shift
-
-
-def weight_gradients(mesh, nodes: np.ndarray) -> np.ndarray:
-    """d w / d p (K, 4, 3): gradients of the barycentric weights of points in the tets with
-    ``nodes`` (K, 4) (constant in each tet: w = T^-1 [1; p], T = [1 1 1 1; X^T])."""
-    T = np.concatenate([np.ones((len(nodes), 1, 4)), mesh.X_W[nodes].transpose(0, 2, 1)], axis=1)
-    return np.linalg.inv(T)[:, :, 1:]

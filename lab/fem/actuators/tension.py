@@ -22,7 +22,7 @@ import numpy as np
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, register_actuator
 from lab.fem.actuators.cable_routes import CableRoute, CableSet, embed_routes, route_block_dofs
-from lab.fem.actuators.cables import weight_gradients
+from lab.fem.actuators.eyelet_shifts import eyelet_shift_force
 
 
 @register_actuator("tendons_tension")
@@ -268,9 +268,8 @@ class TensionTendonActuator(Actuator):
     def geometry_force_derivative(self, x_W, u, P: np.ndarray):
         """How the forces change with each tendon's eyelet shifts (as-built defects).
 
-        The force T dL/dq with via points p_k = sum_j w_kj(p0_k + delta) x_j changes by
-        T d(dL/dq)/d delta (the path turning and the weights moving; no spring term, and no
-        slack: a held tension takes it up).
+        :func:`~lab.fem.actuators.eyelet_shifts.eyelet_shift_force` of each tendon at its tension
+        (no spring term, and no slack: a held tension takes it up).
 
         Parameters
         ----------
@@ -288,17 +287,7 @@ class TensionTendonActuator(Actuator):
         d_shift : list of ndarray, shape (n_free, a)
             dg/d shift of each tendon's eyelets (all together), N/m.
         """
-        out = []
-        for t, route in zip(np.asarray(u, float), self.routes):
-            grad_w = weight_gradients(self.mesh, route.nodes)
-            F = np.einsum("kji,kjd->kid", x_W[route.nodes], grad_w)
-            dp = F @ P  # (K, 3, a)
-            _, dL, HL = route.length_derivatives(x_W)
-            K = len(route.nodes)
-            blk = route.embedding_matrix().T @ (HL @ dp.reshape(3 * K, -1))
-            blk += np.einsum("ki,kja->kjia", dL, grad_w @ P).reshape(12 * K, -1)
-            free = self.free.dof_to_free[(3 * route.nodes.ravel()[:, None] + np.arange(3)).ravel()]
-            col = np.zeros((self.free.n_free, P.shape[1]))
-            np.add.at(col, free[free >= 0], t * blk[free >= 0])
-            out.append(col)
+        out = [
+            eyelet_shift_force(r, self.mesh, self.free, x_W, P, t)[0] for t, r in zip(np.asarray(u, float), self.routes)
+        ]
         return None, out
