@@ -20,6 +20,7 @@ from filelock import FileLock
 from helpers import subprocess_env, wait_until
 from sweep import COARSE, ROOT, Case, run_case
 from sweep_bodies import BODY_CASES
+from sweep_chambers import CHAMBER_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
 from sweep_foam import FOAM_CASES
@@ -1044,6 +1045,7 @@ CASES = [
     # --- rows of the commands and flags of real robots' data, one module each ---------------
     *IMPORT_CASES,
     *BODY_CASES,
+    *CHAMBER_CASES,
     *COMPARE_CASES,
     *INSPECT_CASES,
     *HISTORY_CASES,

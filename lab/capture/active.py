@@ -64,7 +64,7 @@ class JournaledBatches:
     def resume(self) -> tuple[np.ndarray, np.ndarray]:
         """The samples so far, ``u`` (N, m) rad and ``y`` (N, 3) m, after finishing a batch
         that a kill interrupted (as planned in the journal)."""
-        m = self.rig.robot.n_cables
+        m = self.rig.robot.n_inputs
         u_done, y_done, notes = journal_samples(
             self.journal, m, self.protocol, header=self.header, markers=self.rig.robot.marker_names
         )

@@ -43,7 +43,7 @@ def planned_commands(spec: CaptureSpec, robot: RobotDescription) -> tuple[np.nda
     u, sampler = design.commands(robot)
     sampler = {**sampler, "order": spec.order, "seed": spec.seed}
     order = np.random.default_rng(spec.seed).permutation(len(u)) if spec.order == "shuffled" else np.arange(len(u))
-    what = f"{design.method} design" if design.kind == "design" else f"{design.levels}^{robot.n_cables} grid"
+    what = f"{design.method} design" if design.kind == "design" else f"{design.levels}^{robot.n_inputs} grid"
     return u, order, sampler, f"{len(u)} safe commands of the {what}"
 
 

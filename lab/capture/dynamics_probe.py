@@ -129,11 +129,11 @@ class ProbePlan:
 def random_allowed_commands(robot: RobotDescription, n: int, rng: np.random.Generator) -> np.ndarray:
     """``n`` commands (n, m) rad uniform in ``[0, u_max]^m`` restricted to the safety rule
     (rejection sampling)."""
-    out = np.empty((0, robot.n_cables))
+    out = np.empty((0, robot.n_inputs))
     for _ in range(1000):
         if len(out) >= n:
             break
-        u = rng.uniform(0.0, robot.u_max_rad, (max(2 * n, 16), robot.n_cables))
+        u = rng.uniform(0.0, robot.u_max_rad, (max(2 * n, 16), robot.n_inputs))
         out = np.vstack([out, u[robot.is_safe(u)]])
     if len(out) < n:
         raise InputError(f"robot {robot.name}: could not draw {n} commands its safety rule allows")

@@ -33,12 +33,11 @@ def reset_command(robot, protocol) -> np.ndarray:
     numpy.ndarray
         The reset command, shape (m,): rad for angles, N for tensions.
     """
-    m = robot.n_cables
+    m = robot.n_inputs
     if robot.all_angle:
         return np.full(m, protocol.reset_u_rad)
-    return np.array(
-        [0.5 * c.tension_max_n if c.control == "tension" else protocol.reset_u_rad for c in robot.cables], float
-    )
+    cables = [0.5 * c.tension_max_n if c.control == "tension" else protocol.reset_u_rad for c in robot.cables]
+    return np.array(cables + [max(c.bounds[0], 0.0) for c in robot.chambers], float)  # chambers vented
 
 
 def frame_markers(frame, n_markers: int, rig_kind: str = "this") -> np.ndarray:

@@ -65,7 +65,7 @@ class PredictiveSampler:
     def _learn(self, u_motor) -> Sample:
         p, rec = self.protocol, self.rec
         t_start, frames0, invalid0 = self.rig.now(), rec.n_frames, rec.n_invalid
-        m = self.rig.robot.n_cables
+        m = self.rig.robot.n_inputs
         # each sample's reset pose is its own: the cables' play leaves it where the previous sample
         # came from (the release then erases that memory, so the rest pose is one and the same)
         rec.go_to(reset_command(self.rig.robot, p), f"reset{self.n_learned}", p.motion_timeout_s)
@@ -121,7 +121,7 @@ class PredictiveSampler:
     def _predict(self, u_motor) -> Sample:
         p, rec, f = self.protocol, self.rec, self.filter
         t_start, frames0, invalid0 = self.rig.now(), rec.n_frames, rec.n_invalid
-        m = self.rig.robot.n_cables
+        m = self.rig.robot.n_inputs
         # The reset pose depends on the cables' play on the way in: known only roughly in advance.
         f.jitter("reset", p.reset_jitter_m)
         f.jitter("rest", p.pose_jitter_m)

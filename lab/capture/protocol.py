@@ -309,7 +309,7 @@ def measure(rig: Rig, u_motor, protocol: Protocol = Protocol()) -> Sample:
     watch = _Watcher(rig, protocol)
     t_start = rig.now()
     if protocol.reset:
-        m = rig.robot.n_cables
+        m = rig.robot.n_inputs
         watch.go_to(reset_command(rig.robot, protocol))  # contract all together ...
         watch.go_to(np.zeros(m))  # ... and release
     goal = rig.send(u_motor)

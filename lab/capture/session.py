@@ -175,7 +175,7 @@ def capture(
     from lab.capture.journal import JournalError
 
     commands = np.asarray(commands, dtype=float)
-    m = rig.robot.n_cables
+    m = rig.robot.n_inputs
     if commands.ndim != 2 or commands.shape[1] != m:
         raise InputError(f"commands must have shape (N, {m}), got {commands.shape}")
     for u in commands:

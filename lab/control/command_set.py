@@ -69,7 +69,7 @@ class CommandSet:
         CommandSet
             The robot's allowed commands.
         """
-        m = robot.n_cables
+        m = robot.n_inputs
         A = np.zeros((len(robot.safety_limits), m))
         b = np.zeros(len(robot.safety_limits))
         for i, lim in enumerate(robot.safety_limits):

@@ -232,7 +232,7 @@ class IKSolver:
         if n_u != commands.n:
             raise InputError(
                 f"the model maps {n_u} inputs to {n_y} outputs, but "
-                + (f"robot {robot.name} has {robot.n_cables} cables" if robot is not None else "")
+                + (f"robot {robot.name} has {robot.n_inputs} cables" if robot is not None else "")
                 + (" and " if robot is not None and bounds is not None else "")
                 + (f"the command bounds are for {len(bounds[0])} motors" if bounds is not None else "")
             )

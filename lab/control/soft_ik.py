@@ -49,7 +49,7 @@ class FEMForwardMap:
 
     @property
     def n_u(self) -> int:
-        return self.fem.robot.n_cables
+        return self.fem.robot.n_inputs
 
     @property
     def n_y(self) -> int:

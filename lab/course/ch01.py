@@ -95,7 +95,7 @@ def walk_cases(fem, seed: int = 13, n_paths: int = 2, n_points: int = 8) -> list
     """Exercise 1.3's cases (fem, u_path (n_points, m) rad): closed loops of commands around
     the middle of the range, each cable's angle a cosine, the cables a third of a turn apart."""
     rng = np.random.default_rng(seed)
-    m = fem.robot.n_cables
+    m = fem.robot.n_inputs
     cases = []
     for _ in range(n_paths):
         centre, radius = rng.uniform(0.4, 0.6) * fem.robot.u_max_rad, rng.uniform(0.2, 0.33) * fem.robot.u_max_rad

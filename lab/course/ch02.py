@@ -107,10 +107,10 @@ def capture_cases(robot, seed: int = 24, n_cases: int = 4) -> list[tuple]:
     rng = np.random.default_rng(seed)
     cases = []
     while len(cases) < n_cases:
-        history = rng.uniform(0.5, 1.0, robot.n_cables) * robot.u_max_rad * (rng.random(robot.n_cables) < 0.7)
+        history = rng.uniform(0.5, 1.0, robot.n_inputs) * robot.u_max_rad * (rng.random(robot.n_inputs) < 0.7)
         if history.max() < 0.5 * robot.u_max_rad or not robot.is_safe(history[None])[0]:
             continue
-        cases.append((history, np.round(history * rng.uniform(0.3, 0.7, robot.n_cables), 2), 100 + len(cases)))
+        cases.append((history, np.round(history * rng.uniform(0.3, 0.7, robot.n_inputs), 2), 100 + len(cases)))
     return cases
 
 

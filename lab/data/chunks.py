@@ -65,7 +65,7 @@ def grid_chunks(robot: RobotDescription, u_motor: np.ndarray, target_size: int =
         keys[:, j] = np.rint((u_motor[:, j] - lo[j]) / spacing).astype(int)
     n_levels = keys.max() + 1
     lead = 0
-    while lead < robot.n_cables - 1 and n_levels ** (robot.n_cables - lead) > target_size:
+    while lead < robot.n_inputs - 1 and n_levels ** (robot.n_inputs - lead) > target_size:
         lead += 1
     groups: dict[tuple, list[int]] = {}
     for i, k in enumerate(keys):

@@ -33,9 +33,9 @@ def input_names(robot: RobotDescription) -> dict[str, int]:
     dict
         Name -> input index: ``u0..u{m-1}`` and each cable's name.
     """
-    names = {f"u{i}": i for i in range(robot.n_cables)}
-    for i, cable in enumerate(robot.cables):
-        names.setdefault(cable.name, i)
+    names = {f"u{i}": i for i in range(robot.n_inputs)}
+    for i, name in enumerate(robot.input_names):
+        names.setdefault(name, i)
     return names
 
 
@@ -62,10 +62,10 @@ def read_commands(path, robot: RobotDescription, what: str = "--commands") -> tu
     table = read_table(path, what=what)
     names = input_names(robot)
     units = robot.input_units
-    column_of = [None] * robot.n_cables
+    column_of = [None] * robot.n_inputs
     for c, name in enumerate(table.header):
         if name not in names:
-            expected = ", ".join(f"u{i} or {robot.cables[i].name!r}" for i in range(robot.n_cables))
+            expected = ", ".join(f"u{i} or {robot.input_names[i]!r}" for i in range(robot.n_inputs))
             raise InputError(
                 f"{path}: column {c + 1} ({name!r}) names no input of {robot.name}; the columns are its "
                 f"inputs, each once: {expected}"
@@ -74,12 +74,12 @@ def read_commands(path, robot: RobotDescription, what: str = "--commands") -> tu
         if column_of[i] is not None:
             raise InputError(
                 f"{path}: columns {table.header[column_of[i]]!r} and {name!r} both give input u{i} "
-                f"(cable {robot.cables[i].name!r}): give each input once"
+                f"(input {robot.input_names[i]!r}): give each input once"
             )
         column_of[i] = c
     missing = [i for i, c in enumerate(column_of) if c is None]
     if missing:
-        shown = ", ".join(f"u{i} ({robot.cables[i].name!r}, {units[i]})" for i in missing)
+        shown = ", ".join(f"u{i} ({robot.input_names[i]!r}, {units[i]})" for i in missing)
         raise InputError(
             f"{path}: no column for input(s) {shown} of {robot.name}; its columns are: {', '.join(table.header)}"
         )
@@ -96,7 +96,7 @@ def read_commands(path, robot: RobotDescription, what: str = "--commands") -> tu
         try:
             robot.check_command(u[r])
         except InputError as err:
-            out = [j for j in range(robot.n_cables) if not robot.u_lower[j] <= u[r, j] <= robot.u_upper[j]]
+            out = [j for j in range(robot.n_inputs) if not robot.u_lower[j] <= u[r, j] <= robot.u_upper[j]]
             col = f", column {header[out[0]]!r}" if out else ""
             raise InputError(f"{path}: line {line}{col}: {err}") from None
     return u, {"path": str(path), "sha256": table.sha256, "columns": header, "n": len(u)}

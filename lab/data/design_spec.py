@@ -216,10 +216,10 @@ class DesignSpec(Spec):
             Gives the number of motors m.
         """
         if self.kind == "grid":
-            n = self.levels**robot.n_cables
+            n = self.levels**robot.n_inputs
             if n > MAX_GRID_CANDIDATES:
                 raise self.field_error(
-                    f"{self.name_of('grid')} {self.levels}: a {self.levels}^{robot.n_cables} grid has {n:,} "
+                    f"{self.name_of('grid')} {self.levels}: a {self.levels}^{robot.n_inputs} grid has {n:,} "
                     "candidate commands; "
                     f"at most {MAX_GRID_CANDIDATES:,} are allowed (a grid is built whole in memory)",
                     "grid",
@@ -247,7 +247,7 @@ class DesignSpec(Spec):
         self.check(robot)
         if self.kind == "grid":
             u = grid_commands(robot, self.levels)
-            n_candidates = self.levels**robot.n_cables
+            n_candidates = self.levels**robot.n_inputs
             return u, {"name": "grid", "levels": self.levels, "n_candidates": n_candidates, "n_safe": len(u)}
         method, n = self.method, self.n_commands
         try:

@@ -53,7 +53,7 @@ def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
     if levels < 2:
         raise InputError("a grid needs at least 2 levels per motor")
     lo, hi = _input_box(robot)
-    axes = [np.linspace(lo[j], hi[j], levels) for j in range(robot.n_cables)]
+    axes = [np.linspace(lo[j], hi[j], levels) for j in range(robot.n_inputs)]
     u = np.array(list(itertools.product(*axes)))
     return u[robot.is_safe(u)]
 
@@ -75,9 +75,9 @@ def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray
     """
     from scipy.stats import qmc
 
-    sampler = qmc.Sobol(d=robot.n_cables, scramble=True, seed=seed)
+    sampler = qmc.Sobol(d=robot.n_inputs, scramble=True, seed=seed)
     lo, hi = _input_box(robot)
-    out = np.empty((0, robot.n_cables))
+    out = np.empty((0, robot.n_inputs))
     m = int(np.ceil(np.log2(max(64, 2 * n))))
     while len(out) < n:
         if m > 22:  # 4 million candidates and still short
@@ -169,7 +169,7 @@ def lhs_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
     the surplus that shares strata with the most others. Order: the draw's (random) order."""
     from scipy.stats import qmc
 
-    m, marg = robot.n_cables, _safe_marginals(robot)
+    m, marg = robot.n_inputs, _safe_marginals(robot)
     levels = _levels(marg.shape[1])
     rng = np.random.default_rng(seed)
 
@@ -266,9 +266,9 @@ def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarra
     """
     rng = np.random.default_rng(seed)
     lo, hi = _input_box(robot)
-    out = np.empty((0, robot.n_cables))
+    out = np.empty((0, robot.n_inputs))
     for _ in range(1000):
-        u = lo + rng.random((max(64, 2 * n), robot.n_cables)) * (hi - lo)
+        u = lo + rng.random((max(64, 2 * n), robot.n_inputs)) * (hi - lo)
         out = np.vstack([out, u[robot.is_safe(u)]])
         if len(out) >= n:
             return out[:n]

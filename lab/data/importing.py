@@ -232,10 +232,10 @@ def _to_si(spec: ImportSpec, table: CsvTable, rows: np.ndarray, u: np.ndarray) -
 
 def _robot_check(spec: ImportSpec, robot) -> None:
     """Refuse data whose inputs do not fit ``robot``: their number, or their unit's kind."""
-    if len(spec.u) != robot.n_cables:
+    if len(spec.u) != robot.n_inputs:
         raise InputError(
             f"ImportSpec.u names {len(spec.u)} input column(s) but the robot {robot.name} (ImportSpec.robot) "
-            f"has {robot.n_cables} inputs ({', '.join(c.name for c in robot.cables)})"
+            f"has {robot.n_inputs} inputs ({', '.join(robot.input_names)})"
         )
     units = spec.u_units
     for j, want in enumerate(robot.input_units):
@@ -245,7 +245,7 @@ def _robot_check(spec: ImportSpec, robot) -> None:
             what = KINDS.get(got, "not a unit this package converts")
             raise InputError(
                 f"ImportSpec.u_unit {given!r} is {what}, but input u{j} (column {spec.u[j]!r}) of {robot.name} "
-                f"(cable {robot.cables[j].name!r}) is {KINDS[want]} in {want}: give its unit "
+                f"(input {robot.input_names[j]!r}) is {KINDS[want]} in {want}: give its unit "
                 f"({', '.join(u for u, (si, _) in U_UNITS.items() if si == want)})"
             )
 

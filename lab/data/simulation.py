@@ -65,7 +65,7 @@ def solve_chunk(robot: RobotDescription, n_rings: int, n_axial: int, u_chunk: np
         ``factorizations`` (L,) and ``time_s`` (L,) s.
     """
     fem = _fem(robot, n_rings, n_axial)
-    walk = [np.zeros(robot.n_cables)] + [np.asarray(u, float) for u in u_chunk]
+    walk = [np.zeros(robot.n_inputs)] + [np.asarray(u, float) for u in u_chunk]
     predictor = WalkPredictor(fem)
     tips, ys, iters, facts, times = [], [], [], [], []
     for k, u in enumerate(walk):

@@ -16,7 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
+from lab.description.chambers import check_chamber_geometry, parse_chamber, rest_volume_m3
 from lab.description.fields import ROBOT_FIELDS, check_fields, get, points, refuse_unused, table, vec3
+from lab.description.material import parse_material
 from lab.description.robot import (
     FORMAT_VERSION,
     BodyShape,
@@ -32,7 +34,7 @@ TENSION_MAX_PLAUSIBLE_N = 10_000.0
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 
 
-def parse_body(body: dict, mesh: dict, base_dir: Path | None):
+def parse_body(body: dict, mesh: dict, base_dir: Path | None, chambered: bool = False):
     """The body's shape, length (m), largest radius (m) and mesh resolution.
 
     Parameters
@@ -41,6 +43,9 @@ def parse_body(body: dict, mesh: dict, base_dir: Path | None):
         The ``[body]`` and ``[mesh]`` tables.
     base_dir : pathlib.Path or None
         The description file's folder (``mesh_file`` is relative to it).
+    chambered : bool
+        Whether the robot has ``[[chambers]]``: a cylinder or tapered body is then meshed by
+        gmsh at ``[mesh] size_m`` (the cavities left out) instead of the structured mesher.
 
     Returns
     -------
@@ -51,18 +56,26 @@ def parse_body(body: dict, mesh: dict, base_dir: Path | None):
     """
     kind = body.get("shape")
     clamp = body.get("clamp", "base")
+    size = None
     if kind in ("cylinder", "tapered"):
         refuse_unused(body, ("mesh_file", "mesh_unit", "clamp_group"), "body", f'by shape = "{kind}"')
-        refuse_unused(mesh, ("size_m", "order"), "mesh", f'by body.shape = "{kind}" (it takes n_rings, n_axial)')
         if clamp != "base":
             raise DescriptionError(f'field \'body.clamp\' must be "base" for shape = "{kind}", got {clamp!r}')
-        n_rings = get(mesh, "n_rings", "mesh", int, positive=True)
-        n_axial = get(mesh, "n_axial", "mesh", int, positive=True)
+        if chambered:
+            why = f'by a "{kind}" body with chambers (gmsh meshes it at mesh.size_m)'
+            refuse_unused(mesh, ("n_rings", "n_axial", "order"), "mesh", why)
+            size, n_rings, n_axial = get(mesh, "size_m", "mesh", positive=True), None, None
+        else:
+            refuse_unused(mesh, ("size_m", "order"), "mesh", f'by body.shape = "{kind}" (it takes n_rings, n_axial)')
+            n_rings = get(mesh, "n_rings", "mesh", int, positive=True)
+            n_axial = get(mesh, "n_axial", "mesh", int, positive=True)
     if kind == "cylinder":
         refuse_unused(body, ("profile_m",), "body", 'by shape = "cylinder" (use shape = "tapered")')
         length = get(body, "length_m", "body", positive=True)
         radius = get(body, "radius_m", "body", positive=True)
-        return BodyShape(), length, radius, n_rings, n_axial
+        if size is not None and not 0 < size < radius:
+            raise DescriptionError(f"field 'mesh.size_m' = {size} m must be below the body's radius {radius} m")
+        return BodyShape(mesh_size_m=size), length, radius, n_rings, n_axial
     if kind == "tapered":
         refuse_unused(body, ("length_m", "radius_m"), "body", 'by shape = "tapered" (profile_m gives them)')
         if "profile_m" not in body:
@@ -76,7 +89,7 @@ def parse_body(body: dict, mesh: dict, base_dir: Path | None):
             )
         if np.any(profile[:, 1] <= 0):
             raise DescriptionError(f"field 'body.profile_m' radii must be positive, got {profile[:, 1].tolist()}")
-        shape = BodyShape(shape="tapered", profile_m=profile)
+        shape = BodyShape(shape="tapered", profile_m=profile, mesh_size_m=size)
         return shape, float(profile[-1, 0]), float(profile[:, 1].max()), n_rings, n_axial
     if kind == "mesh":
         return _mesh_body(body, mesh, base_dir, clamp)
@@ -254,34 +267,32 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
         raise DescriptionError(f"field 'format_version' must be {FORMAT_VERSION}, got {version!r}")
     name = get(data, "name", "", str)
     base_dir = None if base_dir is None else Path(base_dir)
-    shape, length, radius, n_rings, n_axial = parse_body(table(data, "body"), table(data, "mesh"), base_dir)
-
-    mat = table(data, "material")
-    if mat.get("model") != "neo-hookean":
-        raise DescriptionError(f"field 'material.model' must be \"neo-hookean\", got {mat.get('model')!r}")
-    E = get(mat, "youngs_modulus_pa", "material", positive=True)
-    nu = get(mat, "poisson_ratio", "material")
-    if not -1.0 < nu < 0.5:
-        raise DescriptionError(f"field 'material.poisson_ratio' must be in (-1, 0.5), got {nu}")
-    rho = get(mat, "density_kg_m3", "material", positive=True)
-    grad = vec3(mat, "stiffness_gradient", "material") if "stiffness_gradient" in mat else np.zeros(3)
-    if grad[0] != 0 or np.hypot(grad[1], grad[2]) >= 1:
+    chamber_entries = data.get("chambers")
+    if chamber_entries is not None and (not isinstance(chamber_entries, list) or not chamber_entries):
         raise DescriptionError(
-            f"field 'material.stiffness_gradient' must be [0, g_y, g_z], |g| < 1, got {grad.tolist()}"
+            f"field 'chambers' must be a non-empty list of tables ([[chambers]]), got {chamber_entries!r}"
         )
+    shape, length, radius, n_rings, n_axial = parse_body(
+        table(data, "body"), table(data, "mesh"), base_dir, chambered=bool(chamber_entries)
+    )
+    material = parse_material(table(data, "material"))
     gravity = vec3(table(data, "mounting"), "gravity_m_s2", "mounting")
 
-    entries = data.get("cables")
-    if not isinstance(entries, list) or not entries:
-        raise DescriptionError("missing [[cables]]: a robot needs at least one cable")
-
     def radius_at(x):
-        return radius if shape.profile_m is None else np.interp(x, shape.profile_m[:, 0], shape.profile_m[:, 1])
+        if shape.profile_m is None:
+            return np.full(np.shape(x), radius) if np.ndim(x) else radius
+        return np.interp(x, shape.profile_m[:, 0], shape.profile_m[:, 1])
 
+    chambers = parse_chambers(chamber_entries, shape, length, radius_at)
+    entries = data.get("cables")
+    if entries is None and chambers:
+        entries = []
+    elif not isinstance(entries, list) or not entries:
+        raise DescriptionError("missing [[cables]]: a robot needs at least one cable or chamber ([[chambers]])")
     cables = tuple(parse_cable(c, i, (shape, length, radius_at)) for i, c in enumerate(entries))
-    names = [c.name for c in cables]
+    names = [c.name for c in cables] + [c.name for c in chambers]
     if len(set(names)) != len(names):
-        raise DescriptionError(f"cables[].name must be unique, got {names}")
+        raise DescriptionError(f"cables[].name and chambers[].name must be unique together, got {names}")
 
     any_angle = any(c.control == "angle" for c in cables)
     act = table(data, "actuation", required=any_angle)
@@ -326,9 +337,9 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
         summary=str(data.get("summary", "")),
         length_m=length,
         radius_m=radius,
-        youngs_modulus_pa=E,
-        poisson_ratio=nu,
-        density_kg_m3=rho,
+        youngs_modulus_pa=material.youngs_modulus_pa,
+        poisson_ratio=material.poisson_ratio,
+        density_kg_m3=material.density_kg_m3,
         gravity_m_s2=gravity,
         n_rings=n_rings,
         n_axial=n_axial,
@@ -340,7 +351,45 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
         p_tip_marker_W=p_tip,
         safety_limits=tuple(limits),
         source=data,
-        stiffness_gradient=grad,
+        stiffness_gradient=material.stiffness_gradient,
         body_shape=shape,
         markers=markers,
+        chambers=chambers,
+        material_model=material.model,
+        yeoh_c_pa=material.yeoh_c_pa,
+        bulk_modulus_pa=material.bulk_modulus_pa,
     )
+
+
+def parse_chambers(entries, shape, length: float, radius_at) -> tuple:
+    """The ``[[chambers]]``: each checked (:func:`~lab.description.chambers.parse_chamber`),
+    then, in a cylinder or tapered body, against the body and one another at the mesh size.
+
+    Parameters
+    ----------
+    entries : list of dict or None
+        The tables.
+    shape : BodyShape
+        The body (its kind and ``mesh_size_m``).
+    length : float
+        The body's length, m.
+    radius_at : callable
+        x (m) -> the body's radius there, m.
+
+    Returns
+    -------
+    tuple of Chamber
+    """
+    if not entries:
+        return ()
+    chambers = tuple(parse_chamber(c, i, shape.shape) for i, c in enumerate(entries))
+    if shape.shape != "mesh":
+        check_chamber_geometry(chambers, length, radius_at, shape.mesh_size_m)
+    for i, c in enumerate(chambers):
+        v0 = rest_volume_m3(c)
+        if c.control == "volume" and v0 is not None and c.bounds[0] <= -v0:
+            raise DescriptionError(
+                f"field 'chambers[{i}].volume_min_m3' = {c.bounds[0]} m^3 would collapse the cavity (its rest volume "
+                f"is {v0:.4g} m^3)"
+            )
+    return chambers

@@ -133,6 +133,10 @@ _DEFAULTS = {
     "control": "angle",
     "tension_max_n": None,
     "markers": (),
+    "chambers": (),
+    "material_model": "neo-hookean",
+    "yeoh_c_pa": None,
+    "bulk_modulus_pa": None,
 }
 
 
@@ -143,7 +147,7 @@ def _unset(obj, key: str) -> bool:
     if key == "mesh_file":
         return True
     if key == "body_shape":
-        return value.shape == "cylinder"
+        return value.shape == "cylinder" and value.mesh_size_m is None
     if key in ("slack_m", "stiffness_gradient"):
         return not np.any(value)
     if key in _DEFAULTS:
@@ -187,6 +191,15 @@ class RobotDescription:
         The body's geometry.
     markers : tuple of MarkerSpec
         The observed points after the tip.
+    chambers : tuple of Chamber
+        The fluid chambers, whose inputs follow the cables' in u.
+    material_model : str
+        ``"neo-hookean"`` or ``"yeoh"`` (then ``youngs_modulus_pa`` and ``poisson_ratio`` are
+        its small-strain match).
+    yeoh_c_pa : tuple of float or None
+        The Yeoh law's (C10, C20, C30), Pa.
+    bulk_modulus_pa : float or None
+        The Yeoh law's bulk modulus when the file gives it instead of the Poisson ratio, Pa.
     """
 
     name: str
@@ -210,31 +223,49 @@ class RobotDescription:
     stiffness_gradient: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (3,), x = 0
     body_shape: BodyShape = field(default_factory=BodyShape)
     markers: tuple[MarkerSpec, ...] = ()
+    chambers: tuple = ()
+    material_model: str = "neo-hookean"
+    yeoh_c_pa: tuple | None = None
+    bulk_modulus_pa: float | None = None
 
     @property
     def n_cables(self) -> int:
-        """Number of cables, which is the number of inputs."""
+        """Number of cables."""
         return len(self.cables)
 
     @property
+    def n_inputs(self) -> int:
+        """Number of inputs u: the cables, then the chambers."""
+        return len(self.cables) + len(self.chambers)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """The inputs' names: the cables', then the chambers', in file order."""
+        return tuple(c.name for c in self.cables) + tuple(c.name for c in self.chambers)
+
+    @property
     def input_units(self) -> tuple[str, ...]:
-        """The unit of each input: ``"rad"`` for a spool angle, ``"N"`` for a tension."""
-        return tuple("N" if c.control == "tension" else "rad" for c in self.cables)
+        """The unit of each input: ``"rad"`` (spool angle), ``"N"`` (tension), ``"Pa"``
+        (gauge pressure) or ``"m^3"`` (fluid volume)."""
+        cables = tuple("N" if c.control == "tension" else "rad" for c in self.cables)
+        return cables + tuple(c.unit for c in self.chambers)
 
     @property
     def u_lower(self) -> np.ndarray:
-        """The smallest value of each input (m,): zero angle or zero tension."""
-        return np.zeros(self.n_cables)
+        """The smallest value of each input (n_inputs,): zero angle or tension, a chamber's minimum."""
+        return np.array([0.0] * self.n_cables + [c.bounds[0] for c in self.chambers], float)
 
     @property
     def u_upper(self) -> np.ndarray:
-        """The largest value of each input (m,): ``u_max_rad`` (rad) or ``tension_max_n`` (N)."""
-        return np.array([c.tension_max_n if c.control == "tension" else self.u_max_rad for c in self.cables], float)
+        """The largest value of each input (n_inputs,): ``u_max_rad`` (rad), ``tension_max_n`` (N),
+        or a chamber's ``pressure_max_pa`` (Pa) or ``volume_max_m3`` (m^3)."""
+        cables = [c.tension_max_n if c.control == "tension" else self.u_max_rad for c in self.cables]
+        return np.array(cables + [c.bounds[1] for c in self.chambers], float)
 
     @property
     def all_angle(self) -> bool:
-        """Whether every cable is angle-controlled (today's robots)."""
-        return all(c.control == "angle" for c in self.cables)
+        """Whether every input is a cable's spool angle (the paper's robots)."""
+        return not self.chambers and all(c.control == "angle" for c in self.cables)
 
     @property
     def marker_names(self) -> tuple[str, ...]:
@@ -314,9 +345,9 @@ class RobotDescription:
             Whether each command is allowed.
         """
         u = np.atleast_2d(np.asarray(u_motor, dtype=float))
-        if u.shape[1] != self.n_cables:
-            raise InputError(f"expected {self.n_cables} inputs, got {u.shape[1]}")
-        slack = tol * self.u_upper
+        if u.shape[1] != self.n_inputs:
+            raise InputError(f"expected {self.n_inputs} inputs, got {u.shape[1]}")
+        slack = tol * np.maximum(np.abs(self.u_upper), np.abs(self.u_lower))
         ok = np.all(np.isfinite(u), axis=1)
         ok &= np.all((u >= self.u_lower - slack) & (u <= self.u_upper + slack), axis=1)
         for lim in self.safety_limits:
@@ -338,22 +369,24 @@ class RobotDescription:
         """
         u = np.asarray(u_motor, dtype=float)
         what = "motor angles" if self.all_angle else "inputs"
-        if u.shape != (self.n_cables,):
-            raise InputError(f"{self.name}: expected {self.n_cables} {what}, got shape {u.shape}")
+        if u.shape != (self.n_inputs,):
+            raise InputError(f"{self.name}: expected {self.n_inputs} {what}, got shape {u.shape}")
         if not np.all(np.isfinite(u)):
             raise InputError(f"{self.name}: {what} must be finite, got {u.tolist()}")
         if self.all_angle:
             if np.any(u < -1e-9) or np.any(u > self.u_max_rad * (1 + 1e-9)):
                 raise InputError(f"{self.name}: motor angles {u.tolist()} rad outside [0, {self.u_max_rad}]")
         else:
-            high = self.u_upper
-            bad = np.flatnonzero((u < -1e-9 * high) | (u > high * (1 + 1e-9)))
+            low, high = self.u_lower, self.u_upper
+            slack = 1e-9 * np.maximum(np.abs(low), np.abs(high))
+            bad = np.flatnonzero((u < low - slack) | (u > high + slack))
             if len(bad):
                 i = int(bad[0])
-                c = self.cables[i]
+                kind = "cable" if i < self.n_cables else "chamber"
+                unit = self.input_units[i]
                 raise InputError(
-                    f"{self.name}: input {i} (cable '{c.name}') {u[i]} {self.input_units[i]} outside "
-                    f"[0, {high[i]}] {self.input_units[i]}"
+                    f"{self.name}: input {i} ({kind} '{self.input_names[i]}') {u[i]} {unit} outside "
+                    f"[{low[i]:g}, {high[i]}] {unit}"
                 )
         if not self.is_safe(u):
             raise InputError(f"{self.name}: motor command {u.tolist()} rad violates the safety rule")

@@ -22,9 +22,9 @@ from lab.description import RobotDescription
 from lab.errors import InputError
 from lab.fem.bodies import CylinderBody, FreeCoordinates, body_of
 from lab.fem.bodies.mesh import TetMesh
-from lab.fem.materials import NeoHookeanMaterial
 from lab.fem.materials.neo_hookean import project_psd
 from lab.fem.model_inputs import ActuatedModel
+from lab.fem.model_material import description_material
 
 
 class ArmFEM(ActuatedModel):
@@ -93,7 +93,7 @@ class ArmFEM(ActuatedModel):
                 if youngs_modulus_pa is None
                 else youngs_modulus_pa
             )
-            material = NeoHookeanMaterial(E, robot.poisson_ratio)
+            material = description_material(robot, E)
         self.elastic = material.on_mesh(mesh)
         if np.any(self.elastic.V <= 0):
             raise InputError("mesh has tetrahedra with non-positive volume")
@@ -395,3 +395,4 @@ class ArmFEM(ActuatedModel):
         r = unique // self.n_free
         self._indices = (unique % self.n_free).astype(np.int32)
         self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)
+

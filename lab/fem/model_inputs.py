@@ -16,9 +16,13 @@ from lab.fem.actuators.cable_routes import spring
 
 
 def description_actuators(robot) -> list:
-    """The actuators of a description's cables: ``["cables"]`` when every cable is
-    angle-controlled (today's robots), ``["tendons_tension"]`` when all are tension-controlled,
-    else both, each with the indices of its cables.
+    """The actuators of a description's cables and chambers, each owning its inputs.
+
+    ``["cables"]`` when every input is an angle-controlled cable (today's robots),
+    ``["tendons_tension"]`` when all are tension-controlled cables, ``["chambers_pressure"]``
+    or ``["chambers_volume"]`` when all are chambers of one control; else one actuator per
+    kind present, each with the indices of its cables (``cables``) or chambers
+    (``chambers``), whose inputs sit at those places in u (cables first, then chambers).
 
     Parameters
     ----------
@@ -30,13 +34,37 @@ def description_actuators(robot) -> list:
     list
         Actuator names or ``(name, options)`` pairs for :class:`lab.fem.model.ArmFEM`.
     """
-    angle = [i for i, c in enumerate(robot.cables) if c.control == "angle"]
-    tension = [i for i, c in enumerate(robot.cables) if c.control == "tension"]
-    if not tension:
-        return ["cables"]
-    if not angle:
-        return ["tendons_tension"]
-    return [("cables", {"cables": angle}), ("tendons_tension", {"cables": tension})]
+    chambers = getattr(robot, "chambers", ())
+    groups = [
+        ("cables", "cables", [i for i, c in enumerate(robot.cables) if c.control == "angle"]),
+        ("tendons_tension", "cables", [i for i, c in enumerate(robot.cables) if c.control == "tension"]),
+        ("chambers_pressure", "chambers", [j for j, c in enumerate(chambers) if c.control == "pressure"]),
+        ("chambers_volume", "chambers", [j for j, c in enumerate(chambers) if c.control == "volume"]),
+    ]
+    present = [(name, key, idx) for name, key, idx in groups if idx]
+    if len(present) == 1:
+        return [present[0][0]]
+    return [(name, {key: idx}) for name, key, idx in present]
+
+
+def description_inputs(robot, options: dict) -> np.ndarray:
+    """Where in u the inputs of one of :func:`description_actuators`' actuators sit.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The description.
+    options : dict
+        The actuator's options: ``cables`` (cable indices) or ``chambers`` (chamber indices).
+
+    Returns
+    -------
+    ndarray of int
+        Input indices (cables first in u, then the chambers).
+    """
+    if "cables" in options:
+        return np.asarray(options["cables"], dtype=np.int64)
+    return robot.n_cables + np.asarray(options["chambers"], dtype=np.int64)
 
 
 class ActuatedModel:
@@ -55,7 +83,7 @@ class ActuatedModel:
                 options = {"slack_m": cable_slack_m, "law": self.cable_springs} | dict(options)
             act = ACTUATORS[name].build(self.robot, self.body, self.coordinates, **options)
             if scattered and len(specs) > 1:
-                act.inputs = np.asarray(options["cables"], dtype=np.int64)
+                act.inputs = description_inputs(self.robot, options)
             else:
                 act.inputs = slice(start, start + act.n_inputs)
             start += act.n_inputs

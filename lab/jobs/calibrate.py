@@ -163,8 +163,8 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
     name = (meta.get("robot") or {}).get("name")
     if name is not None and name != robot.name:
         raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
-    if u.shape[1] != robot.n_cables:
-        raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_cables} cables")
+    if u.shape[1] != robot.n_inputs:
+        raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_inputs} cables")
     markers = dataset_markers(meta, y, robot, str(real))
     if log is not None:
         log(

@@ -169,7 +169,7 @@ def _simulate_active(robot, design, n_rings, n_axial, checkpoint, file, run: dic
     batches = store.load_batches()
     stats = {f: [b[f] for b in batches] for f in _STATS}
     log = [b["entry"] for b in batches]
-    u_done = np.vstack([np.empty((0, robot.n_cables))] + [b["u_motor"] for b in batches])
+    u_done = np.vstack([np.empty((0, robot.n_inputs))] + [b["u_motor"] for b in batches])
     y_done = np.vstack([np.empty((0, 3))] + [b["p_tip_W"] for b in batches])
     how = f" picked actively in batches of {design.batch}"
     announce(robot, design.active, n_rings, n_axial, run["jobs"], how, file=file)

@@ -267,7 +267,7 @@ def run(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Ca
     if not spec.rig.has_rig:
         return run_offline(spec, out, command=command, say=say, max_points=MAX_POINTS)
     robot = load_robot(spec.robot or DEFAULT_ROBOT)
-    log = None if spec.stream is not None else PointLog(f"{out}.points.csv", robot.n_cables)
+    log = None if spec.stream is not None else PointLog(f"{out}.points.csv", robot.n_inputs)
     targets = load_trajectory(spec.trajectory, spec.n_points)
     _check_size(spec, len(targets))
     relax = None if spec.dynamic_model is None else load_relaxation(spec.dynamic_model)

@@ -83,10 +83,10 @@ def _check_robot(robot, meta: dict, what: str, n_u: int) -> None:
     name = (meta.get("robot") or {}).get("name")
     if robot is not None and name is not None and name != robot.name:
         raise FieldError(f"{what} was made on robot {name!r}, but TransferSpec.robot is {robot.name!r}")
-    if robot is not None and n_u != robot.n_cables:
+    if robot is not None and n_u != robot.n_inputs:
         raise FieldError(
             f"{what} has {n_u} motor columns (u0..u{n_u - 1}), but TransferSpec.robot {robot.name} has "
-            f"{robot.n_cables} motors"
+            f"{robot.n_inputs} motors"
         )
 
 
@@ -157,11 +157,11 @@ def run(spec: TransferSpec, *, command: str = "", log=None):
     if spec.method != "real-only":
         if spec.sim_model:
             sim_model = load_model(spec.sim_model)
-            if robot is not None and sim_model.n_u != robot.n_cables:
+            if robot is not None and sim_model.n_u != robot.n_inputs:
                 raise FieldError(
                     f"TransferSpec.sim_model {spec.sim_model} takes {sim_model.n_u} motor angles, but "
                     f"TransferSpec.robot {robot.name} "
-                    f"has {robot.n_cables} motors"
+                    f"has {robot.n_inputs} motors"
                 )
         else:
             u_sim, y_sim, sim_meta = _read(spec.sim, "TransferSpec.sim", robot)
@@ -202,7 +202,7 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, markers, log):
             f"TransferSpec.sim {spec.sim} holds {len(u_sim)} commands; the calibrated FEM re-simulates at least "
             f"{MIN_RESIMULATED}"
         )
-    spec.train.check_fits(robot.n_cables, 3 * len(markers), len(u_sim))  # before the calibration and re-simulation
+    spec.train.check_fits(robot.n_inputs, 3 * len(markers), len(u_sim))  # before the calibration and re-simulation
     log(
         f"calibrated: {len(u_real)} real samples from {spec.real}; mesh n_rings={n_rings} n_axial={n_axial}; "
         f"then {len(u_sim)} commands of {spec.sim} re-simulated"

@@ -221,7 +221,7 @@ def active_sampling(
     """
     if not isinstance(spec, ActiveSpec):
         raise InputError(f"spec must be an ActiveSpec, got {type(spec).__name__}")
-    m = robot.n_cables
+    m = robot.n_inputs
     n_total, batch, pool_size, seed = spec.n_total, spec.batch, spec.pool_size, spec.seed
     n_initial = default_initial(n_total) if spec.n_initial is None else spec.n_initial
     hidden, k, epochs, density_radius = spec.hidden, spec.k, spec.epochs, spec.density_radius

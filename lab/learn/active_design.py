@@ -58,7 +58,7 @@ def active_settings(design: DesignSpec, robot: RobotDescription) -> dict:
         "initial_design": "sobol",
         "n_initial": default_initial(d.active),
         "pool_size": ACTIVE_POOL,
-        "radius": default_radius(d.active, robot.n_cables),
+        "radius": default_radius(d.active, robot.n_inputs),
         "density_radius": DENSITY_RADIUS,
         "ensemble": {
             "trainer": "lab.learn.ensemble.train_ensemble",
@@ -83,7 +83,7 @@ def check_active(design: DesignSpec, robot: RobotDescription) -> None:
     """
     d = _active(design)
     n_initial = default_initial(d.active)
-    need = minimum_samples(robot.n_cables, member_ratios())
+    need = minimum_samples(robot.n_inputs, member_ratios())
     if n_initial < d.active and n_initial < need:
         active = d.name_of("active")
         raise d.field_error(

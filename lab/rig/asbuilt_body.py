@@ -54,7 +54,7 @@ class AsBuiltBody(Body):
         self.defects = defects if isinstance(defects, Defects) else load_defects(defects, robot)
         self.fem = as_built_fem(robot, self.defects, n_rings=n_rings, n_axial=n_axial)
         self.equilibria = EquilibriumCache(self.fem)
-        self.n_motors = robot.n_cables
+        self.n_motors = robot.n_inputs
         #: motor speed (rad/s) used for the next command; the XM430 emulator may set it
         self.profile_velocity_rad_s = self.defects.profile_velocity_rad_s
         #: or each motor's (n_motors,) rad/s (the XM430 emulator's servos); None: all at the above

@@ -37,7 +37,7 @@ class SimRig(Rig):
         self._t_s = 0.0
         self.solve_time_s = 0.0  # total FEM time spent, for reports
         self._q = self.fem.rest_q()
-        self._send(np.zeros(robot.n_cables))  # start hanging under gravity, cables at rest
+        self._send(np.zeros(robot.n_inputs))  # start hanging under gravity, cables at rest
 
     def _send(self, u_motor: np.ndarray) -> None:
         sol = solve_static(self.fem, u_motor, self._q)

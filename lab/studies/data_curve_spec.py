@@ -184,10 +184,10 @@ class DataCurveSpec(Spec):
             self.mesh.resolve(robot)
         if "grid" in self.strategies and self.grid_levels:
             levels = max(self.grid_levels)
-            if levels**robot.n_cables > MAX_GRID_CANDIDATES:
+            if levels**robot.n_inputs > MAX_GRID_CANDIDATES:
                 raise self.field_error(
-                    f"{self.name_of('grid_levels')} {levels}: a {levels}^{robot.n_cables} grid has "
-                    f"{levels**robot.n_cables:,} candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed",
+                    f"{self.name_of('grid_levels')} {levels}: a {levels}^{robot.n_inputs} grid has "
+                    f"{levels**robot.n_inputs:,} candidate commands; at most {MAX_GRID_CANDIDATES:,} are allowed",
                     "grid_levels",
                 )
 

@@ -277,10 +277,10 @@ def _check_model(spec: TransferCurveSpec) -> None:
     robot = load_robot(spec.robot)
     spec.mesh.resolve(robot)
     model = load_model(spec.sim_model)
-    if (model.n_u, model.n_y) != (robot.n_cables, 3):
+    if (model.n_u, model.n_y) != (robot.n_inputs, 3):
         raise spec.field_error(
             f"{spec.name_of('sim_model')} {spec.sim_model} maps {model.n_u} motor angles to {model.n_y} outputs, "
-            f"but {spec.name_of('robot')} {robot.name} has {robot.n_cables} motors and a 3-D tip",
+            f"but {spec.name_of('robot')} {robot.name} has {robot.n_inputs} motors and a 3-D tip",
             "sim_model",
             "robot",
         )

@@ -282,9 +282,9 @@ def run_closed_loop(
     ):
         raise InputError("closed-loop correction needs the model's Jacobian, and this model has none")
     targets = np.atleast_2d(check_targets(targets_W))
-    if solver.commands.n != rig.robot.n_cables:
+    if solver.commands.n != rig.robot.n_inputs:
         raise InputError(
-            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
+            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_inputs}"
         )
     n, passes = len(targets), int(passes)
     t0 = time.perf_counter()

@@ -246,9 +246,9 @@ def stream_trajectory(
     StreamResult
         The valid frames of the last period against the path's targets at their times.
     """
-    if solver.commands.n != rig.robot.n_cables:
+    if solver.commands.n != rig.robot.n_inputs:
         raise InputError(
-            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
+            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_inputs}"
         )
     n_periods = StreamSpec(period_s, n_periods, lead_in_s, command_rate_hz, smoothing).periods
     t_start = time.perf_counter()

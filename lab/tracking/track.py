@@ -188,9 +188,9 @@ def run_trajectory(
         Commands, settled tips and errors of the N targets.
     """
     targets = np.atleast_2d(check_targets(targets_W))
-    if solver.commands.n != rig.robot.n_cables:
+    if solver.commands.n != rig.robot.n_inputs:
         raise InputError(
-            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_cables}"
+            f"the IK solves for {solver.commands.n} motors but robot {rig.robot.name} has {rig.robot.n_inputs}"
         )
     t0 = time.perf_counter()
     plan = solver.follow(targets, u0)

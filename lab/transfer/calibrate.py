@@ -177,8 +177,8 @@ def _rms(residuals: np.ndarray) -> float:
 
 def _check_data(robot: RobotDescription, u, y, markers) -> tuple[np.ndarray, np.ndarray]:
     u, y = np.asarray(u, float), np.asarray(y, float)
-    if u.ndim != 2 or u.shape[1] != robot.n_cables or len(u) == 0:
-        raise InputError(f"motor angles must be (N, {robot.n_cables}) for {robot.name}, got shape {u.shape}")
+    if u.ndim != 2 or u.shape[1] != robot.n_inputs or len(u) == 0:
+        raise InputError(f"motor angles must be (N, {robot.n_inputs}) for {robot.name}, got shape {u.shape}")
     if y.shape != (len(u), 3 * len(markers)):
         what = "tip positions" if len(markers) == 1 else f"marker positions ({', '.join(markers)})"
         raise InputError(f"{what} must be ({len(u)}, {3 * len(markers)}), got shape {y.shape}")

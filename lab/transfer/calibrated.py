@@ -97,9 +97,9 @@ def calibrated_model(
     from lab.learn.train import train
 
     u_sim = np.asarray(u_sim, float)
-    if u_sim.ndim != 2 or u_sim.shape[1] != robot.n_cables or len(u_sim) < MIN_RESIMULATED:
+    if u_sim.ndim != 2 or u_sim.shape[1] != robot.n_inputs or len(u_sim) < MIN_RESIMULATED:
         raise InputError(
-            f"expected at least {MIN_RESIMULATED} commands to re-simulate, (S, {robot.n_cables}) rad; got {u_sim.shape}"
+            f"expected at least {MIN_RESIMULATED} commands to re-simulate, (S, {robot.n_inputs}) rad; got {u_sim.shape}"
         )
     markers = ("tip",) if markers is None else tuple(markers)
     # the groups: calibrate's default, lab.transfer.prior.default_groups (slack only with an angle cable)

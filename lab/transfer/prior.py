@@ -71,4 +71,6 @@ def default_groups(robot: RobotDescription) -> tuple[str, ...]:
     """
     if any(c.control == "angle" for c in robot.cables):
         return DEFAULT_GROUPS
+    if not robot.cables:  # chambers only: no eyelets, no slack
+        return tuple(g for g in DEFAULT_GROUPS if g not in ("slack", "eyelets"))
     return tuple(g for g in DEFAULT_GROUPS if g != "slack")

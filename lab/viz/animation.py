@@ -263,7 +263,7 @@ def animate_arm(
 
     q = _check_frames("q_frames", q_frames, (None, fem.n_free))
     n_frames = len(q)
-    u = None if u_frames is None else _check_frames("u_frames", u_frames, (n_frames, fem.robot.n_cables))
+    u = None if u_frames is None else _check_frames("u_frames", u_frames, (n_frames, fem.robot.n_inputs))
     targets = None if targets_W is None else _check_frames("targets_W", targets_W, (n_frames, 3))
     if not (np.isfinite(fps) and fps > 0):
         raise InputError(f"fps must be positive, got {fps!r}")
@@ -278,7 +278,7 @@ def animate_arm(
     colors = cable_colors(n_levels, None if u is None else level_u, u_max)
     # levels[t, c]: the colour level shown for cable c in frame t
     levels = (
-        np.zeros((n_frames, fem.robot.n_cables), int)
+        np.zeros((n_frames, fem.robot.n_inputs), int)
         if u is None
         else np.rint(np.clip(u / u_max, 0, 1) * (n_levels - 1)).astype(int)
     )

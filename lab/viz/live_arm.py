@@ -69,7 +69,7 @@ class LiveArm:
             for path in paths:
                 self.root[path].set_object(cable, g.MeshLambertMaterial(color=_hex(CABLE_RGB)))
         self.root["tip"].set_object(g.Sphere(MARKER_RADIUS_M), g.MeshLambertMaterial(color=_hex(TIP_RGB)))
-        self._colors = [None] * fem.robot.n_cables
+        self._colors = [None] * fem.robot.n_inputs
         self.update()
 
     def update(self, q=None, u_motor=None):
@@ -94,7 +94,7 @@ class LiveArm:
             self.root[f"body/{i:02d}"].set_transform(T)
         for name, T in zip(("base", "end"), end_caps(pieces.body)):
             self.root[f"body/{name}"].set_transform(T)
-        colors = cable_colors(self.fem.robot.n_cables, u_motor, self.fem.robot.u_max_rad)
+        colors = cable_colors(self.fem.robot.n_inputs, u_motor, self.fem.robot.u_max_rad)
         for c, (paths, Ts) in enumerate(zip(self.cable_paths, pieces.cables)):
             rgba = [*np.round(colors[c], 3).tolist(), 1.0]
             for path, T in zip(paths, Ts):

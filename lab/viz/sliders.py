@@ -87,7 +87,7 @@ class ArmExplorer:
         self.fig = self.axes = None
         self.last: dict | None = None
         grid = np.linspace(0.0, self.robot.u_max_rad, max(1, levels))
-        for u in np.array(np.meshgrid(*[grid] * self.robot.n_cables, indexing="ij")).reshape(self.robot.n_cables, -1).T:
+        for u in np.array(np.meshgrid(*[grid] * self.robot.n_inputs, indexing="ij")).reshape(self.robot.n_inputs, -1).T:
             if self._safe(u):
                 sol = solve_static(fem, u, q0=self._start(u), sensitivity=True)
                 self._keep(u, sol)
@@ -134,8 +134,8 @@ class ArmExplorer:
 
         t0 = time.perf_counter()
         u = np.asarray(u_motor, float).reshape(-1)
-        if u.shape != (self.robot.n_cables,):
-            raise InputError(f"u_motor needs {self.robot.n_cables} motor angles (rad), got {u.shape[0]}")
+        if u.shape != (self.robot.n_inputs,):
+            raise InputError(f"u_motor needs {self.robot.n_inputs} motor angles (rad), got {u.shape[0]}")
         out = {"u_motor": u, "safe": self._safe(u), "p_tip_W": None, "q": None, "iterations": 0}
         if out["safe"]:
             sol = solve_static(self.fem, u, q0=self._start(u), sensitivity=True)

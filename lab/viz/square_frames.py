@@ -103,9 +103,9 @@ def plot_square_frames(
     import matplotlib.pyplot as plt
 
     targets, u_all = np.asarray(targets_W, float), np.asarray(commands, float)
-    if targets.ndim != 2 or targets.shape[1] != 3 or u_all.shape != (len(targets), fem.robot.n_cables):
+    if targets.ndim != 2 or targets.shape[1] != 3 or u_all.shape != (len(targets), fem.robot.n_inputs):
         raise InputError(
-            f"need targets (N, 3) m and commands (N, {fem.robot.n_cables}) rad, got {targets.shape}, {u_all.shape}"
+            f"need targets (N, 3) m and commands (N, {fem.robot.n_inputs}) rad, got {targets.shape}, {u_all.shape}"
         )
     robot, idx = fem.robot, frame_indices(len(targets), n_frames)
     q, tips = solve_frames(fem, u_all[idx])

@@ -46,11 +46,13 @@ class PressureChamberActuator(Actuator):
         The largest gauge pressure of each chamber, Pa (> 0).
     names : sequence of str, optional
         The chambers' names; default ``"0"``, ``"1"``, ...
+    pressure_min_pa : array_like, shape (n,) or scalar
+        The smallest gauge pressure of each chamber, Pa (0; negative: vacuum allowed).
     """
 
     input_unit = "Pa"
 
-    def __init__(self, surfaces, X_W, free, pressure_max_pa, names=None):
+    def __init__(self, surfaces, X_W, free, pressure_max_pa, names=None, pressure_min_pa=0.0):
         self.surfaces = [np.asarray(s, dtype=np.int64) for s in surfaces]
         self.free = free
         names = [str(i) for i in range(len(self.surfaces))] if names is None else list(names)
@@ -62,6 +64,12 @@ class PressureChamberActuator(Actuator):
         if not np.all(np.isfinite(high)) or np.any(high <= 0):
             raise InputError(f"chambers_pressure: pressure_max_pa {high.tolist()} Pa must be finite and > 0")
         self.pressure_max_pa = high
+        low = np.broadcast_to(np.asarray(pressure_min_pa, float), (len(self.surfaces),)).copy()
+        if not np.all(np.isfinite(low)) or np.any(low < -101_325.0) or np.any(low >= high):
+            raise InputError(
+                f"chambers_pressure: pressure_min_pa {low.tolist()} Pa must be at least vacuum and below the maximum"
+            )
+        self.pressure_min_pa = low
         self.V0_m3 = self.volumes(X_W)
         if np.any(self.V0_m3 <= 0):
             raise InputError(f"chambers_pressure: rest volumes {self.V0_m3.tolist()} m^3 must be > 0")
@@ -71,30 +79,41 @@ class PressureChamberActuator(Actuator):
         self._free = free.dof_to_free[dofs]  # (T, 9), -1 where clamped
 
     @classmethod
-    def build(cls, robot, body, free, *, surfaces, pressure_max_pa, names=None) -> PressureChamberActuator:
-        """Chambers on cavities of ``body``'s mesh, their surfaces oriented from the mesh.
+    def build(
+        cls, robot, body, free, *, surfaces=None, pressure_max_pa=None, names=None, chambers=None
+    ) -> PressureChamberActuator:
+        """Chambers on cavities of ``body``'s mesh: the description's, or the surfaces given.
 
         Parameters
         ----------
         robot : RobotDescription
-            The description (unused: the chambers are given here).
+            The description: its pressure-controlled ``chambers`` unless ``surfaces`` is given.
         body : Body
-            The body whose mesh holds the cavities.
+            The body whose mesh holds the cavities (its ``groups`` name their walls).
         free : FreeCoordinates
             Its free coordinates.
-        surfaces : list of ndarray of int, shape (T_c, 3)
+        surfaces : list of ndarray of int, shape (T_c, 3), optional
             Each chamber's closed surface (boundary faces of the mesh, any winding; e.g.
             :func:`cavity_surfaces`); each face is wound away from its tet, into the cavity.
-        pressure_max_pa : array_like, shape (n,) or scalar
-            The largest gauge pressure of each chamber, Pa.
+        pressure_max_pa : array_like, shape (n,) or scalar, optional
+            The largest gauge pressure of each chamber, Pa (with ``surfaces``).
         names : sequence of str, optional
             The chambers' names for :attr:`input_names`; default their indices.
+        chambers : sequence of int, optional
+            Which of ``robot.chambers`` (indices; default every pressure-controlled one).
 
         Returns
         -------
         PressureChamberActuator
             The chambers, with their rest volumes.
         """
+        if surfaces is None:
+            from lab.fem.bodies import chamber_surface
+
+            picked = _description_chambers(robot, chambers, "pressure")
+            walls = [chamber_surface(body, c.surface_group or c.name, c.name) for c in picked]
+            low, high = np.array([c.bounds for c in picked]).T
+            return cls(walls, body.mesh.X_W, free, high, [c.name for c in picked], low)
         names = [str(i) for i in range(len(surfaces))] if names is None else list(names)
         if len(names) != len(surfaces):
             raise InputError(f"chambers_pressure: {len(names)} names for {len(surfaces)} chambers")
@@ -102,14 +121,14 @@ class PressureChamberActuator(Actuator):
         return cls(oriented, body.mesh.X_W, free, pressure_max_pa, names)
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """[0, pressure_max_pa] Pa per chamber.
+        """[pressure_min_pa, pressure_max_pa] Pa per chamber.
 
         Returns
         -------
         low, high : ndarray, shape (n,)
             Bounds in Pa.
         """
-        return np.zeros(len(self.surfaces)), self.pressure_max_pa.copy()
+        return self.pressure_min_pa.copy(), self.pressure_max_pa.copy()
 
     def volumes(self, x_W) -> np.ndarray:
         """The cavities' volumes.
@@ -289,3 +308,15 @@ def _skew(v: np.ndarray) -> np.ndarray:
     S = np.zeros(v.shape[:-1] + (3, 3))
     S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
     return S - np.swapaxes(S, -1, -2)
+
+
+def _description_chambers(robot, chambers, control: str) -> list:
+    """The description's chambers of one control (indices ``chambers``, default all of them)."""
+    chosen = (
+        [c for c in robot.chambers if c.control == control]
+        if chambers is None
+        else [robot.chambers[j] for j in chambers]
+    )
+    if not chosen or any(c.control != control for c in chosen):
+        raise InputError(f"robot {robot.name!r}: chambers_{control} needs {control}-controlled chambers")
+    return chosen

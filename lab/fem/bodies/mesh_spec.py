@@ -68,6 +68,13 @@ class MeshSpec(Spec):
                     "(set mesh.size_m there)"
                 )
             return None, None
+        if getattr(robot, "chambers", ()):  # gmsh meshes it around the cavities
+            for name in self.overrides():
+                raise FieldError(
+                    f"MeshSpec.{name} is not used by robot {robot.name!r}: its body has chambers and is meshed by "
+                    "gmsh at mesh.size_m (set it there)"
+                )
+            return None, None
         n_rings = robot.n_rings if self.n_rings is None else self.n_rings
         n_axial = robot.n_axial if self.n_axial is None else self.n_axial
         check_mesh_size(n_rings, n_axial)

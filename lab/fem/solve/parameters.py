@@ -289,7 +289,7 @@ class ParametrisedFEM:
         """
         fem = self.fem(theta)
         lu = factorize(fem.hessian(q, u_motor))
-        m = self.robot.n_cables
+        m = self.robot.n_inputs
         dq = -lu.solve(np.hstack([fem.mixed_derivative(q, u_motor), self.force_derivative(theta, q, u_motor)]))
         J = marker_rows(fem, markers) @ dq
         return dq[:, :m], dq[:, m:], J[:, :m], J[:, m:]
