@@ -133,7 +133,9 @@ def parse_chamber(entry: dict, i: int, body_kind: str) -> Chamber:
     else:
         refuse_unused(entry, ("pressure_max_pa", "pressure_min_pa"), where, 'by control = "volume"')
         high = get(entry, "volume_max_m3", where, positive=True)
-        _plausible(high, VOLUME_PLAUSIBLE_M3, f"{where}.volume_max_m3", "m^3", "a chamber's fluid volume; is it in m^3?")
+        _plausible(
+            high, VOLUME_PLAUSIBLE_M3, f"{where}.volume_max_m3", "m^3", "a chamber's fluid volume; is it in m^3?"
+        )
         low = get(entry, "volume_min_m3", where) if "volume_min_m3" in entry else 0.0
         if not -VOLUME_PLAUSIBLE_M3[1] < low < high:
             raise DescriptionError(f"field '{where}.volume_min_m3' must be below volume_max_m3 ({high} m^3), got {low}")
@@ -167,7 +169,8 @@ def _plausible(value, bounds, field, unit, what):
 
     if not bounds[0] <= value <= bounds[1]:
         raise DescriptionError(
-            f"field '{field}' = {value} {unit} is implausible for {what} (expected {bounds[0]:g} to {bounds[1]:g} {unit})"
+            f"field '{field}' = {value} {unit} is implausible for {what} "
+            f"(expected {bounds[0]:g} to {bounds[1]:g} {unit})"
         )
 
 
