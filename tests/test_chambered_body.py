@@ -195,6 +195,29 @@ def test_a_mesh_file_s_physical_surface_is_a_closed_cavity(three_cable, tmp_path
         chamber_surface(body, "hole", "box")
 
 
+@pytest.mark.parametrize("version", [2.2, 4.1])
+def test_a_msh_file_keeps_its_named_physical_surfaces(three_cable, tmp_path, version):
+    """gmsh's .msh 2.2 (meshio gives no cell sets, only physical tags) and 4.1 (cell sets,
+    with gmsh:bounding_entities, which are entity tags, not cells)."""
+    import gmsh
+
+    (tmp_path / "hollow.geo").write_text(CAVITY_GEO)
+    gmsh.initialize(["-nt", "1"], readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(tmp_path / "hollow.geo"))
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.005)
+        gmsh.model.mesh.generate(3)
+        gmsh.option.setNumber("Mesh.MshFileVersion", version)
+        gmsh.write(str(tmp_path / "hollow.msh"))
+    finally:
+        gmsh.finalize()
+    body = MeshBody(three_cable, shape=BodyShape("mesh", mesh_file=str(tmp_path / "hollow.msh")))
+    assert set(body.groups) == {"foam", "cavity"} and len(body.groups["foam"]) == body.mesh.n_nodes
+    tri = chamber_surface(body, "cavity", "box")
+    assert cavity_volume(body.mesh.X_W, tri) == pytest.approx(0.03 * 0.01 * 0.01, rel=1e-12)
+
+
 def inner_radial_displacement(robot, c, size_m, p_pa):
     """Mean radial displacement (m) of the cavity wall's nodes within 8 mm of mid-length."""
     body = ChamberedBody(robot, chambers=[c], size_m=size_m)
