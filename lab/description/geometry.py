@@ -49,8 +49,9 @@ PLAUSIBLE_EXTENT_M = (1e-3, 5.0)
 MAX_GEOMETRY_TETS = 2_000_000
 #: A tet whose |volume| is below this fraction of the median is degenerate.
 DEGENERATE_FRACTION = 1e-12
-#: Version of the cached arrays; bump it when reading or checking changes the result.
-CACHE_FORMAT = 1
+#: Version of the cached arrays; bump it when reading or checking changes the result
+#: (2: a gmsh 2.2 ``.msh`` file's named physical groups kept).
+CACHE_FORMAT = 2
 
 
 class MeshFileError(InputError):
@@ -206,11 +207,21 @@ def _read_mesh_file(path: Path, where: str):
     tets = np.concatenate([m.cells[i].data for i in blocks]).astype(np.int64)
     groups = {}
     for name, per_block in m.cell_sets.items():
+        if name.startswith("gmsh:"):  # gmsh:bounding_entities holds entity tags, not cell indices
+            continue
         nodes = [m.cells[i].data[np.asarray(idx, int)].ravel() for i, idx in enumerate(per_block) if idx is not None]
-        if nodes and not name.startswith("gmsh:"):
+        if nodes:
             groups[name] = np.unique(np.concatenate(nodes))
     for name, idx in m.point_sets.items():
         groups[name] = np.unique(np.asarray(idx, np.int64))
+    # A .msh 2.2 file has no cell sets: its named physical groups (any dimension) are the cells
+    # whose gmsh:physical tag is the name's (field_data: name -> [tag, dim]).
+    dims = {"vertex": 0, "line": 1, "triangle": 2, "quad": 2, "tetra": 3, "hexahedron": 3, "wedge": 3, "pyramid": 3}
+    physical = m.cell_data.get("gmsh:physical", ())
+    for name, (tag, dim) in ((k, np.ravel(v)[:2]) for k, v in m.field_data.items() if np.size(v) >= 2):
+        nodes = [c.data[np.asarray(t) == tag].ravel() for c, t in zip(m.cells, physical) if dims.get(c.type) == dim]
+        if name not in groups and sum(n.size for n in nodes):
+            groups[name] = np.unique(np.concatenate(nodes)).astype(np.int64)
     return np.asarray(m.points, float)[:, :3], tets, groups
 
 

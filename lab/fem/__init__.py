@@ -4,7 +4,7 @@ The concepts, one folder each, so a new one has an obvious home:
 
 - :mod:`.bodies`: the body the FEM deforms (:class:`Body`: tet mesh, clamped nodes,
   markers); the description's body is :func:`body_of`'s: :class:`CylinderBody`,
-  :class:`TaperedBody` or :class:`MeshBody`.
+  :class:`TaperedBody`, :class:`ChamberedBody` or :class:`MeshBody`.
 - :mod:`.materials`: the material law (:class:`MaterialLaw`), neo-Hookean
   (:class:`NeoHookean`), compressible foam (:class:`Hyperfoam`) or silicone (:class:`Yeoh`).
 - :mod:`.actuators`: what drives the body (:class:`Actuator`), e.g. the description's
@@ -34,6 +34,7 @@ from lab.fem.actuators import (
 from lab.fem.bodies import (
     BODIES,
     Body,
+    ChamberedBody,
     CylinderBody,
     FreeCoordinates,
     Marker,
@@ -43,6 +44,7 @@ from lab.fem.bodies import (
     TetMesh,
     barycentric,
     body_of,
+    chamber_surface,
     cylinder_mesh,
     load_mesh,
     register_body,
@@ -90,6 +92,7 @@ __all__ = [
     "Body",
     "CableActuator",
     "CableRoute",
+    "ChamberedBody",
     "Condensation",
     "CylinderBody",
     "FreeCoordinates",
@@ -118,6 +121,7 @@ __all__ = [
     "as_built_description",
     "barycentric",
     "body_of",
+    "chamber_surface",
     "cavity_surfaces",
     "cylinder_mesh",
     "default_backend",
