@@ -5,7 +5,9 @@ statics (:mod:`.base`); :class:`CableActuator` is the description's angle-contro
 (:mod:`.cables`, on the cable geometry of :mod:`.cable_routes`); :mod:`.tension` drives the
 same cables as tendons by their tensions (``"tendons_tension"``); :mod:`.chamber` holds
 cavities of the body at gauge pressures (``"chambers_pressure"``, :class:`PressureChamberActuator`,
-on the cavities :func:`cavity_surfaces` finds, :mod:`.chamber_surfaces`). A new actuator is one module
+on the cavities :func:`cavity_surfaces` finds, :mod:`.chamber_surfaces`) or fills them with given
+fluid volumes (``"chambers_volume"``, :class:`VolumeChamberActuator`, :mod:`.chamber_volume`). A new
+actuator is one module
 with an :class:`Actuator` subclass decorated with :func:`register_actuator`, imported once
 (then :class:`lab.fem.ArmFEM` builds it by name).
 """
@@ -16,6 +18,7 @@ from lab.fem.actuators.cable_routes import CableRoute, spring
 from lab.fem.actuators.cables import CableActuator
 from lab.fem.actuators.chamber import PressureChamberActuator
 from lab.fem.actuators.chamber_surfaces import cavity_surfaces
+from lab.fem.actuators.chamber_volume import VolumeChamberActuator
 
 __all__ = [
     "ACTUATORS",
@@ -25,6 +28,7 @@ __all__ = [
     "CableActuator",
     "CableRoute",
     "PressureChamberActuator",
+    "VolumeChamberActuator",
     "cavity_surfaces",
     "spring",
 ]

@@ -9,7 +9,9 @@ coordinates with the body's :class:`~lab.fem.bodies.base.FreeCoordinates`.
 What it needs from the statics: an actuator whose force is a stiff one-dimensional law
 along a few directions (a cable's spring along its length) returns a :class:`Condensation`
 from :meth:`Actuator.gradient`, and the Newton steps keep that law exact in those
-coordinates (``lab.fem.solve.steps.condensed_step``). Others return None.
+coordinates (``lab.fem.solve.steps.condensed_step``); a volume-controlled chamber's
+fluid is such a law along its volume's gradient, whose stiffness term stays out of the
+assembled Hessian (``Condensation.in_hessian``). Others return None.
 
 A new actuator is one module with an :class:`Actuator` subclass decorated with
 :func:`register_actuator`; :data:`ACTUATORS` lists them by name.
@@ -71,6 +73,13 @@ class Condensation:
         The entries of u the law's stretch moves with.
     gain : float or ndarray, shape (k,)
         d stretch / d u for those inputs, m per unit of u.
+    in_hessian : bool
+        Whether the actuator's Hessian (:meth:`Actuator.hessian_blocks`) includes the law's
+        stiffness term A K A^T (the cables: True). False where that term is dense (a
+        chamber's volume couples all its wall's dofs): then the law must be linear
+        (constant stiffness K), :meth:`Actuator.hessian_product` still includes it, and the
+        statics add it to the factorised Hessian exactly by Woodbury
+        (:mod:`lab.fem.solve.steps`).
     """
 
     A: np.ndarray
@@ -79,6 +88,7 @@ class Condensation:
     scale: float
     inputs: slice
     gain: float | np.ndarray
+    in_hessian: bool = True
 
 
 class Actuator(ABC):

@@ -27,8 +27,11 @@ from lab.errors import InputError, LabRuntimeError
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
 from lab.fem.solve.steps import (
+    condensed_factorisation,
     condensed_step,
+    hessian_inputs,
     newton_step,
+    rank_step,
     reused_sensitivity,
     secant_step,
     shifted_step,
@@ -216,7 +219,7 @@ def solve_static(
             # contracts well (and, unless converged, passes the line search at full
             # length); otherwise refactorise here.
             if pairs:
-                d = secant_step(fac.lu, pairs, g)
+                d = secant_step(fac, pairs, g)
             else:
                 d = condensed_step(fac, -fac.lu.solve(g), cond)
             step = np.max(np.abs(d))
@@ -224,7 +227,8 @@ def solve_static(
             d = d if chord else None
         if d is None:
             n_fact += 1
-            H = fem.hessian(q, u)
+            u_h = hessian_inputs(u, g, cond)  # u, but for a condensation not in the Hessian
+            H = fem.hessian(q, u_h)
             d, fac = newton_step(H, g, cond)
             pairs = []
             exact = d is not None
@@ -232,11 +236,11 @@ def solve_static(
                 status = "indefinite"
                 break
             if not exact:
-                d, n_shifted = shifted_step(H, g)
+                d, n_shifted = shifted_step(H, g, cond)
                 n_fact += n_shifted
             if d is None:
                 projected += 1
-                d = -factorize(fem.hessian(q, u, project=True)).solve(g)
+                d = rank_step(factorize(fem.hessian(q, u_h, project=True)), g, cond)
         step = float(np.max(np.abs(d)))
         if (
             exact
@@ -316,7 +320,9 @@ def solve_static(
 
 
 def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
-    """dq/du and the tip Jacobian at an equilibrium, from a fresh factorisation.
+    """dq/du and the tip Jacobian at an equilibrium, from a fresh factorisation (of the
+    exact Hessian; a condensation's rank-k term that it does not hold, a volume chamber's,
+    added exactly by Woodbury, :class:`~lab.fem.solve.steps.Factorised`).
 
     Parameters
     ----------
@@ -335,5 +341,11 @@ def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.n
         The tip marker's Jacobian dp_tip/du.
     """
     lu = factorize(fem.hessian(q, u_motor))
-    dq_du = -lu.solve(fem.mixed_derivative(q, u_motor))
+    M = fem.mixed_derivative(q, u_motor)
+    cond = fem.gradient(q, u_motor, with_condensation=True)[1] if any(a.condenses for a in fem.actuators) else None
+    if cond is None or cond.in_hessian:
+        dq_du = -lu.solve(M)
+    else:  # H + A K A^T by Woodbury (steps module docstring)
+        fac, _ = condensed_factorisation(lu, np.zeros(len(q)), cond)
+        dq_du = -fac.solve(M)
     return dq_du, fem.tip_matrix() @ dq_du

@@ -12,6 +12,17 @@ indefinite (``SHIFTS``). ``reused_sensitivity``: dq/du = -H^-1 d2E/dq du from th
 factorisation, the condensed law's stiffness corrected exactly (Woodbury) and the rest
 refined by conjugate gradients.
 
+A condensation not in the Hessian (``Condensation.in_hessian`` False: a volume-controlled
+chamber, whose fluid stiffness (K/V0) dV/dq dV/dq^T couples all its wall's dofs) has a
+linear law: its rank-k term A K A^T is left out of the assembled H and added exactly by
+Woodbury, (H + A K A^T)^-1 = H^-1 - S (I + K C)^-1 K S^T: ``newton_step`` factorises H
+with ``fac.K = 0``, so that ``condensed_step`` is exactly the Newton step of H + A K A^T;
+``Factorised.solve`` applies that inverse (chord, shifted and projected steps). Such a law
+is stiff (water: K/V0 ~ 1e14 J/m^6) and the pressure p = -tau it gives away from the
+equilibrium meaningless (a 1e-8 m^3 error in V is MPa), so the statics assemble H with its
+follower term -p d2V/dq2 at the least-squares multiplier estimate (``hessian_inputs``),
+which is p itself at the equilibrium.
+
 The derivation and the measurements behind each step: docs/design/fem.md.
 """
 
@@ -39,14 +50,36 @@ REFINE_TOL = 1e-4
 class Factorised:
     """The exact Hessian factorised at an iterate where it is positive definite, with
     what condensed steps need from that point: the condensation's directions A (n_free, k),
-    S = H^-1 A, C = A^T S (k, k) and the law's stiffnesses K (k,) (all None without a
-    condensation)."""
+    S = H^-1 A, C = A^T S (k, k) and the law's stiffnesses K (k,) in H (all None without a
+    condensation; K zero for one not in the Hessian), and ``rank_K`` (k,), the stiffnesses
+    of a condensation not in H, which :meth:`solve` adds by Woodbury (None otherwise)."""
 
     lu: object
     A: np.ndarray | None
     S: np.ndarray | None
     C: np.ndarray | None
     K: np.ndarray | None
+    rank_K: np.ndarray | None = None
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """(H + A rank_K A^T)^-1 r: the factorised H, with the rank-k term if any.
+
+        Parameters
+        ----------
+        r : ndarray, shape (n_free,) or (n_free, m)
+            Right-hand side(s), N.
+
+        Returns
+        -------
+        ndarray, same shape as ``r``
+            The solution(s), m.
+        """
+        z = self.lu.solve(r)
+        if self.rank_K is None:
+            return z
+        D = self.rank_K.reshape((-1,) + (1,) * (np.ndim(z) - 1))
+        M = np.eye(len(self.rank_K)) + self.rank_K[:, None] * self.C
+        return z - self.S @ np.linalg.solve(M, D * (self.A.T @ z))
 
 
 def newton_step(H: sp.csr_matrix, g, condensation: Condensation | None):
@@ -78,20 +111,102 @@ def newton_step(H: sp.csr_matrix, g, condensation: Condensation | None):
         d = -lu.solve(g)
         fac, tries = Factorised(lu, None, None, None, None), (d,)
     else:
-        A = condensation.A
-        Z = lu.solve(np.column_stack([-g, A]))
-        fac = Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], condensation.law(condensation.stretch)[2])
-        tries = (condensed_step(fac, Z[:, 0], condensation), Z[:, 0])  # else the plain Newton step
+        fac, d = condensed_factorisation(lu, g, condensation)
+        tries = (condensed_step(fac, d, condensation), d)  # else the plain Newton step
     for d in tries:
         if np.all(np.isfinite(d)) and g @ d < 0:
             return d, fac
     return None, None
 
 
-def shifted_step(H: sp.csr_matrix, g):
+def condensed_factorisation(lu, g, condensation: Condensation):
+    """What condensed steps need from the factorisation ``lu`` of H (module docstring).
+
+    Parameters
+    ----------
+    lu : object
+        The factorisation of H (its ``solve``).
+    g : ndarray, shape (n_free,)
+        The gradient, N.
+    condensation : Condensation
+        The condensation at this iterate.
+
+    Returns
+    -------
+    fac : Factorised
+        With A, S = H^-1 A, C = A^T S, and the law's stiffness in ``K`` (in H) or in
+        ``rank_K`` (``in_hessian`` False; then ``K`` is zero).
+    d : ndarray, shape (n_free,)
+        -H^-1 g, m.
+    """
+    A = condensation.A
+    Z = lu.solve(np.column_stack([-g, A]))
+    K = condensation.law(condensation.stretch)[2]
+    if condensation.in_hessian:
+        return Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], K), Z[:, 0]
+    return Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], np.zeros_like(K), K), Z[:, 0]
+
+
+def hessian_inputs(u, g, condensation: Condensation | None):
+    """The inputs at which to assemble the Hessian of a Newton step at an iterate.
+
+    ``u`` itself, except for a condensation not in the Hessian (its law linear): there
+    its force tau is replaced by the least-squares multiplier estimate
+    tau_hat = tau - (A^T A)^-1 A^T g (what the other forces ask of it; tau itself where
+    g = 0), by moving its inputs by (tau_hat - tau) / (gain K).
+
+    Parameters
+    ----------
+    u : ndarray, shape (n_inputs,)
+        The inputs.
+    g : ndarray, shape (n_free,)
+        The gradient at the iterate, N.
+    condensation : Condensation or None
+        The condensation there.
+
+    Returns
+    -------
+    ndarray, shape (n_inputs,)
+        The inputs for :meth:`lab.fem.model.ArmFEM.hessian`.
+    """
+    if condensation is None or condensation.in_hessian:
+        return u
+    A = condensation.A
+    K = condensation.law(condensation.stretch)[2]
+    shift = -np.linalg.lstsq(A, g, rcond=None)[0]  # tau_hat - tau
+    u_hat = np.array(u, dtype=float)
+    u_hat[condensation.inputs] += shift / (condensation.gain * K)
+    return u_hat
+
+
+def rank_step(lu, g, condensation: Condensation | None) -> np.ndarray:
+    """-(H + A K A^T)^-1 g for a condensation not in H (``lu`` factorises H), else -H^-1 g.
+
+    Parameters
+    ----------
+    lu : object
+        The factorisation of H (its ``solve``).
+    g : ndarray, shape (n_free,)
+        The gradient, N.
+    condensation : Condensation or None
+        The condensation at this iterate.
+
+    Returns
+    -------
+    ndarray, shape (n_free,)
+        The step, m.
+    """
+    if condensation is None or condensation.in_hessian:
+        return -lu.solve(g)
+    fac, d = condensed_factorisation(lu, g, condensation)
+    return condensed_step(fac, d, condensation)
+
+
+def shifted_step(H: sp.csr_matrix, g, condensation: Condensation | None = None):
     """A descent step with H + s I, s the first of ``SHIFTS`` (times the median diagonal
     entry) that makes it positive definite: (dq or None, factorisations used). Shifts
-    ``H`` in place (same sparsity pattern, so no new symbolic analysis)."""
+    ``H`` in place (same sparsity pattern, so no new symbolic analysis). A condensation
+    not in H adds its rank-k term (:func:`rank_step`; still positive definite)."""
     scale = float(np.median(H.diagonal()))
     added = 0.0
     for i, s in enumerate(SHIFTS):
@@ -102,13 +217,14 @@ def shifted_step(H: sp.csr_matrix, g):
         except SingularMatrixError:
             continue
         if not lu.n_negative:
-            d = -lu.solve(g)
+            d = rank_step(lu, g, condensation)
             return (d if np.all(np.isfinite(d)) and g @ d < 0 else None), i + 1
     return None, len(SHIFTS)
 
 
 def secant_step(lu, pairs, g) -> np.ndarray:
-    """-H^-1 g (n_free,) with H^-1 the factorisation ``lu``'s inverse updated by BFGS
+    """-H^-1 g (n_free,) with H^-1 the factorisation ``lu``'s inverse (anything with a
+    ``solve``, e.g. a :class:`Factorised` with its rank-k term) updated by BFGS
     with the secant pairs (s, y, 1 / s.y) of the steps taken since it was computed
     (L-BFGS two-loop recursion): a chord step that learns, along the directions it
     moves in, how far the Hessian has changed since; that is mostly the soft mode."""
