@@ -8,7 +8,6 @@ does not use, a bad Yeoh coefficient: exit 2 naming the field and the file, befo
 is written. Rows that reach the command check the inputs it is given.
 """
 
-
 from sweep import COARSE, ROOT, Case
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress"]
@@ -19,7 +18,7 @@ offset_m = 0.0095
 radius_m = 0.0045
 start_m = 0.01
 end_m = 0.19
-pressure_max_pa = 60e3"""
+pressure_max_pa = 200e3"""
 
 
 def arm(old=None, new=None):
@@ -80,33 +79,33 @@ CHAMBER_CASES = [
     case(
         "chamber-pressure-in-kpa",
         ("chambers[0].pressure_max_pa", "implausible", "pascals"),
-        top("pressure_max_pa = 60e3", "pressure_max_pa = 60"),
+        top("pressure_max_pa = 200e3", "pressure_max_pa = 200"),
     ),
     case(
         "chamber-pressure-nan",
         ("chambers[0].pressure_max_pa", "finite"),
-        top("pressure_max_pa = 60e3", "pressure_max_pa = nan"),
+        top("pressure_max_pa = 200e3", "pressure_max_pa = nan"),
     ),
     case(
         "chamber-pressure-below-vacuum",
         ("chambers[0].pressure_min_pa", "vacuum"),
-        top("pressure_max_pa = 60e3", "pressure_max_pa = 60e3\npressure_min_pa = -2e5"),
+        top("pressure_max_pa = 200e3", "pressure_max_pa = 200e3\npressure_min_pa = -2e5"),
     ),
     case(
         "chamber-volume-field-on-pressure",
         ("chambers[0].volume_max_m3", 'not used by control = "pressure"'),
-        top("pressure_max_pa = 60e3", "pressure_max_pa = 60e3\nvolume_max_m3 = 1e-6"),
+        top("pressure_max_pa = 200e3", "pressure_max_pa = 200e3\nvolume_max_m3 = 1e-6"),
     ),
     case("chamber-unknown-control", ("chambers[0].control",), top('name = "top"', 'name = "top"\ncontrol = "flow"')),
     case(
         "chamber-volume-in-ml",
         ("chambers[0].volume_max_m3", "implausible"),
-        top("pressure_max_pa = 60e3", 'control = "volume"\nvolume_max_m3 = 5.0'),
+        top("pressure_max_pa = 200e3", 'control = "volume"\nvolume_max_m3 = 5.0'),
     ),
     case(
         "chamber-volume-collapses",
         ("chambers[0].volume_min_m3", "collapse"),
-        top("pressure_max_pa = 60e3", 'control = "volume"\nvolume_max_m3 = 2e-6\nvolume_min_m3 = -2e-5'),
+        top("pressure_max_pa = 200e3", 'control = "volume"\nvolume_max_m3 = 2e-6\nvolume_min_m3 = -2e-5'),
     ),
     case(
         "chamber-volume-pressure-field",
@@ -116,7 +115,7 @@ CHAMBER_CASES = [
     case(
         "chamber-bulk-modulus-implausible",
         ("chambers[0].fluid_bulk_modulus_pa", "implausible"),
-        top("pressure_max_pa = 60e3", 'control = "volume"\nvolume_max_m3 = 2e-6\nfluid_bulk_modulus_pa = 10.0'),
+        top("pressure_max_pa = 200e3", 'control = "volume"\nvolume_max_m3 = 2e-6\nfluid_bulk_modulus_pa = 10.0'),
     ),
     case(
         "chamber-surface-group-on-a-cylinder",
@@ -173,4 +172,3 @@ CHAMBER_CASES = [
         arm('model = "yeoh"', 'model = "mooney"'),
     ),
 ]
-

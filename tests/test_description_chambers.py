@@ -23,14 +23,14 @@ def test_pneumatic_arm_inputs_are_its_chambers_in_pascals():
     assert robot.n_cables == 0 and robot.n_inputs == 3
     assert robot.input_names == ("top", "lower-left", "lower-right")
     assert robot.input_units == ("Pa", "Pa", "Pa")
-    assert robot.u_lower.tolist() == [0, 0, 0] and robot.u_upper.tolist() == [60e3] * 3
+    assert robot.u_lower.tolist() == [0, 0, 0] and robot.u_upper.tolist() == [200e3] * 3
     assert not robot.all_angle and robot.n_rings is None and robot.body_shape.mesh_size_m == 0.005
-    assert robot.check_command([0.0, 1e4, 6e4]).tolist() == [0.0, 1e4, 6e4]
-    with pytest.raises(InputError, match=r"input 1 \(chamber 'lower-left'\) -5.0 Pa outside \[0, 60000.0\] Pa"):
+    assert robot.check_command([0.0, 1e4, 2e5]).tolist() == [0.0, 1e4, 2e5]
+    with pytest.raises(InputError, match=r"input 1 \(chamber 'lower-left'\) -5.0 Pa outside \[0, 200000.0\] Pa"):
         robot.check_command([0.0, -5.0, 0.0])
     with pytest.raises(InputError, match="finite"):
         robot.check_command([0.0, np.nan, 0.0])
-    assert robot.is_safe(np.array([[0, 0, 6e4], [0, 0, 7e4]])).tolist() == [True, False]
+    assert robot.is_safe(np.array([[0, 0, 2e5], [0, 0, 2.1e5]])).tolist() == [True, False]
 
 
 def test_yeoh_small_strain_match_and_bulk_modulus():
@@ -90,7 +90,7 @@ def test_chambers_and_cables_share_u_cables_first():
     robot = parse_robot({**data, "chambers": [chamber], "mesh": mesh})
     assert robot.input_names == ("top", "lower-left", "lower-right", "core")
     assert robot.input_units == ("rad", "rad", "rad", "Pa")
-    assert robot.u_upper.tolist() == [3.0, 3.0, 3.0, 60e3]
+    assert robot.u_upper.tolist() == [3.0, 3.0, 3.0, 200e3]
 
 
 def test_a_cable_and_a_chamber_may_not_share_a_name():

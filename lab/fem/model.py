@@ -395,4 +395,3 @@ class ArmFEM(ActuatedModel):
         r = unique // self.n_free
         self._indices = (unique % self.n_free).astype(np.int32)
         self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)
-

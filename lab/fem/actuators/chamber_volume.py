@@ -23,13 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.description.chambers import WATER_BULK_MODULUS_PA
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
 from lab.fem.actuators.chamber import PressureChamberActuator
 from lab.fem.actuators.chamber_surfaces import cavity_volume, oriented_surface
-
-#: Water's bulk modulus, Pa (the default fluid).
-WATER_BULK_MODULUS_PA = 2.2e9
 
 
 def _names(names, n: int) -> list[str]:
@@ -110,39 +108,51 @@ class VolumeChamberActuator(Actuator):
         body,
         free,
         *,
-        surfaces,
-        volume_max_m3,
+        surfaces=None,
+        volume_max_m3=None,
         volume_min_m3=0.0,
         fluid_bulk_modulus_pa=WATER_BULK_MODULUS_PA,
         names=None,
+        chambers=None,
     ) -> VolumeChamberActuator:
         """Volume-controlled chambers on cavities of ``body``'s mesh, surfaces oriented from the mesh.
 
         Parameters
         ----------
         robot : RobotDescription
-            The description (unused: the chambers are given here).
+            The description: its volume-controlled ``chambers`` unless ``surfaces`` is given.
         body : Body
-            The body whose mesh holds the cavities.
+            The body whose mesh holds the cavities (its ``groups`` name their walls).
         free : FreeCoordinates
             Its free coordinates.
-        surfaces : list of ndarray of int, shape (T_c, 3)
+        surfaces : list of ndarray of int, shape (T_c, 3), optional
             Each chamber's closed surface (boundary faces of the mesh, any winding; e.g.
             :func:`~lab.fem.actuators.chamber_surfaces.cavity_surfaces`).
-        volume_max_m3 : array_like, shape (n,) or scalar
-            The largest injected volume of each chamber, m^3.
+        volume_max_m3 : array_like, shape (n,) or scalar, optional
+            The largest injected volume of each chamber, m^3 (with ``surfaces``).
         volume_min_m3 : array_like, shape (n,) or scalar
             The smallest, m^3 (default 0; negative withdraws fluid).
         fluid_bulk_modulus_pa : array_like, shape (n,) or scalar
             The fluid's bulk modulus per chamber, Pa (default water's 2.2e9).
         names : sequence of str, optional
             The chambers' names for :attr:`input_names`; default their indices.
+        chambers : sequence of int, optional
+            Which of ``robot.chambers`` (indices; default every volume-controlled one).
 
         Returns
         -------
         VolumeChamberActuator
             The chambers, with their rest volumes.
         """
+        if surfaces is None:
+            from lab.fem.actuators.chamber import _description_chambers
+            from lab.fem.bodies import chamber_surface
+
+            picked = _description_chambers(robot, chambers, "volume")
+            walls = [chamber_surface(body, c.surface_group or c.name, c.name) for c in picked]
+            low, high = np.array([c.bounds for c in picked]).T
+            bulk = [c.fluid_bulk_modulus_pa or WATER_BULK_MODULUS_PA for c in picked]
+            return cls(walls, body.mesh.X_W, free, high, low, bulk, [c.name for c in picked])
         names = _names(names, len(surfaces))
         oriented = [oriented_surface(body.mesh, s, n) for s, n in zip(surfaces, names)]
         return cls(oriented, body.mesh.X_W, free, volume_max_m3, volume_min_m3, fluid_bulk_modulus_pa, names)
