@@ -8,7 +8,8 @@ model without one by a derivative-free search (:mod:`.dfo`). Its settings are on
 trajectory (redundant arms regularised automatically); :mod:`.spread` penalises and flags
 an ensemble's spread.
 :mod:`.redundancy` holds motors fixed and measures motor paths; :mod:`.trajectories`
-makes the paper's target paths and reads/writes trajectory CSVs. Nothing here imports
+makes the paper's target paths and reads/writes trajectory CSVs; :mod:`.workspace_shapes` scales
+them into another robot's reachable workspace. Nothing here imports
 :mod:`lab.learn`.
 """
 
@@ -46,6 +47,7 @@ from lab.control.trajectories import (
     saddle,
     square,
 )
+from lab.control.workspace_shapes import fitted_shape, workspace_plane
 
 __all__ = [
     "CommandSet",
@@ -73,6 +75,8 @@ __all__ = [
     "frozen_commands",
     "motor_path_stats",
     "CENTRE_W",
+    "fitted_shape",
+    "workspace_plane",
     "BUILTIN",
     "SIX_CABLE",
     "SIX_CABLE_AXIS_W",

@@ -29,7 +29,12 @@ __all__ = ["simulate_fixed", "simulate_given", "solve_batch", "write_simulated",
 
 def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
     """The line that opens a simulation run (on ``file``, default stderr)."""
-    mesh = f"n_rings={n_rings} n_axial={n_axial}" if n_rings is not None else "from body.mesh_file"
+    if n_rings is not None:
+        mesh = f"n_rings={n_rings} n_axial={n_axial}"
+    elif robot.body_shape.shape == "mesh":
+        mesh = "from body.mesh_file"
+    else:
+        mesh = f"by gmsh at size_m={robot.body_shape.mesh_size_m:g} around {len(robot.chambers)} chamber(s)"
     print(
         f"{robot.name}: {n} safe commands{how}, mesh {mesh}, {jobs} worker(s)",
         file=sys.stderr if file is None else file,
