@@ -64,8 +64,9 @@ class FamilyMemberSpec(Spec):
         given = [k for k in ("seed", "foam", "pneumatic") if getattr(self, k) is not None]
         name = self.name_of
         if len(given) > 1:
+            count = ("two", "three")[len(given) - 2]
             raise self.field_error(
-                f"{' and '.join(name(k) for k in given)} name members of {("two", "three")[len(given) - 2]} families: give one of them",
+                f"{' and '.join(name(k) for k in given)} name members of {count} families: give one of them",
                 *given,
             )
         if not given:
