@@ -59,6 +59,7 @@ PNEUMATIC_CASES: list = [
         2,
         ("--pneumatic", "invalid int value: 'x'"),
         absent=NO_D,
+        subprocess=True,
     ),
     Case(
         "pneumatic-defects-with-random",

@@ -203,7 +203,11 @@ def draw_pneumatic(robot: RobotDescription, seed: int, n_rings: int | None, n_ax
             "gradient_direction": [0.0, rounded(math.cos(a), 4), rounded(math.sin(a), 4)],
         },
         "chambers": chambers,
-        "lag": {"tau_fast_s": rounded(tau_fast, 3), "tau_slow_s": rounded(tau_slow, 2), "slow_fraction": rounded(slow, 3)},
+        "lag": {
+            "tau_fast_s": rounded(tau_fast, 3),
+            "tau_slow_s": rounded(tau_slow, 2),
+            "slow_fraction": rounded(slow, 3),
+        },
         "mocap": {
             "frame_rate_hz": FIXED["frame_rate_hz"],
             "noise_sigma_m": rounded(noise, 6),

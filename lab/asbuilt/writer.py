@@ -144,9 +144,16 @@ def chamber_lines(tables: list[dict], robot: RobotDescription, notes: dict, rang
         out += [
             "[[chambers]]",
             f'name = "{table["name"]}"',
-            _line(f"offset_error_m = {fmt_float(table['offset_error_m'])}", f"axis at {chamber.offset_m * 1e3:g} mm + this"),
-            _line(f"angle_error_deg = {fmt_float(table['angle_error_deg'])}", f"axis at {chamber.angle_deg:g} deg + this"),
-            _line(f"radius_error_m = {fmt_float(table['radius_error_m'])}", f"radius {chamber.radius_m * 1e3:g} mm + this"),
+            _line(
+                f"offset_error_m = {fmt_float(table['offset_error_m'])}",
+                f"axis at {chamber.offset_m * 1e3:g} mm + this",
+            ),
+            _line(
+                f"angle_error_deg = {fmt_float(table['angle_error_deg'])}", f"axis at {chamber.angle_deg:g} deg + this"
+            ),
+            _line(
+                f"radius_error_m = {fmt_float(table['radius_error_m'])}", f"radius {chamber.radius_m * 1e3:g} mm + this"
+            ),
             _line(f"stiffness = {fmt_float(table['stiffness'])}", "modulus factor of the silicone round it"),
             _line(f"regulator_tau_s = {fmt_float(table['regulator_tau_s'])}", "first-order pressure response, s"),
             _line(f"regulator_dead_time_s = {fmt_float(table['regulator_dead_time_s'])}", "before it responds, s"),
