@@ -24,10 +24,10 @@ from sweep_chambers import CHAMBER_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
 from sweep_foam import FOAM_CASES
-from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
+from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_rig_none import RIG_NONE_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]

@@ -8,7 +8,7 @@ that the walls still hold (:func:`lab.description.chambers.check_chamber_geometr
 refused naming the fields otherwise); :func:`as_built_chambered_fem` meshes the body with
 the moved cavities by gmsh (:class:`lab.fem.bodies.ChamberedBody`) and scales the
 description's Yeoh law per tet by the softness, the curing gradient
-(:func:`lab.asbuilt.arm.youngs_modulus_per_tet`) and each chamber's ``stiffness``, applied
+(as :func:`lab.asbuilt.arm.youngs_modulus_per_tet` does) and each chamber's ``stiffness``, applied
 to the silicone round that chamber (:func:`chamber_stiffness_per_tet`). Gravity turns with
 a tilted base as for the cable arms. Every field: ``docs/design/rig.md``.
 """
@@ -118,7 +118,6 @@ def as_built_chambered_fem(robot: RobotDescription, defects: Defects, *, n_rings
         The as-built FEM (the moved cavities, the per-tet Yeoh law, gravity turned by the
         tilt), its inputs the chambers' pressures (Pa).
     """
-    from lab.asbuilt.arm import youngs_modulus_per_tet
     from lab.fem.bodies import ChamberedBody
     from lab.fem.model import ArmFEM
 
@@ -129,8 +128,8 @@ def as_built_chambered_fem(robot: RobotDescription, defects: Defects, *, n_rings
         )
     if n_rings is not None or n_axial is not None or defects.n_rings or defects.n_axial:
         raise DefectsError(
-            f"robot {robot.name!r}: a body with chambers is meshed by gmsh at [mesh] size_m; n_rings and n_axial "
-            "([emulator], --n-rings/--n-axial) are for the structured meshes"
+            f"robot {robot.name!r}: a body with chambers is meshed by gmsh at [mesh] size_m; [emulator] n_rings "
+            "and n_axial are for the structured meshes of the cable arms"
         )
     if defects.law != "neo-hookean":
         raise DefectsError(f"[material] law = {defects.law!r}: a chambered robot keeps its description's law")
@@ -139,6 +138,7 @@ def as_built_chambered_fem(robot: RobotDescription, defects: Defects, *, n_rings
         built = dataclasses.replace(built, gravity_m_s2=defects.R_tilt.T @ robot.gravity_m_s2)
     body = ChamberedBody(built)
     centroids = body.mesh.X_W[body.mesh.tets].mean(axis=1)
-    E = youngs_modulus_per_tet(robot, defects, centroids)
+    s = np.clip(centroids @ defects.gradient_direction_W / robot.radius_m, -1.0, 1.0)  # as youngs_modulus_per_tet
+    E = robot.youngs_modulus_pa * defects.softness * (1.0 + defects.gradient * s)
     E = E * chamber_stiffness_per_tet(built.chambers, [d.stiffness for d in defects.chambers], centroids)
     return ArmFEM(built, body=body, youngs_modulus_pa=E)

@@ -1,4 +1,4 @@
-"""Families of emulated as-built robots: one :class:`Family`, drawn three ways (``twin:random``, ``twin:foam``, ``twin:pneumatic``).
+"""Families of emulated as-built robots: one :class:`Family`, drawn three ways (``twin:random|foam|pneumatic``).
 
 The shipped defects file is *one* as-built arm; a finding that holds on it may hold only on
 it. A :class:`Family` draws member ``seed`` of a family of as-built arms instead, for any
@@ -29,7 +29,7 @@ from lab.asbuilt.foam import FOAM_RANGES, draw_foam, foam_mesh
 from lab.asbuilt.pneumatic import PNEUMATIC_RANGES, check_pneumatic_robot, draw_pneumatic
 from lab.asbuilt.writer import defects_toml
 from lab.description import RobotDescription
-from lab.errors import FieldError, InputError
+from lab.errors import FieldError
 
 __all__ = ["Family", "RANDOM", "FOAM", "PNEUMATIC", "FAMILIES", "family_member", "parse_robot_seed"]
 
@@ -195,9 +195,10 @@ class Family:
 def _cable_robot(robot: RobotDescription, family: str) -> None:
     """Refuse a robot with chambers: the random and foam families draw cable defects."""
     if getattr(robot, "chambers", ()):
-        raise InputError(
+        raise FieldError(
             f"robot {robot.name!r} is driven by pressure chambers: the {family} family draws the defects of a "
-            f"cable arm (eyelets, slack, play, servos); use --rig twin:pneumatic:SEED (defects --pneumatic SEED)"
+            f"cable arm (eyelets, slack, play, servos); draw it from the pneumatic family ({RIG} twin:pneumatic:SEED)",
+            RIG,
         )
 
 

@@ -50,7 +50,7 @@ import numpy as np
 from lab.asbuilt.arm import FORMAT_VERSION
 from lab.asbuilt.draw import FIXED, RANGES, check_seed, rounded
 from lab.description import RobotDescription
-from lab.errors import InputError
+from lab.errors import FieldError, InputError
 
 __all__ = ["PNEUMATIC_RANGES", "check_pneumatic_robot", "draw_pneumatic"]
 
@@ -90,8 +90,8 @@ def check_pneumatic_robot(robot: RobotDescription) -> None:
     chambers = tuple(getattr(robot, "chambers", ()))
     if not chambers:
         raise InputError(
-            f"robot {robot.name!r} has no pressure chambers: the pneumatic family (twin:pneumatic:SEED, "
-            "defects --pneumatic) draws cast-silicone arms driven by chambers; use twin:random:SEED or twin:foam:SEED"
+            f"robot {robot.name!r} has no pressure chambers: the pneumatic family (twin:pneumatic:SEED) draws "
+            "cast-silicone arms driven by chambers; draw a cable arm from twin:random:SEED or twin:foam:SEED"
         )
     if robot.n_cables:
         raise InputError(f"robot {robot.name!r} has cables too: the pneumatic family draws chamber-driven arms alone")
@@ -160,9 +160,11 @@ def draw_pneumatic(robot: RobotDescription, seed: int, n_rings: int | None, n_ax
     seed = check_seed(seed)
     check_pneumatic_robot(robot)
     if n_rings is not None or n_axial is not None:
-        raise InputError(
-            f"robot {robot.name!r}: a body with chambers is meshed by gmsh at [mesh] size_m; --n-rings/--n-axial "
-            "are for the structured meshes of the cable arms"
+        raise FieldError(
+            f"robot {robot.name!r}: a body with chambers is meshed by gmsh at [mesh] size_m; MeshSpec.n_rings and "
+            "MeshSpec.n_axial are for the structured meshes of the cable arms",
+            "MeshSpec.n_rings",
+            "MeshSpec.n_axial",
         )
     rng = np.random.default_rng([seed, 0, 3])
     softness, gradient, angle = (_u(rng, k) for k in ("softness", "gradient", "gradient_angle_deg"))

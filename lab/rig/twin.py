@@ -126,7 +126,7 @@ class TwinRig(Rig):
 
 
 class FamilyTwinRig(TwinRig):
-    """The twin rig on member ``robot_seed`` of a family (``--rig twin:random:SEED``, ``twin:foam:SEED``, ``twin:pneumatic:SEED``).
+    """The twin rig on member ``robot_seed`` of a family (``--rig twin:random|foam|pneumatic:SEED``).
 
     ``describe()`` records the family's label, the robot seed, the generator and its
     version (:meth:`lab.asbuilt.Family.describe`), so that a dataset says which robot it
