@@ -10,7 +10,8 @@ a family of such arms from a seed: :data:`RANDOM` (``twin:random:SEED``, the dra
 calibrator cannot fit) and :data:`PNEUMATIC` (``twin:pneumatic:SEED``: cast-silicone arms
 driven by pressure chambers, :mod:`.pneumatic`; their FEM :mod:`.chambered`), each written
 as a commented defects file by one writer (:mod:`.writer`); :class:`FamilyMemberSpec` is
-the ``defects`` command's settings. The twin rigs that emulate these robots in time are :mod:`lab.rig` (above this package).
+the ``defects`` command's settings. The twin rigs that emulate these robots in time are
+:mod:`lab.rig` (above this package).
 Every field and range: ``docs/design/rig.md``.
 """
 
