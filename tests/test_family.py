@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from sweep import Case, run_case
 
-from lab.asbuilt import RANDOM
+from lab.asbuilt import PNEUMATIC, RANDOM
 from lab.asbuilt.arm import as_built_fem, load_defects
 from lab.asbuilt.draw import FIXED, RANGES
 from lab.capture.protocol import Protocol
@@ -124,9 +124,10 @@ def _held_out_robot(three_cable):
 @pytest.mark.parametrize("name", [*shipped_robots(), "held-out"])
 def test_every_robot_builds_its_as_built_fem(name, three_cable):
     robot = _held_out_robot(three_cable) if name == "held-out" else coarse(load_robot(name))
-    for seed in range(6):
-        d = RANDOM.defects(robot, seed)
-        assert len(d.cables) == robot.n_cables
+    chambered = bool(getattr(robot, "chambers", ()))  # drawn by the pneumatic family, meshed by gmsh (~1 s)
+    for seed in range(1 if chambered else 6):
+        d = (PNEUMATIC if chambered else RANDOM).defects(robot, seed)
+        assert len(d.cables) == robot.n_cables and len(d.chambers) == len(getattr(robot, "chambers", ()))
         fem = as_built_fem(robot, d)  # every eyelet inside the body and the mesh
         assert fem.mesh.n_nodes > 0
     if name == "six-cable":  # cables through the same eyelets share their shift

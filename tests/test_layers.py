@@ -181,7 +181,7 @@ def test_one_family_class():
     # The families of as-built robots are parameter draws of one Family, not parallel copies.
     from lab.asbuilt import FAMILIES, Family
 
-    assert set(FAMILIES) == {"random", "foam"} and all(type(f) is Family for f in FAMILIES.values())
+    assert set(FAMILIES) == {"random", "foam", "pneumatic"} and all(type(f) is Family for f in FAMILIES.values())
     classes = [
         f"{module_name(p)}.{n.name}"
         for p in sorted(LAB.rglob("*.py"))

@@ -27,6 +27,7 @@ from sweep_foam import FOAM_CASES
 from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
+from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_rig_none import RIG_NONE_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
@@ -1052,6 +1053,7 @@ CASES = [
     *RIG_NONE_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,
+    *PNEUMATIC_CASES,
     # --- markers the IK drives (track --markers) -------------------------------------------
     Case(
         "track-markers-unknown",

@@ -163,7 +163,12 @@ def as_built_fem(
     A tapered or mesh body is the description's (:func:`lab.fem.bodies.body_of`; the
     gradient's normalising radius stays ``radius_m``). A tension-controlled tendon holds
     its tension whatever its length: its ``slack_m`` and ``play_m`` are not emulated, and a
-    cable ``stiffness_n_per_m`` is refused on a robot with such tendons."""
+    cable ``stiffness_n_per_m`` is refused on a robot with such tendons. A robot with
+    pressure chambers is :func:`lab.asbuilt.chambered.as_built_chambered_fem`'s."""
+    if getattr(robot, "chambers", ()):  # cast cavities, re-meshed by gmsh
+        from lab.asbuilt.chambered import as_built_chambered_fem
+
+        return as_built_chambered_fem(robot, defects, n_rings=n_rings, n_axial=n_axial)
     built = as_built_robot(robot, defects)
     if defects.R_tilt is not None:
         built = dataclasses.replace(built, gravity_m_s2=defects.R_tilt.T @ robot.gravity_m_s2)

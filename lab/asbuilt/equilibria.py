@@ -33,11 +33,14 @@ def input_scale(robot):
     -------
     float or numpy.ndarray
         The spool radius (m) when every cable is angle-controlled (today's robots, a scalar);
-        else per input (m,): the spool radius for an angle cable, 1 for a tension (N per N).
+        else per input (m,): the spool radius for an angle cable, 1 for a tension (N per N)
+        and for a chamber (its pressure, Pa per Pa).
     """
-    if robot.all_angle:
+    chambers = tuple(getattr(robot, "chambers", ()))
+    if robot.all_angle and not chambers:
         return robot.spool_radius_m
-    return np.array([robot.spool_radius_m if c.control == "angle" else 1.0 for c in robot.cables], float)
+    cables = [robot.spool_radius_m if c.control == "angle" else 1.0 for c in robot.cables]
+    return np.array(cables + [1.0] * len(chambers), float)  # a chamber's input is its pressure (volume)
 
 
 class EquilibriumCache:

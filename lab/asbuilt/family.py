@@ -1,4 +1,4 @@
-"""Families of emulated as-built robots: one :class:`Family`, drawn two ways (``twin:random``, ``twin:foam``).
+"""Families of emulated as-built robots: one :class:`Family`, drawn three ways (``twin:random|foam|pneumatic``).
 
 The shipped defects file is *one* as-built arm; a finding that holds on it may hold only on
 it. A :class:`Family` draws member ``seed`` of a family of as-built arms instead, for any
@@ -10,7 +10,9 @@ commented defects file (:meth:`Family.toml`, :func:`lab.asbuilt.writer.defects_t
 ``python -m lab defects --random SEED``) or that file on disk (:meth:`Family.write`).
 :data:`RANDOM` draws uniformly from :data:`~lab.asbuilt.draw.RANGES`
 (:func:`lab.asbuilt.draw.draw_member`); :data:`FOAM` adds, from streams of its own,
-defects outside the calibrator's model class (:func:`lab.asbuilt.foam.draw_foam`).
+defects outside the calibrator's model class (:func:`lab.asbuilt.foam.draw_foam`);
+:data:`PNEUMATIC` draws cast-silicone arms driven by pressure chambers
+(:func:`lab.asbuilt.pneumatic.draw_pneumatic`), and the first two refuse such a robot.
 :func:`family_member` reads a study's label (``"shipped"``, ``"random:SEED"``,
 ``"foam:SEED"``). Every range and why it is that wide: ``docs/design/rig.md``.
 """
@@ -24,11 +26,12 @@ from dataclasses import dataclass
 from lab.asbuilt.arm import Defects, as_built_robot, load_defects, parse_defects
 from lab.asbuilt.draw import RANGES, draw_member
 from lab.asbuilt.foam import FOAM_RANGES, draw_foam, foam_mesh
+from lab.asbuilt.pneumatic import PNEUMATIC_RANGES, check_pneumatic_robot, draw_pneumatic
 from lab.asbuilt.writer import defects_toml
 from lab.description import RobotDescription
 from lab.errors import FieldError
 
-__all__ = ["Family", "RANDOM", "FOAM", "FAMILIES", "family_member", "parse_robot_seed"]
+__all__ = ["Family", "RANDOM", "FOAM", "PNEUMATIC", "FAMILIES", "family_member", "parse_robot_seed"]
 
 #: How an error names the rig string a member is named by (``twin:FAMILY:SEED``); the
 #: command line writes the flag the user typed in its place.
@@ -63,6 +66,9 @@ class Family:
         runs on (None entries: the description's).
     recorded_name : bool
         Whether the rig metadata names the family (False keeps the first family's as it was).
+    check_robot : callable or None
+        ``check_robot(robot, family_name)``: InputError for a robot the family cannot draw
+        (None: any robot the draw takes).
     """
 
     name: str
@@ -74,6 +80,7 @@ class Family:
     header: tuple[str, ...]
     emulator_mesh: Callable[[RobotDescription, int | None, int | None], tuple[int | None, int | None]]
     recorded_name: bool = True
+    check_robot: Callable[[RobotDescription, str], None] | None = None
 
     def defects(
         self, robot: RobotDescription, seed: int, *, n_rings: int | None = None, n_axial: int | None = None
@@ -95,6 +102,8 @@ class Family:
         Defects
             The member's validated defects, ``path`` ``"NAME:SEED"``.
         """
+        if self.check_robot is not None:
+            self.check_robot(robot, self.name)
         data, _ = self.draw(robot, seed, n_rings, n_axial)
         defects = parse_defects(data, robot, f"{self.name}:{int(seed)}")
         as_built_robot(robot, defects)  # eyelets inside the body (guaranteed by the draw)
@@ -124,6 +133,8 @@ class Family:
         str
             The file's text, in the format of the shipped defects files.
         """
+        if self.check_robot is not None:
+            self.check_robot(robot, self.name)
         data, notes = self.draw(robot, seed, n_rings, n_axial)
         mesh = "".join(f" --{k.replace('_', '-')} {v}" for k, v in (("n_rings", n_rings), ("n_axial", n_axial)) if v)
         seed = int(seed)
@@ -181,6 +192,16 @@ class Family:
         return {"label": self.label, "family": family}
 
 
+def _cable_robot(robot: RobotDescription, family: str) -> None:
+    """Refuse a robot with chambers: the random and foam families draw cable defects."""
+    if getattr(robot, "chambers", ()):
+        raise FieldError(
+            f"robot {robot.name!r} is driven by pressure chambers: the {family} family draws the defects of a "
+            f"cable arm (eyelets, slack, play, servos); draw it from the pneumatic family ({RIG} twin:pneumatic:SEED)",
+            RIG,
+        )
+
+
 # The headers and generator names below are what members' files and rig metadata have
 # always recorded (paths of the modules that first wrote them): byte for byte the same files.
 #: The first family: every in-class defect drawn uniformly from :data:`~lab.asbuilt.draw.RANGES`.
@@ -203,6 +224,7 @@ RANDOM = Family(
     ),
     emulator_mesh=lambda robot, n_rings, n_axial: (n_rings, n_axial),
     recorded_name=False,
+    check_robot=_cable_robot,
 )
 #: The second family: :data:`RANDOM`'s draws plus defects `calibrate` cannot fit (:mod:`lab.asbuilt.foam`).
 FOAM = Family(
@@ -227,9 +249,35 @@ FOAM = Family(
         "# documents the model.",
     ),
     emulator_mesh=foam_mesh,
+    check_robot=_cable_robot,
+)
+#: The third family: cast-silicone arms driven by pressure chambers (:mod:`lab.asbuilt.pneumatic`).
+PNEUMATIC = Family(
+    name="pneumatic",
+    label="emulated as-built robot (pneumatic family)",
+    version=1,
+    generator="lab.asbuilt.pneumatic",
+    draw=draw_pneumatic,
+    ranges=PNEUMATIC_RANGES,
+    header=(
+        "# As-built defects of {robot!r}: member {seed} of the pneumatic family of emulated",
+        "# as-built robots (lab/asbuilt/pneumatic.py, generator version 1;",
+        "# --rig twin:pneumatic:{seed}), made by",
+        "#     {command}",
+        "# A cast-silicone arm driven by pressure chambers: softness, curing gradient, each",
+        "# cavity's core-pin errors and the silicone round it, a tilted base, each chamber's",
+        "# pressure regulator (lag, dead time, gain, offset), the silicone's relaxation and",
+        "# the motion capture. Each value comes from the range in its comment (U uniform);",
+        "# lab/asbuilt/pneumatic.py says why. The rig's commands are the chambers' pressures",
+        "# (Pa). Results on this robot are an emulated as-built robot (pneumatic family), not",
+        "# a real arm. Frame W as in the description; SI units. Every field is validated by",
+        "# lab/asbuilt/parse.py (meanings and limits: lab/asbuilt/fields.py).",
+    ),
+    emulator_mesh=lambda robot, n_rings, n_axial: (n_rings, n_axial),
+    check_robot=lambda robot, family: check_pneumatic_robot(robot),
 )
 #: The families by name, as ``twin:NAME:SEED`` names them.
-FAMILIES = {f.name: f for f in (RANDOM, FOAM)}
+FAMILIES = {f.name: f for f in (RANDOM, FOAM, PNEUMATIC)}
 
 
 def parse_robot_seed(text: str, spec: str | None = None, family: str = "random") -> int:
@@ -267,7 +315,7 @@ def family_member(robot: RobotDescription, label: str, **mesh) -> Defects:
     robot : RobotDescription
         The nominal robot.
     label : str
-        ``"shipped"`` (its shipped defects file), ``"random:SEED"`` or ``"foam:SEED"``
+        ``"shipped"`` (its shipped defects file), ``"random:SEED"``, ``"foam:SEED"`` or ``"pneumatic:SEED"``
         (anything else is read as a seed of :data:`RANDOM`).
     **mesh
         ``n_rings``/``n_axial``: the emulator mesh the member is drawn for.
@@ -279,6 +327,8 @@ def family_member(robot: RobotDescription, label: str, **mesh) -> Defects:
     """
     if label == "shipped":
         return load_defects(None, robot)
-    if label.startswith("foam:"):
-        return FOAM.defects(robot, parse_robot_seed(label.removeprefix("foam:"), label, "foam"), **mesh)
+    for family in (FOAM, PNEUMATIC):
+        if label.startswith(f"{family.name}:"):
+            seed = parse_robot_seed(label.removeprefix(f"{family.name}:"), label, family.name)
+            return family.defects(robot, seed, **mesh)
     return RANDOM.defects(robot, parse_robot_seed(label.removeprefix("random:"), label), **mesh)

@@ -27,6 +27,17 @@ default so that an older file means exactly what it meant before:
   initial shear modulus, scaled per tet by softness and gradient), ``hyperfoam_alpha``
   (nonzero, |alpha| <= 50: foams fit 2..25) and ``hyperfoam_beta`` (0 <= beta < 50; beta
   = nu / (1 - 2 nu), so nu from 0 to 0.49): the compressible Ogden foam (N = 1).
+* ``[[chambers]]`` (a robot with pressure chambers, one table per chamber in the
+  description's order; :class:`ChamberDefects`): the cast cavity's errors (``offset_error_m``
+  off the axis, within +-5 mm; ``angle_error_deg`` round the section, within +-30 deg;
+  ``radius_error_m`` within +-2 mm -- more is another design, not a casting tolerance;
+  the moved cavity must still pass the description's wall check), the modulus factor
+  ``stiffness`` of the silicone around it (0.2 to 5), and its pressure regulator: a first
+  order response ``regulator_tau_s`` (1 ms to 10 s) after ``regulator_dead_time_s`` (0 to
+  1 s), delivering ``regulator_gain`` (0.5 to 1.5) times the command plus
+  ``regulator_offset_pa`` (within 10 % of the chamber's ``pressure_max_pa``: a larger
+  offset is a broken regulator). A robot without cables needs no ``[[cables]]`` and no
+  ``[motors]``.
 """
 
 from __future__ import annotations
@@ -50,6 +61,16 @@ CABLE_STIFFNESS_RANGE_N_PER_M = (10.0, 1e12)
 CREEP_TAU_LIMIT_S = 86400.0
 HYPERFOAM_ALPHA_LIMIT = 50.0
 HYPERFOAM_BETA_LIMIT = 50.0
+#: Limits of a ``[[chambers]]`` table's fields (see the module docstring for why).
+CHAMBER_OFFSET_ERROR_LIMIT_M = 5e-3
+CHAMBER_ANGLE_ERROR_LIMIT_DEG = 30.0
+CHAMBER_RADIUS_ERROR_LIMIT_M = 2e-3
+CHAMBER_STIFFNESS_RANGE = (0.2, 5.0)
+REGULATOR_TAU_RANGE_S = (1e-3, 10.0)
+REGULATOR_DEAD_TIME_RANGE_S = (0.0, 1.0)
+REGULATOR_GAIN_RANGE = (0.5, 1.5)
+#: The largest regulator offset, as a share of the chamber's ``pressure_max_pa``.
+REGULATOR_OFFSET_LIMIT_FS = 0.1
 
 
 class DefectsError(InputError):
@@ -67,6 +88,43 @@ class CableDefects:
     slack_m: float
     play_m: float
     stiffness_n_per_m: float | None = None
+
+
+@dataclass(frozen=True)
+class ChamberDefects:
+    """As-built chamber ``name`` and its pressure regulator.
+
+    Parameters
+    ----------
+    name : str
+        The description's chamber.
+    offset_error_m : float
+        The cast cavity's axis further from the body's axis than designed, m.
+    angle_error_deg : float
+        The cavity turned round the section (about +x), deg.
+    radius_error_m : float
+        The cavity's radius larger than designed, m.
+    stiffness : float
+        Factor on the modulus of the silicone around the cavity (its wall).
+    regulator_tau_s : float
+        Time constant of the pressure's first-order response, s.
+    regulator_dead_time_s : float
+        Delay before the pressure starts to respond, s.
+    regulator_gain : float
+        Delivered pressure per commanded pressure (before the offset).
+    regulator_offset_pa : float
+        Delivered pressure at a zero command (gauge, Pa; never below the chamber's minimum).
+    """
+
+    name: str
+    offset_error_m: float
+    angle_error_deg: float
+    radius_error_m: float
+    stiffness: float
+    regulator_tau_s: float
+    regulator_dead_time_s: float
+    regulator_gain: float
+    regulator_offset_pa: float
 
 
 @dataclass(frozen=True)
@@ -126,6 +184,8 @@ class Defects:
         Material law, one of :data:`LAWS`.
     hyperfoam_mu_pa, hyperfoam_alpha, hyperfoam_beta : float or None
         The hyperfoam law's initial shear modulus (Pa), exponent and volumetric parameter.
+    chambers : tuple of ChamberDefects
+        One per pressure chamber of the robot, in its order (empty: a cable robot).
     """
 
     robot: str
@@ -157,6 +217,7 @@ class Defects:
     hyperfoam_mu_pa: float | None = None
     hyperfoam_alpha: float | None = None
     hyperfoam_beta: float | None = None
+    chambers: tuple[ChamberDefects, ...] = ()
 
     @property
     def sha256(self) -> str:

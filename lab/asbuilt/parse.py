@@ -7,7 +7,10 @@ is refused with the closest valid name) and every value against its range, raisi
 ``[[cables]]``, ``[lag]``, ``[motors]``, ``[mocap]``) are those ``calibrate`` and the twin
 always needed; the optional fields outside the calibrator's model class (``[mount]``, the
 mocap frame error, cable stiffness, creep, the hyperfoam law) come in pairs that must be
-given together, and absent they leave the robot exactly as before. The meaning and range
+given together, and absent they leave the robot exactly as before. A robot with pressure
+chambers needs one ``[[chambers]]`` table per chamber (cast-cavity errors, the silicone's
+stiffness round it, its pressure regulator) and, without cables, no ``[[cables]]`` or
+``[motors]``. The meaning and range
 of each field: :mod:`lab.asbuilt.fields` and ``lab/rig/defects/three-cable.toml``.
 """
 
@@ -19,14 +22,23 @@ import numpy as np
 
 from lab.asbuilt.fields import (
     CABLE_STIFFNESS_RANGE_N_PER_M,
+    CHAMBER_ANGLE_ERROR_LIMIT_DEG,
+    CHAMBER_OFFSET_ERROR_LIMIT_M,
+    CHAMBER_RADIUS_ERROR_LIMIT_M,
+    CHAMBER_STIFFNESS_RANGE,
     CREEP_TAU_LIMIT_S,
     FRAME_OFFSET_LIMIT_M,
     FRAME_ROTATION_RANGE_DEG,
     HYPERFOAM_ALPHA_LIMIT,
     HYPERFOAM_BETA_LIMIT,
     LAWS,
+    REGULATOR_DEAD_TIME_RANGE_S,
+    REGULATOR_GAIN_RANGE,
+    REGULATOR_OFFSET_LIMIT_FS,
+    REGULATOR_TAU_RANGE_S,
     TILT_RANGE_DEG,
     CableDefects,
+    ChamberDefects,
     Defects,
     DefectsError,
     num,
@@ -40,7 +52,7 @@ HYPERFOAM_FIELDS = ("hyperfoam_mu_pa", "hyperfoam_alpha", "hyperfoam_beta")
 
 #: The fields of each table of a defects file (optional ones included).
 DEFECTS_FIELDS = {
-    "": {"format_version", "robot", "material", "cables", "lag", "motors", "mocap", "emulator", "mount"},
+    "": {"format_version", "robot", "material", "cables", "lag", "motors", "mocap", "emulator", "mount", "chambers"},
     "material": {"softness", "gradient", "gradient_direction", "law", *HYPERFOAM_FIELDS},
     "cables": {"name", "via_shift_m", "slack_m", "play_m", "stiffness_n_per_m"},
     "lag": {"tau_fast_s", "tau_slow_s", "slow_fraction", "creep_fraction", "creep_tau_s"},
@@ -56,6 +68,17 @@ DEFECTS_FIELDS = {
     },
     "emulator": {"n_rings", "n_axial"},
     "mount": {"tilt_deg", "tilt_axis"},
+    "chambers": {
+        "name",
+        "offset_error_m",
+        "angle_error_deg",
+        "radius_error_m",
+        "stiffness",
+        "regulator_tau_s",
+        "regulator_dead_time_s",
+        "regulator_gain",
+        "regulator_offset_pa",
+    },
 }
 
 
@@ -79,6 +102,8 @@ def _together(table: dict, keys: tuple[str, ...], where: str) -> bool:
 
 
 def _cables(data: dict, robot: RobotDescription) -> tuple[CableDefects, ...]:
+    if robot.n_cables == 0 and "cables" not in data:  # a robot driven by its chambers alone
+        return ()
     entries = data.get("cables")
     if not isinstance(entries, list) or len(entries) != robot.n_cables:
         raise DefectsError(
@@ -99,6 +124,73 @@ def _cables(data: dict, robot: RobotDescription) -> tuple[CableDefects, ...]:
             k = ranged(entry, "stiffness_n_per_m", where, *CABLE_STIFFNESS_RANGE_N_PER_M, " N/m")
         cables.append(CableDefects(cable.name, shift, slack, play, k))
     return tuple(cables)
+
+
+def _chambers(data: dict, robot: RobotDescription) -> tuple[ChamberDefects, ...]:
+    chambers = tuple(getattr(robot, "chambers", ()))
+    if not chambers:
+        if "chambers" in data:
+            raise DefectsError(f"[[chambers]]: robot {robot.name!r} has no chambers (remove the tables)")
+        return ()
+    entries = data.get("chambers")
+    if not isinstance(entries, list) or len(entries) != len(chambers):
+        raise DefectsError(
+            f"[[chambers]] must have one table per chamber of {robot.name} "
+            f"({len(chambers)}), got {len(entries) if isinstance(entries, list) else 0}"
+        )
+    out = []
+    for i, (entry, chamber) in enumerate(zip(entries, chambers)):
+        where = f"chambers[{i}]"
+        check_fields(entry, DEFECTS_FIELDS["chambers"], where, DefectsError)
+        if entry.get("name") != chamber.name:
+            raise DefectsError(
+                f"field '{where}.name' must be {chamber.name!r} (the description's order), got {entry.get('name')!r}"
+            )
+        if chamber.control != "pressure" or chamber.radius_m is None:
+            raise DefectsError(
+                f"{where} ({chamber.name!r}): as-built chambers are emulated for pressure-controlled cast cavities "
+                f"(angle_deg, offset_m, radius_m), not a {chamber.control}-controlled "
+                f"{'mesh surface' if chamber.radius_m is None else 'cavity'}"
+            )
+        lim_o, lim_a, lim_r = CHAMBER_OFFSET_ERROR_LIMIT_M, CHAMBER_ANGLE_ERROR_LIMIT_DEG, CHAMBER_RADIUS_ERROR_LIMIT_M
+        radius_error = ranged(entry, "radius_error_m", where, -lim_r, lim_r, " m")
+        if chamber.radius_m + radius_error <= 0:
+            raise DefectsError(
+                f"field '{where}.radius_error_m' ({radius_error} m) closes the cavity (radius_m {chamber.radius_m} m)"
+            )
+        offset_error = ranged(entry, "offset_error_m", where, -lim_o, lim_o, " m")
+        if chamber.offset_m + offset_error < 0:
+            raise DefectsError(
+                f"field '{where}.offset_error_m' ({offset_error} m) puts the cavity's axis past the body's axis "
+                f"(offset_m {chamber.offset_m} m)"
+            )
+        full_scale = REGULATOR_OFFSET_LIMIT_FS * chamber.bounds[1]
+        out.append(
+            ChamberDefects(
+                chamber.name,
+                offset_error_m=offset_error,
+                angle_error_deg=ranged(entry, "angle_error_deg", where, -lim_a, lim_a, " deg"),
+                radius_error_m=radius_error,
+                stiffness=ranged(entry, "stiffness", where, *CHAMBER_STIFFNESS_RANGE, ""),
+                regulator_tau_s=ranged(entry, "regulator_tau_s", where, *REGULATOR_TAU_RANGE_S, " s"),
+                regulator_dead_time_s=ranged(entry, "regulator_dead_time_s", where, *REGULATOR_DEAD_TIME_RANGE_S, " s"),
+                regulator_gain=ranged(entry, "regulator_gain", where, *REGULATOR_GAIN_RANGE, ""),
+                regulator_offset_pa=ranged(entry, "regulator_offset_pa", where, -full_scale, full_scale, " Pa"),
+            )
+        )
+    return tuple(out)
+
+
+def _motors(data: dict, robot: RobotDescription) -> dict:
+    """``[motors]``: required for a cable robot; a robot without cables has none (no ticks,
+    no speed limit) unless the file gives the table."""
+    if robot.n_cables == 0 and "motors" not in data:
+        return {"ticks_per_rev": 0, "profile_velocity_rad_s": math.inf}
+    motors = _table(data, "motors")
+    return {
+        "ticks_per_rev": num(motors, "ticks_per_rev", "motors", lo=0, integer=True),
+        "profile_velocity_rad_s": num(motors, "profile_velocity_rad_s", "motors", lo=0.0, lo_open=True),
+    }
 
 
 def _material_law(mat: dict) -> dict:
@@ -199,7 +291,8 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
     law = _material_law(mat)
     cables = _cables(data, robot)
     lag = _lag(data)
-    motors, mocap = _table(data, "motors"), _table(data, "mocap")
+    motors, mocap = _motors(data, robot), _table(data, "mocap")
+    chambers = _chambers(data, robot)
     emulator = check_fields(data.get("emulator", {}), DEFECTS_FIELDS["emulator"], "emulator", DefectsError)
     mesh = {
         k: (num(emulator, k, "emulator", lo=1, integer=True) if k in emulator else None) for k in ("n_rings", "n_axial")
@@ -211,8 +304,7 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
         gradient_direction_W=direction / np.linalg.norm(direction),
         cables=cables,
         **lag,
-        ticks_per_rev=num(motors, "ticks_per_rev", "motors", lo=0, integer=True),
-        profile_velocity_rad_s=num(motors, "profile_velocity_rad_s", "motors", lo=0.0, lo_open=True),
+        **motors,
         frame_rate_hz=num(mocap, "frame_rate_hz", "mocap", lo=0.0, lo_open=True),
         noise_sigma_m=num(mocap, "noise_sigma_m", "mocap", lo=0.0),
         dropout_rate_hz=num(mocap, "dropout_rate_hz", "mocap", lo=0.0),
@@ -223,4 +315,5 @@ def parse_defects(data: dict, robot: RobotDescription, path: str | None = None) 
         path=path,
         source=data,
         **law,
+        chambers=chambers,
     )

@@ -6,8 +6,9 @@ A family (:mod:`lab.asbuilt.family`, ``twin:random:SEED``; :mod:`lab.asbuilt.foa
 back as text, one field a line with a comment saying the range it was drawn from
 (``U(lo, hi)`` uniform, ``logU(lo, hi)`` log-uniform) or how it was derived, table by table
 in the order of the shipped file. The optional fields outside the calibrator's model class
-(the hyperfoam law, cable stiffness, creep, the mocap's frame error, ``[mount]``) are
-written only where the member has them, so a ``twin:random`` member's file is exactly what
+(the hyperfoam law, cable stiffness, creep, the mocap's frame error, ``[mount]``) and a
+pneumatic member's ``[[chambers]]`` (:mod:`lab.asbuilt.pneumatic`; it has no cables and no
+motors) are written only where the member has them, so a ``twin:random`` member's file is exactly what
 it always was. Every float is written so that it reads back to exactly the drawn value
 (:func:`fmt_float`), and the text is checked to read back to ``data`` before it is returned:
 the file *is* the member.
@@ -22,7 +23,7 @@ import numpy as np
 from lab.asbuilt.arm import FORMAT_VERSION
 from lab.description import RobotDescription
 
-__all__ = ["defects_toml", "fmt_float", "range_text"]
+__all__ = ["defects_toml", "chamber_lines", "fmt_float", "range_text"]
 
 
 def fmt_float(x: float) -> str:
@@ -104,6 +105,68 @@ def _cables(tables: list[dict], notes: list[dict], ranges: dict) -> list[str]:
     return out
 
 
+def chamber_lines(tables: list[dict], robot: RobotDescription, notes: dict, ranges: dict) -> list[str]:
+    """The ``[[chambers]]`` tables of a pneumatic member, commented (see :mod:`lab.asbuilt.pneumatic`).
+
+    Parameters
+    ----------
+    tables : list of dict
+        One table per chamber, in the description's order.
+    robot : RobotDescription
+        The nominal robot (its chambers' full scale).
+    notes : dict
+        ``cavity_shrinks``: how many times the cavity draws were halved to keep the walls.
+    ranges : dict
+        (lo, hi) of each drawn field (:data:`lab.asbuilt.pneumatic.PNEUMATIC_RANGES`).
+
+    Returns
+    -------
+    list of str
+        The lines.
+    """
+    shrinks = notes.get("cavity_shrinks", 0)
+    tangential = range_text(ranges, "tangential_error_m", 1e3, " mm")
+    out = [
+        "# One table per chamber, in the description's order: the cast cavity's core pin off its",
+        f"# seat (offset_error_m {range_text(ranges, 'offset_error_m', 1e3, ' mm')} further from the axis; round the",
+        f"# section {tangential}, written as angle_error_deg; radius_error_m",
+        f"# {range_text(ranges, 'radius_error_m', 1e3, ' mm')}), the silicone round it `stiffness` times as stiff",
+        f"# ({range_text(ranges, 'stiffness')}), and its pressure regulator: delivered = gain * command + offset",
+        f"# (gain {range_text(ranges, 'regulator_gain')}, offset {range_text(ranges, 'regulator_offset_fs', 100, ' %')}"
+        " of full scale), reached",
+        f"# first-order (tau {range_text(ranges, 'regulator_tau_s', unit=' s')}) after a dead time "
+        f"{range_text(ranges, 'regulator_dead_time_s', 1e3, ' ms')}.",
+    ]
+    if shrinks:
+        out.append(f"# The cavity draws were halved {shrinks} time(s) to keep every wall one element thick.")
+    for table, chamber in zip(tables, robot.chambers):
+        fs = chamber.bounds[1]
+        out += [
+            "[[chambers]]",
+            f'name = "{table["name"]}"',
+            _line(
+                f"offset_error_m = {fmt_float(table['offset_error_m'])}",
+                f"axis at {chamber.offset_m * 1e3:g} mm + this",
+            ),
+            _line(
+                f"angle_error_deg = {fmt_float(table['angle_error_deg'])}", f"axis at {chamber.angle_deg:g} deg + this"
+            ),
+            _line(
+                f"radius_error_m = {fmt_float(table['radius_error_m'])}", f"radius {chamber.radius_m * 1e3:g} mm + this"
+            ),
+            _line(f"stiffness = {fmt_float(table['stiffness'])}", "modulus factor of the silicone round it"),
+            _line(f"regulator_tau_s = {fmt_float(table['regulator_tau_s'])}", "first-order pressure response, s"),
+            _line(f"regulator_dead_time_s = {fmt_float(table['regulator_dead_time_s'])}", "before it responds, s"),
+            _line(f"regulator_gain = {fmt_float(table['regulator_gain'])}", "delivered per commanded pressure"),
+            _line(
+                f"regulator_offset_pa = {fmt_float(table['regulator_offset_pa'])}",
+                f"{100 * table['regulator_offset_pa'] / fs:+.2f} % of {fs:g} Pa",
+            ),
+            "",
+        ]
+    return out
+
+
 def _lag(lag: dict, ranges: dict) -> list[str]:
     out = [
         "[lag]",
@@ -175,7 +238,6 @@ def defects_toml(robot: RobotDescription, data: dict, notes: dict, *, header: li
     ``tilt_azimuth_deg``. ``header``: the comment lines on top (the family, the seed, the
     command); ``ranges``: (lo, hi) of each drawn field, SI units. Raises AssertionError if
     the text does not read back to ``data``."""
-    mot = data["motors"]
     out = [
         *header,
         f"format_version = {FORMAT_VERSION}",
@@ -183,23 +245,31 @@ def defects_toml(robot: RobotDescription, data: dict, notes: dict, *, header: li
         "",
         *_material(data["material"], notes["angle"], ranges, robot.poisson_ratio),
         "",
-        *_cables(data["cables"], notes["cables"], ranges),
-        *_lag(data["lag"], ranges),
-        "",
-        "[motors]",
-        _line(f"ticks_per_rev = {mot['ticks_per_rev']}", "Dynamixel XM430 encoder (fixed)"),
-        _line(
-            f"profile_velocity_rad_s = {fmt_float(mot['profile_velocity_rad_s'])}",
-            range_text(ranges, "profile_velocity_rad_s", unit=" rad/s"),
-        ),
-        "",
-        *_mocap(data["mocap"], ranges),
-        "",
     ]
+    if "cables" in data:
+        out += _cables(data["cables"], notes["cables"], ranges)
+    if "chambers" in data:
+        out += chamber_lines(data["chambers"], robot, notes, ranges)
+    out += _lag(data["lag"], ranges)
+    out.append("")
+    if "motors" in data:
+        mot = data["motors"]
+        out += [
+            "[motors]",
+            _line(f"ticks_per_rev = {mot['ticks_per_rev']}", "Dynamixel XM430 encoder (fixed)"),
+            _line(
+                f"profile_velocity_rad_s = {fmt_float(mot['profile_velocity_rad_s'])}",
+                range_text(ranges, "profile_velocity_rad_s", unit=" rad/s"),
+            ),
+            "",
+        ]
+    out += [*_mocap(data["mocap"], ranges), ""]
     if "mount" in data:
         out += _mount(data["mount"], notes["tilt_azimuth_deg"], ranges)
     if "emulator" in data:
         out += ["[emulator]", *(f"{k} = {v}" for k, v in data["emulator"].items()), ""]
+    elif "chambers" in data:
+        out += ["# No [emulator]: a body with chambers is meshed by gmsh at the description's [mesh] size_m.", ""]
     else:
         out += ["# [emulator]          # optional: FEM mesh of the twin (default: the description's)", ""]
     text = "\n".join(out)

@@ -3,6 +3,7 @@
     python -m lab defects --random 3 --robot three-cable --out robot3.toml
     python -m lab capture --rig twin:robot3.toml ...   # the same robot as --rig twin:random:3
     python -m lab defects --foam 3 --out foam3.toml      # the same robot as --rig twin:foam:3
+    python -m lab defects --pneumatic 3 --robot pneumatic-arm --out p3.toml  # twin:pneumatic:3
 
 Draws member ``SEED`` of the family of as-built robots (``lab.asbuilt.family``: softness,
 stiffness gradient, eyelet shifts, slack, play, lag, motors, motion capture, from ranges
@@ -11,8 +12,12 @@ it atomically as a commented defects file in the format of ``lab/rig/defects/``.
 SEED`` draws member SEED of the foam family instead (``lab.asbuilt.foam``): the same
 in-class defects as ``--random SEED``, plus the hyperfoam law, cable stiffness, creep, a
 tilted base, the mocap's frame error and a finer emulator mesh. The same seed always gives
-the same file; edit it freely and pass it as ``--rig twin:FILE``. Results on it are an
-"emulated as-built robot" ("(foam family)"), not the real arm.
+the same file; edit it freely and pass it as ``--rig twin:FILE``. ``--pneumatic SEED``
+draws a cast-silicone arm driven by pressure chambers (``lab.asbuilt.pneumatic``: cavity
+errors, per-chamber stiffness, curing gradient, a tilted base, each chamber's pressure
+regulator) for a robot with chambers (``--robot pneumatic-arm``); ``--random``/``--foam``
+refuse such a robot. Results on it are an "emulated as-built robot" ("(foam family)",
+"(pneumatic family)"), not the real arm.
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "defects",
         parents=parents,
-        help="write the defects file of an emulated as-built robot (a member of the random or foam family)",
+        help="write the defects file of an emulated as-built robot (a member of the random, foam or pneumatic family)",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -68,14 +73,17 @@ def run(args) -> int:
     check_writable(args.out)
     robot = load_robot(args.robot)
     defects = job.run(spec, robot, args.out, command=command_line(spec, args.robot))
-    family = "the foam family" if spec.family == "foam" else "the family"
-    extra = (
-        f", hyperfoam alpha {defects.hyperfoam_alpha:g}, tilt {defects.tilt_deg:g} deg" if spec.family == "foam" else ""
-    )
+    family = {"foam": "the foam family", "pneumatic": "the pneumatic family"}.get(spec.family, "the family")
+    if spec.family == "pneumatic":
+        taus = [c.regulator_tau_s for c in defects.chambers]
+        what = f"regulator lag {1e3 * min(taus):.0f}-{1e3 * max(taus):.0f} ms, tilt {defects.tilt_deg:g} deg"
+    else:
+        what = f"slack up to {1e3 * defects.slack_m.max():.1f} mm"
+        if spec.family == "foam":
+            what += f", hyperfoam alpha {defects.hyperfoam_alpha:g}, tilt {defects.tilt_deg:g} deg"
     print(
         f"wrote {args.out}: {robot.name} as built, member {spec.member_seed} of {family} (softness "
-        f"{defects.softness:g}, gradient {defects.gradient:g}, slack up to {1e3 * defects.slack_m.max():.1f} mm"
-        f"{extra}); use it as --rig twin:{args.out}",
+        f"{defects.softness:g}, gradient {defects.gradient:g}, {what}); use it as --rig twin:{args.out}",
         file=sys.stderr,
     )
     return 0

@@ -30,7 +30,7 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
     ----------
     spec : RigSpec or str
         A ``twin`` spec: its defects file, the shipped defects, or member SEED of the
-        ``random`` or ``foam`` family (:data:`lab.asbuilt.FAMILIES`) drawn for the mesh.
+        ``random``, ``foam`` or ``pneumatic`` family (:data:`lab.asbuilt.FAMILIES`) drawn for the mesh.
     robot : RobotDescription
         The nominal robot.
     mesh : MeshSpec or None
@@ -39,21 +39,22 @@ def as_built_body(spec: RigSpec | str, robot: RobotDescription, *, mesh: MeshSpe
 
     Returns
     -------
-    AsBuiltBody
-        The body (:class:`~lab.rig.twin.AsBuiltBody`); InputError for a spec of another kind.
+    AsBuiltBody or PneumaticBody
+        The body (:func:`lab.rig.twin.emulated_body`: pressure regulators for a robot with
+        chambers); InputError for a spec of another kind.
     """
     spec = _spec(spec, mesh)
     if spec.kind != "twin":
         raise FieldError(f"{RIG} {spec}: an as-built body is emulated for {RIG} twin only", RIG)
-    from lab.rig.twin import AsBuiltBody
+    from lab.rig.twin import emulated_body
 
     overrides = spec.mesh.overrides()
     if spec.family_seed is not None:
         from lab.asbuilt.family import FAMILIES
 
         defects = FAMILIES[spec.family].defects(robot, spec.family_seed, **overrides)
-        return AsBuiltBody(robot, defects, **overrides)
-    return AsBuiltBody(robot, spec.defects_path, **overrides)
+        return emulated_body(robot, defects, **overrides)
+    return emulated_body(robot, spec.defects_path, **overrides)
 
 
 def make_rig(

@@ -2,7 +2,8 @@
 
 ``--rig`` is one string -- ``sim``, ``twin``, ``twin:DEFECTS.toml``, ``twin:random:SEED``,
 ``twin:foam:SEED`` (a member of the second family, :mod:`lab.asbuilt.foam`: defects
-outside the calibrator's model class too), ``hardware:CONFIG.toml``, or for ``track`` alone
+outside the calibrator's model class too), ``twin:pneumatic:SEED`` (a cast-silicone arm
+driven by pressure chambers, :mod:`lab.asbuilt.pneumatic`), ``hardware:CONFIG.toml``, or for ``track`` alone
 ``none``: no rig at all, the IK's commands written for a lab to send to its own robot --
 and :meth:`RigSpec.parse` is the only place
 that reads it; ``str(spec)`` writes it back. The FEM mesh of a simulated or emulated rig
@@ -27,7 +28,7 @@ __all__ = ["RigSpec", "RIG_KINDS", "RIG_FORMS"]
 #: and none (``track --rig none``: solve the IK only; :func:`lab.rig.make_rig` refuses it).
 RIG_KINDS = ("sim", "twin", "hardware", "none")
 #: The forms ``--rig`` accepts, as its help and errors name them.
-RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED, twin:foam:SEED or hardware:CONFIG.toml"
+RIG_FORMS = "sim, twin[:DEFECTS.toml], twin:random:SEED, twin:foam:SEED, twin:pneumatic:SEED or hardware:CONFIG.toml"
 #: How an error names the FEM mesh's fields.
 MESH_FIELDS = ("MeshSpec.n_rings", "MeshSpec.n_axial")
 
@@ -49,7 +50,7 @@ class RigSpec(Spec):
     mesh : MeshSpec
         FEM mesh overrides (rings, axial layers) of a ``sim`` or ``twin`` rig.
     family : str
-        A name in :data:`lab.asbuilt.FAMILIES`: ``random`` or ``foam``.
+        A name in :data:`lab.asbuilt.FAMILIES`: ``random``, ``foam`` or ``pneumatic``.
     """
 
     kind: str = "sim"
@@ -186,7 +187,8 @@ class RigSpec(Spec):
     @property
     def label(self) -> str:
         """What results on this rig are: "FEM", "emulated as-built robot" (with "(foam family)"
-        on a ``twin:foam`` member), "hardware" or "model prediction" (no rig)."""
+        on a ``twin:foam`` member, "(pneumatic family)" on a ``twin:pneumatic`` one), "hardware"
+        or "model prediction" (no rig)."""
         if self.kind == "twin":
             return FAMILIES[self.family].label
         return {"sim": "FEM", "hardware": "hardware", "none": "model prediction"}[self.kind]

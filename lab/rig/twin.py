@@ -8,7 +8,9 @@ observes the tip through ``MocapModel`` (Gaussian noise and occlusion bursts, Na
 (``MocapFrame.markers_W``, the tip first, each with its own noise, all hidden together
 during an occlusion), its tip exactly as before. Deterministic for a given seed.
 :class:`FamilyTwinRig` is the twin on a member of a family of as-built robots
-(:class:`lab.asbuilt.Family`). The model step by step: ``docs/design/rig.md``.
+(:class:`lab.asbuilt.Family`). A robot driven by pressure chambers gets pressure regulators
+instead of servos (:func:`emulated_body`, :class:`~lab.rig.pneumatic_body.PneumaticBody`).
+The model step by step: ``docs/design/rig.md``.
 """
 
 from __future__ import annotations
@@ -22,6 +24,30 @@ from lab.description import RobotDescription
 from lab.rig.asbuilt_body import AsBuiltBody
 from lab.rig.base import MocapFrame, Rig, RigError
 from lab.rig.mocap_model import MocapModel
+from lab.rig.pneumatic_body import PneumaticBody
+
+
+def emulated_body(robot: RobotDescription, defects: Defects | str | None = None, **mesh) -> AsBuiltBody | PneumaticBody:
+    """The emulated as-built body of ``robot``: servos and cables, or pressure regulators.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The nominal robot.
+    defects : Defects or str or None
+        The as-built defects (a :class:`Defects`, a TOML path, or None: the shipped default).
+    **mesh
+        ``n_rings``/``n_axial`` mesh overrides (a cable arm's).
+
+    Returns
+    -------
+    AsBuiltBody or PneumaticBody
+        :class:`~lab.rig.pneumatic_body.PneumaticBody` for a robot with chambers (its inputs
+        are pressures, Pa), else :class:`~lab.rig.asbuilt_body.AsBuiltBody` exactly as before.
+    """
+    if getattr(robot, "chambers", ()):
+        return PneumaticBody(robot, defects, **mesh)
+    return AsBuiltBody(robot, defects, **mesh)
 
 
 class TwinRig(Rig):
@@ -36,7 +62,7 @@ class TwinRig(Rig):
         shipped default); ignored when ``body`` is given.
     seed : int
         Seed of the motion capture's noise and dropouts.
-    body : AsBuiltBody, optional
+    body : AsBuiltBody or PneumaticBody, optional
         An existing body to drive (its defects are then used; its clock may be ahead).
     """
 
@@ -50,7 +76,7 @@ class TwinRig(Rig):
         *,
         body: AsBuiltBody | None = None,
     ):
-        self.body = body if body is not None else AsBuiltBody(robot, defects)
+        self.body = body if body is not None else emulated_body(robot, defects)
         self.defects = self.body.defects
         super().__init__(robot, self.defects.frame_rate_hz)
         self.seed = int(seed)
@@ -100,7 +126,7 @@ class TwinRig(Rig):
 
 
 class FamilyTwinRig(TwinRig):
-    """The twin rig on member ``robot_seed`` of a family (``--rig twin:random:SEED``, ``twin:foam:SEED``).
+    """The twin rig on member ``robot_seed`` of a family (``--rig twin:random|foam|pneumatic:SEED``).
 
     ``describe()`` records the family's label, the robot seed, the generator and its
     version (:meth:`lab.asbuilt.Family.describe`), so that a dataset says which robot it
@@ -115,7 +141,7 @@ class FamilyTwinRig(TwinRig):
     seed : int
         The motion-capture noise seed, as for :class:`TwinRig`.
     family : Family
-        The family (:data:`lab.asbuilt.RANDOM` or :data:`lab.asbuilt.FOAM`).
+        The family (:data:`lab.asbuilt.RANDOM`, :data:`lab.asbuilt.FOAM` or :data:`lab.asbuilt.PNEUMATIC`).
     **mesh
         ``n_rings``/``n_axial``: the emulator mesh, overriding the member's own.
     """
@@ -123,7 +149,7 @@ class FamilyTwinRig(TwinRig):
     def __init__(self, robot: RobotDescription, robot_seed: int, seed: int = 0, *, family: Family = RANDOM, **mesh):
         self.robot_seed = check_seed(robot_seed)
         self.family = family
-        body = AsBuiltBody(robot, family.defects(robot, self.robot_seed, **mesh))
+        body = emulated_body(robot, family.defects(robot, self.robot_seed, **mesh))
         super().__init__(robot, seed=seed, body=body)
 
     def describe(self) -> dict:
