@@ -82,7 +82,7 @@ def follow_weights(solver) -> tuple[float, float, float, bool, str]:
     in words."""
     settings = (solver.config.reg_weight, solver.config.posture_weight)
     w_c, w_p = (0.0 if s is None else float(s) for s in settings)
-    shape = f"{solver.commands.n} motors for {solver.n_tip} tip coordinates"
+    shape = f"{solver.commands.n} inputs for {solver.n_tip} tip coordinates"
     if w_c + w_p > 0:
         how = "explicit: continuity + posture on every point, then polish"
         how += "" if all(s is not None for s in settings) else " (auto where not given: 0)"

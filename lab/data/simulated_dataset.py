@@ -23,18 +23,14 @@ from lab.data.dataset import write_dataset
 from lab.data.design_spec import DesignSpec
 from lab.description import RobotDescription
 from lab.fem.bodies import body_of
+from lab.fem.bodies.mesh_spec import mesh_label
 
 __all__ = ["simulate_fixed", "simulate_given", "solve_batch", "write_simulated", "announce"]
 
 
 def announce(robot: RobotDescription, n: int, n_rings: int, n_axial: int, jobs: int, how: str = "", file=None):
     """The line that opens a simulation run (on ``file``, default stderr)."""
-    if n_rings is not None:
-        mesh = f"n_rings={n_rings} n_axial={n_axial}"
-    elif robot.body_shape.shape == "mesh":
-        mesh = "from body.mesh_file"
-    else:
-        mesh = f"by gmsh at size_m={robot.body_shape.mesh_size_m:g} around {len(robot.chambers)} chamber(s)"
+    mesh = mesh_label(robot, n_rings, n_axial)
     print(
         f"{robot.name}: {n} safe commands{how}, mesh {mesh}, {jobs} worker(s)",
         file=sys.stderr if file is None else file,

@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from lab.errors import InputError, LabRuntimeError
-from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec, mesh_label
 from lab.fem.solve.parameter_layout import GROUPS, parse_groups
 from lab.specs import Spec, option, positive, positive_int
 
@@ -164,12 +164,13 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
     if name is not None and name != robot.name:
         raise InputError(f"REAL.csv {real} was captured on robot {name!r}, but the robot calibrated is {robot.name!r}")
     if u.shape[1] != robot.n_inputs:
-        raise InputError(f"{real}: {u.shape[1]} motor columns, but {robot.name} has {robot.n_inputs} cables")
+        raise InputError(f"{real}: {u.shape[1]} input columns, but {robot.name} has {robot.n_inputs} inputs")
     markers = dataset_markers(meta, y, robot, str(real))
     if log is not None:
         log(
             f"{robot.name}: calibrating {', '.join(groups)} on {len(u)} real samples of {', '.join(markers)} from "
-            f"{real}, mesh n_rings={n_rings} n_axial={n_axial}, eyelet shifts in {spec.axes}"
+            f"{real}, mesh {mesh_label(robot, n_rings, n_axial)}"
+            + (f", eyelet shifts in {spec.axes}" if "eyelets" in groups else "")
         )
     try:
         result = calibrate(robot, u, y, n_rings=n_rings, n_axial=n_axial, axes=spec.axes, noise_m=spec.noise_m,

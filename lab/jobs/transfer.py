@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lab.errors import FieldError, InputError
-from lab.fem.bodies.mesh_spec import MeshSpec
+from lab.fem.bodies.mesh_spec import MeshSpec, mesh_label
 from lab.learn.train_spec import TrainSpec
 from lab.specs import Spec, option, positive_int
 from lab.transfer.data_methods import DATA_METHODS
@@ -204,7 +204,7 @@ def _calibrated(spec: TransferSpec, robot, u_real, y_real, markers, log):
         )
     spec.train.check_fits(robot.n_inputs, 3 * len(markers), len(u_sim))  # before the calibration and re-simulation
     log(
-        f"calibrated: {len(u_real)} real samples from {spec.real}; mesh n_rings={n_rings} n_axial={n_axial}; "
+        f"calibrated: {len(u_real)} real samples from {spec.real}; mesh {mesh_label(robot, n_rings, n_axial)}; "
         f"then {len(u_sim)} commands of {spec.sim} re-simulated"
     )
     try:

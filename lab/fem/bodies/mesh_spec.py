@@ -101,3 +101,27 @@ class MeshSpec(Spec):
 
             return tapered_mesh(shape.profile_m, n_rings, n_axial)
         return cylinder_mesh(robot.length_m, robot.radius_m, n_rings, n_axial)
+
+
+def mesh_label(robot, n_rings, n_axial) -> str:
+    """How a run's log names the FEM mesh of ``robot``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The description.
+    n_rings, n_axial : int or None
+        The structured mesher's resolution (None for a body meshed by gmsh or read from a file).
+
+    Returns
+    -------
+    str
+        ``"n_rings=3 n_axial=20"``, ``"from body.mesh_file"`` or ``"by gmsh at size_m=0.005 around 3
+        chamber(s)"``.
+    """
+    if n_rings is not None:
+        return f"n_rings={n_rings} n_axial={n_axial}"
+    shape = getattr(robot, "body_shape", None)
+    if shape is None or shape.shape == "mesh":
+        return "from body.mesh_file"
+    return f"by gmsh at size_m={shape.mesh_size_m:g} around {len(robot.chambers)} chamber(s)"
