@@ -47,11 +47,12 @@ def bad_file(case_id: str, setup, *words: str) -> Case:
 PNEUMATIC_CASES: list = [
     Case(
         "pneumatic-defects-cable-robot",
-        [*DEFECTS, "--pneumatic", "1"],
+        [*DEFECTS, "--pneumatic", "1", "--robot", "three-cable"],
         2,
         ("robot 'three-cable' has no pressure chambers", "twin:random:SEED"),
         absent=NO_D,
     ),
+    Case("pneumatic-defects-default-robot", [*DEFECTS, "--pneumatic", "2"], 0, ("pneumatic-arm as built", "member 2")),
     Case("pneumatic-defects-negative", [*DEFECTS, *PNEU, "--pneumatic", "-3"], 2, ("--pneumatic", ">= 0"), absent=NO_D),
     Case(
         "pneumatic-defects-not-a-number",

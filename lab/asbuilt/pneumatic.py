@@ -91,7 +91,8 @@ def check_pneumatic_robot(robot: RobotDescription) -> None:
     if not chambers:
         raise InputError(
             f"robot {robot.name!r} has no pressure chambers: the pneumatic family (twin:pneumatic:SEED) draws "
-            "cast-silicone arms driven by chambers; draw a cable arm from twin:random:SEED or twin:foam:SEED"
+            "cast-silicone arms driven by chambers (pass --robot pneumatic-arm, or your own robot with "
+            "[[chambers]]); draw a cable arm from twin:random:SEED or twin:foam:SEED"
         )
     if robot.n_cables:
         raise InputError(f"robot {robot.name!r} has cables too: the pneumatic family draws chamber-driven arms alone")

@@ -48,7 +48,11 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_spec_flags(p, FamilyMemberSpec)
-    p.add_argument("--robot", default="three-cable", help="shipped robot name or path to a TOML description")
+    p.add_argument(
+        "--robot",
+        default=None,
+        help="shipped robot name or path to a TOML description (default three-cable; pneumatic-arm with --pneumatic)",
+    )
     add_spec_flags(p, MeshSpec, help=MESH_HELP, default_words={"n_rings": "robot's"})
     p.add_argument("--out", required=True, help="output defects file (TOML)")
     p.set_defaults(func=run)
@@ -69,6 +73,8 @@ def run(args) -> int:
     from lab.description import load_robot
 
     spec = spec_from_args(FamilyMemberSpec, args, mesh=spec_from_args(MeshSpec, args))
+    if args.robot is None:
+        args.robot = "pneumatic-arm" if spec.family == "pneumatic" else "three-cable"
     check_paths({"--robot": existing(args.robot)}, {"--out": args.out})
     check_writable(args.out)
     robot = load_robot(args.robot)
