@@ -20,8 +20,8 @@ def test_every_command_is_safe_and_deterministic(name, method):
     robot = load_robot(name)
     for n in (1, 7, 50):
         u = design_commands(robot, n, method, seed=2)
-        assert u.shape == (n, robot.n_cables)
-        assert np.all(robot.is_safe(u)) and np.all(u >= 0) and np.all(u <= robot.u_max_rad)
+        assert u.shape == (n, robot.n_inputs)
+        assert np.all(robot.is_safe(u)) and np.all(u >= robot.u_lower) and np.all(u <= robot.u_upper)
         assert np.array_equal(u, design_commands(robot, n, method, seed=2))
     assert not np.array_equal(design_commands(robot, 20, method, seed=0), design_commands(robot, 20, method, seed=1))
 

@@ -21,7 +21,8 @@ from lab.rig.hardware_config import load_hardware_config  # noqa: E402
 from lab.viz import plot_lm_training, plot_setup, plot_square_frames, plot_trajectory_placement  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-ROBOTS = sorted((ROOT / "lab" / "robots").glob("*.toml"))
+#: The shipped robots driven by cables on spools, which the setup drawing shows (not the pneumatic arm).
+ROBOTS = [p for p in sorted((ROOT / "lab" / "robots").glob("*.toml")) if "[[cables]]" in p.read_text()]
 NOTEBOOK_PX = 1000  # the width (px) JupyterLab shows a figure at
 
 

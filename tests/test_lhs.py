@@ -24,7 +24,7 @@ def test_safe_n_rows_seeded_and_exactly_latin(name):
     robot = load_robot(name)
     for n in (1, 2, 9, 100, 2000):
         u = lhs_commands(robot, n, seed=5)
-        assert u.shape == (n, robot.n_cables)
+        assert u.shape == (n, robot.n_inputs)
         assert np.all(robot.is_safe(u))
         assert np.array_equal(u, lhs_commands(robot, n, seed=5))
         assert np.array_equal(u, design_commands(robot, n, "lhs", seed=5))

@@ -18,7 +18,8 @@ from lab.viz import sliders as sliders_module  # noqa: E402
 from lab.viz.setup import setup_geometry  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-ROBOTS = sorted((ROOT / "lab" / "robots").glob("*.toml"))
+#: The shipped robots driven by cables on spools, which the setup drawing shows (not the pneumatic arm).
+ROBOTS = [p for p in sorted((ROOT / "lab" / "robots").glob("*.toml")) if "[[cables]]" in p.read_text()]
 
 
 @pytest.mark.parametrize("path", ROBOTS, ids=[p.stem for p in ROBOTS])

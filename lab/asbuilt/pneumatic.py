@@ -91,7 +91,7 @@ def check_pneumatic_robot(robot: RobotDescription) -> None:
     if not chambers:
         raise InputError(
             f"robot {robot.name!r} has no pressure chambers: the pneumatic family (twin:pneumatic:SEED) draws "
-            "cast-silicone arms driven by chambers (pass --robot pneumatic-arm, or your own robot with "
+            "cast-silicone arms driven by chambers (the shipped pneumatic-arm, or your own robot with "
             "[[chambers]]); draw a cable arm from twin:random:SEED or twin:foam:SEED"
         )
     if robot.n_cables:

@@ -113,7 +113,7 @@ def chambered_body_mesh(shape, length_m: float, radius_m: float, chambers, size_
     BodyMesh
         Nodes (N, 3) m, positively oriented tets (M, 4), groups ``"base"`` and one per
         chamber (node indices). MeshFileError naming the chambers when the size would make
-        over :data:`~lab.description.geometry.MAX_GEOMETRY_TETS` tets or gmsh fails, and
+        over ``MAX_GEOMETRY_TETS`` tets or gmsh fails, and
         naming the chamber whose cavity has no wall in the mesh.
     """
     kind = getattr(shape, "shape", shape)

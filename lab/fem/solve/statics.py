@@ -75,13 +75,13 @@ class StaticSolveError(LabRuntimeError):
 
 @dataclass
 class StaticSolution:
-    """Equilibrium for inputs ``u_motor`` (n_inputs,) (the cables' motor angles in rad):
+    """Equilibrium for inputs ``u_motor`` (m,) (the cables' motor angles in rad):
     free coordinates ``q`` (n_free,) m, tip ``p_tip_W`` (3,) m, and how Newton got there.
 
     Attributes
     ----------
-    u_motor : ndarray, shape (n_inputs,)
-        The inputs, in the actuators' units (rad for the cables).
+    u_motor : ndarray, shape (m,)
+        The m inputs, in the actuators' units (rad for the cables).
     q : ndarray, shape (n_free,)
         Free coordinates at the equilibrium (node positions in frame W), m.
     p_tip_W : ndarray, shape (3,)
@@ -100,13 +100,13 @@ class StaticSolution:
         Wall time of the solve, s.
     factorizations : int
         Hessian assemblies and factorisations.
-    dq_du : ndarray, shape (n_free, n_inputs), optional
+    dq_du : ndarray, shape (n_free, m), optional
         dq/du if asked, m per unit of input.
-    J_tip_u : ndarray, shape (3, n_inputs), optional
+    J_tip_u : ndarray, shape (3, m), optional
         d p_tip / du if asked, m per unit of input (m/rad for the cables).
     y_W : ndarray, shape (K, 3)
         Every marker (:attr:`lab.fem.ArmFEM.marker_names`, the tip first) in frame W, m.
-    J_y_u : ndarray, shape (3K, n_inputs), optional
+    J_y_u : ndarray, shape (3K, m), optional
         d y / du of the ravelled markers if asked, m per unit of input.
     """
 
