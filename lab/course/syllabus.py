@@ -120,6 +120,15 @@ SYLLABUS = (
         "tentacle from a few poses of every marker",
         "chapters 1, 4, 5",
     ),
+    Chapter(
+        "12_fluidic_arm.ipynb",
+        "II-V on another actuator (pressure chambers), VI-B (few real samples)",
+        "write a pressure chamber as an energy, the volume a closed surface encloses and its gradient; run the "
+        "paper's pipeline (grid, network and its Jacobian, IK, tracking, Soft IK) on a Yeoh-silicone arm driven by "
+        "pressures; measure where chambers and cables differ (workspace, softening and ballooning, nonlinearity, "
+        "gravity); fine-tune on few samples of an emulated as-built pneumatic arm",
+        "chapters 1, 3, 4, 5",
+    ),
 )
 
 
