@@ -61,11 +61,7 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
         "",
         *_body_lines(robot),
         "",
-        "[material]",
-        'model = "neo-hookean"',
-        f"youngs_modulus_pa = {_f(robot.youngs_modulus_pa)}",
-        f"poisson_ratio = {_f(robot.poisson_ratio)}",
-        f"density_kg_m3 = {_f(robot.density_kg_m3)}",
+        *_material_lines(robot),
     ]
     if np.any(robot.stiffness_gradient):
         lines.append(f"stiffness_gradient = {_vec(robot.stiffness_gradient)}")
@@ -81,6 +77,14 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
             lines.append(f"slack_m = {_f(c.slack_m)}")
         if c.control != "angle":
             lines += [f"control = {json.dumps(c.control)}", f"tension_max_n = {_f(c.tension_max_n)}"]
+    for c in robot.chambers:
+        lines += ["", "[[chambers]]", f"name = {json.dumps(c.name)}"]
+        if c.control != "pressure":
+            lines.append(f"control = {json.dumps(c.control)}")
+        for key in CHAMBER_FIELDS:
+            value = getattr(c, key)
+            if value is not None:
+                lines.append(f"{key} = {json.dumps(value) if isinstance(value, str) else _f(value)}")
     lines += ["", "[tip_marker]", f"position_m = {_vec(robot.p_tip_marker_W)}"]
     for m in robot.markers:
         lines += ["", "[[markers]]", f"name = {json.dumps(m.name)}", f"position_m = {_vec(m.position_m)}"]
@@ -92,6 +96,41 @@ def robot_toml(robot: RobotDescription, header: list[str] = ()) -> str:
             f"max_sum_over_u_max = {_f(lim.max_sum_over_u_max)}",
         ]
     return "\n".join(lines) + "\n"
+
+
+#: The fields of a chamber written after its name and control (those set).
+CHAMBER_FIELDS = (
+    "pressure_max_pa",
+    "pressure_min_pa",
+    "volume_max_m3",
+    "volume_min_m3",
+    "fluid_bulk_modulus_pa",
+    "angle_deg",
+    "offset_m",
+    "radius_m",
+    "start_m",
+    "end_m",
+    "surface_group",
+)
+
+
+def _material_lines(robot: RobotDescription) -> list[str]:
+    """The ``[material]`` table: the neo-Hookean modulus, or the Yeoh coefficients."""
+    out = ["[material]"]
+    if robot.material_model == "yeoh":
+        out.append('model = "yeoh"')
+        out += [f"yeoh_c{k}0_pa = {_f(c)}" for k, c in zip((1, 2, 3), robot.yeoh_c_pa)]
+        if robot.bulk_modulus_pa is not None:
+            out.append(f"bulk_modulus_pa = {_f(robot.bulk_modulus_pa)}")
+        else:
+            out.append(f"poisson_ratio = {_f(robot.poisson_ratio)}")
+    else:
+        out += [
+            'model = "neo-hookean"',
+            f"youngs_modulus_pa = {_f(robot.youngs_modulus_pa)}",
+            f"poisson_ratio = {_f(robot.poisson_ratio)}",
+        ]
+    return out + [f"density_kg_m3 = {_f(robot.density_kg_m3)}"]
 
 
 def _body_lines(robot: RobotDescription) -> list[str]:
@@ -115,6 +154,8 @@ def _mesh_lines(robot: RobotDescription) -> list[str]:
         shape = robot.body_shape
         size = [] if shape.mesh_size_m is None else [f"size_m = {_f(shape.mesh_size_m)}"]
         return ["[mesh]", *size, f"order = {int(shape.mesh_order)}"]
+    if robot.chambers:  # a cylinder or tapered body meshed by gmsh around its cavities
+        return ["[mesh]", f"size_m = {_f(robot.body_shape.mesh_size_m)}"]
     return ["[mesh]", f"n_rings = {int(robot.n_rings)}", f"n_axial = {int(robot.n_axial)}"]
 
 

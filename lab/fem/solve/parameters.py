@@ -342,6 +342,10 @@ def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta
         for c, d, s in zip(robot.cables, v["via_shift_m"], slack)
     )
     extra = {"density_kg_m3": robot.density_kg_m3 * v["density"]} if "density" in layout.groups else {}
+    if robot.material_model == "yeoh":  # softness scales every coefficient of the law alike
+        extra["yeoh_c_pa"] = tuple(float(v["softness"] * c) for c in robot.yeoh_c_pa)
+        if robot.bulk_modulus_pa is not None:
+            extra["bulk_modulus_pa"] = float(v["softness"] * robot.bulk_modulus_pa)
     return dataclasses.replace(
         robot,
         youngs_modulus_pa=robot.youngs_modulus_pa * v["softness"],
