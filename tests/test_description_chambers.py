@@ -98,3 +98,14 @@ def test_a_cable_and_a_chamber_may_not_share_a_name():
     chamber = dict(arm_data()["chambers"][0], angle_deg=0.0, offset_m=0.0, radius_m=0.004)
     with pytest.raises(DescriptionError, match="must be unique together"):
         parse_robot({**data, "chambers": [chamber], "mesh": {"size_m": 0.005}})
+
+
+@pytest.mark.parametrize("name", ["pneumatic-arm", "examples/robots/pneunet.toml"])
+def test_a_written_description_reads_back_the_same(name):
+    from pathlib import Path
+
+    from lab.transfer.robot_toml import robot_toml
+
+    robot = load_robot(Path(__file__).resolve().parents[1] / name if "/" in name else name)
+    again = parse_robot(tomllib.loads(robot_toml(robot)))
+    assert again.sha256 == robot.sha256 and again.chambers == robot.chambers
