@@ -328,7 +328,7 @@ def report(rows: list[dict], args, wall_s: float) -> str:
                 f"{np.mean([mean(by[(rb, m)]) for rb in both]):12.4f}" if m != "calibrated" else f"{'':>12}"
                 for m in METHOD_ORDER
             )
-            + f"   (the {len(both)} robots with real308 and every <= 30-sample method: {', '.join(both)})"
+            + f"   (the {len(both)} robots with real308 and every <= 30-sample method)"
         )
     lines.append("")
     lines.append("per shape, mean over the robots that ran the method (cm):")
