@@ -66,6 +66,7 @@ def check_radius_profile(student, *, show: bool = True) -> Grade:
         rtol=1e-9,
         atol=1e-12,
         hint="find the two stations around each x and interpolate the radius linearly between them",
+        show=show,
     )
 
 
@@ -108,6 +109,7 @@ def check_stalk_marker(student, *, show: bool = True) -> Grade:
         atol=1e-12,
         hint="fit the 12 numbers of c and F to all the nodes at once (a linear least-squares problem); "
         "the marker is then c + F (P - X_a)",
+        show=show,
     )
 
 
@@ -137,4 +139,5 @@ def check_cable_tension(student, *, show: bool = True) -> Grade:
         rtol=1e-9,
         atol=1e-12,
         hint="the free length is L0 - r u; the stretch is L minus it; three pieces: slack, the smoothing band, taut",
+        show=show,
     )

@@ -294,6 +294,9 @@ class ArmFEM(ActuatedModel):
     def hessian(self, q: np.ndarray, u, project: bool = False) -> sp.csr_matrix:
         """d2E/dq2 (n_free, n_free) in N/m, exact, or with each element block projected to PSD.
 
+        A volume chamber's rank-one fluid stiffness (``Condensation.in_hessian=False``) is left
+        out: the statics add it by Woodbury; :meth:`hessian_operator` includes it.
+
         Parameters
         ----------
         q : ndarray, shape (n_free,)
