@@ -108,16 +108,9 @@ class PressureChamberActuator(Actuator):
             The chambers, with their rest volumes.
         """
         if surfaces is None:
-            from lab.fem.bodies import chamber_surface
-
-            picked = _description_chambers(robot, chambers, "pressure")
-            walls = [chamber_surface(body, c.surface_group or c.name, c.name) for c in picked]
-            low, high = np.array([c.bounds for c in picked]).T
+            picked, walls, low, high = description_walls(robot, body, chambers, "pressure")
             return cls(walls, body.mesh.X_W, free, high, [c.name for c in picked], low)
-        names = [str(i) for i in range(len(surfaces))] if names is None else list(names)
-        if len(names) != len(surfaces):
-            raise InputError(f"chambers_pressure: {len(names)} names for {len(surfaces)} chambers")
-        oriented = [oriented_surface(body.mesh, s, n) for s, n in zip(surfaces, names)]
+        oriented, names = oriented_walls(body, surfaces, names, cls.kind)
         return cls(oriented, body.mesh.X_W, free, pressure_max_pa, names)
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -310,13 +303,65 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return S - np.swapaxes(S, -1, -2)
 
 
-def _description_chambers(robot, chambers, control: str) -> list:
-    """The description's chambers of one control (indices ``chambers``, default all of them)."""
-    chosen = (
+def description_walls(robot, body, chambers, control: str):
+    """The description's chambers of one control and their cavities' walls on ``body``.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The description.
+    body : Body
+        The body whose mesh holds the cavities (its ``groups`` name their walls).
+    chambers : sequence of int or None
+        Indices into ``robot.chambers``; None: every chamber of this control.
+    control : str
+        ``"pressure"`` or ``"volume"``.
+
+    Returns
+    -------
+    picked : list of Chamber
+        The chambers.
+    walls : list of ndarray of int, shape (T_c, 3)
+        Each one's closed surface, wound into the cavity.
+    low, high : ndarray, shape (n,)
+        Their input bounds (Pa or m^3).
+    """
+    from lab.fem.bodies import chamber_surface
+
+    picked = (
         [c for c in robot.chambers if c.control == control]
         if chambers is None
         else [robot.chambers[j] for j in chambers]
     )
-    if not chosen or any(c.control != control for c in chosen):
+    if not picked or any(c.control != control for c in picked):
         raise InputError(f"robot {robot.name!r}: chambers_{control} needs {control}-controlled chambers")
-    return chosen
+    walls = [chamber_surface(body, c.surface_group or c.name, c.name) for c in picked]
+    low, high = np.array([c.bounds for c in picked]).T
+    return picked, walls, low, high
+
+
+def oriented_walls(body, surfaces, names, kind: str):
+    """Given cavity surfaces as boundary faces of ``body``'s mesh, each wound into its cavity.
+
+    Parameters
+    ----------
+    body : Body
+        The body.
+    surfaces : list of ndarray of int, shape (T_c, 3)
+        The surfaces, any winding.
+    names : sequence of str or None
+        The chambers' names (default their indices).
+    kind : str
+        The actuator's name, for the error.
+
+    Returns
+    -------
+    oriented : list of ndarray of int, shape (T_c, 3)
+        The surfaces, wound away from their tets.
+    names : list of str
+        The names.
+    """
+    names = [str(i) for i in range(len(surfaces))] if names is None else [str(n) for n in names]
+    if len(names) != len(surfaces):
+        raise InputError(f"{kind}: {len(names)} names for {len(surfaces)} chambers")
+    return [oriented_surface(body.mesh, s, n) for s, n in zip(surfaces, names)], names

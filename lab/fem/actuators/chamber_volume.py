@@ -26,8 +26,8 @@ import numpy as np
 from lab.description.chambers import WATER_BULK_MODULUS_PA
 from lab.errors import InputError
 from lab.fem.actuators.base import Actuator, Condensation, register_actuator
-from lab.fem.actuators.chamber import PressureChamberActuator
-from lab.fem.actuators.chamber_surfaces import cavity_volume, oriented_surface
+from lab.fem.actuators.chamber import PressureChamberActuator, description_walls, oriented_walls
+from lab.fem.actuators.chamber_surfaces import cavity_volume
 
 
 def _names(names, n: int) -> list[str]:
@@ -145,16 +145,10 @@ class VolumeChamberActuator(Actuator):
             The chambers, with their rest volumes.
         """
         if surfaces is None:
-            from lab.fem.actuators.chamber import _description_chambers
-            from lab.fem.bodies import chamber_surface
-
-            picked = _description_chambers(robot, chambers, "volume")
-            walls = [chamber_surface(body, c.surface_group or c.name, c.name) for c in picked]
-            low, high = np.array([c.bounds for c in picked]).T
+            picked, walls, low, high = description_walls(robot, body, chambers, "volume")
             bulk = [c.fluid_bulk_modulus_pa or WATER_BULK_MODULUS_PA for c in picked]
             return cls(walls, body.mesh.X_W, free, high, low, bulk, [c.name for c in picked])
-        names = _names(names, len(surfaces))
-        oriented = [oriented_surface(body.mesh, s, n) for s, n in zip(surfaces, names)]
+        oriented, names = oriented_walls(body, surfaces, names, cls.kind)
         return cls(oriented, body.mesh.X_W, free, volume_max_m3, volume_min_m3, fluid_bulk_modulus_pa, names)
 
     def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
