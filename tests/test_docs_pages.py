@@ -97,10 +97,13 @@ def test_readme_cites_no_issue():
 
 
 def commands(text):
-    """Every ``python -m lab COMMAND ...`` line of the fenced code blocks, continuations joined."""
+    """Every ``python -m lab COMMAND ...`` (or ``scripts/lab COMMAND ...``, the same command
+    on .venv) line of the fenced code blocks, continuations joined, as ``python -m lab ...``."""
     for block in FENCE.findall(text):
         for line in block.replace("\\\n", " ").splitlines():
             line = line.removeprefix("$ ").split("  #", 1)[0].strip()
+            if line.startswith("scripts/lab "):
+                line = "python -m lab " + line.removeprefix("scripts/lab ")
             if line.startswith("python -m lab ") and "..." not in line:
                 yield line
 
