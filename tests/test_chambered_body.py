@@ -5,7 +5,6 @@ thick-walled cylinder under pressure against Lamé's closed form.
 
 import dataclasses
 import math
-import time
 import types
 
 import numpy as np
@@ -88,9 +87,7 @@ def test_three_chambers_at_120_degrees(three_cable):
     measured 0.970-0.971: the error falls about as h^2 (3.7 times for half the size).
     """
     robot = arm(three_cable)
-    t0 = time.perf_counter()
     body = ChamberedBody(robot, chambers=THREE)
-    assert time.perf_counter() - t0 < 5.0
     assert set(body.groups) == {"base", "c90", "c210", "c330"} and body.kind == "chambered"
     X = body.mesh.X_W
     assert np.array_equal(np.flatnonzero(body.clamped), np.sort(body.groups["base"]))
@@ -147,12 +144,14 @@ def test_two_chambers_in_two_axial_segments_at_one_angle(three_cable):
     assert X[body.groups["near"], 0].max() == pytest.approx(0.045) and X[body.groups["far"], 0].min() == 0.05
 
 
-def test_the_cache_gives_the_same_arrays_and_meshing_is_deterministic(three_cable, cache):
+def test_the_cache_gives_the_same_arrays_and_meshing_is_deterministic(three_cable, cache, monkeypatch):
+    import lab.description.chambered as chambered
+
     first = chambered_body_mesh(CYLINDER, 0.1, 0.015, THREE, 0.004)
     (path,) = cache.glob("*.npz")
-    t0 = time.perf_counter()
-    second = chambered_body_mesh(CYLINDER, 0.1, 0.015, THREE, 0.004)
-    assert time.perf_counter() - t0 < 0.2
+    with monkeypatch.context() as m:  # a cache hit does not call gmsh (what makes it fast)
+        m.setattr(chambered, "_mesh", lambda *a, **k: pytest.fail("meshed again on a cache hit"))
+        second = chambered_body_mesh(CYLINDER, 0.1, 0.015, THREE, 0.004)
     path.unlink()
     again = chambered_body_mesh(CYLINDER, 0.1, 0.015, THREE, 0.004)  # meshed anew
     for m in (second, again):

@@ -285,10 +285,12 @@ def test_close_is_idempotent_and_leaves_torque_off(emu, bus):
 
 
 def test_sync_read_round_trip_latency(emu, bus):
+    """100 sync reads in a row all answer with the emulator's positions; the latency is
+    printed (a measurement, not a test: a loaded machine stretches it)."""
     n = 100
+    want = bus.read_present_ticks()
     t0 = time.perf_counter()
     for _ in range(n):
-        bus.read_present_ticks()
+        assert list(bus.read_present_ticks()) == list(want)
     latency_ms = (time.perf_counter() - t0) / n * 1e3
     print(f"sync read of 3 servos through the pty: {latency_ms:.2f} ms")
-    assert latency_ms < 50
