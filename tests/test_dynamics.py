@@ -292,9 +292,9 @@ def on_virtual_time(monkeypatch, bench):
     from lab.rig.hardware import HardwareRig
 
     opened = HardwareRig.from_config.__func__
-    monkeypatch.setattr(
-        HardwareRig, "from_config", classmethod(lambda cls, path, robot: opened(cls, path, robot, **bench.rig_options()))
-    )
+    options = bench.rig_options()
+    virtual = classmethod(lambda cls, path, robot: opened(cls, path, robot, **options))
+    monkeypatch.setattr(HardwareRig, "from_config", virtual)
 
 
 def test_streams_through_the_hardware_path(three_cable, solver, tmp_path, monkeypatch):
@@ -374,7 +374,10 @@ def starve(monkeypatch, skip: int):
     monkeypatch.setattr(TwinRig, "next_frame", late_frame)
 
 
-@pytest.mark.parametrize("skip, streamed", [(39, "read 5 of 240 frames (2.1 %, 2.5 Hz of 120 Hz)"), (2, "read 79 of 240 frames (32.9 %, 39.5 Hz of 120 Hz)")])
+@pytest.mark.parametrize(
+    "skip, streamed",
+    [(39, "read 5 of 240 frames (2.1 %, 2.5 Hz of 120 Hz)"), (2, "read 79 of 240 frames (32.9 %, 39.5 Hz of 120 Hz)")],
+)
 def test_a_starved_stream_exits_1_and_says_what_it_missed(tmp_path, capsys, monkeypatch, skip, streamed):
     """A stream that reads one frame in 40 (or in 3) exits 1 with the frames it read, the
     frames a result needs and no result file; unstarved, the same run exits 0."""

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.pace import MAX_LATE_FRACTION, MIN_RATE_FRACTION
 from lab.capture.recorder import StreamRecorder
 from lab.description import RobotDescription
 from lab.dynamics.relaxation_fit import Stream
-from lab.capture.pace import MAX_LATE_FRACTION, MIN_RATE_FRACTION
 from lab.errors import InputError, LabRuntimeError
 from lab.rig.base import Rig
 from lab.specs import Spec, at_most, non_negative_int, option, positive, positive_int
