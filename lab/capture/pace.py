@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Pace", "PaceMeter", "frame_pace", "LATE_GAP_PERIODS", "MIN_RATE_FRACTION", "MAX_LATE_FRACTION"]
+__all__ = ["Pace", "PaceMeter", "frame_pace", "samples_pace", "LATE_GAP_PERIODS", "MIN_RATE_FRACTION", "MAX_LATE_FRACTION"]
 
 #: A gap between two frames of this many frame periods or more missed a frame's deadline:
 #: at least two frames in a row were never read.
@@ -183,3 +183,43 @@ def frame_pace(t_s, nominal_rate_hz: float, span_s: float | None = None) -> Pace
     gaps = np.diff(t) if len(t) > 1 else np.zeros(0)
     late = int(np.sum(gaps >= LATE_GAP_PERIODS * period * (1 - 1e-9)))
     return Pace(int(len(t)), float(span_s), float(nominal_rate_hz), float(gaps.max()) if len(gaps) else 0.0, late)
+
+
+def samples_pace(n_frames, sample_s, nominal_rate_hz: float, rows=None) -> dict:
+    """The pace of a capture's samples: each one's frames over its rig time.
+
+    A predictive sample (:mod:`lab.capture.predictive`) is timed by the frames it reads; one
+    read at under :data:`MIN_RATE_FRACTION` of the rate rests on readings whose windows
+    stretched, so the capture marks its dataset degraded instead of stopping: its other
+    samples stand, and the rows behind can be captured again.
+
+    Parameters
+    ----------
+    n_frames : array_like
+        Frames read per sample, shape (N,).
+    sample_s : array_like
+        Rig time per sample, shape (N,), s.
+    nominal_rate_hz : float
+        The motion capture's frame rate, Hz.
+    rows : array_like, optional
+        The dataset row of each sample, shape (N,) (default: their order).
+
+    Returns
+    -------
+    dict
+        ``nominal_rate_hz``, ``achieved_rate_hz`` (all samples) and ``min_sample_rate_hz``
+        (the slowest sample), Hz; ``rows_behind``: the dataset rows of samples read under
+        :data:`MIN_RATE_FRACTION` of the rate, in order.
+    """
+    n = np.asarray(n_frames, float)
+    s = np.asarray(sample_s, float)
+    rate = np.divide(n, s, out=np.full(len(n), float(nominal_rate_hz)), where=s > 0)
+    rows = np.arange(len(n)) if rows is None else np.asarray(rows, int)
+    behind = rate < MIN_RATE_FRACTION * nominal_rate_hz
+    total = float(s.sum())
+    return {
+        "nominal_rate_hz": float(nominal_rate_hz),
+        "achieved_rate_hz": float(n.sum() / total) if total > 0 else float(nominal_rate_hz),
+        "min_sample_rate_hz": float(rate.min()) if len(rate) else float(nominal_rate_hz),
+        "rows_behind": sorted(int(r) for r in rows[behind]),
+    }
