@@ -18,7 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Pace", "PaceMeter", "frame_pace", "samples_pace", "LATE_GAP_PERIODS", "MIN_RATE_FRACTION", "MAX_LATE_FRACTION"]
+__all__ = [
+    "Pace",
+    "PaceMeter",
+    "frame_pace",
+    "samples_pace",
+    "LATE_GAP_PERIODS",
+    "MIN_RATE_FRACTION",
+    "MAX_LATE_FRACTION",
+]
 
 #: A gap between two frames of this many frame periods or more missed a frame's deadline:
 #: at least two frames in a row were never read.
