@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lab.capture.pace import MAX_LATE_FRACTION, MIN_RATE_FRACTION
+from lab.capture.pace import LATE_FRACTION_ALLOWED, MIN_RATE_FRACTION
 from lab.capture.recorder import StreamRecorder
 from lab.description import RobotDescription
 from lab.dynamics.relaxation_fit import Stream
@@ -196,7 +196,7 @@ def run_probe(rig: Rig, plan: ProbePlan, reading_period_s: float = 0.1, progress
     if pace.behind:
         raise LabRuntimeError(
             f"the machine fell behind: the probe {pace.missed()}; a fit needs at least "
-            f"{MIN_RATE_FRACTION:.0%} of the frames and late gaps after at most {MAX_LATE_FRACTION:.0%} of them, "
+            f"{MIN_RATE_FRACTION:.0%} of the frames and late gaps after at most {LATE_FRACTION_ALLOWED:.0%} of them, "
             "or its time constants are those of the machine's load, not the foam's. Nothing was written: "
             "run again on a machine with less other work"
         )

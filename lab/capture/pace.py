@@ -25,7 +25,7 @@ __all__ = [
     "samples_pace",
     "LATE_GAP_PERIODS",
     "MIN_RATE_FRACTION",
-    "MAX_LATE_FRACTION",
+    "LATE_FRACTION_ALLOWED",
 ]
 
 #: A gap between two frames of this many frame periods or more missed a frame's deadline:
@@ -36,7 +36,7 @@ LATE_GAP_PERIODS = 3.0
 MIN_RATE_FRACTION = 0.5
 #: The most late gaps, as a fraction of the frames read, a loop's result can rest on: a few
 #: hiccups of the operating system are harmless, a tenth of the frames following one is not.
-MAX_LATE_FRACTION = 0.1
+LATE_FRACTION_ALLOWED = 0.1
 
 
 @dataclass(frozen=True)
@@ -82,8 +82,8 @@ class Pace:
     def behind(self) -> bool:
         """Whether the loop fell behind what a result can rest on: under
         :data:`MIN_RATE_FRACTION` of the frames it was promised, or more than
-        :data:`MAX_LATE_FRACTION` of its frames after a late gap."""
-        return self.fraction < MIN_RATE_FRACTION or self.n_late > MAX_LATE_FRACTION * self.n_frames
+        :data:`LATE_FRACTION_ALLOWED` of its frames after a late gap."""
+        return self.fraction < MIN_RATE_FRACTION or self.n_late > LATE_FRACTION_ALLOWED * self.n_frames
 
     def as_dict(self) -> dict:
         """The measurement for a result file's metadata.

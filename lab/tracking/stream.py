@@ -39,13 +39,13 @@ __all__ = [
     "default_n_periods",
     "DEFAULT_COMMAND_RATE_HZ",
     "DEFAULT_LEAD_IN_S",
-    "MAX_LATE_COMMAND_FRACTION",
+    "LATE_COMMAND_FRACTION_ALLOWED",
 ]
 
 #: The most commands of a streamed run that may go out late (more than one command period
 #: after their time) for its result to mean anything: beyond, the rig followed another path
 #: than the one planned, and the error would score the machine's load, not the robot.
-MAX_LATE_COMMAND_FRACTION = 0.1
+LATE_COMMAND_FRACTION_ALLOWED = 0.1
 
 
 def target_at(targets_W, period_s: float, t_s) -> np.ndarray:
@@ -325,10 +325,10 @@ def _check_pace(t_last, frame_rate_hz: float, period_s: float, lateness, command
     """The stream's pace (:func:`lab.capture.pace.frame_pace` over the scored period, and how
     late its commands went out) for the result's ``info``; LabRuntimeError when the machine
     fell behind what a result needs: under half the frames of the scored period, or more than
-    :data:`MAX_LATE_COMMAND_FRACTION` of the commands sent a command period late or more."""
+    :data:`LATE_COMMAND_FRACTION_ALLOWED` of the commands sent a command period late or more."""
     pace = frame_pace(t_last, frame_rate_hz, span_s=period_s)
     late = int(np.sum(lateness > 1.0 / command_rate_hz))
-    max_late = int(MAX_LATE_COMMAND_FRACTION * len(lateness))
+    max_late = int(LATE_COMMAND_FRACTION_ALLOWED * len(lateness))
     if pace.behind or late > max_late:
         need = int(np.ceil(MIN_RATE_FRACTION * pace.expected_frames))
         raise LabRuntimeError(
