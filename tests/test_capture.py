@@ -162,6 +162,47 @@ def test_repeat_check_says_when_samples_drift(three_cable, twin_defects, tmp_pat
     assert [t for t, _ in again.notes].count("repeat-check") == 1 and again.repeat_check == steady
 
 
+def test_a_resumed_repeat_check_measures_again(three_cable, twin_defects, tmp_path):
+    """A capture on a creeping twin stopped during its repeat check and resumed: the new
+    session starts where the first sample started (a twin from rest, same noise), so
+    measuring the first command alone gave its journal row back bit for bit ("0.00 mm away")
+    and never drift. The resumed check measures the last command first -- its row was made
+    after minutes of creep -- and flags the drift the uninterrupted check flags; a steady
+    twin's resumed check stays within the threshold."""
+    import copy
+
+    from lab.capture.repeat_check import repeat_check_line
+
+    creeping = copy.deepcopy(twin_defects.source)
+    creeping["lag"].update(creep_fraction=0.1, creep_tau_s=60.0)
+    d = parse_defects(creeping, three_cable)
+    sends_per_sample = 3  # reset up, release, command
+
+    class StoppedInTheRepeat(TwinRig):
+        n_sent = 0
+
+        def _send(self, u):
+            self.n_sent += 1
+            if self.n_sent == sends_per_sample * len(COMMANDS) + 2:
+                raise KeyboardInterrupt
+            super()._send(u)
+
+    def resumed(defects, journal):
+        with pytest.raises(KeyboardInterrupt):
+            capture(StoppedInTheRepeat(three_cable, defects, seed=2), COMMANDS, journal, repeat_check=True)
+        return capture(TwinRig(three_cable, defects, seed=2), COMMANDS, journal, repeat_check=True)
+
+    steady = resumed(twin_defects, tmp_path / "steady.csv").repeat_check
+    assert not steady["drift"] and max(steady["distance_m"], steady["last"]["distance_m"]) < steady["threshold_m"]
+    res = resumed(d, tmp_path / "creep.csv")
+    rc = res.repeat_check
+    assert res.new_samples == 0 and rc["resumed"] and rc["last"]["index"] == len(COMMANDS) - 1
+    assert rc["p_again_m"] != rc["p_first_m"] and rc["distance_m"] > 0  # measured, not the first sample again
+    assert rc["drift"] and rc["last"]["distance_m"] > 2 * rc["threshold_m"]
+    line = repeat_check_line(res)
+    assert line.startswith("samples drift: the first and the last command, measured again in a later session")
+
+
 # ------------------------------------------------------------------ journal and resume
 def test_resume_after_a_kill_gives_the_uninterrupted_dataset(three_cable, coarse_fem, tmp_path):
     full = capture(SimRig(three_cable, coarse_fem), COMMANDS, tmp_path / "full.csv", header={"x": 1})

@@ -286,9 +286,22 @@ def test_track_period_cli_streams_and_refuses_bad_flags(tmp_path, capsys):
     assert main([*base, "--period-s", "5", "--dynamic-model", str(dyn), "--out", str(dyn)]) == 2
 
 
-def test_streams_through_the_hardware_path(three_cable, solver, tmp_path):
-    """The real dynamixel-sdk and NatNet client against the emulated bench, in real time:
-    through the CLI's --rig hardware:RIG.toml, then through the API to look at the servos."""
+def on_virtual_time(monkeypatch, bench):
+    """Open every ``--rig hardware:RIG.toml`` of a command run in this process on ``bench``'s
+    virtual clock (``make_rig`` itself gives none: it is the production path)."""
+    from lab.rig.hardware import HardwareRig
+
+    opened = HardwareRig.from_config.__func__
+    options = bench.rig_options()
+    virtual = classmethod(lambda cls, path, robot: opened(cls, path, robot, **options))
+    monkeypatch.setattr(HardwareRig, "from_config", virtual)
+
+
+def test_streams_through_the_hardware_path(three_cable, solver, tmp_path, monkeypatch):
+    """The real dynamixel-sdk and NatNet client against the emulated bench on its virtual clock:
+    through the CLI's --rig hardware:RIG.toml, then through the API to look at the servos.
+    Every frame of the scored period is read (120 Hz for 2 s), whatever the machine's load,
+    and the result says so."""
     from lab.control.trajectories import load_trajectory
     from lab.rig.emulators import EmulatedBench
     from lab.rig.hardware import HardwareRig
@@ -298,28 +311,33 @@ def test_streams_through_the_hardware_path(three_cable, solver, tmp_path):
     relax = Relaxation([0.3, 2.0], [0.8, 0.2])
     relax.save(dyn)
     out = tmp_path / "hw.json"
-    with EmulatedBench(three_cable) as bench:
+    with EmulatedBench(three_cable, virtual_time=True) as bench:
         cfg = bench.write_config(tmp_path / "rig.toml")
-        flags = ["--period-s", "2", "--n-periods", "1", "--lead-in-s", "0.5", "--dynamic-model", str(dyn)]
-        argv = ["track", "--model", MODEL, "--rig", f"hardware:{cfg}", "--trajectory", "circle", *flags]
-        assert main([*argv, "--out", str(out)]) == 0
+        with monkeypatch.context() as m:
+            on_virtual_time(m, bench)
+            flags = ["--period-s", "2", "--n-periods", "1", "--lead-in-s", "0.5", "--dynamic-model", str(dyn)]
+            argv = ["track", "--model", MODEL, "--rig", f"hardware:{cfg}", "--trajectory", "circle", *flags]
+            assert main([*argv, "--out", str(out)]) == 0
         doc = json.loads(out.read_text())
         assert doc["info"]["rig"]["kind"] == "hardware" and doc["mode"] == "feed-forward"
-        assert 150 < len(doc["errors_m"]) <= 240  # ~120 frames a second for 2 s, on the wall clock
-        with HardwareRig.from_config(cfg, three_cable) as rig:
+        pace = doc["info"]["pace"]
+        assert pace["expected_frames"] == 240 and pace["achieved_rate_hz"] == pytest.approx(120.0, rel=0.01)
+        assert pace["n_late_gaps"] == 0 and pace["n_commands_late"] == 0 and not pace["behind"]
+        assert len(doc["errors_m"]) == pace["n_frames"] and 238 <= pace["n_frames"] <= 241
+        with HardwareRig.from_config(cfg, three_cable, **bench.rig_options()) as rig:
             res = stream_trajectory(
                 rig, solver, load_trajectory("circle"), 1.0, relax=relax, n_periods=1, lead_in_s=0.2
             )
             goal = bench.body.u_goal_rad.copy()
     assert np.allclose(goal, res.knots.u_motor[-1], atol=2 * 2 * math.pi / 4096)  # the last command arrived
-    assert 75 < len(res.errors_m) <= 120 and np.all(np.isfinite(res.achieved_W))
+    assert 118 <= len(res.errors_m) <= 121 and np.all(np.isfinite(res.achieved_W))
 
 
-def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
+def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path, monkeypatch):
     """fit-dynamics with a tiny plan on --rig hardware:RIG.toml: the real dynamixel-sdk and
-    NatNet client against the emulated bench driving the coarse twin's body, in real time
-    (about 10 s); the lag comes out. The body's foam is made quicker (0.1 s / 0.6 s) so that
-    a 3 s hold shows all of a step, whatever the load on the machine does to the clock."""
+    NatNet client against the emulated bench driving the coarse twin's body, on the bench's
+    virtual clock; the lag comes out. The body's foam is made quicker (0.1 s / 0.6 s) so that
+    a 3 s hold shows all of a step."""
     import dataclasses
 
     from lab.asbuilt.arm import load_defects
@@ -327,14 +345,65 @@ def test_fit_dynamics_through_the_hardware_path(three_cable, tmp_path):
 
     out = tmp_path / "dyn.npz"
     quick_foam = dataclasses.replace(load_defects(None, three_cable), tau_fast_s=0.1, tau_slow_s=0.6)
-    with EmulatedBench(three_cable, AsBuiltBody(three_cable, quick_foam, **COARSE)) as bench:
+    with EmulatedBench(three_cable, AsBuiltBody(three_cable, quick_foam, **COARSE), virtual_time=True) as bench:
         cfg = bench.write_config(tmp_path / "rig.toml")
+        on_virtual_time(monkeypatch, bench)
         plan = ["--n-steps", "1", "--n-random", "2", "--step-hold-s", "3"]
         assert main(["fit-dynamics", "--rig", f"hardware:{cfg}", *plan, "--out", str(out)]) == 0
     relax = load_relaxation(out)
     assert relax.tau_s == pytest.approx([0.1, 0.6], rel=0.3) and relax.weight == pytest.approx([0.7, 0.3], abs=0.1)
     with np.load(out) as z:
-        assert json.loads(str(z["metadata"]))["rig"]["kind"] == "hardware"
+        meta = json.loads(str(z["metadata"]))
+    assert meta["rig"]["kind"] == "hardware"
+    assert meta["pace"]["achieved_rate_hz"] == pytest.approx(120.0, rel=0.01) and meta["pace"]["n_late_gaps"] == 0
+
+
+# --- falling behind: a starved loop stops and says what it missed ------------------------------------
+def starve(monkeypatch, skip: int):
+    """Make the twin a machine that falls behind: each frame read comes after ``skip`` others
+    it never saw (the frames a busy process drops), on the twin's own clock."""
+    from lab.rig.twin import TwinRig
+
+    read = TwinRig.next_frame
+
+    def late_frame(self):
+        for _ in range(skip):
+            read(self)
+        return read(self)
+
+    monkeypatch.setattr(TwinRig, "next_frame", late_frame)
+
+
+@pytest.mark.parametrize(
+    "skip, streamed",
+    [(39, "read 5 of 240 frames (2.1 %, 2.5 Hz of 120 Hz)"), (2, "read 79 of 240 frames (32.9 %, 39.5 Hz of 120 Hz)")],
+)
+def test_a_starved_stream_exits_1_and_says_what_it_missed(tmp_path, capsys, monkeypatch, skip, streamed):
+    """A stream that reads one frame in 40 (or in 3) exits 1 with the frames it read, the
+    frames a result needs and no result file; unstarved, the same run exits 0."""
+    starve(monkeypatch, skip)
+    out = tmp_path / "s.json"
+    base = ["track", "--model", MODEL, "--rig", "twin", "--trajectory", "circle", *COARSE_FLAGS]
+    fast = ["--period-s", "2", "--n-periods", "1", "--lead-in-s", "0.5", "--command-rate-hz", "10", "--out", str(out)]
+    assert main([*base, *fast]) == 1
+    err = capsys.readouterr().err
+    assert "the machine fell behind" in err and streamed in err and "a result needs at least 120 frames" in err
+    assert "Traceback" not in err and not out.exists()
+
+
+def test_a_starved_fit_dynamics_exits_1_and_writes_nothing(three_cable, tmp_path, capsys, monkeypatch):
+    out = tmp_path / "dyn.npz"
+    plan = ["--n-steps", "1", "--n-random", "1", "--step-hold-s", "2", *COARSE_FLAGS, "--out", str(out)]
+    starve(monkeypatch, 11)  # 10 Hz of 120
+    assert main(["fit-dynamics", *plan]) == 1
+    err = capsys.readouterr().err
+    assert "the machine fell behind: the probe read" in err and "Hz of 120 Hz" in err and "Nothing was written" in err
+    assert not out.exists()
+    monkeypatch.undo()
+    assert main(["fit-dynamics", *plan]) == 0
+    with np.load(out) as z:
+        pace = json.loads(str(z["metadata"]))["pace"]
+    assert pace["achieved_rate_hz"] == pytest.approx(120.0) and pace["n_late_gaps"] == 0
 
 
 # --- the period curve and its figures -----------------------------------------------------------------

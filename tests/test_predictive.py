@@ -167,3 +167,29 @@ def test_predictive_capture_through_the_hardware_path(three_cable, tmp_path):
     assert res.predicted.tolist() == [False] * 3 + [True] * 2
     truth = np.array([body.quasi_static_tip(ui) for ui in u])
     assert np.linalg.norm(res.p_tip_W - truth, axis=1).max() < 2e-3
+
+
+def test_a_starved_predictive_capture_marks_its_dataset_degraded(three_cable, tmp_path, capsys, monkeypatch):
+    """A predictive capture whose machine reads one frame in three (40 Hz of 120 Hz) finishes,
+    but its metadata and summary say which rows were read behind the motion capture; the same
+    capture unstarved is not degraded and reads every frame."""
+    from lab.cli import main
+    from lab.rig.twin import TwinRig
+
+    defects = _coarse_defects(three_cable, tmp_path / "coarse.toml")
+    Relaxation([0.4, 2.5], [0.7, 0.3], 5e-5).save(tmp_path / "d.npz")
+    argv = ["capture", "--rig", f"twin:{defects}", "--sobol", "3", "--protocol", "predictive"]
+    argv += ["--dynamic-model", str(tmp_path / "d.npz"), "--no-progress"]
+    read = TwinRig.next_frame
+    with monkeypatch.context() as m:
+        m.setattr(TwinRig, "next_frame", lambda self: (read(self), read(self), read(self))[-1])
+        assert main([*argv, "--out", str(tmp_path / "starved.csv")]) == 0
+    err = capsys.readouterr().err
+    pace = json.loads((tmp_path / "starved.csv.json").read_text())["capture"]["pace"]
+    assert pace["degraded"] and pace["rows_behind"] == [0, 1, 2]
+    assert pace["min_sample_rate_hz"] == pytest.approx(40.0, rel=0.02)
+    assert "DEGRADED: 3 of 3 samples read the motion capture at under 50%" in err and "fell behind" in err
+    assert main([*argv, "--out", str(tmp_path / "fed.csv")]) == 0
+    pace = json.loads((tmp_path / "fed.csv.json").read_text())["capture"]["pace"]
+    assert not pace["degraded"] and pace["rows_behind"] == [] and "DEGRADED" not in capsys.readouterr().err
+    assert pace["min_sample_rate_hz"] == pytest.approx(120.0, rel=0.02)

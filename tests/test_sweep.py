@@ -28,6 +28,7 @@ from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
 from sweep_pneumatic import PNEUMATIC_CASES
+from sweep_realtime import REALTIME_CASES
 from sweep_rig_none import RIG_NONE_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
@@ -1050,6 +1051,7 @@ CASES = [
     *COMPARE_CASES,
     *INSPECT_CASES,
     *HISTORY_CASES,
+    *REALTIME_CASES,
     *RIG_NONE_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,

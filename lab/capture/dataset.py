@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.pace import MIN_RATE_FRACTION, samples_pace
 from lab.capture.protocol import Protocol
 from lab.capture.repeat_check import repeat_check_line
 from lab.capture.session import Capture
@@ -140,6 +141,8 @@ def captured_dataset(
     unsettled = np.flatnonzero(~settled)
     learned = [info for tag, info in res.notes if tag == "relaxation"]
     predictive = protocol.kind == "predictive"
+    pace = samples_pace(res.n_frames, res.sample_s, description["frame_rate_hz"], order)
+    pace["degraded"] = bool(predictive and pace["rows_behind"])
     meta = {
         "robot": {"name": robot.name, "sha256": robot.sha256, "description": robot.source},
         "rig": description,
@@ -159,6 +162,7 @@ def captured_dataset(
             "wall_s_all_sessions": res.wall_s,
             "protocol": protocol.kind,
             "repeat_check": res.repeat_check,
+            "pace": pace,
             **(
                 {
                     "relaxation": learned[-1] if learned else {"from": str(spec.protocol.dynamic_model)},
@@ -182,6 +186,14 @@ def captured_dataset(
         + (f"; {len(unsettled)} not settled within {protocol.settle_timeout_s:g} s" if protocol.wait else "")
         + (f"; protocol {protocol.kind}, {int(res.predicted.sum())} predicted" if protocol.kind != "wait" else "")
     )
+    if pace["degraded"]:
+        behind = pace["rows_behind"]
+        summary += (
+            f"\nDEGRADED: {len(behind)} of {n} samples read the motion capture at under {MIN_RATE_FRACTION:.0%} of "
+            f"its rate (the slowest {pace['min_sample_rate_hz']:.1f} Hz of {pace['nominal_rate_hz']:g} Hz; rows "
+            f"{', '.join(map(str, behind[:10]))}{' ...' if len(behind) > 10 else ''}): the machine fell behind, "
+            "and their predictions rest on stretched readings; capture them again on a machine with less other work"
+        )
     check = repeat_check_line(res)
     units = None if robot.all_angle else tuple(robot.input_units)
     return CapturedDataset(u, y, meta, summary + (f"\n{check}" if check else ""), y_all, tuple(res.markers), units)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.capture.pace import PaceMeter
 from lab.dynamics.relaxation_fit import Segment, Stream
 from lab.rig.base import MocapError, Rig, RigError
 
@@ -57,7 +58,8 @@ class _Move:
 
 class StreamRecorder:
     """Drive ``rig`` and record its stream: the readings ``t_s``, ``p_tip_W`` and ``n_valid``
-    (NaN tip and 0 frames when the marker was not seen) and the commands ``moves``.
+    (NaN tip and 0 frames when the marker was not seen) and the commands ``moves``;
+    ``meter`` (:class:`~lab.capture.pace.PaceMeter`) times every frame read.
 
     Parameters
     ----------
@@ -88,6 +90,7 @@ class StreamRecorder:
         self.moves: list[_Move] = []
         self.t_s, self.p_tip_W, self.n_valid = [], [], []
         self.n_frames = self.n_invalid = 0
+        self.meter = PaceMeter(rig.frame_rate_hz)
         self._t_seen = rig.now()
         self._u_present = rig.present_u()
 
@@ -132,6 +135,7 @@ class StreamRecorder:
         while self.rig.now() < end - 1e-9:
             frame = self.rig.next_frame()
             self.n_frames += 1
+            self.meter.add(frame.t_s)
             if frame.valid:
                 points.append(frame.p_tip_W)
                 times.append(frame.t_s)

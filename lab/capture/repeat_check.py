@@ -5,6 +5,14 @@ for the same command later on. With ``repeat_check`` (:func:`lab.capture.session
 the first command is measured once more once every command is captured; :func:`repeat_note`
 is the journal's ``repeat-check`` note on it (flagged as drift beyond
 :func:`repeat_threshold_m`) and :func:`repeat_check_line` the line a capture reports.
+
+A repeat check interrupted and resumed runs first thing in a new session, from where the
+rig starts -- where it also started the first sample: an emulated twin restarts from rest
+with the same noise and gave the first sample back bit for bit ("0.00 mm away"), so the
+check could never see drift. A resumed check therefore measures the *last* command again
+first, then the first: the last one's journal row was made at the end of the capture, so
+its repeat after the restart shows what changed over the capture even when the rig's own
+state restarted, and the first command is measured from another state than at the start.
 Details: ``docs/design/rig.md``, "The repeat check".
 """
 
@@ -38,7 +46,11 @@ def repeat_threshold_m(protocol: Protocol) -> float:
     return REPEAT_TOLERANCES * tol
 
 
-def repeat_note(first: dict, again: Sample, protocol: Protocol) -> dict:
+def _tip(row: dict) -> np.ndarray:
+    return np.array([row["x"], row["y"], row["z"]], float)
+
+
+def repeat_note(first: dict, again: Sample, protocol: Protocol, last: tuple | None = None) -> dict:
     """The journal's ``repeat-check`` note on the first command measured again.
 
     Parameters
@@ -49,17 +61,22 @@ def repeat_note(first: dict, again: Sample, protocol: Protocol) -> dict:
         The same command measured after the last.
     protocol : Protocol
         The capture settings (the threshold).
+    last : tuple of (dict, Sample), optional
+        A resumed check: the last sample's journal row and its command measured again
+        (before ``again``).
 
     Returns
     -------
     dict
         ``u_motor`` (rad), ``p_first_m`` and ``p_again_m`` (m, frame W), ``t_first_s`` and
-        ``t_again_s`` (s, rig clock), ``distance_m``, ``threshold_m`` (m) and ``drift``.
+        ``t_again_s`` (s, rig clock), ``distance_m``, ``threshold_m`` (m) and ``drift``
+        (either command beyond the threshold); a resumed check adds ``last`` (``index``,
+        ``p_first_m``, ``p_again_m`` and ``distance_m``, m) and ``resumed``.
     """
-    p_first = np.array([first["x"], first["y"], first["z"]], float)
+    p_first = _tip(first)
     distance = float(np.linalg.norm(again.p_tip_W - p_first))
     threshold = repeat_threshold_m(protocol)
-    return {
+    note = {
         "u_motor": [float(v) for v in again.u_motor],
         "p_first_m": p_first.tolist(),
         "p_again_m": [float(v) for v in again.p_tip_W],
@@ -69,6 +86,17 @@ def repeat_note(first: dict, again: Sample, protocol: Protocol) -> dict:
         "threshold_m": threshold,
         "drift": bool(distance > threshold),
     }
+    if last is not None:
+        row, sample = last
+        d_last = float(np.linalg.norm(sample.p_tip_W - _tip(row)))
+        note["last"] = {
+            "index": int(row["index"]),
+            "p_first_m": _tip(row).tolist(),
+            "p_again_m": [float(v) for v in sample.p_tip_W],
+            "distance_m": d_last,
+        }
+        note.update(resumed=True, drift=bool(max(distance, d_last) > threshold))
+    return note
 
 
 def repeat_check_line(capture) -> str:
@@ -91,11 +119,15 @@ def repeat_check_line(capture) -> str:
         return ""
     mm = 1e3 * rc["distance_m"]
     minutes = (rc["t_again_s"] - rc["t_first_s"]) / 60.0  # negative: the rig's clock restarted
-    when = f"{minutes:.0f} min later" if minutes >= 0 else "in a later session"
+    when = f"{minutes:.0f} min later" if minutes >= 0 and not rc.get("resumed") else "in a later session"
+    what, away = "the first command", f"{mm:.2f} mm away"
+    if "last" in rc:  # resumed: the last command measured again too
+        what = "the first and the last command"
+        away = f"{mm:.2f} and {1e3 * rc['last']['distance_m']:.2f} mm away"
     if rc["drift"]:
         return (
-            f"samples drift: the first command, measured again {when}, gave a tip "
-            f"{mm:.2f} mm away (more than {1e3 * rc['threshold_m']:.2f} mm); the robot changed during the capture "
+            f"samples drift: {what}, measured again {when}, gave tips "
+            f"{away} (more than {1e3 * rc['threshold_m']:.2f} mm); the robot changed during the capture "
             "(creep over minutes, a moved base or mocap frame), so its samples depend on their history"
         )
-    return f"repeat check: the first command measured again {when}, {mm:.2f} mm away"
+    return f"repeat check: {what} measured again {when}, {away}"

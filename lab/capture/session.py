@@ -232,9 +232,11 @@ def capture(
                 )
                 bar.update(1)
             if repeat_check and not open_ended and protocol.wait and not journal.notes_tagged("repeat-check"):
-                first = journal.rows[0]
+                # resumed with every sample done: nothing was measured in this session, so the
+                # rig is where it started the first sample; the last command goes first
+                last = (journal.rows[-1], sample(commands[-1])) if done == len(commands) > 1 else None
                 again = sample(commands[0])
-                journal.note("repeat-check", repeat_note(first, again, protocol))
+                journal.note("repeat-check", repeat_note(journal.rows[0], again, protocol, last))
         except BaseException as err:
             status = f"stopped: {type(err).__name__}: {err}"
             raise

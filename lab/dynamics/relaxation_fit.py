@@ -58,6 +58,9 @@ class Stream:
         The commands, in time order.
     initial_pose : str
         The pose the arm rests at before the first command.
+    pace : dict or None
+        How the recording kept pace with the motion capture
+        (:meth:`lab.capture.pace.Pace.as_dict`), when measured.
     """
 
     t_s: np.ndarray
@@ -65,6 +68,7 @@ class Stream:
     n_valid: np.ndarray
     segments: list
     initial_pose: str = "initial"
+    pace: dict | None = None
 
     def poses(self) -> list[str]:
         """The distinct poses, in order of first use.

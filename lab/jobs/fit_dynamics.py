@@ -85,11 +85,13 @@ def run(
         rig=describe,
         plan=plan_info(plan),
         fit={"rms_m": report["rms_m"], "n_readings": report["n_readings"], "n_poses": len(report["equilibria"])},
+        pace=stream.pace,
         command=command,
     )
     modes = ", ".join(f"tau {t:.3f} s weight {w:.3f}" for t, w in zip(relax.tau_s, relax.weight))
     say(
         f"{len(relax.tau_s)} modes: {modes}; fit RMS {1e3 * report['rms_m']:.3f} mm over {report['n_readings']} "
-        f"readings, noise {1e3 * relax.noise_sigma_m:.3f} mm per frame -> {out}"
+        f"readings, noise {1e3 * relax.noise_sigma_m:.3f} mm per frame, motion capture read at "
+        f"{stream.pace['achieved_rate_hz']:.1f} Hz of {stream.pace['nominal_rate_hz']:g} Hz -> {out}"
     )
     return relax, report

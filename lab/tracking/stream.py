@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lab.capture.pace import MIN_RATE_FRACTION, frame_pace
 from lab.control.ik import IKSolver, check_targets
 from lab.dynamics.relaxation import Relaxation
 from lab.errors import InputError, LabRuntimeError
@@ -38,7 +39,13 @@ __all__ = [
     "default_n_periods",
     "DEFAULT_COMMAND_RATE_HZ",
     "DEFAULT_LEAD_IN_S",
+    "LATE_COMMAND_FRACTION_ALLOWED",
 ]
+
+#: The most commands of a streamed run that may go out late (more than one command period
+#: after their time) for its result to mean anything: beyond, the rig followed another path
+#: than the one planned, and the error would score the machine's load, not the robot.
+LATE_COMMAND_FRACTION_ALLOWED = 0.1
 
 
 def target_at(targets_W, period_s: float, t_s) -> np.ndarray:
@@ -257,10 +264,11 @@ def stream_trajectory(
         smoothing=smoothing,
     )  # fmt: skip
     t_rig = time.perf_counter()
-    t_frames, p_frames, k_frames = _run(rig, plan, lead_in_s, progress)
+    t_frames, p_frames, k_frames, lateness = _run(rig, plan, lead_in_s, progress)
     t_rig = time.perf_counter() - t_rig
     # the last period, valid frames only
     in_last = (t_frames >= plan.t_s[-1] - period_s - 1e-9) & (t_frames < plan.t_s[-1] - 1e-9)
+    pace = _check_pace(t_frames[in_last], rig.frame_rate_hz, float(period_s), lateness, float(command_rate_hz))
     last = in_last & np.all(np.isfinite(p_frames), axis=1)
     if not np.any(last):
         raise LabRuntimeError("no valid motion-capture frame in the last period: nothing to compare")
@@ -283,6 +291,7 @@ def stream_trajectory(
         "n_frames": int(len(t_frames)),
         "n_frames_last_period": int(np.sum(in_last)),
         "n_knots_unreachable": int(np.sum(~plan.reachable)),
+        "pace": pace,
         "code_version": code_version(),
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
     }
@@ -312,16 +321,41 @@ def stream_trajectory(
     )
 
 
+def _check_pace(t_last, frame_rate_hz: float, period_s: float, lateness, command_rate_hz: float) -> dict:
+    """The stream's pace (:func:`lab.capture.pace.frame_pace` over the scored period, and how
+    late its commands went out) for the result's ``info``; LabRuntimeError when the machine
+    fell behind what a result needs: under half the frames of the scored period, or more than
+    :data:`LATE_COMMAND_FRACTION_ALLOWED` of the commands sent a command period late or more."""
+    pace = frame_pace(t_last, frame_rate_hz, span_s=period_s)
+    late = int(np.sum(lateness > 1.0 / command_rate_hz))
+    max_late = int(LATE_COMMAND_FRACTION_ALLOWED * len(lateness))
+    if pace.behind or late > max_late:
+        need = int(np.ceil(MIN_RATE_FRACTION * pace.expected_frames))
+        raise LabRuntimeError(
+            f"the machine fell behind: the stream {pace.missed()} in the scored period, and sent {late} of "
+            f"{len(lateness)} commands a command period ({1 / command_rate_hz:.3f} s) late or more; a result needs "
+            f"at least {need} frames and at most {max_late} late commands. Nothing was written: run again on a "
+            "machine with less other work"
+        )
+    return {
+        **pace.as_dict(),
+        "n_commands_late": late,
+        "max_command_lateness_s": float(np.max(lateness)) if len(lateness) else 0.0,
+    }
+
+
 def _run(rig: Rig, plan: StreamPlan, lead_in_s: float, progress=None):
     """Lead-in at knot 0, then knot k+1 sent at t_k; returns every frame after the lead-in:
-    times (n,) s since the motion began, tips (n, 3) m (NaN: occluded), and the knot in
-    force (the latest sent)."""
+    times (n,) s since the motion began, tips (n, 3) m (NaN: occluded), the knot in
+    force (the latest sent), and how late each knot went out, (K-1,) s."""
     rig.send(plan.u_motor[0])
     rig.wait(lead_in_s)
     t0 = rig.now()
     ts, ps, ks = [], [], []
     n = len(plan.t_s)
+    lateness = np.zeros(n - 1)
     for k in range(n - 1):
+        lateness[k] = max(0.0, rig.now() - t0 - plan.t_s[k])
         rig.send(plan.u_motor[k + 1])
         t_next = t0 + plan.t_s[k + 1]
         while rig.now() < t_next - 1e-9:
@@ -331,4 +365,4 @@ def _run(rig: Rig, plan: StreamPlan, lead_in_s: float, progress=None):
             ks.append(k + 1)
         if progress is not None:
             progress(k + 1, n - 1)
-    return np.asarray(ts), np.asarray(ps, float).reshape(-1, 3), np.asarray(ks, int)
+    return np.asarray(ts), np.asarray(ps, float).reshape(-1, 3), np.asarray(ks, int), lateness

@@ -39,7 +39,13 @@ def main(argv=None) -> int:
                 pass
         except KeyboardInterrupt:
             pass
-    print("emulators stopped", flush=True)
+    m = bench.mocap
+    behind = f"; {m.frames_skipped} frame times skipped: the machine fell behind" if m.frames_skipped else ""
+    print(
+        f"emulators stopped: {m.frames_sent} frames sent at {m.frame_rate_hz:g} Hz, the longest gap "
+        f"{m.max_frame_gap_s:.3f} s{behind}",
+        flush=True,
+    )
     return 0
 
 

@@ -7,7 +7,9 @@ frame holds the tip marker (``tip_W_m(t_s)``, m in frame W, e.g. ``LiveBody.p_ti
 the base markers, mapped into the mocap frame by the scene's rigid transform, in the
 scene's length unit, with optional noise; untracked markers follow Motive's conventions.
 On a ``VirtualClock`` it sends one frame per frame a reader wants, advancing the clock by a
-period each time. Faults: ``occlude_tip(True)``, ``freeze()`` (the server disappears),
+period each time. On the wall clock it keeps its own pace: ``frames_sent``, the longest gap
+between two (``max_frame_gap_s``) and the frame times it skipped because its thread ran late
+(``frames_skipped``: it never bursts to catch up). Faults: ``occlude_tip(True)``, ``freeze()`` (the server disappears),
 ``stop()``. Details: ``docs/design/rig.md``.
 """
 
@@ -115,6 +117,7 @@ class NatNetServerEmulator:
         self._t0 = self._clock()
         self.frames_sent = 0
         self.max_frame_gap_s = 0.0  # longest wall-clock time between two frames sent, s
+        self.frames_skipped = 0  # frame times passed while the streaming thread was behind (wall clock)
         self._t_wall_last = 0.0
 
     # --- lifecycle and faults -------------------------------------------------------
@@ -297,7 +300,9 @@ class NatNetServerEmulator:
         next_t = time.monotonic()
         while not self._stop.wait(max(0.0, next_t - time.monotonic())):
             next_t += period
-            if time.monotonic() - next_t > period:  # fell behind: skip, do not burst
+            late_s = time.monotonic() - next_t
+            if late_s > period:  # fell behind: skip, do not burst, and count what was skipped
+                self.frames_skipped += int(late_s // period)
                 next_t = time.monotonic() + period
             if self._frozen.is_set():
                 continue
