@@ -174,3 +174,71 @@ def test_a_full_run_updates_the_times_and_keeps_unmoved_tables(repo):
     assert (repo / "figures" / TABLE).read_text() == COMMITTED_TABLE
     assert (repo / "README.md").read_text() != readme  # the full run's times replace 30 s and 95 s
     assert "Model A" not in (repo / "README.md").read_text()  # no footnote mixing two machines
+
+
+def _script(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_recorded_copies_keep_the_committed_cell_ids(tmp_path):
+    """papermill's injected-parameters cell gets a new random id from nbformat on every run;
+    the recorded copy keeps the id the committed copy has (every other cell: the source's)."""
+    record = _script("record_notebooks")
+    name = "03_learned_model.ipynb"
+    nb = json.loads((ROOT / "notebooks" / name).read_text())
+    at = next(i for i, c in enumerate(nb["cells"]) if "parameters" in c["metadata"].get("tags", []))
+    injected = {"cell_type": "code", "id": "0f1e2d3c", "metadata": {"tags": ["injected-parameters"]},
+                "execution_count": 2, "outputs": [], "source": 'figures_dir = "../figures"\n'}  # fmt: skip
+    nb["cells"].insert(at + 1, injected)
+    nb["metadata"]["papermill"] = {"parameters": {"figures_dir": "../figures"}, "start_time": "2030-01-01T00:00:00"}
+    executed = tmp_path / name
+    executed.write_text(json.dumps(nb))
+    committed = json.loads((ROOT / "figures" / "notebooks" / name).read_text())
+    copy = record.recorded_copy(executed, ROOT / "figures", ROOT / "figures" / "notebooks", ROOT / "notebooks" / name)
+    assert [c["id"] for c in copy["cells"]] == [c["id"] for c in committed["cells"]]
+    # without a stored copy: the injected cell is named for what it is, the others keep the source's
+    copy = record.recorded_copy(executed, ROOT / "figures", tmp_path / "site", ROOT / "notebooks" / name)
+    ids = [c["id"] for c in copy["cells"]]
+    assert ids[at + 2] == "injected-parameters" and len(set(ids)) == len(ids)
+    assert [i for i in ids if i not in ("injected-parameters", "recorded-run")] == [
+        c["id"] for c in nb["cells"] if c is not injected
+    ]
+
+
+def test_compare_tables_help_and_exit_codes(tmp_path):
+    script = str(ROOT / "scripts" / "compare_tables.py")
+    r = subprocess.run([sys.executable, script, "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert "usage:" in r.stdout and "--keep-committed-timings" in r.stdout and "Exit: 0 nothing moved" in r.stdout
+    r = subprocess.run([sys.executable, script], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "usage:" in r.stderr
+    missing = [sys.executable, script, str(tmp_path / "no"), str(tmp_path), "t.csv"]
+    r = subprocess.run(missing, capture_output=True, text=True)
+    assert r.returncode == 2 and "no such folder" in r.stderr and "Traceback" not in r.stderr
+    (tmp_path / "t.csv").write_bytes(b"\xff\xfe\x00garbage")
+    r = subprocess.run([sys.executable, script, str(tmp_path), str(tmp_path), "t.csv"], capture_output=True, text=True)
+    assert r.returncode == 2 and "not a readable CSV table" in r.stdout and "Traceback" not in r.stderr
+
+
+def test_compare_tables_keeps_the_committed_file_when_only_timings_differ(tmp_path, capsys):
+    compare = _script("compare_tables")
+    ref, new = tmp_path / "ref", tmp_path / "new"
+    ref.mkdir(), new.mkdir()
+    (ref / TABLE).write_text(COMMITTED_TABLE)
+    retimed = COMMITTED_TABLE.replace("0.676", "0.912")
+    (new / TABLE).write_text(retimed)
+    assert compare.main([str(ref), str(new), TABLE]) == 0  # without the flag: compared, left alone
+    assert (new / TABLE).read_text() == retimed
+    assert compare.main(["--keep-committed-timings", str(ref), str(new), TABLE]) == 0
+    assert (new / TABLE).read_text() == COMMITTED_TABLE
+    assert "kept:" in capsys.readouterr().out
+    # a result within the tolerance but not the same text is the new run's: kept as it came
+    close = COMMITTED_TABLE.replace("0.000177", "0.0001770000001")
+    (new / TABLE).write_text(close)
+    assert compare.main(["--keep-committed-timings", str(ref), str(new), TABLE]) == 0
+    assert (new / TABLE).read_text() == close and "nothing moved" in capsys.readouterr().out
