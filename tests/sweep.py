@@ -51,6 +51,7 @@ class Case:
     timeout_s: float = 120.0
     after: Callable[[Path], None] | None = None  # extra checks on the directory afterwards
     marks: tuple = field(default_factory=tuple)
+    module: str = "lab"  # the command line: python -m lab, or the scripts' python -m lab.course
 
     def __str__(self) -> str:
         return self.id
@@ -90,7 +91,7 @@ def run_case(case: Case, d: Path, capsys=None, monkeypatch=None) -> str:
                 resource.setrlimit(resource.RLIMIT_FSIZE, (case.limit_file_kib * 1024,) * 2)
 
         r = subprocess.run(
-            [sys.executable, "-m", "lab", *argv],
+            [sys.executable, "-m", case.module, *argv],
             cwd=d,
             env=env,
             capture_output=True,
@@ -100,8 +101,9 @@ def run_case(case: Case, d: Path, capsys=None, monkeypatch=None) -> str:
         )
         code, err = r.returncode, r.stderr
     else:
-        from lab.cli import main
+        import importlib
 
+        main = importlib.import_module({"lab": "lab.cli", "lab.course": "lab.course.commands"}[case.module]).main
         monkeypatch.chdir(d)
         code = main(argv)
         err = capsys.readouterr().err

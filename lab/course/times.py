@@ -134,7 +134,8 @@ def _run_time(nb: Path) -> tuple[float, str]:
     what = "a time record of scripts/reproduce ('START END [LOAD]': seconds since the epoch, load average)"
     if not path.exists():
         raise InputError(f"{nb}: no time of this run ({path} is missing)")
-    fields = _text(path, what).replace(",", ".").split()
+    text = _text(path, what)
+    fields = text.replace(",", ".").split()  # (a comma locale's decimal mark)
     try:
         start, end, *load = (float(f) for f in fields)
         ok = (
@@ -146,7 +147,7 @@ def _run_time(nb: Path) -> tuple[float, str]:
     except ValueError:
         ok = False
     if not ok:
-        raise InputError(f"{path}, line 1: not {what}: {' '.join(fields)[:60]!r}")
+        raise InputError(f"{path}, line 1: not {what}: {' '.join(text.split())[:60]!r}")
     return end - start, fields[2] if len(fields) > 2 else ""
 
 
