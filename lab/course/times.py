@@ -7,11 +7,15 @@ of the chapter's whole papermill run, kernel start-up included -- what a student
 for *Run All* -- not papermill's own record of the cells (which leaves the start out and
 read 6 s for a chapter that took 24 s on a loaded machine).
 
-:func:`record_times` adds a run's chapters to the CSV (``scripts/reproduce``);
+:func:`record_times` adds a run's chapters to the CSV (``scripts/reproduce``: after a run of
+every chapter to ``figures/chapter_times.csv``, after a run of some to
+``build/chapter_times.partial.csv``, beside it), and never overwrites a file that is not such
+a CSV; :func:`read_times` checks every number and names the file, line and column of a bad one;
 :func:`times_markdown` renders the table with a sentence on the machine and load;
 :func:`write_times_block` replaces it between ``<!-- chapter-times -->`` and
 ``<!-- /chapter-times -->`` in the README and docs/course.md (``scripts/chapter-times
---write``; tests/test_student_path.py fails when they differ from the CSV).
+--write``; tests/test_student_path.py fails when they differ from the CSV), never replacing a
+measured time with a dash.
 """
 
 from __future__ import annotations
