@@ -1,6 +1,7 @@
 """Compare result tables of a new run with the committed ones (used by scripts/reproduce).
 
     python scripts/compare_tables.py REFERENCE_DIR NEW_DIR table1.csv table_model_ten_splits.csv ...
+    python scripts/compare_tables.py --keep-committed-timings build/reference figures TABLE ...
 
 Rows are matched by a key: the columns declared for the table in ``KEYS``, else every
 non-numeric column and every index column (``INDEX``: split, run, seed, width, ...). The key
@@ -12,13 +13,22 @@ wall/time/ms/date/updated/source). A cell *moved* when
 
 with RTOL = 1e-3: 0.1 % of the value, and 0.1 % of the column's scale for values near zero
 (round-off, e.g. Soft IK's 1e-7 cm). Prints every moved cell and exits 1 if any moved, 0
-otherwise; a table missing on either side is reported and counts as moved.
+otherwise; a table missing on either side is reported and counts as moved; a table that
+cannot be compared (not a CSV, a key that is not unique) is an error, exit 2.
+
+``--keep-committed-timings``: a new table whose cells are the reference's, character for
+character, except in the timing and bookkeeping columns (``wall_s``, ...) is replaced by the
+reference's file, so a re-run that gave the same results leaves the committed file as it was
+instead of rewriting it for its new timings (scripts/reproduce passes it).
 """
 
 from __future__ import annotations
 
+import argparse
 import csv
+import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -74,13 +84,36 @@ def _index(rows: list[dict], key: tuple[str, ...], where: str) -> dict:
     return out
 
 
+def _rows(path: Path) -> list[dict]:
+    """The rows of the CSV ``path``; :class:`KeyError_` when it is not a readable CSV of text."""
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise KeyError_(f"{path}: not a readable CSV table ({type(e).__name__}: {e})") from None
+    if any(None in r for r in rows):
+        raise KeyError_(f"{path}: a row has more fields than the header")
+    return rows
+
+
+def only_timings_differ(ref_path: Path, new_path: Path) -> bool:
+    """Whether the two tables hold the same text everywhere but in the columns the comparison
+    skips (timings, bookkeeping): same columns, same rows in the same order."""
+    if not ref_path.is_file() or not new_path.is_file():
+        return False
+    ref, new = _rows(ref_path), _rows(new_path)
+    if len(ref) != len(new) or (ref and list(ref[0]) != list(new[0])):
+        return False
+    kept = [c for c in (ref[0] if ref else []) if not SKIP.search(c)]
+    return all(a[c] == b[c] for a, b in zip(ref, new) for c in kept)
+
+
 def moved_cells(ref_path: Path, new_path: Path) -> list[str]:
     """Descriptions of the cells of ``new_path`` that moved from ``ref_path`` (see module doc).
     Raises :class:`KeyError_` when the key does not identify the rows of either table."""
     if not ref_path.exists() or not new_path.exists():
         return [f"{new_path.name}: missing ({'reference' if not ref_path.exists() else 'new run'})"]
-    ref = list(csv.DictReader(ref_path.open(newline="")))
-    new = list(csv.DictReader(new_path.open(newline="")))
+    ref, new = _rows(ref_path), _rows(new_path)
     if not ref:
         return []
     key = key_columns(ref_path.name, ref)
@@ -104,24 +137,57 @@ def moved_cells(ref_path: Path, new_path: Path) -> list[str]:
     return out
 
 
-def main(argv: list[str]) -> int:
-    ref_dir, new_dir, *names = argv
-    moved = []
+def main(argv: list[str] | None = None) -> int:
+    """Compare the tables; 0 nothing moved, 1 a cell moved or a table is missing, 2 cannot compare."""
+    parser = argparse.ArgumentParser(
+        prog="scripts/compare_tables.py",
+        description="Compare result tables of a new run with the committed ones (scripts/reproduce runs it).",
+        epilog=f"A cell moved when it differs by more than {RTOL} relative (see the module's text); timing and "
+        "bookkeeping columns are not compared. Exit: 0 nothing moved, 1 a cell moved or a table is missing, "
+        "2 the tables cannot be compared.",
+    )
+    parser.add_argument(
+        "reference", type=Path, help="the folder of the committed tables (scripts/reproduce: build/reference)"
+    )
+    parser.add_argument("new", type=Path, help="the folder of the new run's tables (figures)")
+    parser.add_argument(
+        "tables", nargs="+", metavar="TABLE", help="file names of the tables to compare, in both folders"
+    )
+    parser.add_argument(
+        "--keep-committed-timings",
+        action="store_true",
+        help="where only timing columns differ, copy the reference's file over the new one",
+    )
+    args = parser.parse_args(argv)
+    for folder in (args.reference, args.new):
+        if not folder.is_dir():
+            print(f"error: {folder}: no such folder of tables", file=sys.stderr)
+            return 2
+    moved, kept = [], []
     try:
-        for name in names:
-            moved += moved_cells(Path(ref_dir) / name, Path(new_dir) / name)
+        for name in args.tables:
+            ref, new = args.reference / name, args.new / name
+            moved += moved_cells(ref, new)
+            if args.keep_committed_timings and only_timings_differ(ref, new) and ref.read_bytes() != new.read_bytes():
+                tmp = new.with_name(f".{new.name}.tmp{os.getpid()}")  # atomic: never a half-copied table
+                shutil.copyfile(ref, tmp)
+                os.replace(tmp, new)
+                kept.append(name)
     except KeyError_ as err:
         print(f"error: cannot compare: {err}")
         return 2
     for m in moved:
         print(f"moved: {m}")
+    for name in kept:
+        print(f"kept: {args.new / name} as committed (the new run's differs only in timing columns)")
+    n = len(args.tables)
     print(
-        f"compared {len(names)} table(s) with the committed ones (rtol {RTOL}): {len(moved)} cell(s) moved"
+        f"compared {n} table(s) with the committed ones (rtol {RTOL}): {len(moved)} cell(s) moved"
         if moved
-        else f"compared {len(names)} table(s): nothing moved beyond {RTOL}"
+        else f"compared {n} table(s): nothing moved beyond {RTOL}"
     )
     return 1 if moved else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(main())

@@ -12,6 +12,12 @@ kernel) keep only their text, and an output over ``MAX_OUTPUT_BYTES`` (a self-co
 scene) is replaced by a line saying what it was. The exercises' solution cells are shown as
 the student edition has them (:func:`lab.course.edition.stub_source`); the graders' outputs
 are those of the reference solutions. Per-cell timestamps are dropped (no churn in git).
+
+Cell ids are stable: a cell keeps the id it has in the source chapter (``--source``, default
+notebooks/), and a cell the source has not -- papermill's injected parameters, which nbformat
+gives a new random id on every run -- keeps the id of the same cell in the recorded copy it
+replaces (else ``injected-parameters``). A recorded copy that differs from the stored one only
+in the date of its note is not rewritten: a re-run with the same outputs changes no file.
 """
 
 from __future__ import annotations
@@ -95,17 +101,60 @@ def _without_root(out: dict) -> dict:
     return out
 
 
-def recorded_copy(executed: str | Path, figures_dir: str | Path, out_dir: str | Path) -> dict:
-    """The recorded copy (a notebook as a dict) of the executed chapter ``executed``, with
-    figures referenced in ``figures_dir`` relative to ``out_dir`` where it will be stored."""
-    executed, figures_dir, out_dir = Path(executed), Path(figures_dir), Path(out_dir)
+def _notebook(path: Path, what: str) -> dict:
+    """The notebook at ``path`` as a dict with a list of cells; an InputError naming it if not."""
     try:
-        nb = json.loads(executed.read_text())
+        nb = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as e:
-        raise InputError(f"{executed}: not an executed notebook ({type(e).__name__}: {e})") from None
+        raise InputError(f"{path}: not {what} ({type(e).__name__}: {e})") from None
     if not isinstance(nb, dict) or not isinstance(nb.get("cells", []), list):
-        raise InputError(f"{executed}: not an executed notebook (no list of cells)")
-    cells = nb.setdefault("cells", [])
+        raise InputError(f"{path}: not {what} (no list of cells)")
+    nb.setdefault("cells", [])
+    return nb
+
+
+def stable_ids(cells: list[dict], source: list[dict] | None, stored: list[dict]) -> None:
+    """Give ``cells`` (an executed chapter's) the ids of the source chapter's cells (``source``;
+    None: every cell but papermill's injected parameters keeps its id) and, where the source has
+    no such cell, of the stored recorded copy (``stored``): matched by their tags and their place
+    among such cells; the injected parameters fall back to ``injected-parameters``. Cells are
+    changed in place; ids stay unique."""
+    if source is None:
+        source = [c for c in cells if "injected-parameters" not in c.get("metadata", {}).get("tags", [])]
+    known = {c.get("id") for c in source}
+    extra_stored = [c for c in stored if c.get("id") not in known and c.get("id") != "recorded-run"]
+    used = set(known)
+    for k, cell in enumerate(c for c in cells if c.get("id") not in known):
+        tags = cell.get("metadata", {}).get("tags", [])
+        same = [c for c in extra_stored if c.get("metadata", {}).get("tags", []) == tags]
+        want = same[0]["id"] if same else ("injected-parameters" if "injected-parameters" in tags else f"cell-{k}")
+        if same:
+            extra_stored.remove(same[0])
+        while want in used:
+            want += "-1"
+        cell["id"] = want
+        used.add(want)
+
+
+def _without_note(nb: dict) -> dict:
+    return {**nb, "cells": [c for c in nb.get("cells", []) if c.get("id") != "recorded-run"]}
+
+
+def recorded_copy(
+    executed: str | Path, figures_dir: str | Path, out_dir: str | Path, source: str | Path | None = None
+) -> dict:
+    """The recorded copy (a notebook as a dict) of the executed chapter ``executed``, with
+    figures referenced in ``figures_dir`` relative to ``out_dir`` where it will be stored, and
+    cell ids of the chapter ``source`` and of the copy stored in ``out_dir`` (:func:`stable_ids`)."""
+    executed, figures_dir, out_dir = Path(executed), Path(figures_dir), Path(out_dir)
+    nb = _notebook(executed, "an executed notebook")
+    cells = nb["cells"]
+    stored = out_dir / executed.name
+    stable_ids(
+        cells,
+        _notebook(Path(source), "a chapter")["cells"] if source is not None else None,
+        _notebook(stored, "a recorded copy")["cells"] if stored.is_file() else [],
+    )
     run = nb.get("metadata", {}).get("papermill", {})
     for cell in cells:
         meta = cell.get("metadata", {})
@@ -138,15 +187,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("executed", nargs="+", help="executed chapters (build/notebooks/NN_*.ipynb)")
     parser.add_argument("--figures", required=True, help="the folder the run wrote its figures into")
     parser.add_argument("--out", required=True, help="where the recorded copies go")
+    parser.add_argument("--source", default="notebooks", help="the source chapters, for the cell ids (notebooks)")
     args = parser.parse_args(argv)
     out_dir = Path(args.out)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         for path in args.executed:
-            nb = recorded_copy(path, args.figures, out_dir)
             target = out_dir / Path(path).name
             if target.resolve() == Path(path).resolve():
                 raise InputError(f"--out {out_dir}: the recorded copy would overwrite its input {path}")
+            source = Path(args.source) / Path(path).name
+            nb = recorded_copy(path, args.figures, out_dir, source if source.is_file() else None)
+            if target.is_file() and _without_note(json.loads(target.read_text(encoding="utf-8"))) == _without_note(nb):
+                print(f"recorded {path}: {target} unchanged (the same outputs)", file=sys.stderr)
+                continue
             atomic_write_text(target, json.dumps(nb, indent=1, ensure_ascii=False) + "\n")
             print(f"recorded {path} -> {target} ({target.stat().st_size / 1e3:.0f} kB)", file=sys.stderr)
     except InputError as e:

@@ -30,6 +30,7 @@ from sweep_inspect import INSPECT_CASES
 from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_realtime import REALTIME_CASES
 from sweep_rig_none import RIG_NONE_CASES
+from sweep_times import TIMES_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
 TRAIN = ["train", "{dir}/data.csv", "--hidden", "3", "--epochs", "3"]
@@ -1056,6 +1057,7 @@ CASES = [
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,
+    *TIMES_CASES,
     # --- markers the IK drives (track --markers) -------------------------------------------
     Case(
         "track-markers-unknown",
@@ -1106,7 +1108,7 @@ def test_sweep(case, tmp_path, capsys, monkeypatch):
 def test_sweep_covers_every_command():
     from lab.cli import COMMANDS
 
-    assert {c.argv[0] for c in CASES} == set(COMMANDS)  # every command has rows
+    assert {c.argv[0] for c in CASES if c.module == "lab"} == set(COMMANDS)  # every command has rows
 
 
 # --- mechanisms -------------------------------------------------------------------------------

@@ -6,8 +6,9 @@
     python -m lab.course chapter-times [--write [FILE ...]]
         print the time-per-chapter table; --write rewrites the generated course text:
         the tables in README.md and docs/course.md, chapter 00's syllabus (scripts/chapter-times)
-    python -m lab.course record-times --jobs N EXECUTED.ipynb ...
-        add a run's chapter times to figures/chapter_times.csv (scripts/reproduce)
+    python -m lab.course record-times --jobs N [--times CSV] [--beside CSV] EXECUTED.ipynb ...
+        add a run's chapter times to figures/chapter_times.csv (scripts/reproduce; a run of
+        some chapters only writes build/chapter_times.partial.csv, beside the full run's)
 
 These are not ``python -m lab`` commands: they serve the repository's scripts and run from
 its root (the default paths are relative to it). Errors print ``error: <message>`` and exit
@@ -40,19 +41,35 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("record-times", help="add a scripts/reproduce run's chapter times to the CSV")
     r.add_argument("executed", nargs="+", help="papermill's output notebooks (NAME.time beside each)")
     r.add_argument("--jobs", type=int, required=True, help="chapters run at a time")
-    r.add_argument("--times", default="figures/chapter_times.csv", help="the CSV to update")
+    r.add_argument("--times", default="figures/chapter_times.csv", help="the chapter-times CSV to update")
+    r.add_argument("--beside", metavar="CSV", help="show each time beside this chapter-times CSV's (a full run's)")
     return p
 
 
 def _write_generated(files: list[str], notebooks: str, times: str) -> None:
     from lab.course.syllabus import write_syllabus
-    from lab.course.times import write_times_block
+    from lab.course.times import read_times, write_times_block
 
     for f in files or GENERATED:
         if not Path(f).is_file():
             raise InputError(f"{f}: no such file to write the course text into")
+    if any(not f.endswith(".ipynb") for f in files or GENERATED):
+        read_times(times, must_exist=True)  # a missing or bad CSV is refused before any file is written
+    for f in files or GENERATED:
         changed = write_syllabus(f) if f.endswith(".ipynb") else write_times_block(f, notebooks, times)
         print(f"{f}: {'rewritten' if changed else 'up to date'}", file=sys.stderr)
+
+
+def _record(times: str, executed: list[str], jobs: int, beside: str | None) -> None:
+    from lab.course.times import read_times, record_times
+
+    full = read_times(beside, must_exist=True) if beside else {}
+    for chapter, mode, seconds in record_times(times, executed, jobs):
+        line = f"{chapter}: {mode} mode, {seconds:.1f} s -> {times}"
+        if beside:
+            was = full.get(chapter, {}).get(f"{mode}_s")
+            line += f" (the last full run's, {beside}: {f'{float(was):.1f} s' if was else 'not measured'})"
+        print(line, file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,9 +89,7 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 _write_generated(args.write, args.notebooks, args.times)
         else:
-            from lab.course.times import record_times
-
-            record_times(args.times, args.executed, args.jobs)
+            _record(args.times, args.executed, args.jobs, args.beside)
     except LabError as e:
         print(f"error: {e}", file=sys.stderr)
         return e.exit_code

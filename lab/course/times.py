@@ -7,11 +7,15 @@ of the chapter's whole papermill run, kernel start-up included -- what a student
 for *Run All* -- not papermill's own record of the cells (which leaves the start out and
 read 6 s for a chapter that took 24 s on a loaded machine).
 
-:func:`record_times` adds a run's chapters to the CSV (``scripts/reproduce``);
+:func:`record_times` adds a run's chapters to the CSV (``scripts/reproduce``: after a run of
+every chapter to ``figures/chapter_times.csv``, after a run of some to
+``build/chapter_times.partial.csv``, beside it), and never overwrites a file that is not such
+a CSV; :func:`read_times` checks every number and names the file, line and column of a bad one;
 :func:`times_markdown` renders the table with a sentence on the machine and load;
 :func:`write_times_block` replaces it between ``<!-- chapter-times -->`` and
 ``<!-- /chapter-times -->`` in the README and docs/course.md (``scripts/chapter-times
---write``; tests/test_student_path.py fails when they differ from the CSV).
+--write``; tests/test_student_path.py fails when they differ from the CSV), never replacing a
+measured time with a dash.
 """
 
 from __future__ import annotations
@@ -20,8 +24,10 @@ import csv
 import datetime
 import io
 import json
+import math
 import os
 import platform
+import re
 from pathlib import Path
 
 from lab.errors import InputError
@@ -48,47 +54,157 @@ def machine_name() -> str:
     return f"{n} CPUs, {model}" if model else f"{n} CPUs"
 
 
-def read_times(path: str | Path) -> dict[str, dict]:
-    """The CSV's rows by chapter (strings; a column an older file lacks is ""); {} when absent."""
+def _text(path: Path, what: str) -> str:
+    """The UTF-8 text of ``path``; an :class:`InputError` naming it when it is a folder or binary."""
+    if not path.is_file():
+        raise InputError(f"{path}: a folder, not {what}" if path.is_dir() else f"{path}: no such file ({what})")
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not {what} (not UTF-8 text: byte {e.start} is {e.object[e.start]:#04x})") from None
+
+
+def _number(path: Path, line: int, column: str, text: str) -> None:
+    """Check one cell of the CSV: seconds and loads are finite numbers >= 0, jobs a count >= 1."""
+    if not text:
+        return
+    try:
+        value = float(text)
+        ok = (
+            math.isfinite(value)
+            and value >= 0
+            and (not column.endswith("_jobs") or (value.is_integer() and value >= 1))
+        )
+    except ValueError:
+        ok = False
+    if not ok:
+        what = "a count of chapters >= 1" if column.endswith("_jobs") else "a finite number >= 0"
+        raise InputError(f"{path}, line {line}, column {column}: {text!r} is not {what}")
+
+
+def read_times(path: str | Path, must_exist: bool = False) -> dict[str, dict]:
+    """The CSV's rows by chapter (strings; a column an older file lacks is "").
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A chapter-times CSV (its header: ``chapter`` and some of :data:`COLUMNS`).
+    must_exist : bool
+        Whether a missing file is an error; else it reads as no rows.
+
+    Returns
+    -------
+    dict
+        Chapter name -> {column: text}, every column of :data:`COLUMNS`.
+
+    Raises
+    ------
+    InputError
+        A file that is not a chapter-times CSV (a note, a notebook, binary), naming the file,
+        and a cell that is not a number of seconds, naming its line and column.
+    """
     path = Path(path)
-    if not path.exists():
+    if not path.exists() and not must_exist:
         return {}
-    with path.open(newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    if rows and "chapter" not in rows[0]:
-        raise InputError(f"{path}: not a chapter-times file (no 'chapter' column)")
-    return {r["chapter"]: {c: r.get(c) or "" for c in COLUMNS} for r in rows}
+    what = "a chapter-times CSV"
+    lines = list(csv.reader(io.StringIO(_text(path, what), newline="")))
+    header = lines[0] if lines else []
+    unknown = [c for c in header if c not in COLUMNS]
+    if not header or header[0] != "chapter" or unknown:
+        first = ",".join(header)[:60]
+        raise InputError(
+            f"{path}: not {what}: its first line must be 'chapter' and columns of {','.join(COLUMNS[1:])}, "
+            f"got {first!r}" + (f" (unknown: {', '.join(unknown)})" if unknown and header[:1] == ["chapter"] else "")
+        )
+    rows = {}
+    for line, cells in enumerate(lines[1:], start=2):
+        if not cells:
+            continue
+        if len(cells) != len(header):
+            raise InputError(f"{path}, line {line}: {len(cells)} fields where its header has {len(header)}")
+        row = dict(zip(header, cells))
+        for column, text in row.items():
+            if column != "chapter" and not column.endswith(("_date", "_machine")):
+                _number(path, line, column, text)
+        if row["chapter"] in rows:
+            raise InputError(f"{path}, line {line}: chapter {row['chapter']} has a row already")
+        rows[row["chapter"]] = {c: row.get(c) or "" for c in COLUMNS}
+    return rows
 
 
-def record_times(path: str | Path, executed: list[str | Path], jobs: int) -> None:
+def _run_time(nb: Path) -> tuple[float, str]:
+    """The wall time (s) and load average of one chapter's run, from ``NAME.time`` beside it."""
+    path = Path(f"{nb}.time")
+    what = "a time record of scripts/reproduce ('START END [LOAD]': seconds since the epoch, load average)"
+    if not path.exists():
+        raise InputError(f"{nb}: no time of this run ({path} is missing)")
+    text = _text(path, what)
+    fields = text.replace(",", ".").split()  # (a comma locale's decimal mark)
+    try:
+        start, end, *load = (float(f) for f in fields)
+        ok = (
+            len(load) <= 1
+            and all(map(math.isfinite, (start, end, *load)))
+            and end >= start
+            and min(load, default=0) >= 0
+        )
+    except ValueError:
+        ok = False
+    if not ok:
+        raise InputError(f"{path}, line 1: not {what}: {' '.join(text.split())[:60]!r}")
+    return end - start, fields[2] if len(fields) > 2 else ""
+
+
+def record_times(path: str | Path, executed: list[str | Path], jobs: int) -> list[tuple[str, str, float]]:
     """Add the chapters of one ``scripts/reproduce`` run to the CSV at ``path``.
 
     ``executed``: papermill's output notebooks; beside each, ``NAME.time`` holds the run's
     start and end (seconds since the epoch) and the 1-minute load average at its end, as
-    ``scripts/reproduce`` wrote them. The mode is the notebook's ``quick`` parameter.
+    ``scripts/reproduce`` wrote them. The mode is the notebook's ``quick`` parameter. A file
+    at ``path`` that is not a chapter-times CSV is refused, never overwritten; the CSV is
+    replaced atomically.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The chapter-times CSV to update (made when missing).
+    executed : list of str or pathlib.Path
+        The executed notebooks.
+    jobs : int
+        How many chapters ran at a time (>= 1).
+
+    Returns
+    -------
+    list of tuple
+        Per chapter recorded: its name, its mode ("quick" or "full") and its wall time (s).
     """
+    if jobs < 1:
+        raise InputError(f"jobs must be >= 1 (chapters run at a time), got {jobs}")
     rows = read_times(path)
     machine, today = machine_name(), datetime.date.today().isoformat()
+    done = []
     for nb in map(Path, executed):
         try:
-            meta = json.loads(nb.read_text())["metadata"]["papermill"]
-            start, end, *load = Path(f"{nb}.time").read_text().replace(",", ".").split()
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            raise InputError(f"{nb}: no papermill record or time of this run ({type(e).__name__}: {e})") from None
+            meta = json.loads(_text(nb, "an executed notebook"))["metadata"]["papermill"]
+        except (ValueError, KeyError, TypeError) as e:
+            raise InputError(f"{nb}: no papermill record of this run ({type(e).__name__}: {e})") from None
+        seconds, load = _run_time(nb)
         mode = "quick" if str(meta.get("parameters", {}).get("quick", False)) in ("True", "true", "1") else "full"
         row = rows.setdefault(nb.name, dict.fromkeys(COLUMNS, "") | {"chapter": nb.name})
         row |= {
-            f"{mode}_s": f"{float(end) - float(start):.1f}",
+            f"{mode}_s": f"{seconds:.1f}",
             f"{mode}_date": today,
             f"{mode}_machine": machine,
-            f"{mode}_load": load[0] if load else "",
+            f"{mode}_load": load,
             f"{mode}_jobs": str(jobs),
         }
+        done.append((nb.name, mode, seconds))
     out = io.StringIO()
     w = csv.DictWriter(out, COLUMNS, lineterminator="\n")
     w.writeheader()
     w.writerows(rows[k] for k in sorted(rows))
     atomic_write_text(path, out.getvalue())
+    return done
 
 
 def _seconds(text: str) -> str:
@@ -130,7 +246,7 @@ def times_markdown(notebooks: str | Path, times: str | Path) -> str:
     notebooks : str or pathlib.Path
         The folder of the chapters (every ``NN_name.ipynb`` in it gets a row).
     times : str or pathlib.Path
-        The CSV of measured times (s).
+        The CSV of measured times (s); it must exist.
 
     Returns
     -------
@@ -139,7 +255,7 @@ def times_markdown(notebooks: str | Path, times: str | Path) -> str:
     """
     from lab.course.edition import CHAPTER_NAME
 
-    rows = read_times(times)
+    rows = read_times(times, must_exist=True)
     names = sorted(p.name for p in Path(notebooks).glob("[0-9][0-9]_*.ipynb") if CHAPTER_NAME.fullmatch(p.name))
     lines = ["| chapter | quick mode | full mode |", "|---|---|---|"]
     for name in names:
@@ -149,15 +265,33 @@ def times_markdown(notebooks: str | Path, times: str | Path) -> str:
     return "\n".join([*lines, "", *(f"- {_conditions(known, m)}" for m in MODES)]) + "\n"
 
 
+def _cells(block: str) -> dict[tuple[str, str], str]:
+    """The cells of a stored time table: (chapter, mode) -> its text ("–" where not measured)."""
+    out = {}
+    for row in re.finditer(r"^\| `([^`]+)` \| ([^|]*) \| ([^|]*) \|$", block, re.M):
+        out |= {(row[1], mode): cell.strip() for mode, cell in zip(MODES, (row[2], row[3]))}
+    return out
+
+
 def write_times_block(path: str | Path, notebooks: str | Path, times: str | Path) -> bool:
     """Replace the text between ``<!-- chapter-times -->`` and ``<!-- /chapter-times -->`` in
-    the Markdown file ``path`` by :func:`times_markdown`; True when it changed."""
+    the Markdown file ``path`` by :func:`times_markdown`; True when it changed. A measured time
+    in the file is never replaced by a dash: a CSV without it is refused (an InputError)."""
     path = Path(path)
-    text = path.read_text()
+    text = _text(path, "a Markdown file")
     if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
         raise InputError(f"{path}: needs one {BEGIN} ... {END} block for the chapter times")
     head, rest = text.split(BEGIN)
-    new = f"{head}{BEGIN}\n{times_markdown(notebooks, times)}{END}{rest.split(END, 1)[1]}"
+    table = times_markdown(notebooks, times)
+    new_cells = _cells(table)
+    old_cells = _cells(rest.split(END, 1)[0])
+    lost = [f"{c} ({m} mode, {t})" for (c, m), t in old_cells.items() if t != "–" and new_cells.get((c, m)) == "–"]
+    if lost:
+        raise InputError(
+            f"{path}: {times} has no time for {', '.join(lost)}; the table keeps its measured times "
+            "(record them with scripts/reproduce, or name the chapter-times file that has them)"
+        )
+    new = f"{head}{BEGIN}\n{table}{END}{rest.split(END, 1)[1]}"
     if new == text:
         return False
     atomic_write_text(path, new)
