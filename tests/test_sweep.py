@@ -29,6 +29,7 @@ from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
 from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_rig_none import RIG_NONE_CASES
+from sweep_units import UNITS_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
 TRAIN = ["train", "{dir}/data.csv", "--hidden", "3", "--epochs", "3"]
@@ -1051,6 +1052,7 @@ CASES = [
     *INSPECT_CASES,
     *HISTORY_CASES,
     *RIG_NONE_CASES,
+    *UNITS_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,

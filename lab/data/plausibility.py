@@ -55,12 +55,12 @@ PLAUSIBLE = {
 }
 _KINDS = {"m": "a position", "rad": "an angle", "N": "a tension", "Pa": "a pressure", "m^3": "a volume"}
 #: The units a value of each SI unit may have been written in: name -> factor to the SI unit,
-#: the smallest first (the unit a too large value most likely is in).
+#: the likeliest for a too large value first (a tip in mm rather than cm, a pressure in kPa).
 UNITS_OF = {
     "m": {"mm": 1e-3, "cm": 1e-2, "m": 1.0},
     "rad": {"deg": math.pi / 180, "rad": 1.0},
     "N": {"mN": 1e-3, "N": 1.0},
-    "Pa": {"Pa": 1.0, "kPa": 1e3, "bar": 1e5},
+    "Pa": {"kPa": 1e3, "Pa": 1.0, "bar": 1e5},
     "m^3": {"mL": 1e-6, "L": 1e-3, "m^3": 1.0},
 }
 
