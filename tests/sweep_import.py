@@ -18,18 +18,7 @@ BOTH = "a,b,x,y,z,run\n1,2,10,20,30,r1\n3,4,11,21,31,r1\n5,6,12,22,32,r2\n"
 IN = "ID,a,b\n0,1,2\n1,3,4\n2,5,6\n"
 OBS = "ID,x,y,z\n0,10,20,30\n1,11,21,31\n2,12,22,32\n"
 SINGLE = ["import-data", "{dir}/both.csv", "--u", "a,b", "--y", "x,y,z", "--y-unit", "mm"]
-PAIR = [
-    "import-data",
-    "{dir}/in.csv",
-    "--observations",
-    "{dir}/obs.csv",
-    "--u",
-    "a,b",
-    "--y",
-    "x,y,z",
-    "--y-unit",
-    "mm",
-]
+PAIR = ["import-data", "{dir}/in.csv", "--observations", "{dir}/obs.csv", *SINGLE[2:]]
 OUT = ["--out", "{dir}/o.csv"]
 NO_OUT = ("{dir}/o.csv", "{dir}/o.csv.json")
 _locks: dict = {}
