@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import subprocess
 from pathlib import Path
 
@@ -221,7 +222,10 @@ def remove_and_release(lock) -> None:
 def exclusive_lock(lock_file: str | Path, busy: str):
     """Hold ``lock_file`` while one writer works; a second is refused at once with
     ``InputError(busy)`` instead of waiting or colliding. The file is removed when done
-    (see :func:`remove_and_release`).
+    (see :func:`remove_and_release`) if this run created it; one that was there before (an
+    empty file: a killed run's lock) is left as it was. A file by that name that cannot be
+    a lock -- it holds data, or it is a link, a directory, a pipe -- is refused
+    (InputError) and never touched: it is someone's file, not a lock.
 
     Parameters
     ----------
@@ -239,6 +243,16 @@ def exclusive_lock(lock_file: str | Path, busy: str):
 
     from lab.errors import InputError
 
+    try:
+        st = os.lstat(lock_file)
+    except FileNotFoundError:
+        st = None
+    if st is not None and (not stat.S_ISREG(st.st_mode) or st.st_size > 0):
+        what = f"{st.st_size} bytes of data" if stat.S_ISREG(st.st_mode) else "not a plain file"
+        raise InputError(
+            f"{lock_file} exists and is not a lock file ({what}): a run takes that name as its lock and "
+            "would remove it; move the file away or write the output elsewhere"
+        )
     lock = FileLock(lock_file, timeout=0)
     try:
         lock.acquire()
@@ -247,7 +261,10 @@ def exclusive_lock(lock_file: str | Path, busy: str):
     try:
         yield
     finally:
-        remove_and_release(lock)
+        if st is None:
+            remove_and_release(lock)
+        else:
+            lock.release()
 
 
 def format_bytes(n: float) -> str:

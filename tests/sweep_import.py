@@ -17,8 +17,8 @@ from lab.data import read_dataset
 BOTH = "a,b,x,y,z,run\n1,2,10,20,30,r1\n3,4,11,21,31,r1\n5,6,12,22,32,r2\n"
 IN = "ID,a,b\n0,1,2\n1,3,4\n2,5,6\n"
 OBS = "ID,x,y,z\n0,10,20,30\n1,11,21,31\n2,12,22,32\n"
-SINGLE = ["import-data", "{dir}/both.csv", "--u", "a,b", "--y", "x,y,z"]
-PAIR = ["import-data", "{dir}/in.csv", "--observations", "{dir}/obs.csv", "--u", "a,b", "--y", "x,y,z"]
+SINGLE = ["import-data", "{dir}/both.csv", "--u", "a,b", "--y", "x,y,z", "--y-unit", "mm"]
+PAIR = ["import-data", "{dir}/in.csv", "--observations", "{dir}/obs.csv", *SINGLE[2:]]
 OUT = ["--out", "{dir}/o.csv"]
 NO_OUT = ("{dir}/o.csv", "{dir}/o.csv.json")
 _locks: dict = {}
@@ -71,7 +71,7 @@ def _grouped(u, y, meta):
 
 def _row_order(u, y, meta):
     assert meta["row_groups"][0]["join"] == "row" and "phantom-ID rule" in meta["notes"][0]
-    np.testing.assert_array_equal(y[:, 0], [10, 11, 12])
+    np.testing.assert_allclose(y[:, 0], [0.010, 0.011, 0.012])
 
 
 def _mm(u, y, meta):
@@ -92,8 +92,10 @@ IMPORT_CASES: list = [
     Case("import-pair-by-id-ok", [*PAIR, "--id", "ID", *OUT], 0, setup=files()),
     Case("import-shipped-dataset-round-trip",
          ["import-data", "{dir}/data.csv", "--u", "u0,u1,u2", "--y", "x,y,z", *OUT], 0, after=_round_trip),
-    Case("import-y-in-mm", [*SINGLE, "--y-unit", "mm", *OUT], 0, setup=files(), after=sidecar(_mm)),
-    Case("import-negative-and-large-values", [*SINGLE, *OUT], 0, setup=cell("both.csv", "1,2,10", "-1e300,-2,1e300")),
+    Case("import-y-in-mm", [*SINGLE, *OUT], 0, setup=files(), after=sidecar(_mm)),
+    Case("import-values-beyond-any-unit", [*SINGLE, *OUT], 2,
+         ("line 2, column 'a' (--u)", "-1e300 rad is not plausible", "check --u-unit"), absent=NO_OUT,
+         setup=cell("both.csv", "1,2,10", "-1e300,-2,1e300")),
     Case("import-missing-column", ["import-data", "{dir}/both.csv", "--u", "a,q", "--y", "x,y,z", *OUT], 2,
          ("both.csv", "no column 'q'", "its columns are: a, b, x, y, z, run"), ("{dir}/both.csv",), NO_OUT, files()),
     Case("import-u-column-twice", ["import-data", "{dir}/both.csv", "--u", "a,a", "--y", "x,y,z", *OUT], 2,

@@ -33,7 +33,7 @@ def write(d: Path, name: str, text: str) -> Path:
 
 
 def spec(**kw) -> ImportSpec:
-    return ImportSpec(**{"u": ("a", "b"), "y": ("x", "y", "z"), **kw})
+    return ImportSpec(**{"u": ("a", "b"), "y": ("x", "y", "z"), "y_unit": "mm", **kw})
 
 
 def test_row_join_two_pairs_each_a_sequence(tmp_path):
@@ -43,7 +43,7 @@ def test_row_join_two_pairs_each_a_sequence(tmp_path):
     o2 = write(tmp_path, "o2.csv", "z,y,x,extra\n32,22,12,q\n")
     m = read_measurements(spec(), [i1, i2], [o1, o2])
     np.testing.assert_array_equal(m.u, [[1, 2], [3, 4], [5, 6]])
-    np.testing.assert_array_equal(m.y_m, [[10, 20, 30], [11, 21, 31], [12, 22, 32]])
+    np.testing.assert_allclose(m.y_m * 1e3, [[10, 20, 30], [11, 21, 31], [12, 22, 32]])
     assert m.sequence_starts == [0, 2]
     assert [(g["start"], g["stop"], g["join"]) for g in m.row_groups] == [(0, 2, "row"), (2, 3, "row")]
     src = m.row_groups[1]["sources"]
@@ -56,7 +56,7 @@ def test_id_join_keeps_input_order_and_counts_unmatched(tmp_path):
     o = write(tmp_path, "o.csv", "x,y,z,ID\n13,23,33,3.0\n10,20,30,0\n19,29,39,9\n11,21,31, 1\n")
     m = read_measurements(spec(id="ID"), [i], [o])
     np.testing.assert_array_equal(m.u[:, 0], [1, 3, 7])  # input 2 has no observation
-    np.testing.assert_array_equal(m.y_m[:, 0], [10, 11, 13])  # matched on the ID's value, not its text
+    np.testing.assert_allclose(m.y_m[:, 0] * 1e3, [10, 11, 13])  # matched on the ID's value, not its text
     assert m.row_groups[0]["dropped"] == {"nan": 0, "non_numeric": 0, "unmatched_id": 2}  # input 2, obs 9
     assert m.row_groups[0]["join"] == "id" and m.row_groups[0]["sources"][0]["columns"][-1] == "ID"
 
@@ -71,9 +71,9 @@ def test_group_column_starts_sequences_within_and_across_files(tmp_path):
 
 @pytest.mark.parametrize("unit, factor", [("m", 1.0), ("cm", 0.01), ("mm", 0.001)])
 def test_positions_are_converted_to_metres(tmp_path, unit, factor):
-    f = write(tmp_path, "f.csv", "a,b,x,y,z\n0.5,-1,100,-250,3\n")
+    f = write(tmp_path, "f.csv", "a,b,x,y,z\n0.5,-1,1,-2.5,0.03\n")
     m = read_measurements(spec(y_unit=unit), [f])
-    np.testing.assert_allclose(m.y_m, [[100 * factor, -250 * factor, 3 * factor]], rtol=1e-15)
+    np.testing.assert_allclose(m.y_m, [[1 * factor, -2.5 * factor, 0.03 * factor]], rtol=1e-15)
     np.testing.assert_array_equal(m.u, [[0.5, -1]])  # inputs are never scaled
 
 
@@ -82,7 +82,7 @@ def test_phantom_id_rule(tmp_path):
     o = write(tmp_path, "o.csv", "ID,x,y,z\n10,20,30\n11,21,31\n")  # the header's ID has no values
     for kw in ({"id": "ID"}, {}):
         m = read_measurements(spec(**kw), [i], [o])
-        np.testing.assert_array_equal(m.y_m[:, 0], [10, 11])
+        np.testing.assert_allclose(m.y_m[:, 0] * 1e3, [10, 11])
         assert m.row_groups[0]["join"] == "row" and "phantom-ID rule" in " ".join(m.notes)
     alone = write(tmp_path, "alone.csv", "index,a,b,x,y,z\n1,2,3,4,5\n")
     np.testing.assert_array_equal(read_measurements(spec(), [alone]).u, [[1, 2]])

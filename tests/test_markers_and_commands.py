@@ -196,7 +196,7 @@ def test_import_converts_pressures_and_volumes_to_si(tmp_path, unit, factor, si)
     (tmp_path / "t.csv").write_text(TENSIONS)
     out = tmp_path / "o.csv"
     assert main(["import-data", str(tmp_path / "t.csv"), "--u", "T1,T2", "--u-unit", unit, "--y", "x,y,z",
-                 "--out", str(out)]) == 0  # fmt: skip
+                 "--y-unit", "mm", "--out", str(out)]) == 0  # fmt: skip
     u, _, meta = read_dataset(out)
     np.testing.assert_allclose(u, np.array([[1.5, 2.0], [0.0, 3.0]]) * factor)
     assert input_units(meta, 2) == (si, si) and meta["import"]["u_unit_read"] == unit

@@ -31,6 +31,7 @@ from sweep_pneumatic import PNEUMATIC_CASES
 from sweep_realtime import REALTIME_CASES
 from sweep_rig_none import RIG_NONE_CASES
 from sweep_times import TIMES_CASES
+from sweep_units import UNITS_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
 TRAIN = ["train", "{dir}/data.csv", "--hidden", "3", "--epochs", "3"]
@@ -1054,6 +1055,7 @@ CASES = [
     *HISTORY_CASES,
     *REALTIME_CASES,
     *RIG_NONE_CASES,
+    *UNITS_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,

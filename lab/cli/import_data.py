@@ -8,7 +8,10 @@
 
 Each FILE holds the ``--u`` and ``--y`` columns (the tip's x,y,z, then each marker's); with
 ``--observations`` FILE i holds the inputs and OBS i the positions, paired row by row or on
-``--id COL``. Every file or pair starts a measurement sequence (``--group COL``: also where COL changes). The flags are
+``--id COL``. Every file or pair starts a measurement sequence (``--group COL``: also where COL changes).
+Values implausible for their unit (a tip 100 m away: millimetres read as metres) are refused,
+naming the unit they look like; the summary names the units read (--u-unit's default, rad,
+included). The flags are
 :class:`lab.data.import_spec.ImportSpec`; :func:`lab.jobs.import_data.run` reads,
 joins, converts to metres and writes the dataset and its sidecar (provenance, licence,
 dropped rows, sequence starts). The rules: docs/import-data.md.
@@ -56,7 +59,7 @@ def run(args) -> int:
     inputs = {f"FILE {p}": p for p in args.files} | {f"--observations {p}": p for p in observations}
     if spec.robot is not None:
         inputs["--robot"] = existing(spec.robot)
-    check_paths(inputs, dataset_outputs("--out", args.out))
+    check_paths(inputs, {**dataset_outputs("--out", args.out), "--out lock": f"{args.out}.lock"})
     check_writable(args.out)
     with output_lock(args.out):
         result = job.run(
@@ -69,4 +72,14 @@ def run(args) -> int:
         f"imported {result.n_rows} rows in {result.n_sequences} sequence(s) from {result.n_groups} "
         f"{'pair' if observations else 'file'}(s) (rows dropped: {dropped}) -> {args.out}"
     )
+    print(f"units: inputs {_unit_words(spec, args)}; positions {spec.y_unit}, written in m")
     return 0
+
+
+def _unit_words(spec: ImportSpec, args) -> str:
+    """The inputs' unit as read, saying so when it is ``--u-unit``'s default (rad): data in
+    another unit would pass unnoticed while their values look like angles."""
+    given = any(a.startswith("--u-u") for a in args.argv)  # argparse takes any unambiguous prefix
+    if given:
+        return spec.u_unit
+    return f"{spec.u_unit} (the default of --u-unit; give --u-unit if they are tensions, pressures or another unit)"

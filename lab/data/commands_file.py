@@ -6,7 +6,8 @@ named ``u0..u{m-1}`` or after the robot's cables (``[[cables]] name``), in any c
 input given twice (two columns for one input, by either name) or missing, a NaN or
 non-numeric value, or a command the robot refuses (:meth:`RobotDescription.check_command`:
 out of an input's range, or against a safety rule) is an InputError naming the file, the
-line and the column. The file is read strictly (:func:`lab.data.csv_table.read_table`).
+line and the column -- and, for a column whose values all fit its input's range in another
+unit (degrees for radians, mN for N), that unit. The file is read strictly (:func:`lab.data.csv_table.read_table`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.data.csv_table import NAN, NON_NUMERIC, read_table
+from lab.data.plausibility import largest, unit_hint
 from lab.description import RobotDescription
 from lab.errors import InputError
 
@@ -98,5 +100,21 @@ def read_commands(path, robot: RobotDescription, what: str = "--commands") -> tu
         except InputError as err:
             out = [j for j in range(robot.n_inputs) if not robot.u_lower[j] <= u[r, j] <= robot.u_upper[j]]
             col = f", column {header[out[0]]!r}" if out else ""
-            raise InputError(f"{path}: line {line}{col}: {err}") from None
+            raise InputError(f"{path}: line {line}{col}: {err}{_unit_advice(u, robot, out)}") from None
     return u, {"path": str(path), "sha256": table.sha256, "columns": header, "n": len(u)}
+
+
+def _unit_advice(u: np.ndarray, robot: RobotDescription, out: list) -> str:
+    """Words for a column out of its input's range whose values all fit that range in another
+    unit (``deg`` read as ``rad``, ``mN`` as ``N``, ...): a commands file is in the robot's units."""
+    if not out:
+        return ""
+    j = out[0]
+    unit, low, high = robot.input_units[j], robot.u_lower[j], robot.u_upper[j]
+    fits = unit_hint(u[:, j], unit, unit, low, high)
+    if fits is None:
+        return ""
+    return (
+        f"; its values up to {largest(u[:, j]):g} look like {fits}, not {unit}: a commands file gives each "
+        f"input in its unit ({unit} for input u{j}); convert them"
+    )

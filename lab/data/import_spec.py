@@ -7,8 +7,9 @@ motor inputs (``--u``, in order: they become ``u0..u{m-1}``), which the measured
 (``--y``: the tip's x, y, z for a lab dataset; the library takes any number), the units
 (``--u-unit``: a unit of :data:`U_UNITS` -- ``rad``, ``N`` for tensions, ``Pa``, ``kPa``,
 ``bar`` for pressures, ``mL`` for volumes -- is converted to SI (rad, N, Pa, m^3) and its
-values checked for plausibility; any other text is kept in the sidecar as it is; ``--y-unit``
-m, mm or cm, converted to metres), the robot the data are from (``--robot``: then the unit
+values checked for plausibility (:mod:`lab.data.plausibility`, as are the positions); any
+other text is kept in the sidecar as it is (the default, ``rad``, is named in the command's
+summary); ``--y-unit`` m, mm or cm, converted to metres), the robot the data are from (``--robot``: then the unit
 must be of its inputs' kind, and the markers beyond the tip are its markers), the names of
 the markers whose x, y, z follow the tip's in ``--y`` (``--markers``), where measurement
 sequences restart (``--group``), how to pair input rows with
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 from lab.specs import Spec, option
 
-__all__ = ["ImportSpec", "Y_UNITS", "U_UNITS", "PLAUSIBLE", "column_names", "markers_of_columns"]
+__all__ = ["ImportSpec", "Y_UNITS", "U_UNITS", "column_names", "markers_of_columns"]
 
 #: Position units ``--y-unit`` accepts, with their factor to metres.
 Y_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
@@ -37,10 +38,6 @@ U_UNITS = {
     "bar": ("Pa", 1e5),
     "mL": ("m^3", 1e-6),
 }
-#: The plausible range of an input, per SI unit (after conversion): a tendon's tension (a little
-#: below zero for a load cell's offset, at most 10 kN), a gauge pressure (no lower than vacuum,
-#: at most 100 bar), a volume pumped in or out (at most 10 L). Angles are not checked (as before).
-PLAUSIBLE = {"N": (-1.0, 1e4), "Pa": (-101_325.0, 1e7), "m^3": (-1e-2, 1e-2)}
 #: What each SI input unit measures, for messages.
 KINDS = {"rad": "an angle", "N": "a tension", "Pa": "a pressure", "m^3": "a volume"}
 

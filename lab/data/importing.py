@@ -17,17 +17,23 @@ InputError naming the file, line and column; a NaN or non-numeric value is one u
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from decimal import MAX_EMAX, MIN_EMIN, Context
 from pathlib import Path
 
 import numpy as np
 
 from lab.data.csv_table import NON_NUMERIC, CsvTable, read_table
 from lab.data.dataset import write_dataset
-from lab.data.import_spec import KINDS, PLAUSIBLE, U_UNITS, ImportSpec, markers_of_columns
+from lab.data.import_spec import KINDS, U_UNITS, Y_UNITS, ImportSpec, markers_of_columns
+from lab.data.plausibility import check_columns
 from lab.errors import FieldError, InputError
 
 __all__ = ["Measurements", "ImportResult", "read_measurements", "import_dataset"]
+
+#: An ID that is a number written in ASCII decimal (compared by value, exactly).
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
 
 
 @dataclass(frozen=True)
@@ -99,12 +105,14 @@ class ImportResult:
 
 
 def _id_key(text: str) -> str:
-    """An ID compared by value: "7", "7.0" and " 7" are the same row; other text as is."""
-    try:
-        v = float(text)
-    except ValueError:
+    """An ID compared by its exact value: "7", "7.0", "7e0" and " 7" are the same row, and
+    "90071992547409930" and "...931" are not (a float would make them equal); other text as is."""
+    text = text.strip()
+    if not _DECIMAL.fullmatch(text):
         return text
-    return str(int(v)) if v.is_integer() else repr(v)
+    exact = Context(prec=len(text), Emax=MAX_EMAX, Emin=MIN_EMIN)  # as many digits as the text has: exact
+    value = exact.create_decimal(text)
+    return "0" if value.is_zero() else str(value.normalize(exact))
 
 
 def _ids(table: CsvTable, column: str) -> list[str]:
@@ -156,6 +164,8 @@ def _bad_cell(spec, tables, kinds, rows, r) -> str:
             if k:
                 text = table.rows[index[r]][table.index(name, flag)]
                 what = "not a number" if k == NON_NUMERIC else ("empty" if not text.strip() else "NaN or infinite")
+                if k == NON_NUMERIC and (not text.isascii() or "_" in text):
+                    what += " (a number in a CSV file is ASCII digits, without '_' separators)"
                 return (
                     f"{table.path}: line {table.lines[index[r]]}, column {name!r} ({flag}): {text!r} is {what}; "
                     "set ImportSpec.drop_bad_rows to drop such rows (they are counted in the sidecar)"
@@ -188,7 +198,10 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
     non_numeric = (kind == NON_NUMERIC).any(axis=1)
     dropped = {"nan": int((bad & ~non_numeric).sum()), "non_numeric": int(non_numeric.sum()), "unmatched_id": unmatched}
     keep = ~bad
-    u, y_m = _to_si(spec, inputs, rows_in[keep], u_all[rows_in[keep]]), y_all[rows_obs[keep]] * spec.y_scale
+    y_read = y_all[rows_obs[keep]]
+    u, y_m = _to_si(spec, inputs, rows_in[keep], u_all[rows_in[keep]]), y_read * spec.y_scale
+    units = ([spec.y_unit] * len(spec.y), ["m"] * len(spec.y))
+    check_columns(obs, rows_obs[keep], spec.y, "ImportSpec.y", (y_read, y_m), units, ("ImportSpec.y_unit", Y_UNITS))
     starts = [0] if len(u) else []
     if spec.group is not None:
         table, rows = (inputs, rows_in) if inputs.has(spec.group) or not obs.has(spec.group) else (obs, rows_obs)
@@ -207,27 +220,15 @@ def _group(spec: ImportSpec, path, obs_path, notes: list) -> tuple[np.ndarray, n
 
 
 def _to_si(spec: ImportSpec, table: CsvTable, rows: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """The inputs (N, m) converted to SI per :data:`U_UNITS` (free text: as read); InputError
-    naming the file, line and column of the first value implausible for its unit."""
+    """The inputs (N, m) converted to SI per :data:`U_UNITS` (free text: as read), each
+    checked for plausibility (:func:`lab.data.plausibility.check_columns`)."""
     units = spec.u_units
     if units is None:
         return u
+    u_si = u * np.array([U_UNITS[unit][1] for unit in units])
     si = [U_UNITS[unit][0] for unit in units]
-    u = u * np.array([U_UNITS[unit][1] for unit in units])
-    for j, unit in enumerate(si):
-        if unit not in PLAUSIBLE:
-            continue
-        low, high = PLAUSIBLE[unit]
-        out = np.flatnonzero((u[:, j] < low) | (u[:, j] > high))
-        if len(out):
-            r = int(rows[out[0]])
-            name = spec.u[j]
-            text = table.rows[r][table.index(name, "ImportSpec.u")].strip()
-            raise InputError(
-                f"{table.path}: line {table.lines[r]}, column {name!r} (ImportSpec.u): {text} {units[j]} is not "
-                f"plausible for {KINDS[unit]} (from {low:g} to {high:g} {unit}); check ImportSpec.u_unit"
-            )
-    return u
+    check_columns(table, rows, spec.u, "ImportSpec.u", (u, u_si), (units, si), ("ImportSpec.u_unit", U_UNITS))
+    return u_si
 
 
 def _robot_check(spec: ImportSpec, robot) -> None:
