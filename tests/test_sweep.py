@@ -28,6 +28,7 @@ from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
 from sweep_pneumatic import PNEUMATIC_CASES
+from sweep_progress import PROGRESS_CASES
 from sweep_rig_none import RIG_NONE_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
@@ -1054,6 +1055,7 @@ CASES = [
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,
+    *PROGRESS_CASES,
     # --- markers the IK drives (track --markers) -------------------------------------------
     Case(
         "track-markers-unknown",
