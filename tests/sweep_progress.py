@@ -85,8 +85,6 @@ PROGRESS_CASES = [
                                           "{dir}/r.json"], 0, ("estimate: about", "(first step"), KEEP),
     Case("progress-calibrate-no-progress", ["calibrate", "{dir}/data.csv", "--no-progress", "--noise-m", "-1",
                                             "--out", "{dir}/c.toml"], 2, ("--noise-m",), KEEP, ("{dir}/c.toml",)),
-    Case("progress-no-progress-takes-no-value", [*TRAIN[:-2], "--no-progress", "yes", "--out", "{dir}/m.npz"], 2,
-         ("unrecognized arguments: yes",), KEEP, ("{dir}/m.npz",), subprocess=True),
     Case("group-split-unequal-sequences-splits", ["splits", "{dir}/seq.csv", "--hidden", "3", "--epochs", "2",
                                                   "--n-splits", "5", "--jobs", "1", "--split", "group",
                                                   "--no-progress", "--out", "{dir}/s.csv"], 0,
