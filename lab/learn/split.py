@@ -5,7 +5,9 @@ for validation and test, the rest for training (:func:`divide_random`). A *group
 (:func:`divide_groups`, ``--split group``) holds out whole measurement sequences instead,
 so that no row measured just before or after a test row is trained on (rows of one
 sequence are strongly correlated; a random split then flatters the model): sequences are
-dealt out in seeded random order so that the row counts approach the ratios, and data of
+dealt out in seeded random order so that the row counts approach the ratios (a sequence
+longer than twice a held-out set's share stays in training), :func:`thin_training_note`
+warns of a training set under half its share (sequences too unequal to do better), and data of
 fewer than :data:`MIN_GROUPS` sequences are cut into :data:`N_BLOCKS` contiguous blocks in
 measurement order (:func:`split_groups`). :func:`check_enough_data` refuses data too small
 for a split -- one row, identical rows, fewer distinct commands than a fit needs -- with the
