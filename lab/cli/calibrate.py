@@ -20,6 +20,7 @@ import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, existing
+from lab.cli.progress import Progress, add_progress_flag
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.jobs import calibrate as job
 from lab.jobs.calibrate import CalibrationSpec, calibration_summary, discrepancy_line
@@ -45,6 +46,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     words = {"n_rings": "the description's", "n_axial": "the description's"}
     add_spec_flags(c, MeshSpec, help=MESH_HELP, default_words=words)
     add_spec_flags(c, CalibrationSpec)
+    add_progress_flag(c)
     c.set_defaults(func=run)
     return c
 
@@ -63,7 +65,8 @@ def run(args) -> int:
     if args.report:
         check_writable(args.report, "--report")
     robot = load_robot(args.robot)
-    result = job.run(spec, robot, args.real, log=lambda line: print(line, file=sys.stderr))
+    with Progress("iteration", enabled=not args.no_progress, at_most=True) as progress:
+        result = job.run(spec, robot, args.real, log=progress.write, progress=progress.update)
     command = "python -m lab " + shlex.join(args.argv)
     write_calibrated_robot(args.out, robot, result, source=str(args.real), command=command)
     text = json.dumps(calibration_summary(robot, result, args.real, args.out, command), indent=2, default=json_default)

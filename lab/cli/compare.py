@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, output_lock
+from lab.cli.progress import Progress, add_progress_flag
 from lab.jobs import compare as job
 from lab.studies.comparison_spec import CompareSpec
 from lab.workers import default_jobs
@@ -37,6 +37,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         "--jobs", type=int, default=default_jobs(), help="worker processes, one fit each (default: the cores)"
     )
     p.add_argument("--out", required=True, help="CSV, one row per fit; resumed if it exists")
+    add_progress_flag(p)
     p.set_defaults(func=run)
     return p
 
@@ -47,15 +48,12 @@ def run(args) -> int:
     check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json", "--out lock": f"{args.out}.lock"})
     check_writable(args.out)
     command = "python -m lab " + shlex.join(args.argv)
-    with output_lock(args.out):
-        side = job.run(spec, args.data, args.out, floor=args.floor, jobs=args.jobs, command=command, log=_err)
+    with output_lock(args.out), Progress("fit", enabled=not args.no_progress, parallel=args.jobs) as progress:
+        side = job.run(spec, args.data, args.out, floor=args.floor, jobs=args.jobs, command=command,
+                       log=progress.write, progress=progress.update)  # fmt: skip
     _print_summary(side)
     print(f"rows -> {args.out}")
     return 0
-
-
-def _err(line: str) -> None:
-    print(line, file=sys.stderr)
 
 
 def _mm(v) -> str:

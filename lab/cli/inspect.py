@@ -15,6 +15,7 @@ import shlex
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable, output_lock
+from lab.cli.progress import Progress, add_progress_flag
 from lab.data.diagnostics import InspectSpec
 from lab.errors import InputError
 from lab.jobs import inspect as job
@@ -30,6 +31,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     p.add_argument("data", help="dataset CSV (u0..,x,y,z), e.g. data/asl_trunk_oct2024.csv")
     add_spec_flags(p, InspectSpec)
     p.add_argument("--out", required=True, help="the report (.json)")
+    add_progress_flag(p)
     p.set_defaults(func=run)
     return p
 
@@ -42,8 +44,9 @@ def run(args) -> int:
         {"DATA": args.data, "DATA sidecar": f"{args.data}.json"}, {"--out": args.out, "--out lock": f"{args.out}.lock"}
     )
     check_writable(args.out)
-    with output_lock(args.out):
-        report = job.run(spec, args.data, args.out, command="python -m lab " + shlex.join(args.argv))
+    command = "python -m lab " + shlex.join(args.argv)
+    with output_lock(args.out), Progress("step", enabled=not args.no_progress, at_most=True) as progress:
+        report = job.run(spec, args.data, args.out, command=command, progress=progress.update)
     _print_summary(report)
     print(f"report -> {args.out}")
     return 0

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import sys
 
 from lab.cli.flags import add_spec_flags, refuse_unused, spec_from_args
 from lab.cli.paths import check_paths, check_writable
+from lab.cli.progress import Progress, add_progress_flag
 from lab.jobs import splits as job
 from lab.jobs.splits import SplitsSpec
 from lab.learn.train_spec import TrainSpec
@@ -55,6 +55,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     )
     e.add_argument("--init", help=argparse.SUPPRESS)  # once shared with train's flags: refused, never used
     e.add_argument("--out", required=True, help="CSV, one row per split (lab.learn.evaluate_model_splits keys)")
+    add_progress_flag(e)
     e.set_defaults(func=run)
     return e
 
@@ -75,16 +76,23 @@ def run(args) -> int:
     )
     refuse_unused(args, ["init"], "by splits: every split trains new weights (continue a network with train --init)")
     check_writable(args.out)
-    rows, size = job.run(
-        spec,
-        splits,
-        args.data,
-        forward=args.forward,
-        command="python -m lab " + shlex.join(args.argv),
-        log=lambda line: print(line, file=sys.stderr),
-    )
+    workers = min(spec.jobs, splits.n_splits)
+    with Progress("split", enabled=not args.no_progress, parallel=workers) as progress:
+        rows, size = job.run(
+            spec,
+            splits,
+            args.data,
+            forward=args.forward,
+            command="python -m lab " + shlex.join(args.argv),
+            log=progress.write,
+            progress=progress.update,
+        )
     write_csv(args.out, rows)
     _print_summary(rows, size, args.out)
+    if rows and rows[0].get("split_method") == "group":
+        n_rows = sum(int(rows[0][f"{k}_n"]) for k in ("train", "validation", "test"))
+        for note in job.split_warnings(rows, n_rows, spec.ratios):
+            print(f"warning: {note}")
     return 0
 
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 import json
 import shlex
-import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
 from lab.cli.paths import check_paths, check_writable
+from lab.cli.progress import Progress, add_progress_flag
 from lab.jobs import train as job
 from lab.learn.train_spec import TrainSpec
 
@@ -44,6 +44,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     )
     t.add_argument("--out", required=True, help="output model file (.npz)")
     t.add_argument("--report", help="also write the train/validation/test errors as JSON here")
+    add_progress_flag(t)
     t.set_defaults(func=run)
     return t
 
@@ -68,15 +69,17 @@ def run(args) -> int:
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
-    result = job.run(
-        spec,
-        args.data,
-        extra_data=args.extra_data,
-        init=args.init,
-        forward=args.forward,
-        command="python -m lab " + shlex.join(args.argv),
-        log=lambda line: print(line, file=sys.stderr),
-    )
+    with Progress("epoch", enabled=not args.no_progress, at_most=True) as progress:
+        result = job.run(
+            spec,
+            args.data,
+            extra_data=args.extra_data,
+            init=args.init,
+            forward=args.forward,
+            command="python -m lab " + shlex.join(args.argv),
+            log=progress.write,
+            progress=progress.update,
+        )
     result.model.save(args.out)
     if result.spec.model == "mlp":
         s = result.stop
@@ -88,6 +91,8 @@ def run(args) -> int:
         print(f"fitted {result.spec.model} in {result.wall_s:.2f} s")
     size = result.workspace_size_m
     _print_errors(result.errors, size)
+    if result.split_info.get("split_warning"):
+        print(f"warning: {result.split_info['split_warning']}")
     _print_calibration(result.calibration)
     print(f"workspace size (bounding-box diagonal of the tip data): {1e3 * size:.1f} mm; model -> {args.out}")
     if args.report:

@@ -171,8 +171,9 @@ def _floor_of(d2, dy2) -> float:
     return float(np.sqrt(max(a, 0.0) / 2.0)) if np.isfinite(a) else float("nan")
 
 
-def _estimate(d2, dy2, bootstrap: int, rng) -> dict:
-    """The floor (m) from these pairs, with a 95 % bootstrap interval over pairs."""
+def _estimate(d2, dy2, bootstrap: int, rng, tick=None) -> dict:
+    """The floor (m) from these pairs, with a 95 % bootstrap interval over pairs;
+    ``tick(1)`` after each resample."""
     n = len(d2)
     if n < MIN_PAIRS:
         return {"floor_m": None, "interval_m": None, "n_pairs": int(n), "reason": f"fewer than {MIN_PAIRS} pairs"}
@@ -180,7 +181,12 @@ def _estimate(d2, dy2, bootstrap: int, rng) -> dict:
     if not np.isfinite(floor):
         reason = "all pairs are at one command distance (a grid?): no line to extrapolate; try more --neighbours"
         return {"floor_m": None, "interval_m": None, "n_pairs": int(n), "reason": reason}
-    draws = [_floor_of(d2[s], dy2[s]) for s in (rng.integers(0, n, n) for _ in range(bootstrap))]
+    draws = []
+    for _ in range(bootstrap):
+        s = rng.integers(0, n, n)
+        draws.append(_floor_of(d2[s], dy2[s]))
+        if tick is not None:
+            tick(1)
     draws = np.asarray([v for v in draws if np.isfinite(v)])
     interval = [float(q) for q in np.quantile(draws, [0.025, 0.975])] if len(draws) else None
     return {"floor_m": floor, "interval_m": interval, "n_pairs": int(n)}
@@ -194,6 +200,7 @@ def repeatability_floor(
     neighbours: int = 5,
     bootstrap: int = 200,
     seed: int = 0,
+    tick=None,
 ) -> dict:
     """The repeatability floor of data ``u_motor`` (N, m), ``p_tip_W`` (N, 3) m, measured in
     sequences ``seq_ids`` (N,) int: the RMS 3-D distance ``sqrt(E|y_i - f(u_i)|^2)`` (m)
@@ -217,6 +224,9 @@ def repeatability_floor(
         Sequence number (N,) int of each row.
     neighbours, bootstrap, seed : int
         Nearest rows per row, bootstrap resamples, and the bootstrap's seed.
+    tick : callable, optional
+        ``tick(0)`` as the resampling starts, then ``tick(w)`` after each bootstrap resample,
+        w the share of the pairs resampled (up to 2 ``bootstrap`` in all); it only observes.
 
     Returns
     -------
@@ -230,7 +240,9 @@ def repeatability_floor(
     diff = y[pairs[:, 0]] - y[pairs[:, 1]]
     dy2, d2 = np.sum(diff**2, axis=1), dist**2
     same = seq[pairs[:, 0]] == seq[pairs[:, 1]]
-    out = _estimate(d2, dy2, bootstrap, rng)
+    if tick is not None:
+        tick(0)  # the loops start: the pairs are found
+    out = _estimate(d2, dy2, bootstrap, rng, tick)
     a, b = pair_fit(d2, dy2) if len(d2) >= MIN_PAIRS else (float("nan"), float("nan"))
     immediate = exact & same & (pairs[:, 1] - pairs[:, 0] == 1)
     out.update(
@@ -238,9 +250,9 @@ def repeatability_floor(
         "prediction f(u_i) = E[y | u_i]; estimated as sqrt(a / 2), a the intercept at command distance 0 of "
         "E|y_i - y_j|^2 = a + b d^2 over pairs of nearby rows",
         n_exact_pairs=int(exact.sum()),
-        revisits=_estimate(d2[exact], dy2[exact], bootstrap, rng),
-        same_sequence=_estimate(d2[same], dy2[same], bootstrap, rng),
-        cross_sequence=_estimate(d2[~same], dy2[~same], bootstrap, rng),
+        revisits=_estimate(d2[exact], dy2[exact], bootstrap, rng, tick and (lambda n: tick(n * exact.mean()))),
+        same_sequence=_estimate(d2[same], dy2[same], bootstrap, rng, tick and (lambda n: tick(n * same.mean()))),
+        cross_sequence=_estimate(d2[~same], dy2[~same], bootstrap, rng, tick and (lambda n: tick(n - n * same.mean()))),
         immediate_repeats={
             "n_pairs": int(immediate.sum()),
             "rms_m": float(np.sqrt(dy2[immediate].mean() / 2)) if immediate.any() else None,
@@ -306,6 +318,7 @@ def hysteresis(
     *,
     permutations: int = 200,
     seed: int = 0,
+    tick=None,
 ) -> dict:
     """How much the previous command explains the tip difference of near pairs.
 
@@ -332,6 +345,8 @@ def hysteresis(
         Near pairs (P, 2) of row indices (:func:`neighbour_pairs`).
     permutations, seed : int
         Permutations of the test, and their seed.
+    tick : callable, optional
+        ``tick(1)`` after each permutation; it only observes.
 
     Returns
     -------
@@ -358,6 +373,8 @@ def hysteresis(
     for _ in range(permutations):
         xp = np.hstack([x[:, :m], x[rng.permutation(len(x)), m:]])
         null.append(rss_u - _explained(xp, dy, press=False)[0])
+        if tick is not None:
+            tick(1)
     slope = coef[m:]  # (m, 3): tip (m) per unit of previous command
     gain = x[:, m:] @ slope
     return {

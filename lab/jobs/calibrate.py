@@ -127,7 +127,23 @@ def _check_misfit(robot, real, spec: CalibrationSpec, result) -> None:
     raise (InputError if result.rms_m > 2 * robot.length_m else LabRuntimeError)(text)
 
 
-def run(spec: CalibrationSpec, robot, real, *, log=None):
+def _iterations_told(log, progress, total: int):
+    """A log that also tells ``progress(done, total)`` the iterations of the fit: the
+    fitter writes "nominal: ..." before its first iteration and "iteration k: ..." after
+    each (:func:`lab.transfer.calibrate.calibrate`)."""
+    import re
+
+    def tell(line: str) -> None:
+        m = re.match(r"(?:nominal|iteration (\d+)):", line)
+        if m:
+            progress(int(m.group(1) or 0), total)
+        if log is not None:
+            log(line)
+
+    return tell
+
+
+def run(spec: CalibrationSpec, robot, real, *, log=None, progress=None):
     """Calibrate ``robot`` on the dataset file ``real``.
 
     Parameters
@@ -140,6 +156,9 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
         Real dataset CSV (``u0..,x,y,z``; metres) with its sidecar.
     log : callable, optional
         Called with each progress line.
+    progress : callable, optional
+        ``progress(done, total)``: Levenberg-Marquardt iterations done of at most ``total``
+        (``spec.max_iter``; the fit may converge sooner), 0 as the first starts.
 
     Returns
     -------
@@ -172,6 +191,8 @@ def run(spec: CalibrationSpec, robot, real, *, log=None):
             f"{real}, mesh {mesh_label(robot, n_rings, n_axial)}"
             + (f", eyelet shifts in {spec.axes}" if "eyelets" in groups else "")
         )
+    if progress is not None:
+        log = _iterations_told(log, progress, spec.max_iter)
     try:
         result = calibrate(robot, u, y, n_rings=n_rings, n_axial=n_axial, axes=spec.axes, noise_m=spec.noise_m,
                            max_iter=spec.max_iter, log=log, groups=groups, markers=markers)  # fmt: skip

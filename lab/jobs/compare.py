@@ -16,7 +16,8 @@ from lab.studies.comparison_spec import CompareSpec
 __all__ = ["run"]
 
 
-def run(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None) -> dict:
+def run(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None,
+        progress=None) -> dict:  # fmt: skip
     """Compare ``spec``'s models on the dataset ``data``, rows to ``out``.
 
     Parameters
@@ -35,6 +36,8 @@ def run(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str
         The command line, recorded in the sidecar.
     log : callable, optional
         Called with each progress line.
+    progress : callable, optional
+        ``progress(done, total)``: fits done of this run's ``total`` (0 as the first starts).
 
     Returns
     -------
@@ -44,4 +47,4 @@ def run(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str
     """
     from lab.studies.model_comparison import run_comparison
 
-    return run_comparison(spec, data, out, floor=floor, jobs=jobs, command=command, log=log)
+    return run_comparison(spec, data, out, floor=floor, jobs=jobs, command=command, log=log, progress=progress)

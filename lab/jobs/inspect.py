@@ -15,7 +15,7 @@ from lab.data.diagnostics import InspectSpec
 __all__ = ["run"]
 
 
-def run(spec: InspectSpec, data, out, *, command: str | None = None) -> dict:
+def run(spec: InspectSpec, data, out, *, command: str | None = None, progress=None) -> dict:
     """Inspect the dataset ``data`` and write the report to ``out``.
 
     Parameters
@@ -28,6 +28,9 @@ def run(spec: InspectSpec, data, out, *, command: str | None = None) -> dict:
         The report (.json).
     command : str, optional
         The command line, recorded in the report.
+    progress : callable, optional
+        ``progress(done, total)``: steps of the bootstrap and permutation loops done
+        (:data:`lab.data.diagnostics.PERMUTATION_STEPS`), 0 as the first starts.
 
     Returns
     -------
@@ -36,4 +39,4 @@ def run(spec: InspectSpec, data, out, *, command: str | None = None) -> dict:
     """
     from lab.data.diagnostics import inspect_file
 
-    return inspect_file(data, out, spec, command=command)
+    return inspect_file(data, out, spec, command=command, progress=progress)

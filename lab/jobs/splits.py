@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from lab.learn.train_spec import TrainSpec
 from lab.specs import Spec, option, positive_int
 
-__all__ = ["SplitsSpec", "run"]
+__all__ = ["SplitsSpec", "run", "split_warnings"]
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,7 @@ class SplitsSpec(Spec):
     n_splits: int = option(10, type=int, check=positive_int, help="number of random splits")
 
 
-def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None):
+def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str = "", log=None, progress=None):
     """The ten-split study of ``spec``'s model on the dataset file ``data``.
 
     Parameters
@@ -50,6 +50,9 @@ def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str
         The command line, recorded in every row.
     log : callable, optional
         Called with each progress line.
+    progress : callable, optional
+        ``progress(done, n_splits)``: called with 0 as the first split starts, then as
+        splits finish (in split order).
 
     Returns
     -------
@@ -79,9 +82,38 @@ def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str
             f"{data}: {len(u)} samples; {splits.n_splits} {spec.split} splits {list(spec.ratios)} of a "
             f"{what.get(spec.model, spec.model)}{past}, seed {spec.seed}, {spec.jobs} worker(s)"
         )
+    if progress is not None:
+        progress(0, splits.n_splits)
     rows = evaluate_model_splits(x, y, spec.replace(jobs=1).model_spec(), n_splits=splits.n_splits,
                                  ratios=tuple(spec.ratios), seed=spec.seed, n_jobs=spec.jobs, forward=forward_net,
-                                 groups=groups)  # fmt: skip
+                                 groups=groups, on_split=progress)  # fmt: skip
     for r in rows:
         r.update(split_info, command=command)
+    if groups is not None and log is not None:  # whole sequences of unequal length may leave training a sliver
+        for note in split_warnings(rows, len(u), spec.ratios):
+            log(f"warning: {note}")
     return rows, workspace_size_m(y)
+
+
+def split_warnings(rows: list[dict], n_rows: int, ratios) -> list[str]:
+    """One warning per split of ``rows`` whose training set is a sliver of the ``n_rows``
+    (:func:`lab.learn.split.thin_training_note`, each naming its split).
+
+    Parameters
+    ----------
+    rows : list of dict
+        The study's rows (``split``, ``train_n``).
+    n_rows : int
+        Rows of the dataset.
+    ratios : sequence of float
+        (train, validation, test).
+
+    Returns
+    -------
+    list of str
+        The warnings, in split order; empty when every split trains on enough rows.
+    """
+    from lab.learn.split import thin_training_note
+
+    notes = [(r["split"], thin_training_note(int(r["train_n"]), n_rows, ratios)) for r in rows]
+    return [f"split {i}: {note}" for i, note in notes if note]

@@ -28,8 +28,8 @@ from lab.learn.metrics import workspace_size_m
 from lab.learn.models import fit_model, held_out_errors, load_model, net_options, outer_split
 from lab.learn.outputs import dataset_io
 from lab.learn.run_inputs import forward_model, inputs_and_groups, read_all, record_trained
-from lab.learn.split import check_enough_data
-from lab.learn.train import data_sha256, train
+from lab.learn.split import check_enough_data, thin_training_note
+from lab.learn.train import EpochProgress, data_sha256, max_epochs, train
 from lab.learn.train_spec import TrainSpec
 
 __all__ = ["TrainSpec", "TrainRun", "run", "network_words"]
@@ -185,7 +185,8 @@ def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
     return model, errors, cal, wall_s, split.train
 
 
-def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, command: str = "", log=None) -> TrainRun:
+def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, command: str = "", log=None,
+        progress=None) -> TrainRun:  # fmt: skip
     """Fit ``spec``'s model on a dataset file.
 
     Parameters
@@ -205,6 +206,9 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
         The command line, recorded in the model's metadata.
     log : callable, optional
         Called with each progress line.
+    progress : callable, optional
+        ``progress(done, total)``: ``done`` of at most ``total`` epochs trained, called once
+        per epoch (from 0) of a network (``model="mlp"``); other models do not call it.
 
     Returns
     -------
@@ -237,14 +241,28 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
     cal = None
     if spec.model == "mlp":
         options = net_options(spec.algorithm, spec.min_grad)
+        on_epoch: EpochProgress | None = None
+        if progress is not None:
+            total = max_epochs(spec.algorithm, spec.epochs, options)
+
+            def tell(epoch: int, row: tuple) -> None:
+                progress(epoch, total)
+
+            on_epoch = tell
+
         res = train(x, y, spec.hidden, activation=spec.activation, algorithm=spec.algorithm, ratios=spec.ratios,
-                    seed=spec.seed, epochs=spec.epochs, options=options, init=init_model, groups=groups)  # fmt: skip
+                    seed=spec.seed, epochs=spec.epochs, options=options, init=init_model, groups=groups,
+                    progress=on_epoch)  # fmt: skip
         model, errors, wall_s, train_idx = res.model, res.errors, res.log.wall_s, res.split.train
         stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
     else:
         model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_net, groups)
         stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
     record_trained(model, spec, u, train_idx, meta, io)
+    if groups is not None:  # whole sequences of unequal length may leave training a sliver
+        split_info["split_warning"] = thin_training_note(len(train_idx), len(u), spec.ratios)
+        if split_info["split_warning"] and log is not None:
+            log(f"warning: {split_info['split_warning']}")
     file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
     training = model.metadata["training"]
     training.setdefault("data_sha256", data_sha256(u, y))

@@ -26,6 +26,7 @@ from lab.errors import InputError
 __all__ = [
     "MAX_HISTORY",
     "at_rest",
+    "check_history_fits",
     "data_bounds",
     "history_features",
     "history_of",
@@ -78,6 +79,33 @@ def history_features(u, seq_ids, k: int) -> np.ndarray:
         new = np.r_[True, ids[1:] != ids[:-1]]
         start = np.maximum.accumulate(np.where(new, rows, 0))
     return np.hstack([u[np.maximum(rows - j, start)] for j in range(k + 1)])
+
+
+def check_history_fits(spec, k: int, seq_ids, data) -> None:
+    """Refuse a history K that is not below the longest measurement sequence of the data
+    (every row's past would then reach back past its sequence's first row): the one rule
+    ``train``, ``splits`` and ``compare`` share, as a :meth:`lab.specs.Spec.field_error`
+    of ``spec``'s ``history`` field.
+
+    Parameters
+    ----------
+    spec : lab.specs.Spec
+        The spec whose ``history`` field holds K (a TrainSpec, a CompareSpec).
+    k : int
+        The history K asked for (the largest one, for several).
+    seq_ids : array_like, shape (N,)
+        The sequence of each row (:func:`lab.data.sequences.sequence_ids`).
+    data : str or Path
+        The dataset, named in the message.
+    """
+    ids = np.asarray(seq_ids)
+    runs = np.diff(np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])) if len(ids) else np.zeros(1, int)
+    if k and k >= runs.max():
+        raise spec.field_error(
+            f"{spec.name_of('history')} {k}: the longest measurement sequence of {data} has {runs.max()} rows "
+            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it",
+            "history",
+        )
 
 
 def record_history(model, k: int, n_motors: int) -> None:

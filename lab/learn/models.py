@@ -223,6 +223,7 @@ def evaluate_model_splits(
     n_jobs: int = 1,
     forward=None,
     groups=None,
+    on_split=None,
 ) -> list[dict]:
     """The ten-split study for any model: fit on the training part of each of ``n_splits``
     random splits and report errors.
@@ -248,6 +249,8 @@ def evaluate_model_splits(
     groups : array_like, shape (N,), optional
         Split whole groups (measurement sequences) instead of rows
         (:func:`lab.learn.split.divide_groups`).
+    on_split : callable, optional
+        ``on_split(done, n_splits)`` as splits finish, in split order.
 
     Returns
     -------
@@ -263,7 +266,7 @@ def evaluate_model_splits(
         before it); the inverse adds ``{set}_mean_command_error_rad``.
     """
     from lab.learn.split import check_enough_data
-    from lab.learn.studies import evaluate_splits, run_seeds
+    from lab.learn.studies import evaluate_splits, run_jobs, run_seeds
 
     _check_spec(spec)
     name = spec.kind
@@ -278,23 +281,12 @@ def evaluate_model_splits(
         }
         if groups is not None:
             kwargs["groups"] = groups
-        rows = evaluate_splits(u, y, n_splits=n_splits, ratios=ratios, seed=seed, n_jobs=n_jobs, **kwargs)
+        rows = evaluate_splits(u, y, n_splits=n_splits, ratios=ratios, seed=seed, n_jobs=n_jobs, on_split=on_split,
+                               **kwargs)  # fmt: skip
         return [{"model": name, **r} for r in rows]
     check_enough_data(u, ratios)
     jobs = [(u, y, spec, tuple(ratios), s, forward, groups) for s in run_seeds(seed, n_splits)]
-    if n_jobs == 1:
-        rows = [_one_split(*job) for job in jobs]
-    else:
-        from joblib import Parallel, delayed
-
-        from lab.workers import kill_local_workers, worker_config
-
-        try:
-            with worker_config():
-                rows = Parallel(n_jobs=n_jobs)(delayed(_one_split)(*job) for job in jobs)
-        except BaseException:  # Ctrl-C, SIGTERM: stop the workers
-            kill_local_workers()
-            raise
+    rows = run_jobs(_one_split, jobs, n_jobs, on_split)
     for i, row in enumerate(rows):
         row["split"] = i
     return rows

@@ -24,7 +24,7 @@ import numpy as np
 from lab.data.dataset import read_dataset
 from lab.data.sequences import sequence_ids
 from lab.errors import InputError
-from lab.learn.history import history_features, record_data_bounds, record_history
+from lab.learn.history import check_history_fits, history_features, record_data_bounds, record_history
 from lab.learn.models import load_model
 from lab.learn.outputs import record_io
 from lab.learn.split import split_groups
@@ -85,14 +85,8 @@ def inputs_and_groups(spec, u, ids, data, log) -> tuple[np.ndarray, np.ndarray |
     """The model's inputs (N, m (K+1)), the groups of a group split (None for a random
     one) and the report's keys about them (``history``, ``split_method``,
     ``split_groups``, ``n_groups``). InputError for K not below the longest sequence."""
+    check_history_fits(spec, spec.history, ids, data)
     runs = np.diff(np.flatnonzero(np.r_[True, ids[1:] != ids[:-1], True])) if len(ids) else np.zeros(1, int)
-    if spec.history and spec.history >= runs.max():
-        raise spec.field_error(
-            f"{spec.name_of('history')} {spec.history}: the longest measurement sequence of {data} has "
-            f"{runs.max()} rows "
-            f"({len(runs)} sequence(s), sidecar key sequence_starts); K must be below it",
-            "history",
-        )
     x = history_features(u, ids, spec.history) if spec.history else u
     info = {"history": spec.history, "split_method": spec.split, "split_groups": None, "n_groups": None}
     if spec.split != "group":

@@ -5,7 +5,9 @@ for validation and test, the rest for training (:func:`divide_random`). A *group
 (:func:`divide_groups`, ``--split group``) holds out whole measurement sequences instead,
 so that no row measured just before or after a test row is trained on (rows of one
 sequence are strongly correlated; a random split then flatters the model): sequences are
-dealt out in seeded random order so that the row counts approach the ratios, and data of
+dealt out in seeded random order so that the row counts approach the ratios (a sequence
+longer than twice a held-out set's share stays in training), :func:`thin_training_note`
+warns of a training set under half its share (sequences too unequal to do better), and data of
 fewer than :data:`MIN_GROUPS` sequences are cut into :data:`N_BLOCKS` contiguous blocks in
 measurement order (:func:`split_groups`). :func:`check_enough_data` refuses data too small
 for a split -- one row, identical rows, fewer distinct commands than a fit needs -- with the
@@ -25,6 +27,8 @@ from lab.errors import InputError
 SPLIT_KINDS = ("random", "group")
 #: A group split of data with fewer sequences than this cuts them into N_BLOCKS blocks.
 MIN_GROUPS, N_BLOCKS = 3, 10
+#: A split whose training set holds fewer than this share of the rows its ratios give is warned about.
+MIN_TRAIN_SHARE = 0.5
 
 
 @dataclass
@@ -88,9 +92,11 @@ def divide_groups(groups, ratios=(0.8, 0.1, 0.1), seed: int | np.random.Generato
     one group, e.g. one measurement sequence) whole on one side.
 
     Groups are taken in a seeded random order; the test set, then the validation set, takes
-    each group that brings its row count closer to ``round(ratio * N)`` (its first group
-    always, when its ratio is > 0), keeping back one group for each set still to fill;
-    training gets the rest. InputError for fewer groups than the sets asked for."""
+    each group that brings its row count closer to ``round(ratio * N)``, keeping back one
+    group for each set still to fill; a set whose ratio is > 0 and that no group brought
+    closer takes the smallest group left (so one long sequence of unequal ones stays in
+    training rather than leaving it a sliver); training gets the rest. InputError for fewer
+    groups than the sets asked for."""
     divide_random(1, ratios)  # checks the ratios
     g = np.asarray(groups)
     n = len(g)
@@ -112,13 +118,46 @@ def divide_groups(groups, ratios=(0.8, 0.1, 0.1), seed: int | np.random.Generato
             keep_back = len(asked) - pos  # train and the sets after this one need a group each
             if len(left) <= keep_back:
                 break
-            if not sets[s] or abs(count + size - target) < abs(count - target):
+            if abs(count + size - target) < abs(count - target):
                 sets[s].append(i)
                 left.remove(i)
                 count += size
+        if not sets[s]:  # every group overshoots: the smallest, the first of equals in the random order
+            smallest = min(left, key=lambda i: bounds[i][1] - bounds[i][0])
+            sets[s].append(smallest)
+            left.remove(smallest)
     sets[0] = left
     idx = [np.sort(np.concatenate([np.arange(*bounds[i]) for i in sets[s]] or [np.zeros(0, int)])) for s in range(3)]
     return Split(*(a.astype(int) for a in idx))
+
+
+def thin_training_note(n_train: int, n_rows: int, ratios) -> str | None:
+    """A warning when a split's training set holds fewer than :data:`MIN_TRAIN_SHARE` of
+    the rows the ratios give it (whole sequences of unequal length can leave training a
+    sliver); None when it holds enough.
+
+    Parameters
+    ----------
+    n_train : int
+        Rows in the training set.
+    n_rows : int
+        Rows split.
+    ratios : sequence of float
+        (train, validation, test).
+
+    Returns
+    -------
+    str or None
+        The warning, naming both counts.
+    """
+    expected = _sizes(n_rows, ratios)[0]
+    if n_train >= MIN_TRAIN_SHARE * expected:
+        return None
+    return (
+        f"the group split trains on {n_train} of {n_rows} rows, under {100 * MIN_TRAIN_SHARE:.0f} % of the "
+        f"{expected} its ratios {tuple(float(r) for r in ratios)} give: the sequences are too unequal to hold out "
+        "whole ones near the ratios; the errors are those of a model fitted on a sliver"
+    )
 
 
 def _sizes(n: int, ratios) -> tuple[int, int, int]:

@@ -63,24 +63,58 @@ def _one_run(u, y, hidden, ratios, seed, train_kwargs) -> dict:
     return row
 
 
-def _run_all(jobs, n_jobs: int) -> list[dict]:
+def run_jobs(function, jobs: list, n_jobs: int, progress=None) -> list:
+    """``function(*job)`` for every job, in order, here (``n_jobs`` 1) or on ``n_jobs``
+    joblib workers (one BLAS thread each); the workers are stopped on Ctrl-C or SIGTERM.
+
+    Parameters
+    ----------
+    function : callable
+        Runs one job; a module-level function (workers import it).
+    jobs : list of tuple
+        The arguments of each call.
+    n_jobs : int
+        Worker processes.
+    progress : callable, optional
+        ``progress(done, total)`` after each finished job (results come back in order, so a
+        job done before an earlier one is told when the earlier one is).
+
+    Returns
+    -------
+    list
+        The results, in the order of ``jobs``.
+    """
+    tell = progress or (lambda done, total: None)
     if n_jobs == 1:
-        return [_one_run(*job) for job in jobs]
+        out = []
+        for job in jobs:
+            out.append(function(*job))
+            tell(len(out), len(jobs))
+        return out
     from joblib import Parallel, delayed
 
     from lab.workers import worker_config
 
     try:
         with worker_config():
-            return Parallel(n_jobs=n_jobs)(delayed(_one_run)(*job) for job in jobs)
+            out = []
+            for row in Parallel(n_jobs=n_jobs, return_as="generator")(delayed(function)(*job) for job in jobs):
+                out.append(row)
+                tell(len(out), len(jobs))
+            return out
     except BaseException:  # Ctrl-C, SIGTERM (lab.cli): stop the workers, do not leave them training
         kill_local_workers()
         raise
 
 
+def _run_all(jobs, n_jobs: int, progress=None) -> list[dict]:
+    return run_jobs(_one_run, jobs, n_jobs, progress)
+
+
 def evaluate_splits(
-    u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0.0, 0.1), seed: int = 0, n_jobs: int = 1, **train_kwargs
-) -> list[dict]:
+    u, y, hidden=(20, 20), *, n_splits: int = 10, ratios=(0.9, 0.0, 0.1), seed: int = 0, n_jobs: int = 1,
+    on_split=None, **train_kwargs
+) -> list[dict]:  # fmt: skip
     """Train ``hidden`` on ``n_splits`` random splits; one row per split with its errors.
 
     Row keys: hidden, n_params, seed, epochs, best_epoch, stop_reason, wall_s and, for each
@@ -103,6 +137,8 @@ def evaluate_splits(
         The study's seed (:func:`run_seeds`).
     n_jobs : int
         Worker processes.
+    on_split : callable, optional
+        ``on_split(done, n_splits)`` as splits finish (:func:`run_jobs`).
     **train_kwargs
         Passed to :func:`lab.learn.train.train`.
 
@@ -113,7 +149,7 @@ def evaluate_splits(
     """
     check_enough_data(u, ratios)  # before any worker starts
     jobs = [(u, y, tuple(hidden), ratios, s, train_kwargs) for s in run_seeds(seed, n_splits)]
-    rows = _run_all(jobs, n_jobs)
+    rows = _run_all(jobs, n_jobs, on_split)
     for i, row in enumerate(rows):
         row["split"] = i
     return rows

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 
@@ -29,6 +30,46 @@ ALGORITHMS = ("lm", "adam", "lbfgs", "br")
 
 #: algorithm -> the type of its options
 ALGORITHM_OPTIONS = {"lm": LMOptions, "adam": AdamOptions, "lbfgs": LBFGSOptions, "br": BROptions}
+
+
+class EpochProgress(Protocol):
+    """What every trainer (:func:`train`, and the LM, BR, Adam and L-BFGS loops it runs)
+    calls once per epoch: epoch 0 with the initial network, then after each epoch, the last
+    call with the epoch it stopped at. The call only observes: the weights and their
+    history are the same with or without one."""
+
+    def __call__(self, epoch: int, row: tuple) -> None:
+        """Told that ``epoch`` is done.
+
+        Parameters
+        ----------
+        epoch : int
+            Epochs done, 0 .. the maximum.
+        row : tuple
+            The trainer's history row of this epoch (its ``TrainLog.history`` columns).
+        """
+
+
+def max_epochs(algorithm: str, epochs: int | None = None, options=None) -> int:
+    """The most epochs :func:`train` runs with these settings (it may stop earlier).
+
+    Parameters
+    ----------
+    algorithm : str
+        One of ``ALGORITHMS``.
+    epochs : int, optional
+        :func:`train`'s ``epochs`` (overrides the options').
+    options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
+        The algorithm's options (None: its defaults).
+
+    Returns
+    -------
+    int
+        The epoch limit.
+    """
+    if epochs is not None:
+        return int(epochs)
+    return int((options if options is not None else ALGORITHM_OPTIONS[algorithm]()).epochs)
 
 
 def check_options(algorithm: str, options) -> None:
@@ -113,7 +154,7 @@ def train(
     seed: int = 0,
     epochs: int | None = None,
     options=None,
-    progress=None,
+    progress: EpochProgress | None = None,
     init=None,
     groups=None,
 ) -> TrainResult:
@@ -146,8 +187,8 @@ def train(
     options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
         The algorithm's options (``ALGORITHM_OPTIONS``); None: its defaults. Another
         type is an InputError.
-    progress : callable, optional
-        ``progress(epoch, history_row)``, called once per epoch.
+    progress : EpochProgress, optional
+        ``progress(epoch, history_row)``, called once per epoch (:class:`EpochProgress`).
     init : MLP, optional
         A network of the same input and output sizes to continue from instead of
         Nguyen-Widrow weights (a copy is trained; the split is drawn as without it).

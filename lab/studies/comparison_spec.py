@@ -207,7 +207,9 @@ def json_ready(obj):
 
 def floor_of(path, data, sha: str) -> dict:
     """{"floor_m", "report", "interval_m"} of the ``inspect`` report ``path``; InputError
-    unless it was made from the dataset ``data`` (a resolved Path) whose CSV hashes to ``sha``."""
+    unless it was made from the dataset ``data`` whose CSV hashes to ``sha``. The data are
+    told by their content alone: a report of the same bytes made from another folder is
+    accepted, a report of a file since changed (or one that records no hash) is not."""
     try:
         report = json.loads(Path(path).read_text())
         ds, floor_m = report["dataset"], report["floor"]["floor_m"]
@@ -215,11 +217,16 @@ def floor_of(path, data, sha: str) -> dict:
         raise InputError(f"floor report {path}: not a readable inspect report ({err})") from None
     if not isinstance(report, dict) or report.get("kind") != "lab.inspect" or not isinstance(ds, dict):
         raise InputError(f"floor report {path}: not an inspect report (kind {report.get('kind')!r})")
-    same = ds.get("csv_sha256") == sha if ds.get("csv_sha256") else Path(str(ds.get("path"))).resolve() == data
-    if not same:
+    if not ds.get("csv_sha256"):
+        raise InputError(
+            f"floor report {path}: the report records no hash of the data it was made from ({ds.get('path')}), so "
+            f"it cannot be told to be of {data}; make its report again with `python -m lab inspect`"
+        )
+    if ds.get("csv_sha256") != sha:
         raise InputError(
             f"floor report {path}: the report was made from {ds.get('path')} (csv sha256 {ds.get('csv_sha256')}), "
-            f"another dataset than {data}; make its report with `python -m lab inspect`"
+            f"another dataset than {data} (csv sha256 {sha}), or the file changed since; make its report with "
+            "`python -m lab inspect`"
         )
     if not isinstance(floor_m, (int, float)) or not np.isfinite(floor_m) or floor_m <= 0:
         raise InputError(f"floor report {path}: the report has no floor (floor_m {floor_m!r})")

@@ -195,7 +195,8 @@ def _write(out: Path, rows: list[dict], meta: dict, n_full: int, floor_m) -> Non
     atomic_write_group({Path(f"{out}.json"): side, out: "\n".join(text) + "\n"})
 
 
-def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None) -> dict:
+def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, command: str = "", log=None,
+                   progress=None) -> dict:  # fmt: skip
     """Fit the rows of ``spec`` on the dataset ``data`` that the CSV ``out`` lacks, rewriting
     ``out`` and ``out.json`` after each row. InputError for bad data, flags or files.
 
@@ -215,6 +216,9 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
         The command line recorded in the sidecar.
     log : callable, optional
         ``log(line)`` is told the plan and each row.
+    progress : callable, optional
+        ``progress(done, total)``: 0 as the first fit starts, then after each row of the
+        ``total`` fits this run makes.
 
     Returns
     -------
@@ -225,6 +229,7 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
     from lab.data.dataset import read_dataset
     from lab.data.sequences import sequence_ids
     from lab.files import code_version
+    from lab.learn.history import check_history_fits
     from lab.learn.split import check_enough_data
     from lab.learn.studies import run_seeds
 
@@ -236,6 +241,7 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
     seq = sequence_ids(meta, len(u), where=f"{data}.json")
     sha = hashlib.sha256(data.read_bytes()).hexdigest()
     check_enough_data(u, (1.0 - spec.test_fraction, 0.0, spec.test_fraction))
+    check_history_fits(spec, max(spec.history), seq, data)  # train's and splits' rule
     n_full = len(u) - int(round(spec.test_fraction * len(u)))
     if spec.ns and max(spec.ns) >= n_full:
         raise spec.field_error(
@@ -276,7 +282,9 @@ def run_comparison(spec: CompareSpec, data, out, *, floor=None, jobs: int = 1, c
         "code_version": code_version(), "units": {"*_m": "m", "fit_s": "s", "within_*": "share of test coordinates"},
     }  # fmt: skip
     floor_m = floor_info["floor_m"] if floor_info else None
-    _collect(_results(payload, todo, jobs), rows, out, side, n_full, floor_m, log)
+    tell = progress or (lambda done, total: None)
+    tell(0, len(todo))
+    _collect(_results(payload, todo, jobs), rows, out, side, n_full, floor_m, log, lambda done: tell(done, len(todo)))
     return side
 
 
@@ -297,10 +305,11 @@ def _results(payload: dict, todo: list, jobs: int):
         raise
 
 
-def _collect(results, rows: list[dict], out: Path, side: dict, n_full: int, floor_m, log) -> None:
-    for row in results:
+def _collect(results, rows: list[dict], out: Path, side: dict, n_full: int, floor_m, log, tell) -> None:
+    for done, row in enumerate(results, 1):
         rows.append(row)
         _write(out, rows, side, n_full, floor_m)
+        tell(done)
         log(f"{row['split']} #{row['split_index']} K={row['history']} {row['model']} (N={row['n_train']}): "
             f"test RMS {1e3 * row['test_rms_m']:.1f} mm, fit {row['fit_s']:.1f} s")  # fmt: skip
     _write(out, rows, side, n_full, floor_m)
