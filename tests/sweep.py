@@ -51,6 +51,7 @@ class Case:
     timeout_s: float = 120.0
     after: Callable[[Path], None] | None = None  # extra checks on the directory afterwards
     marks: tuple = field(default_factory=tuple)
+    module: str = "lab"  # the program: `python -m lab` or `python -m lab.course` (the scripts' housekeeping)
 
     def __str__(self) -> str:
         return self.id
@@ -90,7 +91,7 @@ def run_case(case: Case, d: Path, capsys=None, monkeypatch=None) -> str:
                 resource.setrlimit(resource.RLIMIT_FSIZE, (case.limit_file_kib * 1024,) * 2)
 
         r = subprocess.run(
-            [sys.executable, "-m", "lab", *argv],
+            [sys.executable, "-m", case.module, *argv],
             cwd=d,
             env=env,
             capture_output=True,
@@ -100,7 +101,10 @@ def run_case(case: Case, d: Path, capsys=None, monkeypatch=None) -> str:
         )
         code, err = r.returncode, r.stderr
     else:
-        from lab.cli import main
+        if case.module == "lab.course":
+            from lab.course.commands import main
+        else:
+            from lab.cli import main
 
         monkeypatch.chdir(d)
         code = main(argv)

@@ -1,11 +1,11 @@
 """The student edition counts what the student wrote, not what JupyterLab touched.
 
-tests/data/jupyterlab_saves/ holds a small chapter (``source.ipynb``), its student edition
-as written (``written.ipynb``) and that edition saved by a real JupyterLab driven in
+tests/data/jupyterlab_saves/ holds a small chapter (``source.json``), its student edition
+as written (``written.json``) and that edition saved by a real JupyterLab driven in
 headless Chromium (``make_fixtures.py`` there made them): opened and autosaved
-(``opened.ipynb``: the kernel's ``language_info`` added, keys reordered), every cell run
-and saved (``ran.ipynb``: outputs, execution counts) and a solution written and saved
-(``edited.ipynb``). Only the last is the student's work. Then: a save that lands while the
+(``opened.json``: the kernel's ``language_info`` added, keys reordered), every cell run
+and saved (``ran.json``: outputs, execution counts) and a solution written and saved
+(``edited.json``). Only the last is the student's work. Then: a save that lands while the
 edition is being rebuilt is kept; ``scripts/jupyter --student`` never serves the
 solutions; ``python -m lab.course`` answers a solution cell that is not Python, and a
 Ctrl-C while it starts, with one line and no traceback.
@@ -36,7 +36,7 @@ def _course(tmp_path: Path, title: str = "Doubling") -> tuple[Path, Path]:
     folder of its student edition."""
     src = tmp_path / "notebooks"
     src.mkdir(exist_ok=True)
-    (src / NAME).write_text((SAVES / "source.ipynb").read_text().replace("01 — Doubling", f"01 — {title}"))
+    (src / NAME).write_text((SAVES / "source.json").read_text().replace("01 — Doubling", f"01 — {title}"))
     return src, tmp_path / "student"
 
 
@@ -47,19 +47,19 @@ def _save(out: Path, fixture: str) -> str:
 
 
 def test_the_fixture_is_this_edition_of_its_chapter():
-    assert edition_text(SAVES / "source.ipynb", "../")[0] == (SAVES / "written.ipynb").read_text(), (
-        "the student edition of tests/data/jupyterlab_saves/source.ipynb changed: run its make_fixtures.py again"
+    assert edition_text(SAVES / "source.json", "../")[0] == (SAVES / "written.json").read_text(), (
+        "the student edition of tests/data/jupyterlab_saves/source.json changed: run its make_fixtures.py again"
     )
-    opened = json.loads((SAVES / "opened.ipynb").read_text())
+    opened = json.loads((SAVES / "opened.json").read_text())
     assert "version" in opened["metadata"]["language_info"]  # what JupyterLab's kernel added
-    assert any(c.get("outputs") for c in json.loads((SAVES / "ran.ipynb").read_text())["cells"])
+    assert any(c.get("outputs") for c in json.loads((SAVES / "ran.json").read_text())["cells"])
 
 
-@pytest.mark.parametrize("fixture", ["opened.ipynb", "ran.ipynb"])
+@pytest.mark.parametrize("fixture", ["opened.json", "ran.json"])
 def test_a_chapter_opened_run_and_saved_by_jupyterlab_is_not_an_edit(tmp_path, fixture):
     src, out = _course(tmp_path)
     build_student_edition(src, out)
-    assert (out / NAME).read_text() == (SAVES / "written.ipynb").read_text()
+    assert (out / NAME).read_text() == (SAVES / "written.json").read_text()
     saved = _save(out, fixture)
     # the course unchanged: nothing to do, the student's outputs stay
     said = build_student_edition(src, out)
@@ -91,9 +91,9 @@ def test_a_cell_the_student_changed_is_an_edit(tmp_path, change):
     src, out = _course(tmp_path)
     build_student_edition(src, out)
     if change is None:
-        saved = _save(out, "edited.ipynb")
+        saved = _save(out, "edited.json")
     else:
-        nb = json.loads((SAVES / "opened.ipynb").read_text())
+        nb = json.loads((SAVES / "opened.json").read_text())
         nb["cells"] = change(nb["cells"])
         saved = json.dumps(nb, indent=1)
         (out / NAME).write_text(saved)
@@ -122,9 +122,9 @@ def test_a_save_during_the_rebuild_is_kept(tmp_path, monkeypatch):
     src, out = _course(tmp_path)
     build_student_edition(src, out)
     _course(tmp_path, "Doubling, v2")
-    _saving_during_the_build(monkeypatch, out, "edited.ipynb")
+    _saving_during_the_build(monkeypatch, out, "edited.json")
     said = build_student_edition(src, out)
-    assert (out / NAME).read_text() == (SAVES / "edited.ipynb").read_text(), "the student's save was overwritten"
+    assert (out / NAME).read_text() == (SAVES / "edited.json").read_text(), "the student's save was overwritten"
     assert (out / "01_doubling.updated.ipynb").read_text() == edition_text(src / NAME, "../")[0]
     assert "saved while the edition was being built" in said[0] and said[-1].endswith("(1 kept)"), said
     assert not list(out.glob(".*.tmp*"))
@@ -132,7 +132,7 @@ def test_a_save_during_the_rebuild_is_kept(tmp_path, monkeypatch):
     monkeypatch.undo()
     _course(tmp_path, "Doubling, v3")
     said = build_student_edition(src, out)
-    assert (out / NAME).read_text() == (SAVES / "edited.ipynb").read_text()
+    assert (out / NAME).read_text() == (SAVES / "edited.json").read_text()
     assert (out / "01_doubling.updated.ipynb").read_text() == edition_text(src / NAME, "../")[0]
     assert not (out / "01_doubling.updated-2.ipynb").exists(), said
 
@@ -141,7 +141,7 @@ def test_an_autosave_during_the_rebuild_is_refreshed_all_the_same(tmp_path, monk
     src, out = _course(tmp_path)
     build_student_edition(src, out)
     _course(tmp_path, "Doubling, v2")
-    _saving_during_the_build(monkeypatch, out, "ran.ipynb")
+    _saving_during_the_build(monkeypatch, out, "ran.json")
     said = build_student_edition(src, out)
     assert (out / NAME).read_text() == edition_text(src / NAME, "../")[0] and said[-1].endswith("(1 refreshed)")
     assert not list(out.glob("*.updated*.ipynb"))
@@ -150,7 +150,7 @@ def test_an_autosave_during_the_rebuild_is_refreshed_all_the_same(tmp_path, monk
 def _chapter_with_solution(tmp_path: Path, solution: str) -> Path:
     src = tmp_path / "notebooks"
     src.mkdir()
-    nb = json.loads((SAVES / "source.ipynb").read_text())
+    nb = json.loads((SAVES / "source.json").read_text())
     next(c for c in nb["cells"] if "solution" in c["metadata"].get("tags", []))["source"] = solution
     (src / NAME).write_text(json.dumps(nb))
     return src

@@ -20,9 +20,10 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from lab.course.edition import GRADER_TAG, SOLUTION_TAG, build_student_edition, stub_source
+    from lab.course.edition import GRADER_TAG, SOLUTION_TAG, build_student_edition
     from lab.course.grading import NOT_IMPLEMENTED, Grade, grade
     from lab.course.statements import say, than
+    from lab.course.stubs import stub_source
     from lab.course.syllabus import syllabus_markdown
     from lab.course.times import times_markdown
 
@@ -48,7 +49,7 @@ _HOME = {
     "say": "statements",
     "than": "statements",
     "build_student_edition": "edition",
-    "stub_source": "edition",
+    "stub_source": "stubs",
     "SOLUTION_TAG": "edition",
     "GRADER_TAG": "edition",
     "syllabus_markdown": "syllabus",

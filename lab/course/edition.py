@@ -24,12 +24,12 @@ new edition beside it. One build at a time (a lock); every file is written atomi
 
 from __future__ import annotations
 
-import ast
 import contextlib
 import json
 import re
 from pathlib import Path
 
+from lab.course.stubs import stub_source
 from lab.course.student_work import cells_key, look, replace_unless_changed, sha256_of
 from lab.errors import InputError
 from lab.files import atomic_write_text, exclusive_lock
@@ -38,7 +38,6 @@ __all__ = [
     "student_edition",
     "edition_text",
     "build_student_edition",
-    "stub_source",
     "SOLUTION_TAG",
     "GRADER_TAG",
     "MANIFEST",
@@ -51,47 +50,6 @@ MANIFEST, LOCK = ".student-edition.json", ".student-edition.lock"
 CHAPTER_NAME = re.compile(r"\d\d_[\w-]+\.ipynb")
 #: The end of the name of a chapter's new edition put beside the student's.
 UPDATED = re.compile(r"\.updated(-\d+)?\.ipynb$")
-
-
-def stub_source(source: str) -> str:
-    """The student's version of a solution cell.
-
-    Parameters
-    ----------
-    source : str
-        The solution cell's Python source.
-
-    Returns
-    -------
-    str
-        Each top-level function with its signature and docstring, its body
-        ``raise NotImplementedError``; everything else dropped (IPython's ``%`` magics and
-        ``!`` shell lines too).
-
-    Raises
-    ------
-    InputError
-        When the cell is not Python (a syntax error), saying where.
-    """
-    # IPython's own lines (%matplotlib inline, %%time, !pip) are not Python: blank them,
-    # keeping the line numbers, and parse the rest.
-    lines = ["" if line.startswith(("%", "!")) else line for line in source.splitlines()]
-    try:
-        tree = ast.parse("\n".join(lines))
-    except (SyntaxError, ValueError) as e:  # ValueError: a NUL character
-        where = f"line {e.lineno}: " if getattr(e, "lineno", None) else ""
-        raise InputError(f"a solution cell is not Python ({where}{getattr(e, 'msg', e)})") from None
-    out = []
-    for node in tree.body:
-        if not isinstance(node, ast.FunctionDef):
-            continue
-        start = min([node.lineno, *(d.lineno for d in node.decorator_list)])
-        head = "\n".join(lines[start - 1 : node.body[0].lineno - 1])  # decorators and signature
-        doc = ast.get_docstring(node)
-        doc = "\n".join(("    " + line) if line else "" for line in doc.split("\n")).lstrip() if doc else doc
-        body = ([f'    """{doc}"""'] if doc else []) + [f'    raise NotImplementedError("exercise: write {node.name}")']
-        out.append(head + "\n" + "\n".join(body))
-    return "\n\n\n".join(out) + "\n"
 
 
 def edition_text(source: str | Path, up: str = "") -> tuple[str, int]:

@@ -2,22 +2,24 @@
 
     PYTHONPATH=$PWD .venv/bin/python tests/data/jupyterlab_saves/make_fixtures.py
 
-``source.ipynb`` is a chapter in the course's format (a parameters cell, an exercise, its
-solution, a grader). The script writes its student edition (``written.ipynb``, as
+``source.json`` is a chapter in the course's format (a parameters cell, an exercise, its
+solution, a grader). The script writes its student edition (``written.json``, as
 :func:`lab.course.edition.build_student_edition` writes it), starts JupyterLab on loopback
 with a token in a temporary folder, opens the edition in headless Chromium and drives
 JupyterLab's own frontend over the DevTools protocol (``--LabApp.expose_app_in_browser``):
 
-- ``opened.ipynb``: opened and left alone until JupyterLab's autosave (its interval set to
+- ``opened.json``: opened and left alone until JupyterLab's autosave (its interval set to
   2 s) saved it: the kernel's ``language_info`` is all it adds;
-- ``ran.ipynb``: then every cell run (Run All) and saved (``docmanager:save``): outputs and
+- ``ran.json``: then every cell run (Run All) and saved (``docmanager:save``): outputs and
   execution counts of the given cells;
-- ``edited.ipynb``: then the solution cell's source changed in the frontend's model (what
+- ``edited.json``: then the solution cell's source changed in the frontend's model (what
   typing does) and saved.
 
 Every save goes through JupyterLab's document manager to the server's Contents API
 (``PUT /api/contents/PATH``), the way a student's saves do. tests/test_course_edition.py
-checks the edition's verdict on each.
+checks the edition's verdict on each. The notebooks are stored as ``.json`` (their content
+is ``.ipynb`` JSON) so that ``ruff format``, which formats ``.ipynb`` files, leaves them
+byte for byte as JupyterLab saved them.
 """
 
 import json
@@ -76,8 +78,8 @@ class Page:
 
 
 def main() -> None:
-    written, _ = edition_text(HERE / "source.ipynb", "../")
-    (HERE / "written.ipynb").write_text(written)
+    written, _ = edition_text(HERE / "source.json", "../")
+    (HERE / "written.json").write_text(written)
     tmp = Path(tempfile.mkdtemp(prefix="jlab-fixture-"))
     root, token, port, cdp = tmp / "root", uuid.uuid4().hex, _port(), _port()
     root.mkdir()
@@ -113,14 +115,14 @@ def main() -> None:
             " && jupyterapp.shell.currentWidget.context.isReady)"))  # fmt: skip
         _wait("the autosave", lambda: "version" in json.loads((root / NAME).read_text())["metadata"]
               .get("language_info", {}))  # fmt: skip
-        (HERE / "opened.ipynb").write_text((root / NAME).read_text())
+        (HERE / "opened.json").write_text((root / NAME).read_text())
         page.js("jupyterapp.commands.execute('notebook:run-all-cells')")
         _wait("the cells to run", lambda: page.js(
             "jupyterapp.shell.currentWidget.content.widgets.every(c => c.model.type !== 'code'"
             " || (c.model.executionCount !== null && c.model.sharedModel.execution_state !== 'running'))"))  # fmt: skip
         page.js("jupyterapp.commands.execute('docmanager:save')")
         _wait("the save", lambda: '"execution_count": 4' in (root / NAME).read_text())
-        (HERE / "ran.ipynb").write_text((root / NAME).read_text())
+        (HERE / "ran.json").write_text((root / NAME).read_text())
         page.js(
             "(() => { const cells = jupyterapp.shell.currentWidget.content.model.sharedModel.cells;"
             " const c = cells.find(c => c.source.includes('NotImplementedError'));"
@@ -128,13 +130,13 @@ def main() -> None:
             " return jupyterapp.commands.execute('docmanager:save'); })()"
         )
         _wait("the edited save", lambda: "return 2 * x" in (root / NAME).read_text())
-        (HERE / "edited.ipynb").write_text((root / NAME).read_text())
+        (HERE / "edited.json").write_text((root / NAME).read_text())
     finally:
         for proc in (browser, server):
             if proc is not None:
                 proc.terminate()
                 proc.wait(timeout=30)
-    print(f"wrote {HERE}/{{written,opened,ran,edited}}.ipynb (JupyterLab's log: {tmp / 'server.log'})")
+    print(f"wrote {HERE}/{{written,opened,ran,edited}}.json (JupyterLab's log: {tmp / 'server.log'})")
 
 
 def _get(url: str):
