@@ -248,3 +248,19 @@ def test_the_student_command_accepts_other_arguments(tmp_path):
                         "--ServerApp.ip=127.0.0.1"], capture_output=True, text=True, timeout=30)  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert f"--notebook-dir={tmp_path}/build/student" in r.stdout and "--port 8899 build/student" in r.stdout, r.stdout
+
+
+def test_an_edition_an_older_build_recorded_learns_its_cells(tmp_path):
+    """A manifest from before cells were recorded (bytes only) and a notebook JupyterLab
+    has saved since: while the chapter is unchanged the cells are recorded, so the next
+    course update refreshes the notebook instead of forking it."""
+    src, out = _course(tmp_path)
+    build_student_edition(src, out)
+    manifest = json.loads((out / ed.MANIFEST).read_text())
+    del manifest["cells"]
+    (out / ed.MANIFEST).write_text(json.dumps(manifest))
+    _save(out, "opened.json")
+    assert build_student_edition(src, out)[-1].endswith("(1 unchanged)")
+    _course(tmp_path, "Doubling, v2")
+    said = build_student_edition(src, out)
+    assert said[-1].endswith("(1 refreshed)") and not list(out.glob("*.updated*.ipynb")), said

@@ -171,11 +171,13 @@ def _plan(chapters: list[Path], out: Path, up: str, manifest: dict):
             counts["new"] += 1
         elif sha256_of(seen.data) == new or (same_cells and manifest["chapters"].get(src.name) == new):
             counts["unchanged"] += 1  # as written, or only opened, run or autosaved since
+            _remember_cells(manifest, src.name, text)  # (a manifest of an older build has no cells)
         elif _ours(src.name, seen.data, manifest):
             writes[target] = (text, seen)
             counts["refreshed"] += 1
         elif same_cells:  # no record of writing it, but its cells are the new edition's
             counts["unchanged"] += 1
+            _remember_cells(manifest, src.name, text)
         else:
             counts["kept"] += 1
             why = "edited since it was written" if src.name in manifest["files"] else "no record of writing it"
@@ -221,6 +223,12 @@ def _write(out: Path, writes: dict, manifest: dict, counts: dict) -> list[str]:
 def _remember(manifest: dict, name: str, text: str) -> None:
     """Record ``text`` as one this command writes to ``name`` (before writing it)."""
     manifest["files"][name] = sorted({*manifest["files"].get(name, []), sha256_of(text)})
+    _remember_cells(manifest, name, text)
+
+
+def _remember_cells(manifest: dict, name: str, text: str) -> None:
+    """Record the cells of ``text`` as this command's in ``name``: a file that has them
+    holds nothing the student wrote."""
     manifest["cells"][name] = sorted({*manifest["cells"].get(name, []), cells_key(text)})
 
 
