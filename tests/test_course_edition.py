@@ -35,7 +35,7 @@ def _course(tmp_path: Path, title: str = "Doubling") -> tuple[Path, Path]:
     """The fixture's chapter as the course (its title changed for a new version), and the
     folder of its student edition."""
     src = tmp_path / "notebooks"
-    src.mkdir(exist_ok=True)
+    src.mkdir(parents=True, exist_ok=True)
     (src / NAME).write_text((SAVES / "source.json").read_text().replace("01 — Doubling", f"01 — {title}"))
     return src, tmp_path / "student"
 
@@ -264,3 +264,25 @@ def test_an_edition_an_older_build_recorded_learns_its_cells(tmp_path):
     _course(tmp_path, "Doubling, v2")
     said = build_student_edition(src, out)
     assert said[-1].endswith("(1 refreshed)") and not list(out.glob("*.updated*.ipynb")), said
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.timeout(600)
+def test_todays_jupyterlab_saves_are_judged_as_the_committed_ones(tmp_path):
+    """The committed saves made again by the JupyterLab and Chromium installed now."""
+    from test_viz import require_chromium
+
+    require_chromium()
+    saves = tmp_path / "saves"
+    saves.mkdir()
+    r = subprocess.run([sys.executable, str(SAVES / "make_fixtures.py"), str(saves)], capture_output=True, text=True,
+                       timeout=540, env={**subprocess_env(), "PYTHONPATH": str(ROOT)})  # fmt: skip
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-3000:]
+    for fixture, verdict in [("opened.json", "refreshed"), ("ran.json", "refreshed"), ("edited.json", "kept")]:
+        src, out = _course(tmp_path / fixture)
+        build_student_edition(src, out)
+        (out / NAME).write_text((saves / fixture).read_text())
+        _course(tmp_path / fixture, "Doubling, v2")
+        said = build_student_edition(src, out)
+        assert said[-1].endswith(f"(1 {verdict})"), (fixture, said)

@@ -1,6 +1,6 @@
 """Make this folder's notebooks: a small chapter's student edition as saved by a real JupyterLab.
 
-    PYTHONPATH=$PWD .venv/bin/python tests/data/jupyterlab_saves/make_fixtures.py
+    PYTHONPATH=$PWD .venv/bin/python tests/data/jupyterlab_saves/make_fixtures.py [OUT_DIR]
 
 ``source.json`` is a chapter in the course's format (a parameters cell, an exercise, its
 solution, a grader). The script writes its student edition (``written.json``, as
@@ -19,7 +19,8 @@ Every save goes through JupyterLab's document manager to the server's Contents A
 (``PUT /api/contents/PATH``), the way a student's saves do. tests/test_course_edition.py
 checks the edition's verdict on each. The notebooks are stored as ``.json`` (their content
 is ``.ipynb`` JSON) so that ``ruff format``, which formats ``.ipynb`` files, leaves them
-byte for byte as JupyterLab saved them.
+byte for byte as JupyterLab saved them. With ``OUT_DIR`` the notebooks go there instead
+(a test does so, to check today's JupyterLab against the committed saves).
 """
 
 import json
@@ -77,9 +78,9 @@ class Page:
                 return result["result"].get("value")
 
 
-def main() -> None:
+def main(out: Path = HERE) -> None:
     written, _ = edition_text(HERE / "source.json", "../")
-    (HERE / "written.json").write_text(written)
+    (out / "written.json").write_text(written)
     tmp = Path(tempfile.mkdtemp(prefix="jlab-fixture-"))
     root, token, port, cdp = tmp / "root", uuid.uuid4().hex, _port(), _port()
     root.mkdir()
@@ -115,14 +116,14 @@ def main() -> None:
             " && jupyterapp.shell.currentWidget.context.isReady)"))  # fmt: skip
         _wait("the autosave", lambda: "version" in json.loads((root / NAME).read_text())["metadata"]
               .get("language_info", {}))  # fmt: skip
-        (HERE / "opened.json").write_text((root / NAME).read_text())
+        (out / "opened.json").write_text((root / NAME).read_text())
         page.js("jupyterapp.commands.execute('notebook:run-all-cells')")
         _wait("the cells to run", lambda: page.js(
             "jupyterapp.shell.currentWidget.content.widgets.every(c => c.model.type !== 'code'"
             " || (c.model.executionCount !== null && c.model.sharedModel.execution_state !== 'running'))"))  # fmt: skip
         page.js("jupyterapp.commands.execute('docmanager:save')")
         _wait("the save", lambda: '"execution_count": 4' in (root / NAME).read_text())
-        (HERE / "ran.json").write_text((root / NAME).read_text())
+        (out / "ran.json").write_text((root / NAME).read_text())
         page.js(
             "(() => { const cells = jupyterapp.shell.currentWidget.content.model.sharedModel.cells;"
             " const c = cells.find(c => c.source.includes('NotImplementedError'));"
@@ -130,13 +131,13 @@ def main() -> None:
             " return jupyterapp.commands.execute('docmanager:save'); })()"
         )
         _wait("the edited save", lambda: "return 2 * x" in (root / NAME).read_text())
-        (HERE / "edited.json").write_text((root / NAME).read_text())
+        (out / "edited.json").write_text((root / NAME).read_text())
     finally:
         for proc in (browser, server):
             if proc is not None:
                 proc.terminate()
                 proc.wait(timeout=30)
-    print(f"wrote {HERE}/{{written,opened,ran,edited}}.json (JupyterLab's log: {tmp / 'server.log'})")
+    print(f"wrote {out}/{{written,opened,ran,edited}}.json (JupyterLab's log: {tmp / 'server.log'})")
 
 
 def _get(url: str):
@@ -148,4 +149,4 @@ def _get(url: str):
 
 
 if __name__ == "__main__":
-    main()
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else HERE)
