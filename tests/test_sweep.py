@@ -23,6 +23,7 @@ from sweep_bodies import BODY_CASES
 from sweep_chambers import CHAMBER_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
+from sweep_edition import EDITION_CASES
 from sweep_foam import FOAM_CASES
 from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
@@ -1057,6 +1058,7 @@ CASES = [
     *REALTIME_CASES,
     *RIG_NONE_CASES,
     *UNITS_CASES,
+    *EDITION_CASES,
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,
