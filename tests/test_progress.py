@@ -116,3 +116,33 @@ def test_train_counts_the_epochs_its_algorithm_allows(data, tmp_path, capsys):
 
     run(TrainSpec(hidden=(3,), epochs=4), data, progress=lambda done, total: seen.append((done, total)))
     assert seen[0] == (0, 4) and all(t == 4 for _, t in seen) and np.all(np.diff([d for d, _ in seen]) == 1)
+
+
+@pytest.mark.parametrize(
+    "kind, words",
+    [
+        (["--model", "ensemble", "--members", "2"], "x 6 epochs)"),  # 2 members x 3 epochs, one worker
+        (["--model", "ensemble", "--members", "3", "--jobs", "2"], "x 9 epochs / 2 workers)"),
+        (["--model", "inverse-mlp"], "x 3 epochs)"),
+    ],
+)
+def test_ensembles_and_the_inverse_say_how_long_too(kind, words, data, tmp_path, capsys):
+    """The README's recipe for a lab's own data trains an ensemble: it says how long as the
+    plain network does (every member's epochs; per finished member on several workers)."""
+    assert main(["train", str(data), "--hidden", "3", "--epochs", "3", *kind, "--out", str(tmp_path / "m.npz")]) == 0
+    err = capsys.readouterr().err
+    assert "estimate: about " in err and words in err, err
+    assert bar_drawn(err, "epoch"), err
+
+
+def test_an_ensembles_members_do_not_depend_on_progress(data):
+    from lab.data import read_dataset
+    from lab.learn.ensemble import train_ensemble
+
+    u, y, _ = read_dataset(data)
+    seen = []
+    a = train_ensemble(u, y, (3,), k=2, epochs=3, progress=lambda d, t: seen.append((d, t)))
+    b = train_ensemble(u, y, (3,), k=2, epochs=3)
+    assert seen[-1] == (6, 6) and all(t == 6 for _, t in seen) and [d for d, _ in seen] == sorted(d for d, _ in seen)
+    for ma, mb in zip(a.members, b.members):
+        assert all(np.array_equal(wa, wb) for wa, wb in zip(ma.weights, mb.weights))

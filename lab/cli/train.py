@@ -69,7 +69,8 @@ def run(args) -> int:
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
-    with Progress("epoch", enabled=not args.no_progress, at_most=True) as progress:
+    side_by_side = min(spec.jobs, spec.members) if spec.model == "ensemble" else 1  # members on workers
+    with Progress("epoch", enabled=not args.no_progress, at_most=True, parallel=side_by_side) as progress:
         result = job.run(
             spec,
             args.data,

@@ -142,7 +142,7 @@ def _finite_or_none(d: dict) -> dict:
     return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
 
 
-def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
+def _fit_other(spec: TrainSpec, u, y, forward, groups=None, progress=None):
     """A model other than the plain network on the training part of train's own split
     (of ``groups`` when given); returns (model, errors per set, calibration or None,
     wall_s, training indices)."""
@@ -151,7 +151,7 @@ def _fit_other(spec: TrainSpec, u, y, forward, groups=None):
     check_enough_data(u, spec.ratios)
     split = outer_split(len(u), spec.ratios, spec.seed, groups)
     t0 = time.perf_counter()
-    model = fit_model(spec.model_spec(), u[split.train], y[split.train])
+    model = fit_model(spec.model_spec(), u[split.train], y[split.train], progress=progress)
     wall_s = time.perf_counter() - t0
     sets = {"train": split.train, "validation": split.validation, "test": split.test}
     cal = None
@@ -256,7 +256,7 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
         model, errors, wall_s, train_idx = res.model, res.errors, res.log.wall_s, res.split.train
         stop = {"stop_reason": res.log.stop_reason, "epochs": res.log.epochs, "best_epoch": res.log.best_epoch}
     else:
-        model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_net, groups)
+        model, errors, cal, wall_s, train_idx = _fit_other(spec, x, y, forward_net, groups, progress)
         stop = {"stop_reason": None, "epochs": None, "best_epoch": None}
     record_trained(model, spec, u, train_idx, meta, io)
     if groups is not None:  # whole sequences of unequal length may leave training a sliver

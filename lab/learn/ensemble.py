@@ -286,7 +286,8 @@ def _train_member(u, y, hidden, seed, kwargs):
     return train(u, y, hidden, seed=seed, **kwargs).model
 
 
-def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int = 1, **train_kwargs) -> Ensemble:
+def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int = 1, progress=None,
+                   **train_kwargs) -> Ensemble:  # fmt: skip
     """Train K members on u (N, n_u) rad -> y (N, n_y) m with :func:`lab.learn.train.train`,
     member k with seed ``run_seeds(seed, k)[k]`` (its own initial weights and validation
     split); ``train_kwargs`` (algorithm, epochs, options, activation, ratios, ...) go to
@@ -303,6 +304,9 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
         Hidden layer widths of every member.
     k, seed, n_jobs : int
         Members (>= 2), the run's seed and worker processes.
+    progress : callable, optional
+        ``progress(done, total)``: ``done`` of at most ``total`` = k x the epoch limit
+        epochs trained, after every epoch on one worker and after every member on several.
     **train_kwargs
         Passed to :func:`lab.learn.train`.
 
@@ -312,7 +316,7 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
         The trained members, spread scale 1.
     """
     from lab.learn.studies import run_seeds
-    from lab.learn.train import data_sha256
+    from lab.learn.train import data_sha256, max_epochs
 
     if int(k) < 2:
         raise InputError(f"an ensemble needs at least 2 members, got k={k}")
@@ -323,8 +327,15 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
     hidden = tuple(int(h) for h in hidden)
     seeds = run_seeds(seed, int(k))
     jobs = [(u, y, hidden, s, kwargs) for s in seeds]
+    epochs = max_epochs(kwargs.get("algorithm", "lm"), kwargs.get("epochs"), kwargs.get("options"))
+    total = epochs * len(jobs)
     if n_jobs == 1:
-        members = [_train_member(*job) for job in jobs]
+        members = []
+        for i, job in enumerate(jobs):
+            tell = None if progress is None else (lambda e, row, i=i: progress(i * epochs + e, total))
+            members.append(_train_member(*job[:4], {**job[4], "progress": tell} if tell else job[4]))
+            if progress is not None:
+                progress((i + 1) * epochs, total)
     else:
         from joblib import Parallel, delayed
 
@@ -332,7 +343,12 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
 
         try:
             with worker_config():
-                members = Parallel(n_jobs=n_jobs)(delayed(_train_member)(*job) for job in jobs)
+                members = []
+                run = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(_train_member)(*job) for job in jobs)
+                for member in run:  # in the members' order, each as it is done
+                    members.append(member)
+                    if progress is not None:
+                        progress(len(members) * epochs, total)
         except BaseException:  # Ctrl-C / SIGTERM: stop the workers
             kill_local_workers()
             raise

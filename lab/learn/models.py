@@ -29,7 +29,7 @@ from lab.learn.model_io import ModelFileError, file_metadata, read_model
 from lab.learn.model_specs import MODEL_SPECS, EnsembleSpec, GPRSpec, InverseSpec, KNNSpec, NetworkSpec
 from lab.learn.peers import fit_gpr, fit_knn, fit_sklearn_mlp, load_peer
 from lab.learn.residual import load_residual
-from lab.learn.train import train
+from lab.learn.train import max_epochs, train
 
 __all__ = [
     "MODEL_CHOICES",
@@ -71,7 +71,7 @@ def _check_spec(spec) -> None:
         raise InputError(f"spec must be one of {[c.__name__ for c in MODEL_SPECS.values()]}, got {type(spec).__name__}")
 
 
-def fit_model(spec, u, y):
+def fit_model(spec, u, y, progress=None):
     """Fit the model ``spec`` describes to all of the data.
 
     Parameters
@@ -83,6 +83,9 @@ def fit_model(spec, u, y):
         Commands (rad).
     y : array_like, shape (N, n_y)
         Tip positions (m).
+    progress : callable, optional
+        ``progress(done, total)`` in epochs, for the networks (mlp, ensemble, inverse-mlp);
+        the other kinds fit in one step and do not call it.
 
     Returns
     -------
@@ -95,7 +98,11 @@ def fit_model(spec, u, y):
     if isinstance(spec, NetworkSpec):
         kwargs = spec.train_kwargs()
         if isinstance(spec, EnsembleSpec):
-            return train_ensemble(u, y, spec.hidden, k=spec.members, seed=spec.seed, n_jobs=spec.n_jobs, **kwargs)
+            return train_ensemble(u, y, spec.hidden, k=spec.members, seed=spec.seed, n_jobs=spec.n_jobs,
+                                  progress=progress, **kwargs)  # fmt: skip
+        if progress is not None:
+            limit = max_epochs(kwargs.get("algorithm", "lm"), kwargs.get("epochs"), kwargs.get("options"))
+            kwargs["progress"] = lambda epoch, row: progress(epoch, limit)
         if isinstance(spec, InverseSpec):
             return fit_inverse(u, y, spec.hidden, seed=spec.seed, **kwargs)
         return train(u, y, spec.hidden, seed=spec.seed, **kwargs).model
