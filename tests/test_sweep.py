@@ -29,8 +29,8 @@ from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
 from sweep_inspect import INSPECT_CASES
 from sweep_pneumatic import PNEUMATIC_CASES
-from sweep_realtime import REALTIME_CASES
 from sweep_progress import PROGRESS_CASES
+from sweep_realtime import REALTIME_CASES
 from sweep_rig_none import RIG_NONE_CASES
 from sweep_times import TIMES_CASES
 from sweep_units import UNITS_CASES
