@@ -23,6 +23,7 @@ from sweep_bodies import BODY_CASES
 from sweep_chambers import CHAMBER_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
+from sweep_description_units import DESCRIPTION_UNIT_CASES
 from sweep_edition import EDITION_CASES
 from sweep_foam import FOAM_CASES
 from sweep_history import HISTORY_CASES
@@ -1060,6 +1061,7 @@ CASES = [
     *UNITS_CASES,
     *EDITION_CASES,
     *DEFECTS_CASES,
+    *DESCRIPTION_UNIT_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,
     *TIMES_CASES,

@@ -31,6 +31,8 @@ from lab.description.robot import (
 
 #: The largest tension a tendon's bound may claim, N (beyond it a value is taken for a unit error).
 TENSION_MAX_PLAUSIBLE_N = 10_000.0
+#: Largest plausible ``actuation.u_max_rad``: ten turns of a spool (degrees read as radians exceed it).
+MAX_U_MAX_RAD = 20 * np.pi
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 
 
@@ -300,6 +302,9 @@ def parse_robot(data: dict, base_dir: str | Path | None = None) -> RobotDescript
     spool, u_max, k_cable, eps = (
         get(act, k, "actuation", positive=True) if k in act or any_angle else None for k in keys
     )
+    if u_max is not None and u_max > MAX_U_MAX_RAD:
+        raise DescriptionError(f"field 'actuation.u_max_rad' = {u_max} rad is more than ten turns of the spool; in "
+                               f"degrees? ({u_max} deg = {np.radians(u_max):.4g} rad)")  # fmt: skip
 
     p_tip = vec3(table(data, "tip_marker"), "position_m", "tip_marker")
     # The tip marker must be on the body, or embedding it in the mesh fails later, far from here.
