@@ -255,3 +255,12 @@ def test_a_targets_file_with_a_byte_order_mark_and_crlf_lines(tmp_path):
 
     (tmp_path / "t.csv").write_bytes(b"\xef\xbb\xbfx,y,z\r\n0.18,0.01,0\r\n0.18,0,0.01\r\n")
     np.testing.assert_array_equal(read_trajectory_csv(tmp_path / "t.csv"), [[0.18, 0.01, 0], [0.18, 0, 0.01]])
+
+
+def test_command_steps_name_the_jumps():
+    from lab.tracking.solved_targets import JUMP_FRACTION, command_steps
+
+    u = np.array([[0.0, 1.0], [0.1, 1.0], [2.9, 1.0], [2.9, 1.2]])
+    steps = command_steps(u, np.zeros(2), np.array([3.0, 2.0]))
+    assert steps == {"max": 2.8, "max_fraction_of_box": 2.8 / 3.0, "at": 2, "jumps": [2]} and JUMP_FRACTION == 0.25
+    assert command_steps(u[:1], np.zeros(2), np.ones(2))["jumps"] == []

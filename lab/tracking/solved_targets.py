@@ -37,10 +37,17 @@ import numpy as np
 
 from lab.errors import InputError
 
-__all__ = ["SolvedTargets", "commands_path", "check_commands_file", "command_steps", "spread_source", "KIND"]
+__all__ = ["SolvedTargets", "commands_path", "check_commands_file", "command_steps", "spread_source", "KIND",
+           "JUMP_FRACTION"]  # fmt: skip
 
 FORMAT_VERSION = 1
 KIND = "lab.track.commands"
+#: The first line of every ``OUT.commands.csv`` this program writes, for any number of motors.
+#: A step between neighbouring targets' commands larger than this fraction of a motor's range
+#: in the box is a jump the summary names: where the model reaches a target only from another
+#: branch of commands than the one before (a model of measured data can have such branches
+#: that end inside the box; docs/design/ik.md, smooth paths).
+JUMP_FRACTION = 0.25
 #: The first line of every ``OUT.commands.csv`` this program writes, for any number of motors.
 COMMANDS_HEADER = re.compile(r"u0(,u[1-9][0-9]*)*,x_pred,y_pred,z_pred,error_m(,spread_m)?")
 
@@ -101,19 +108,21 @@ def command_steps(commands, u_min, u_max) -> dict:
     -------
     dict
         ``max`` (the largest change of any motor, commands' units), ``max_fraction_of_box``
-        (the largest change of a motor over its range in the box, dimensionless) and ``at``
-        (the target, 0-based, whose command is that fraction away from the one before);
-        None values for fewer than two targets.
+        (the largest change of a motor over its range in the box, dimensionless), ``at``
+        (the target, 0-based, whose command is that fraction away from the one before;
+        None values for fewer than two targets) and ``jumps`` (the targets whose command is
+        more than :data:`JUMP_FRACTION` of the box away from the one before, a list).
     """
     u = np.asarray(commands, dtype=float)
     if len(u) < 2:
-        return {"max": None, "max_fraction_of_box": None, "at": None}
+        return {"max": None, "max_fraction_of_box": None, "at": None, "jumps": []}
     step = np.abs(np.diff(u, axis=0))
     fraction = step / (np.asarray(u_max, dtype=float) - np.asarray(u_min, dtype=float))
     return {
         "max": float(step.max()),
         "max_fraction_of_box": float(fraction.max()),
         "at": int(np.argmax(fraction.max(axis=1))) + 1,
+        "jumps": [int(i) + 1 for i in np.flatnonzero(fraction.max(axis=1) > JUMP_FRACTION)],
     }
 
 
@@ -298,6 +307,13 @@ class SolvedTargets:
             f"{' rad' if unit == 'rad' else ''} ({100 * steps['max_fraction_of_box']:.3g}% of the box, "
             f"at target {steps['at']})"
         )  # fmt: skip
+        jumps = steps["jumps"]
+        jumped = [] if not jumps else [
+            f"the commands jump by more than {100 * JUMP_FRACTION:g}% of the box at {len(jumps)} target(s) "
+            f"({', '.join(map(str, jumps[:10]))}{', ...' if len(jumps) > 10 else ''}): the model reaches each of "
+            "them only from commands far from the target before's (the answers near those end at the box); a robot "
+            "sent them moves fast in between"
+        ]  # fmt: skip
         return [
             f"{self.trajectory}: {len(r)} targets solved through the model, no rig{past}: nothing is measured, so "
             f"this says how well the IK inverted the model, not where the robot's tip will be",
@@ -306,4 +322,5 @@ class SolvedTargets:
             f"unreachable; {known}",
             f"IK ({self.info['solver']['method']}) {1e3 * self.timings['ik_per_target_mean_s']:.2f} ms per "
             f"target{step} -> {out}, commands -> {commands_path(out)}",
+            *jumped,
         ]
