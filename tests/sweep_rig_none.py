@@ -67,6 +67,11 @@ def _wrote_commands(d: Path):
     assert not (d / "r.json.points.csv").exists()
 
 
+def _wrote_over_the_earlier_run(d: Path):
+    header = (d / "r.json.commands.csv").read_text().splitlines()[0]
+    assert header == "u0,u1,u2,x_pred,y_pred,z_pred,error_m", header
+
+
 _TRUNK = ["track", "--rig", "none", "--model", "{dir}/trunk.npz", "--trajectory", "{dir}/path.csv", *OUT]
 _PATH = _write("path.csv", "x,y,z\n0.01,0.0,0.0\n0.0,0.01,0.0\n")
 
@@ -234,6 +239,46 @@ RIG_NONE_CASES: list = [
         ("--out commands {dir}/m.commands.csv is the input --model",),
         ("{dir}/m.commands.csv",),
         setup=lambda d: shutil.copy(d / "model.npz", d / "m.commands.csv"),
+    ),
+    Case(
+        "rig-none-commands-file-of-the-user",
+        [*NONE, *OUT],
+        2,
+        ("commands file {dir}/r.json.commands.csv exists and is not one this program wrote", "nothing was changed"),
+        (*INPUTS, "{dir}/r.json.commands.csv"),
+        ("{dir}/r.json",),
+        setup=_write("r.json.commands.csv", "my notes on the robot\n"),
+    ),
+    Case(
+        "rig-none-commands-file-a-directory",
+        [*NONE, *OUT],
+        2,
+        ("commands file {dir}/r.json.commands.csv exists and is not a file",),
+        INPUTS,
+        ("{dir}/r.json",),
+        setup=lambda d: (d / "r.json.commands.csv").mkdir(),
+    ),
+    Case(
+        "rig-none-commands-file-of-an-earlier-run",
+        [*NONE, *OUT],
+        0,
+        ("no rig", "commands -> {dir}/r.json.commands.csv"),
+        INPUTS,
+        setup=_write(
+            "r.json.commands.csv", "u0,u1,u2,u3,u4,u5,x_pred,y_pred,z_pred,error_m,spread_m\n1,2,3,4,5,6,0,0,0,0,0\n"
+        ),
+        after=_wrote_over_the_earlier_run,
+    ),
+    Case(
+        "rig-none-target-bom-crlf",
+        _TRUNK,
+        0,
+        ("2 targets solved", "IK residual through the model"),
+        ("{dir}/trunk.npz", "{dir}/path.csv"),
+        setup=lambda d: (
+            _measured()(d),
+            (d / "path.csv").write_bytes(b"\xef\xbb\xbfx,y,z\r\n0.01,0.0,0.0\r\n0.0,0.01,0.0\r\n"),
+        ),
     ),
     Case("rig-none-out-is-a-directory", [*NONE, "--out", "{dir}"], 2, ("is a directory",), INPUTS),
     Case(

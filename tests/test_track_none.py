@@ -8,6 +8,7 @@ tests/sweep_rig_none.py.
 """
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from lab.learn.history import at_rest, data_bounds, history_of, with_past
 from lab.learn.models import load_model
 from lab.rig import RigSpec, make_rig
 
+DATA = Path(__file__).resolve().parent.parent / "data"
 M = 6
 U_LO, U_HI = -3.0, -0.5
 
@@ -178,3 +180,87 @@ def test_rig_none_is_for_track_only():
         TrackSpec(trajectory="p.csv", model="m.npz", rig=spec, robot="six-cable", seed=1)
     with pytest.raises(InputError, match=r"^TrackSpec.soft_ik is not used with RigSpec.rig none \(Soft IK solves"):
         TrackSpec(trajectory="p.csv", rig=spec)
+
+
+def test_the_report_names_the_ik_residual_and_the_uncertainty(measured, capsys):
+    """Nothing is measured: the summary says "IK residual through the model", never "error",
+    and says what the model knows of its uncertainty (an ensemble's spread, or none)."""
+    model = load_model(measured / "mlp.npz")
+    doc, _, _ = _track(measured, "mlp.npz", _targets(model, 3, 5), out="n.json")
+    lines = capsys.readouterr().err.splitlines()[-3:]
+    residual = np.linalg.norm(np.array(doc["predicted"]) - np.array(doc["targets"]), axis=1)
+    np.testing.assert_allclose(doc["ik_residual_m"], residual, rtol=1e-12, atol=1e-15)
+    assert doc["predicted_error_m"] == doc["ik_residual_m"]  # the earlier key, kept for files already read
+    assert doc["max_ik_residual_m"] == max(doc["ik_residual_m"]) and doc["units"]["residuals"] == "m"
+    assert doc["uncertainty"] == {"source": None, "mean_spread_m": None, "max_spread_m": None}
+    assert any("IK residual through the model" in line for line in lines)
+    assert any("no uncertainty estimate" in line for line in lines)
+    assert not any("error" in line for line in lines), lines
+
+    ens = load_model(measured / "ens.npz")
+    doc, _, _ = _track(measured, "ens.npz", _targets(ens, 3, 6), out="u.json")
+    lines = capsys.readouterr().err.splitlines()[-3:]
+    spread = [predicted_spread_m(ens, ui) for ui in np.array(doc["commands"])]
+    u = doc["uncertainty"]
+    assert u["source"] == "ensemble spread (2 members)"
+    assert np.isclose(u["mean_spread_m"], np.mean(spread), rtol=1e-12) and np.isclose(u["max_spread_m"], max(spread))
+    assert any(
+        f"uncertainty: ensemble spread (2 members) mean {1e3 * np.mean(spread):.3g} mm" in line for line in lines
+    )
+    assert not any("error" in line for line in lines), lines
+
+
+def test_a_redundant_arms_commands_do_not_jump_between_neighbouring_targets(tmp_path):
+    """The shipped six-cable model (six motors for three tip coordinates) on its rings: a
+    plain warm start drifts along the answers to a motor bound, misses, restarts from the
+    posture and jumps across the box (measured: 2.46 rad, 82 % of the 3 rad box, on
+    six-ring; 1.94 rad, 65 %, on six-spiral; the neighbouring steps are 0.06 rad). The
+    smooth path keeps every step within 0.061 rad (2.0 %) and 0.132 rad (4.4 %); the bound
+    is 10 % of the box, twice the larger."""
+    for name in ("six-ring", "six-spiral"):
+        out = tmp_path / f"{name}.json"
+        argv = ["track", "--rig", "none", "--model", str(DATA / "model_sim_six_cable.npz"), "--trajectory", name]
+        assert main([*argv, "--out", str(out)]) == 0
+        doc = json.loads(out.read_text())
+        u, lo, hi = (np.array(v) for v in (doc["commands"], *doc["command_bounds"].values()))
+        fraction = np.abs(np.diff(u, axis=0)) / (hi - lo)
+        assert fraction.max() <= 0.1, (name, fraction.max())
+        assert all(doc["reachable"]) and doc["info"]["solver"]["smooth_path"] is True
+        steps = doc["command_steps"]
+        assert np.isclose(steps["max_fraction_of_box"], fraction.max(), rtol=1e-12)
+        assert steps["max"] == np.abs(np.diff(u, axis=0)).max() and steps["at"] == 1 + fraction.max(1).argmax()
+
+
+def test_a_file_by_the_commands_files_name_is_never_overwritten(tmp_path, capsys):
+    """OUT.commands.csv is the --out name with .commands.csv appended, as the help says; a
+    file of that name this program did not write is refused (exit 2, nothing changed), an
+    earlier run's is replaced."""
+    with pytest.raises(SystemExit):
+        main(["track", "--help"])
+    assert "--out plan.json writes plan.json.commands.csv" in " ".join(capsys.readouterr().out.split())
+    argv = ["track", "--rig", "none", "--model", str(DATA / "model_sim_three_cable.npz"), "--trajectory", "circle"]
+    argv += ["--n-points", "5", "--out", str(tmp_path / "plan.json")]
+    mine = tmp_path / "plan.json.commands.csv"
+    mine.write_text("my own notes\n")
+    assert main(argv) == 2
+    assert "is not one this program wrote" in capsys.readouterr().err
+    assert mine.read_text() == "my own notes\n" and not (tmp_path / "plan.json").exists()
+    mine.unlink()
+    assert main(argv) == 0 and main(argv) == 0  # the second run replaces the first's file
+    assert len(mine.read_text().splitlines()) == 6 and not (tmp_path / "plan.commands.csv").exists()
+
+
+def test_a_targets_file_with_a_byte_order_mark_and_crlf_lines(tmp_path):
+    from lab.control.trajectories import read_trajectory_csv
+
+    (tmp_path / "t.csv").write_bytes(b"\xef\xbb\xbfx,y,z\r\n0.18,0.01,0\r\n0.18,0,0.01\r\n")
+    np.testing.assert_array_equal(read_trajectory_csv(tmp_path / "t.csv"), [[0.18, 0.01, 0], [0.18, 0, 0.01]])
+
+
+def test_command_steps_name_the_jumps():
+    from lab.tracking.solved_targets import JUMP_FRACTION, command_steps
+
+    u = np.array([[0.0, 1.0], [0.1, 1.0], [2.9, 1.0], [2.9, 1.2]])
+    steps = command_steps(u, np.zeros(2), np.array([3.0, 2.0]))
+    assert steps == {"max": 2.8, "max_fraction_of_box": 2.8 / 3.0, "at": 2, "jumps": [2]} and JUMP_FRACTION == 0.25
+    assert command_steps(u[:1], np.zeros(2), np.ones(2))["jumps"] == []

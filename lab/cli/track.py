@@ -2,7 +2,9 @@
 
 Open loop, closed loop (``--closed-loop ilc|feedback --passes K [--gain A]``) or streamed at
 a period (``--period-s T [--dynamic-model DYN.npz]``); or ``--rig none``: no rig, the IK's
-commands written to ``OUT.commands.csv`` for a lab's own robot. The flags become one
+commands written to ``OUT.commands.csv`` for a lab's own robot (the ``--out`` name with
+``.commands.csv`` appended, as ``OUT.points.csv`` and ``OUT.lock``; a file of that name it
+did not write is refused). The flags become one
 :class:`lab.jobs.track.TrackSpec`, each declared on the spec that takes it; a flag the chosen
 mode does not use is refused. The run is :func:`lab.jobs.track.run`, with ``--out``
 locked against a second run; the result file's keys are listed in docs/design/tracking.md.
@@ -25,6 +27,7 @@ from lab.jobs import track as job
 from lab.jobs.track import NO_RIG_UNUSED, TrackSpec
 from lab.rig import RigSpec
 from lab.tracking.closed_loop import Correction
+from lab.tracking.solved_targets import commands_path
 from lab.tracking.stream_spec import StreamSpec
 
 #: The IK settings ``track`` has flags for (the rest keep :meth:`IKConfig.automatic`'s values).
@@ -50,7 +53,8 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         default="sim",
         help="sim | twin[:DEFECTS.toml] | twin:random:SEED | twin:foam:SEED (an emulated as-built robot of a family) "
         "| hardware:CONFIG.toml | none (no rig: solve the IK through --model within its training data's "
-        "commands and write them to OUT.commands.csv, for your own robot) (default sim)",
+        "commands and write them to OUT.commands.csv, for your own robot; the IK residual through the model "
+        "it reports is not an accuracy: nothing is measured) (default sim)",
     )
     k.add_argument(
         "--robot", help="shipped robot name or path to a TOML description (default three-cable; not with --rig none)"
@@ -75,7 +79,12 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         },
         default_words={"n_rings": "robot's", "n_axial": "robot's"},
     )
-    k.add_argument("--out", required=True, help="result JSON (with --rig none also OUT.commands.csv)")
+    k.add_argument(
+        "--out",
+        required=True,
+        help="result JSON (with --rig none also OUT.commands.csv, the name with .commands.csv appended: "
+        "--out plan.json writes plan.json.commands.csv)",
+    )
     k.set_defaults(func=run)
     return k
 
@@ -84,7 +93,7 @@ def run(args) -> int:
     """``python -m lab track``: see :func:`lab.cli.build_parser`. Returns the exit code."""
     spec = track_spec(args)
     points = None if spec.stream is not None or not spec.rig.has_rig else f"{args.out}.points.csv"
-    commands = None if spec.rig.has_rig else f"{args.out}.commands.csv"
+    commands = None if spec.rig.has_rig else commands_path(args.out)
     check_paths(
         {
             "--model": args.model,

@@ -7,8 +7,10 @@ targets in order, warm-starting each from the previous answer (Section II-D). Wi
 regularised towards the previous command and the posture, then *polished* unregularised. A
 point that misses its target is solved again from the posture and the nearest seeds
 (``retry_cold``). Weights given as ``None`` are automatic: none while targets are reached,
-and regularised restarts at a miss on a redundant arm (:func:`auto_weight`). It uses only
-the solver's public API. Why, and what was measured: docs/design/ik.md.
+and regularised restarts at a miss on a redundant arm (:func:`auto_weight`); with
+``IKConfig.smooth_path`` a redundant arm's every point is regularised, so that its
+commands do not jump between neighbouring targets. It uses only the solver's public API.
+Why, and what was measured: docs/design/ik.md.
 """
 
 from __future__ import annotations
@@ -23,12 +25,17 @@ __all__ = [
     "auto_weight",
     "slack_motors",
     "AUTO_WEIGHT_REL",
+    "SMOOTH_POSTURE_REL",
     "SLACK_COLUMN_REL",
     "N_COLD_STARTS",
 ]
 
 #: Automatic restart regularisation weight of a redundant arm, relative to |J|_F^2 / m at the posture.
 AUTO_WEIGHT_REL = 1e-3
+#: ``IKConfig.smooth_path``'s posture weight, relative to its continuity weight (the
+#: automatic weight): a pull just strong enough to keep a redundant arm's warm starts from
+#: drifting along its family of answers to a bound (docs/design/ik.md, smooth paths).
+SMOOTH_POSTURE_REL = 1e-2
 #: A cable is "slack" where its Jacobian column is below this fraction of the largest column.
 SLACK_COLUMN_REL = 1e-2
 #: Cold starts tried, nearest first, when a point misses its target.
@@ -78,8 +85,9 @@ def auto_weight(solver) -> float:
 def follow_weights(solver) -> tuple[float, float, float, bool, str]:
     """``(reg_weight, posture_weight, restart_weight, restart_to_posture, how)`` that
     :func:`follow_trajectory` uses: the weights of every point's solve (explicit settings as
-    given, ``None`` ones 0), those of a restart after a miss (docs/design/ik.md), and ``how``
-    in words."""
+    given, ``None`` ones 0, or with ``smooth_path`` on a redundant arm the automatic weight
+    towards the previous command and :data:`SMOOTH_POSTURE_REL` of it towards the posture),
+    those of a restart after a miss (docs/design/ik.md), and ``how`` in words."""
     settings = (solver.config.reg_weight, solver.config.posture_weight)
     w_c, w_p = (0.0 if s is None else float(s) for s in settings)
     shape = f"{solver.commands.n} inputs for {solver.n_tip} tip coordinates"
@@ -91,6 +99,12 @@ def follow_weights(solver) -> tuple[float, float, float, bool, str]:
         how = "explicit: none" if all(s is not None for s in settings) else f"auto: none ({shape}, not redundant)"
         return 0.0, 0.0, 0.0, False, how
     w = auto_weight(solver)
+    if solver.config.smooth_path:
+        how = (
+            f"auto, smooth path: every point regularised towards the previous command (w = {w:.3g} m^2/rad^2) "
+            f"and the posture ({SMOOTH_POSTURE_REL:g} w), then polished ({shape}, redundant)"
+        )
+        return w, SMOOTH_POSTURE_REL * w, w, True, how
     how = (
         f"auto: none while targets are reached; a missed point restarts regularised towards the posture "
         f"(w = {w:.3g} m^2/rad^2), then polished ({shape}, redundant)"

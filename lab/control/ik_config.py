@@ -25,7 +25,7 @@ DEFAULT_MAX_ITER = {"lm": 100, "gd": 20000, "dfo": 200}
 
 _FLOATS = ("reg_weight", "posture_weight", "spread_weight", "max_spread_m", "tol_m", "reach_tol_m", "tol_stationary")
 _INTS = ("max_iter", "seed_levels")
-_BOOLS = ("polish", "retry_cold", "record_history")
+_BOOLS = ("polish", "retry_cold", "record_history", "smooth_path")
 
 
 def _comma_separated(text: str) -> tuple[str, ...]:
@@ -75,6 +75,12 @@ class IKConfig(Spec):
     polish, retry_cold, record_history : bool
         Solve a regularised answer again unregularised; solve a missed point again from
         other starts; keep every iterate's tip residual.
+    smooth_path : bool
+        With automatic weights on a redundant arm: regularise every point towards the
+        previous command and (a hundredth as much) the posture, then polish, so that
+        neighbouring targets' commands stay on one branch of solutions instead of
+        drifting to a bound and jumping across the box at a restart
+        (:func:`lab.control.follow.follow_weights`).
     seed_levels : int or None
         Cold-start grid levels of ``for_model`` (None: 7, or 4 beyond 3 motors).
     markers : tuple of str
@@ -132,6 +138,12 @@ class IKConfig(Spec):
     polish: bool = option(True, cli=False, help="solve a regularised answer again unregularised")
     retry_cold: bool = option(True, cli=False, help="solve a missed point again from other starts")
     record_history: bool = option(False, cli=False, help="keep every iterate's tip residual")
+    smooth_path: bool = option(
+        False,
+        cli=False,
+        help="with automatic weights on a redundant arm, regularise every point towards the previous command "
+        "and the posture, then polish: neighbouring targets' commands do not jump across the box",
+    )
     seed_levels: int | None = option(
         None, cli=False, check=positive_int, help="cold-start grid levels of for_model (default 7, 4 beyond 3 motors)"
     )

@@ -281,10 +281,11 @@ def load_trajectory(name_or_csv: str | Path, n_points: int | None = None) -> np.
 
 def read_trajectory_csv(path: str | Path) -> np.ndarray:
     """Read a CSV with header ``x,y,z`` (metres, frame W) -> (N, 3); TrajectoryError naming
-    the file, line and problem for anything else."""
+    the file, line and problem for anything else. UTF-8 text, with or without the byte-order
+    mark a spreadsheet writes first, lines ending in LF or CRLF."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")  # newlines: LF, CRLF and CR all end a line
     except FileNotFoundError:
         raise TrajectoryError(f"trajectory file not found: {path}") from None
     except (OSError, UnicodeDecodeError) as err:

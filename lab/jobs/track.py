@@ -258,7 +258,7 @@ def run(spec: TrackSpec, out: str | Path, *, command: str | None = None, say: Ca
     -------
     TrackResult or StreamResult or SolvedTargets
         The :class:`~lab.tracking.track.TrackResult` (a ``StreamResult`` when streamed, a
-        :class:`~lab.tracking.offline.SolvedTargets` with ``--rig none``: the result file and
+        :class:`~lab.tracking.solved_targets.SolvedTargets` with ``--rig none``: the result file and
         ``OUT.commands.csv``, nothing measured). Raises InputError for bad settings or
         inputs, before the rig is made; a rig's failure (exit 1) or an interrupt after the
         rig was closed, with the measured points kept.

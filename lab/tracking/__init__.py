@@ -6,7 +6,7 @@ trajectory continuously at a period, and :mod:`.closed_loop` corrects the comman
 measured tips (ILC or per-point feedback). One ``python -m lab track`` run from its
 settings is :mod:`lab.jobs.track`, with its measured points kept in :mod:`.points`;
 with ``--rig none`` there is no rig, and :func:`run_offline`
-(:mod:`.offline`) writes the IK's commands for a lab's own robot. The studies built on
+(:mod:`.offline`) writes the IK's commands for a lab's own robot (:mod:`.solved_targets`). The studies built on
 these (Table I, the sim-to-real and data-efficiency curves) are in :mod:`lab.studies`; the
 design notes in ``docs/design/tracking.md``.
 """
@@ -19,8 +19,9 @@ from lab.tracking.closed_loop import (
     damped_pinv,
     run_closed_loop,
 )
-from lab.tracking.offline import SolvedTargets, run_offline, solve_targets
+from lab.tracking.offline import run_offline, solve_targets
 from lab.tracking.points import PointLog
+from lab.tracking.solved_targets import SolvedTargets
 from lab.tracking.stream import StreamPlan, StreamResult, stream_trajectory
 from lab.tracking.stream_spec import StreamSpec
 from lab.tracking.track import (

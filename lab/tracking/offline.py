@@ -5,22 +5,22 @@ wants the commands that put its tip on a path: :func:`solve_targets` solves the 
 target through the model, inside the box of commands the model was trained on
 (:func:`lab.learn.history.data_bounds`; for a model trained on a shipped robot's data,
 that robot's allowed commands too), and :func:`run_offline` writes the result JSON and
-``OUT.commands.csv`` (header ``u0..u{m-1},x_pred,y_pred,z_pred,error_m[,spread_m]``) for
-the lab to send by its own means. Nothing is measured: the tip and error written are the
-model's prediction. A history model (:mod:`lab.learn.history`) is solved target by target
-in file order, its past fixed to the answers already sent (the first target with the robot
-resting at its command). The keys are in docs/design/tracking.md ("Commands without a rig").
+``OUT.commands.csv`` (:mod:`lab.tracking.solved_targets`: what the result says -- the IK
+residual through the model, the model's spread, the command steps -- and why) for the lab
+to send by its own means. Nothing is measured. ``run_offline`` follows the targets on a
+smooth path (``IKConfig.smooth_path``): a redundant arm's commands stay on one branch of
+answers instead of jumping across the box between neighbouring targets. A history model
+(:mod:`lab.learn.history`) is solved target by target in file order, its past fixed to the
+answers already sent (the first target with the robot resting at its command). The keys
+are in docs/design/tracking.md ("Commands without a rig").
 """
 
 from __future__ import annotations
 
-import csv
 import datetime as _dt
-import io
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,144 +35,10 @@ from lab.files import atomic_write_group, code_version
 from lab.learn.history import at_rest, data_bounds, history_of, past_commands, with_past
 from lab.learn.models import load_model
 from lab.tracking.marker_targets import with_marker_offsets
+from lab.tracking.solved_targets import SolvedTargets, check_commands_file, commands_path, spread_source
 from lab.tracking.track import _plain
 
-__all__ = ["SolvedTargets", "solve_targets", "run_offline", "trained_robot", "KIND"]
-
-FORMAT_VERSION = 1
-KIND = "lab.track.commands"
-
-
-@dataclass
-class SolvedTargets:
-    """The IK's answers for N targets without a rig. Arrays: ``targets_W``, ``predicted_W``
-    (N, 3) m; ``commands`` (N, m) (the training data's units: rad for a shipped robot);
-    ``reachable``, ``uncertain`` (N,) bool; ``spread_m`` (N,) m (NaN without a spread);
-    ``iterations`` (N,). ``history``: the model's K; ``u_min``/``u_max`` (m,): the box the
-    commands were kept in; ``has_spread``; ``timings`` s; ``info`` free-form.
-
-    Attributes
-    ----------
-    trajectory : str
-        The trajectory's name.
-    targets_W, predicted_W : numpy.ndarray
-        Targets and the model's tips at the answers, shape (N, 3), m.
-    commands : numpy.ndarray
-        The IK's answers, shape (N, m), in the training data's units (rad for a shipped robot).
-    reachable, uncertain : numpy.ndarray
-        Per target, shape (N,), bool.
-    spread_m : numpy.ndarray
-        The model's spread at each answer, shape (N,), m (NaN without a spread).
-    iterations : numpy.ndarray
-        IK iterations per target, shape (N,), int.
-    history : int
-        The model's history length K (0: none).
-    u_min, u_max : numpy.ndarray
-        The box the commands were kept in, shape (m,).
-    has_spread : bool
-        Whether the model has a spread.
-    timings : dict
-        Wall times, s.
-    info : dict
-        Model, robot, the IK's settings and what it did.
-    """
-
-    trajectory: str
-    targets_W: np.ndarray
-    commands: np.ndarray
-    predicted_W: np.ndarray
-    reachable: np.ndarray
-    uncertain: np.ndarray
-    spread_m: np.ndarray
-    iterations: np.ndarray
-    history: int
-    u_min: np.ndarray
-    u_max: np.ndarray
-    has_spread: bool
-    timings: dict
-    info: dict
-
-    @property
-    def errors_m(self) -> np.ndarray:
-        """The predicted error |f(u) - target| (N,) m."""
-        return np.linalg.norm(self.predicted_W - self.targets_W, axis=1)
-
-    def to_json(self) -> dict:
-        """The JSON document of the result file (docs/design/tracking.md).
-
-        Returns
-        -------
-        dict
-            The document (kind ``lab.track.commands``), arrays as numpy arrays (m, s).
-        """
-        e = self.errors_m
-        return {
-            "format_version": FORMAT_VERSION,
-            "kind": KIND,
-            "rig": "none",
-            "trajectory": self.trajectory,
-            "units": {"positions": "m", "commands": self.info.get("command_unit"), "errors": "m", "timings": "s"},
-            "targets": self.targets_W,
-            "commands": self.commands,
-            "predicted": self.predicted_W,
-            "predicted_error_m": e,
-            "mean_predicted_error_m": float(np.mean(e)),
-            "max_predicted_error_m": float(np.max(e)),
-            "reachable": self.reachable,
-            "n_unreachable": int(np.sum(~self.reachable)),
-            "uncertain": self.uncertain,
-            "n_uncertain": int(np.sum(self.uncertain)),
-            "predicted_spread_m": self.spread_m,
-            "ik_iterations": self.iterations,
-            "history": self.history,
-            "command_bounds": {"u_min": self.u_min, "u_max": self.u_max},
-            "timings": self.timings,
-            "info": self.info,
-        }
-
-    def commands_csv(self) -> str:
-        """``OUT.commands.csv``: ``u0..u{m-1},x_pred,y_pred,z_pred,error_m`` (and ``spread_m``
-        for a model with a spread), one row per target in order.
-
-        Returns
-        -------
-        str
-            The CSV text, floats written with ``repr``.
-        """
-        m = self.commands.shape[1]
-        cols = [self.commands, self.predicted_W, self.errors_m[:, None]]
-        header = [f"u{j}" for j in range(m)] + ["x_pred", "y_pred", "z_pred", "error_m"]
-        if self.has_spread:
-            cols.append(self.spread_m[:, None])
-            header.append("spread_m")
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows([[repr(float(v)) for v in row] for row in np.hstack(cols)])
-        return buf.getvalue()
-
-    def summary(self, out) -> list[str]:
-        """What the run did, in a few lines for the terminal.
-
-        Parameters
-        ----------
-        out : str or Path
-            The result file, named in the lines.
-
-        Returns
-        -------
-        list of str
-            The lines (errors in mm, IK time in ms).
-        """
-        e = self.errors_m
-        spread = f", {int(np.sum(self.uncertain))} uncertain" if self.has_spread else ""
-        past = f" (history {self.history}: each target's past is the answers before it)" if self.history else ""
-        return [
-            f"{self.trajectory}: {len(e)} targets solved through the model, no rig{past}: predicted error mean "
-            f"{1e3 * np.mean(e):.3g} mm, max {1e3 * np.max(e):.3g} mm, {int(np.sum(~self.reachable))} unreachable"
-            f"{spread}; IK ({self.info['solver']['method']}) {1e3 * self.timings['ik_per_target_mean_s']:.2f} ms "
-            f"per target -> {out}, commands -> {out}.commands.csv"
-        ]
+__all__ = ["solve_targets", "run_offline", "trained_robot"]
 
 
 def trained_robot(model) -> str | None:
@@ -249,9 +115,11 @@ def solve_targets(model, targets_W, config: IKConfig | None = None, *, robot=Non
 
 def run_offline(spec, out, *, command: str | None = None, say: Callable | None = None, max_points: int):
     """``track --rig none`` for ``spec`` (a :class:`lab.jobs.track.TrackSpec` with a model):
-    solve the IK for every target and write the result JSON ``out`` and
-    ``OUT.commands.csv`` together (atomic). ``max_points``: the most targets. Returns the
-    :class:`SolvedTargets`. InputError for a direct inverse model, a model with another
+    solve the IK for every target on a smooth path (``spec.ik`` with ``smooth_path``) and
+    write the result JSON ``out`` and ``OUT.commands.csv`` together (atomic). ``max_points``:
+    the most targets. Returns the :class:`SolvedTargets`. InputError, before any work, for
+    an ``OUT.commands.csv`` this program did not write (nothing changed); and for a direct
+    inverse model, a model with another
     number of outputs than the targets' 3 columns, a built-in trajectory for a model not
     trained on a shipped robot's data (those are in the shipped arms' frames), a model
     without recorded data bounds nor a shipped robot, too many targets.
@@ -276,6 +144,7 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
     """
     say = say or (lambda line: None)
     t0 = time.perf_counter()
+    check_commands_file(commands_path(out))
     model = load_model(spec.model)
     check_forward(model)
     try:
@@ -305,7 +174,7 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
             "solve in; train it again with `python -m lab train`",
             "model",
         )
-    sol = solve_targets(model, targets, spec.ik, robot=robot, bounds=bounds)
+    sol = solve_targets(model, targets, spec.ik.replace(smooth_path=True), robot=robot, bounds=bounds)
     solver = sol["solver"]
     for note in solver.notes:
         say(f"IK: {note}")
@@ -316,10 +185,10 @@ def run_offline(spec, out, *, command: str | None = None, say: Callable | None =
         sol["iterations"], history_of(model), solver.commands.lo, solver.commands.hi, has_spread(model),
         {"ik_total_s": t_ik, "ik_per_target_mean_s": float(np.mean(sol["time_s"])),
          "ik_per_target_max_s": float(np.max(sol["time_s"])), "total_s": time.perf_counter() - t0},
-        _info(spec, solver, sol["info"], robot, command),
+        {**_info(spec, solver, sol["info"], robot, command), "uncertainty_source": spread_source(model)},
     )  # fmt: skip
     doc = json.dumps(_plain(result.to_json()), indent=1, allow_nan=False) + "\n"
-    atomic_write_group({f"{out}.commands.csv": result.commands_csv(), out: doc})
+    atomic_write_group({commands_path(out): result.commands_csv(), out: doc})
     return result
 
 
@@ -337,6 +206,7 @@ def _info(spec, solver, follow: dict, robot, command) -> dict:
             "reach_tol_m": cfg.reach_tol_m,
             "spread_weight": cfg.spread_weight,
             "max_spread_m": cfg.max_spread_m,
+            "smooth_path": cfg.smooth_path,
             "notes": list(solver.notes),
             **{k: follow[k] for k in ("reg_weight", "posture_weight", "regularisation", "redundant")},
             "ik": {k: follow[k] for k in ("slack_plateaus", "restarts", "recovered")},
