@@ -26,7 +26,9 @@ def recipe_commands() -> list[list[str]]:
     text = (ROOT / "README.md").read_text()
     section = text.split("### Your own robot's data", 1)[1]
     block = re.search(r"```\n(.*?)```", section, re.S).group(1)
-    return [shlex.split(line) for line in block.splitlines() if line.strip()]
+    # a recipe line is `scripts/lab ARGS`, which is `python -m lab ARGS` on .venv
+    return [["python", "-m", "lab", *shlex.split(line)[1:]] if line.startswith("scripts/lab ") else shlex.split(line)
+            for line in block.splitlines() if line.strip()]  # fmt: skip
 
 
 @pytest.mark.timeout(300)

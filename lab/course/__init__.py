@@ -11,7 +11,7 @@
   time per chapter (``python -m lab.course``, :mod:`lab.course.commands`, for the scripts).
 
 The names below are loaded from their modules on first use, so that ``python -m lab.course``
-starts without importing NumPy before it can answer a Ctrl-C (:mod:`lab.course.__main__`).
+starts without importing NumPy before it can answer a Ctrl-C (``lab.course.__main__``).
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ def run(spec: InspectSpec, data, out, *, command: str | None = None, progress=No
         The command line, recorded in the report.
     progress : callable, optional
         ``progress(done, total)``: steps of the bootstrap and permutation loops done
-        (:data:`lab.data.diagnostics.PERMUTATION_STEPS`), 0 as the first starts.
+        (``lab.data.diagnostics.PERMUTATION_STEPS``), 0 as the first starts.
 
     Returns
     -------

@@ -52,7 +52,7 @@ from lab.learn.studies import (
     summarize,
     write_csv,
 )
-from lab.learn.train import TrainResult, data_sha256, train
+from lab.learn.train import EpochProgress, TrainResult, data_sha256, max_epochs, train
 from lab.learn.train_spec import TrainSpec
 from lab.learn.training_data import TrainingData
 
@@ -129,6 +129,8 @@ __all__ = [
     "data_sha256",
     "TrainResult",
     "train",
+    "EpochProgress",
+    "max_epochs",
     "TrainSpec",
     "check_network_size",
     "mse_m2",
