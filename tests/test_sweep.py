@@ -23,6 +23,7 @@ from sweep_bodies import BODY_CASES
 from sweep_chambers import CHAMBER_CASES
 from sweep_compare import COMPARE_CASES
 from sweep_defects import DEFECTS_CASES
+from sweep_designs import DESIGNS_CASES
 from sweep_foam import FOAM_CASES
 from sweep_history import HISTORY_CASES
 from sweep_import import IMPORT_CASES
@@ -876,7 +877,7 @@ CASES = [
         "calibrate-tips-in-cm",
         ["calibrate", "{dir}/cm.csv", *COARSE, "--out", "{dir}/c.toml"],
         2,
-        ("the calibrated FEM misfits the tips of {dir}/cm.csv by 18.64 m RMS", "check units"),
+        ("{dir}/cm.csv: column 'x'", "m from the base of three-cable", "read as cm"),
         ("{dir}/cm.csv",),
         absent=("{dir}/c.toml",),
         setup=scaled_tips("cm.csv", scale=100.0),
@@ -1054,6 +1055,7 @@ CASES = [
     *DEFECTS_CASES,
     *FOAM_CASES,
     *PNEUMATIC_CASES,
+    *DESIGNS_CASES,
     # --- markers the IK drives (track --markers) -------------------------------------------
     Case(
         "track-markers-unknown",
