@@ -4,9 +4,9 @@ calibrated transfer's real samples.
 ``transfer-curve`` rewrites its whole results file after each robot, so two runs on one
 ``--out`` would each drop the other's rows: a run holds ``OUT.lock`` and a second is refused
 at once, before it writes anything; a user's file named ``OUT.lock`` is not taken (nor
-deleted). ``transfer --method calibrated`` refuses tips that no body of the robot's size
-reaches (positions in cm or mm read as metres), naming the file, the column and the unit
-they would fit, before any calibration.
+deleted). ``transfer --method calibrated`` refuses tips farther from the nominal FEM's than
+any body of the robot's size reaches (positions in cm or mm read as metres), naming the
+file, the column and the unit they would fit, before the fit and the re-simulation.
 """
 
 from pathlib import Path
@@ -73,7 +73,11 @@ DESIGNS_CASES = [
             f"transfer-calibrated-tips-in-{unit}",
             [*CALIBRATED, "--real", f"{{dir}}/{unit}.csv", "--out", "{dir}/m.npz"],
             2,
-            (f"--real {{dir}}/{unit}.csv: column 'x'", "m from the base of three-cable", f"read as {unit}"),
+            (
+                f"--real {{dir}}/{unit}.csv: column 'x'",
+                "from where the nominal FEM of three-cable puts it",
+                f"read as {unit}",
+            ),
             (f"{{dir}}/{unit}.csv",),
             setup=_scaled_tips(f"{unit}.csv", scale),
             absent=("{dir}/m.npz",),

@@ -877,7 +877,7 @@ CASES = [
         "calibrate-tips-in-cm",
         ["calibrate", "{dir}/cm.csv", *COARSE, "--out", "{dir}/c.toml"],
         2,
-        ("{dir}/cm.csv: column 'x'", "m from the base of three-cable", "read as cm"),
+        ("{dir}/cm.csv: column 'x'", "m from where the nominal FEM of three-cable puts it", "read as cm"),
         ("{dir}/cm.csv",),
         absent=("{dir}/c.toml",),
         setup=scaled_tips("cm.csv", scale=100.0),
