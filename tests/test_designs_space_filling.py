@@ -153,3 +153,46 @@ CASES = [
 @pytest.mark.parametrize("case", CASES, ids=str)
 def test_sweep_rows(case, tmp_path, capsys, monkeypatch):
     run_case(case, tmp_path, capsys, monkeypatch)
+
+
+@pytest.mark.parametrize("name", ["three-cable", "six-cable"])
+@pytest.mark.parametrize("method", ["maximin", "sobol", "random"])
+def test_the_first_k_commands_are_the_same_whatever_the_design_length(name, method):
+    # a transfer curve takes its rows at N from the first N commands of one long design: the
+    # rows of every method at N must use the same samples as a design of N alone (a maximin
+    # design's pool once grew with n, and its 308-point and 10-point designs shared no command)
+    robot = load_robot(name)
+    long = design_commands(robot, 308, method, seed=0)
+    for k in (1, 5, 10, 100, 128, 129, 200):
+        assert np.array_equal(long[:k], design_commands(robot, k, method, seed=0)), k
+
+
+def test_a_latin_hypercube_is_not_prefix_stable():
+    # its strata are n equal slices per motor: a design of 10 is no prefix of one of 50 (the docs say so)
+    robot = load_robot("three-cable")
+    assert not np.array_equal(design_commands(robot, 50, "lhs")[:10], design_commands(robot, 10, "lhs"))
+
+
+def test_greedy_maximin_with_a_growing_pool():
+    from lab.data.maximin import greedy_maximin
+
+    rng = np.random.default_rng(3)
+    x = rng.random((300, 3))
+    # without n_candidates: every pick among all points, each the farthest from those picked
+    picked = greedy_maximin(x, 7, 20)
+    for k in range(1, 20):
+        d = np.linalg.norm(x[:, None] - x[picked[:k]][None], axis=2).min(axis=1)
+        assert picked[k] == int(np.argmax(d))
+
+    # with it: the k-th pick the farthest among the first n_candidates(k) points, so a longer
+    # selection starts with the shorter one
+    def size(k):
+        return 50 + 10 * k
+
+    grown = greedy_maximin(x, 7, 20, n_candidates=size)
+    for k in range(1, 20):
+        d = np.linalg.norm(x[: size(k + 1), None] - x[grown[:k]][None], axis=2).min(axis=1)
+        assert grown[k] == int(np.argmax(d)) and grown[k] < size(k + 1)
+    assert grown[:8] == greedy_maximin(x, 7, 8, n_candidates=size)
+    with pytest.raises(InputError, match="not among the 60 candidates"):
+        greedy_maximin(x, 100, 5, n_candidates=size)

@@ -7,7 +7,8 @@ or with ``--family-kind foam`` of :data:`lab.asbuilt.FOAM`, rows labelled
 model error on held-out random commands and Table I tracking errors, in metres. The flags
 are :class:`lab.studies.transfer_curve.TransferCurveSpec`'s. Rows are appended robot by
 robot, so an interrupted run resumes where it stopped; a robot whose rows are all there is
-skipped.
+skipped. A run holds ``OUT.lock`` while it writes: a second run on the same ``--out`` is
+refused at once (each rewrites the whole file, so two at a time would lose rows).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import shlex
 import sys
 
 from lab.cli.flags import add_spec_flags, spec_from_args
-from lab.cli.paths import check_paths, check_writable, existing
+from lab.cli.paths import check_paths, check_writable, existing, output_lock
 from lab.fem.bodies.mesh_spec import MeshSpec
 from lab.jobs import transfer_curve as job
 from lab.studies.transfer_curve import TransferCurveSpec
@@ -47,8 +48,10 @@ def run(args) -> int:
     inputs = {"--sim-model": existing(spec.sim_model)}
     if spec.robot.endswith(".toml"):
         inputs["--robot"] = existing(spec.robot)
-    check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json"})
+    # the lock file is written (and removed) too: it must not be an input either
+    check_paths(inputs, {"--out": args.out, "--out sidecar": f"{args.out}.json", "--out lock": f"{args.out}.lock"})
     check_writable(args.out)
     command = "python -m lab " + shlex.join(args.argv)
-    job.run(spec, args.out, command=command, log=lambda line: print(line, file=sys.stderr))
+    with output_lock(args.out):  # a second run on this file is refused: it would drop the first's rows
+        job.run(spec, args.out, command=command, log=lambda line: print(line, file=sys.stderr))
     return 0

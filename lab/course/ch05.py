@@ -6,7 +6,7 @@ function and ``lab``'s own implementation on them, and shows one result through
 :func:`lab.course.grade`:
 
 - :func:`check_maximin_order` (exercise 5.1, the greedy maximin design) against
-  :func:`lab.data.designs.greedy_maximin`, the step behind ``design_commands(..., "maximin")``;
+  :func:`lab.data.maximin.greedy_maximin`, the step behind ``design_commands(..., "maximin")``;
 - :func:`check_gp_jacobian` (exercise 5.2, the GP residual's Jacobian) against
   :class:`lab.learn.GPCorrection`, the Jacobian the IK uses;
 - :func:`check_prior_weight` (exercise 5.3, choosing the fine-tuning prior by
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.course.grading import Grade, grade
-from lab.data.designs import greedy_maximin
+from lab.data.maximin import greedy_maximin
 from lab.learn import GPCorrection, finetune, finetune_fixed
 from lab.learn.finetune import _folds
 

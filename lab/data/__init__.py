@@ -30,7 +30,6 @@ from lab.data.designs import (
     DESIGNS,
     design_commands,
     empty_strata,
-    greedy_maximin,
     grid_commands,
     maximin_commands,
     min_distance,
@@ -40,6 +39,7 @@ from lab.data.designs import (
 from lab.data.diagnostics import InspectSpec, drift, inspect_dataset, inspect_file, outliers
 from lab.data.import_spec import ImportSpec
 from lab.data.importing import Measurements, import_dataset, read_measurements
+from lab.data.maximin import greedy_maximin
 from lab.data.repeatability import (
     hysteresis,
     local_residuals,

@@ -6,9 +6,16 @@ below, as for today's angle-controlled robots, whose every input spans [0, u_max
 :func:`grid_commands` (``levels`` equally spaced values per input, the paper's 7x7x7 grid,
 minus what the safety rule forbids), :func:`sobol_commands` (a scrambled Sobol sequence, seeded),
 :func:`lhs_commands` (a Latin hypercube, seeded, restricted to the safe set) and
-:func:`design_commands` (``n`` commands of a ``"random"``, ``"sobol"``, ``"maximin"`` or
-``"lhs"`` design over the safe set, for capturing a few real samples); :func:`min_distance`
-scores a design (its smallest pairwise distance), :func:`empty_strata` its stratification.
+:func:`design_commands` (``n`` commands of a ``"random"``, ``"sobol"``, ``"maximin"``
+(:func:`maximin_commands`, its selection in :mod:`lab.data.maximin`) or ``"lhs"`` design
+over the safe set, for capturing a few real samples); :func:`min_distance` scores a design
+(its smallest pairwise distance), :func:`empty_strata` its stratification.
+
+Prefixes: the random, Sobol and maximin designs are prefix-stable -- the first k commands of
+a design of any length are the design of length k (same seed) -- so a study may take its N
+samples as the first N of one long design and still use, at every N, the commands a design
+of N would. A Latin hypercube is not: its strata are n equal slices per motor, so a design
+of 10 is no prefix of one of 50.
 
 The walks (chunks) the commands are solved in: :mod:`lab.data.chunks`.
 """
@@ -19,6 +26,7 @@ import itertools
 
 import numpy as np
 
+from lab.data.maximin import greedy_maximin, maximin_pool_size
 from lab.description import RobotDescription
 from lab.errors import InputError
 
@@ -59,7 +67,8 @@ def grid_commands(robot: RobotDescription, levels: int) -> np.ndarray:
 
 
 def sobol_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """Safe commands from a scrambled Sobol sequence over [0, u_max]^m.
+    """Safe commands from a scrambled Sobol sequence over [0, u_max]^m: its safe points in
+    the sequence's order, so the first k of ``n`` are those of a draw of k (prefix-stable).
 
     Parameters
     ----------
@@ -166,7 +175,9 @@ def lhs_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
     instead gave a 1.5-1.9x larger held-out model error than Sobol at N = 200 on the
     three-cable FEM: the design crowded the safety rule's boundary.) Where no swap helps,
     it falls back to drawing larger hypercubes, keeping their safe points and dropping
-    the surplus that shares strata with the most others. Order: the draw's (random) order."""
+    the surplus that shares strata with the most others. Order: the draw's (random) order.
+    Not prefix-stable: the strata depend on ``n``, so the first k commands of an ``n``-point
+    hypercube are not a k-point one (nor Latin)."""
     from scipy.stats import qmc
 
     m, marg = robot.n_inputs, _safe_marginals(robot)
@@ -250,7 +261,8 @@ def _thin_by_strata(x: np.ndarray, n: int) -> np.ndarray:
 
 
 def random_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """Independent uniform commands over the safe part of [0, u_max]^m.
+    """Independent uniform commands over the safe part of [0, u_max]^m: the safe ones of one
+    seeded stream of uniform draws, in order, so the first k of ``n`` are a draw of k (prefix-stable).
 
     Parameters
     ----------
@@ -298,12 +310,14 @@ def min_distance(robot: RobotDescription, u_motor: np.ndarray) -> float:
 
 
 def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarray:
-    """Safe commands picked greedily from a pool of safe scrambled-Sobol candidates.
+    """Safe commands picked greedily from a growing pool of safe scrambled-Sobol candidates.
 
-    The pool holds ``max(4096, 32 n)`` candidates, at most 131,072; first the candidate
-    farthest from the pool's centroid, then always the one farthest from those already
-    picked, distances in normalised command space ``u / u_max``. Like every maximin
-    design it puts its first points on the boundary of the safe set.
+    The k-th pick chooses among the first ``max(4096, 32 k)`` safe Sobol commands (at most
+    131,072; :mod:`lab.data.maximin`): first the candidate farthest from the centroid of the
+    first 4096, then always the one farthest from those already picked, distances in
+    normalised command space ``u / u_max``. The pool grows with the pick, not with ``n``, so
+    the first k commands of a design of any length are the design of length k. Like every
+    maximin design it puts its first points on the boundary of the safe set.
 
     Parameters
     ----------
@@ -317,42 +331,19 @@ def maximin_commands(robot: RobotDescription, n: int, seed: int = 0) -> np.ndarr
     numpy.ndarray
         The commands (n, m), rad, in the order picked.
     """
-    pool = sobol_commands(robot, min(max(4096, 32 * n), 131_072), seed=seed)
+    pool = sobol_commands(robot, maximin_pool_size(n), seed=seed)
     x = _unit_scale(robot, pool)
-    first = int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))
-    return pool[greedy_maximin(x, first, n)]
-
-
-def greedy_maximin(points: np.ndarray, first: int, n: int) -> list[int]:
-    """Greedy maximin selection: each next point the one farthest from those already picked.
-
-    Parameters
-    ----------
-    points : numpy.ndarray
-        Candidates (P, d), any unit.
-    first : int
-        Index of the first pick.
-    n : int
-        How many to pick.
-
-    Returns
-    -------
-    list of int
-        The indices picked, in order (ties: the lowest index).
-    """
-    picked = [int(first)]
-    d_min = np.linalg.norm(points - points[first], axis=1)
-    for _ in range(n - 1):
-        k = int(np.argmax(d_min))
-        picked.append(k)
-        np.minimum(d_min, np.linalg.norm(points - points[k], axis=1), out=d_min)
-    return picked
+    p1 = maximin_pool_size(1)
+    first = int(np.argmax(np.linalg.norm(x[:p1] - x[:p1].mean(axis=0), axis=1)))
+    return pool[greedy_maximin(x, first, n, n_candidates=maximin_pool_size)]
 
 
 def design_commands(robot: RobotDescription, n: int, method: str = "maximin", seed: int = 0) -> np.ndarray:
     """Safe commands of a space-filling design over the allowed set (in ``[0, u_max]^m``
     and passing the robot's safety rule). Raises InputError for an unknown method,
-    ``n < 1``, ``n`` above the method's limit or a bad seed.
+    ``n < 1``, ``n`` above the method's limit or a bad seed. The ``"random"``, ``"sobol"``
+    and ``"maximin"`` designs are prefix-stable (the first k commands are the design of k,
+    whatever ``n``); ``"lhs"`` is not (its strata depend on ``n``).
 
     Parameters
     ----------

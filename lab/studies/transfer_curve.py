@@ -73,7 +73,9 @@ class TransferCurveSpec(Spec):
     ns : tuple of int
         Numbers of real samples N.
     design : str
-        Which N commands: ``random``, ``sobol`` or ``maximin``.
+        Which N commands: the first N of one ``random``, ``sobol`` or ``maximin`` design of
+        ``max(ns)`` commands. These designs are prefix-stable, so every method's row at N uses
+        the commands of a design of N (a Latin hypercube is not, and is not offered).
     n_test, n_points : int
         Held-out random commands per robot; targets per trajectory.
     seed : int

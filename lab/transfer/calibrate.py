@@ -196,6 +196,31 @@ def _check_data(robot: RobotDescription, u, y, markers) -> tuple[np.ndarray, np.
     return u, y
 
 
+#: How far a marker may be from where the nominal FEM puts it, in (length + largest radius) of
+#: the body (both lie within the body's reach): positions in cm or mm read as metres are far beyond.
+PLAUSIBLE_REACH = 2.0
+
+
+def _check_reach(robot: RobotDescription, y: np.ndarray, nominal: np.ndarray, markers) -> None:
+    """Refuse marker positions ``y`` (N, 3K) m that lie farther from the nominal FEM's ``nominal``
+    (N, 3K) m than any body of ``robot``'s size reaches: a unit (or frame) mistake."""
+    size = robot.length_m + robot.radius_m
+    dist = np.linalg.norm((y - nominal).reshape(len(y), -1, 3), axis=2)  # (N, K), m
+    i, k = np.unravel_index(int(np.argmax(dist)), dist.shape)
+    if dist[i, k] <= PLAUSIBLE_REACH * size:
+        return
+    names = ["x", "y", "z"] + [f"{name}_{a}" for name in list(markers)[1:] for a in "xyz"]
+    column = names[3 * k + int(np.argmax(np.abs(y[i, 3 * k : 3 * k + 3] - nominal[i, 3 * k : 3 * k + 3])))]
+    misfit = {u: float(np.median(np.linalg.norm(f * y - nominal, axis=1))) for u, f in (("cm", 1e-2), ("mm", 1e-3))}
+    unit = min(misfit, key=misfit.get)
+    raise InputError(
+        f"column {column!r}: sample {i} puts the {markers[k]} {dist[i, k]:.4g} m from where the nominal FEM of "
+        f"{robot.name} puts it, whose body is {robot.length_m:.3g} m long (no marker is plausibly more than "
+        f"{PLAUSIBLE_REACH * size:.3g} m away); the positions must be in metres, in frame W (read as {unit}, they "
+        f"would lie {misfit[unit]:.3g} m from the nominal FEM's, median)"
+    )
+
+
 def calibrate(
     robot: RobotDescription,
     u_real,
@@ -273,6 +298,7 @@ def calibrate(
     s = prior_std(lay, prior)
     samples = Samples(pf, u, _marker_indices(pf.fem(theta0), markers))
     q, tips, (dq, J) = samples.first(theta0)
+    _check_reach(robot, y, tips, markers)
 
     def cost(theta, tips):
         return float(np.sum((tips - y) ** 2) / noise_m**2 + np.sum(((theta - theta0) / s) ** 2))
