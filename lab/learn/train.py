@@ -36,7 +36,15 @@ class EpochProgress(Protocol):
     """What every trainer (:func:`train`, and the LM, BR, Adam and L-BFGS loops it runs)
     calls once per epoch: epoch 0 with the initial network, then after each epoch, the last
     call with the epoch it stopped at. The call only observes: the weights and their
-    history are the same with or without one."""
+    history are the same with or without one.
+
+    Parameters
+    ----------
+    epoch : int
+        (of the call) Epochs done, 0 .. the maximum.
+    row : tuple
+        (of the call) The trainer's history row of this epoch.
+    """
 
     def __call__(self, epoch: int, row: tuple) -> None:
         """Told that ``epoch`` is done.
