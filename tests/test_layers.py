@@ -28,6 +28,7 @@ LAYERS = [
     "specs",
     "files",
     "workers",
+    "startup",
     "description",
     "fem",
     "data",
