@@ -240,7 +240,7 @@ def replay_plan(source: Path, edition: str, student_dir: Path) -> Plan:
         if cells[i].dynamic:
             return Plan(None, f"cell {i} uses {cells[i].dynamic[0]}: names or a folder the analysis cannot follow")
         if PARAMETERS in tags[i]:
-            why = _same_parameters(src, student, source.parent, student_dir)
+            why = _same_parameters(src, student, source.resolve().parent, student_dir.resolve())
             if why:
                 return Plan(None, why)
         elif SOLUTION in tags[i]:

@@ -79,9 +79,9 @@ def test_student_edition_runs_and_says_not_implemented(notebook, chapter_runs, r
         failed = [r for r in run.replay if r["error"]]
         assert not failed, f"{notebook.name}: the student edition fails at its cell {failed[0]['index']}: {failed[0]}"
         graders = [r["text"] for r in run.replay if r["kind"] == "grader"]
-    assert graders
+    assert graders, f"{notebook.name}: the student edition has no grader"
     for text in graders:
-        assert NOT_IMPLEMENTED in text, text
+        assert NOT_IMPLEMENTED in text, f"{notebook.name}: a grader of the student edition says {text!r}"
 
 
 def full_run_needed(run, student: Path) -> str:
