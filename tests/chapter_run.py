@@ -157,10 +157,15 @@ class _Client(NotebookClient):
 
 
 def _failure(cell, err: BaseException) -> str:
-    return f"cell {cell.get('id', '?')}: {type(err).__name__}: {err}"
+    """The cell by its id, and the error with its traceback (without the terminal's colours)."""
+    return f"cell {cell.get('id', '?')}: {_plain(err)}"
 
 
-def run_chapter(notebook: Path, workdir: Path) -> ChapterRun:
+def _plain(err: BaseException) -> str:
+    return re.sub(r"\x1b\[[0-9;]*m", "", f"{type(err).__name__}: {err}")
+
+
+def run_chapter(notebook: Path, workdir: Path, cell_timeout_s: float = CELL_TIMEOUT_S) -> ChapterRun:
     """Run one chapter in quick mode, then the student edition's replayed cells.
 
     Parameters
@@ -169,6 +174,8 @@ def run_chapter(notebook: Path, workdir: Path) -> ChapterRun:
         ``notebooks/NN_name.ipynb``.
     workdir : pathlib.Path
         A new folder: the prepared and executed notebooks and ``figures/`` go there.
+    cell_timeout_s : float
+        Each cell's time limit (s); one that runs longer fails, named by its source.
 
     Returns
     -------
@@ -199,7 +206,7 @@ def run_chapter(notebook: Path, workdir: Path) -> ChapterRun:
     client = _Client(
         nb,
         watch,
-        timeout=CELL_TIMEOUT_S,
+        timeout=cell_timeout_s,
         startup_timeout=60,
         kernel_name="lab-test-this-python",
         kernel_manager_class=_Manager,
@@ -223,7 +230,7 @@ def run_chapter(notebook: Path, workdir: Path) -> ChapterRun:
             if not run.error and plan.cells:
                 _replay(client, nb, plan, run)
     except BaseException as err:  # a dead kernel, pytest-timeout: the chapter's other checks need not wait again
-        run.error = run.error or f"the run stopped: {type(err).__name__}: {err}"
+        run.error = run.error or f"the run stopped: {_plain(err)}"
         if isinstance(err, (KeyboardInterrupt, SystemExit)):
             raise
     finally:
@@ -245,7 +252,7 @@ def _replay(client: _Client, nb, plan: Plan, run: ChapterRun) -> None:
             try:
                 client.execute_cell(cell, len(nb.cells) - 1)
             except BaseException as err:  # the student edition's failure (pytest-timeout too), not the chapter's
-                entry["error"] = f"{type(err).__name__}: {err}"
+                entry["error"] = _plain(err)
                 if isinstance(err, (KeyboardInterrupt, SystemExit)):
                     raise
             finally:

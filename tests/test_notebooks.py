@@ -16,6 +16,8 @@ from pathlib import Path
 import pytest
 from helpers import NOTEBOOK_TEST_TIMEOUT_S, output_text
 
+from lab.course import NOT_IMPLEMENTED
+
 NOTEBOOKS_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOKS_DIR.glob("[0-9][0-9]_*.ipynb"))
 
@@ -70,3 +72,44 @@ def test_a_chapters_checks_go_to_one_worker(request):
             != "chapter 05_sim_to_real.ipynb"
         )
         assert sched._split_scope(other) == other_scope
+
+
+@pytest.mark.slow
+def test_a_chapter_run_keeps_what_each_check_reads(tmp_path):
+    """The shared run (tests/chapter_run.py) of a small chapter: the cells' outputs, the
+    messages of a checked cell, the figures written, a path opened relative to the working
+    folder, the student edition's stub and grader replayed after it; and a failing or
+    hanging cell recorded by its id and source, the cells after it not run."""
+    import nbformat
+    from chapter_run import run_chapter
+
+    def chapter(name, *cells):
+        nb = nbformat.v4.new_notebook(
+            cells=[nbformat.v4.new_code_cell(src, metadata={"tags": tags}) for src, tags in cells]
+        )
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+        nbformat.write(nb, tmp_path / name)
+        return tmp_path / name
+
+    params = ("quick = False\nfigures_dir = 'figures'", ["parameters"])
+    solution = ("def double(x):\n    return 2 * x", ["solution"])
+    grader = ("from lab.course import grade\ngrade('double', double, lambda x: 2 * x, [(1.0,)])", ["grader"])
+    body = "import os\nos.makedirs(figures_dir, exist_ok=True)\nopen(os.path.join(figures_dir, 'f.txt'), 'w').close()\n"
+    body += "open('nbval-sanitize.cfg').close()\nprint('quick', quick)"
+    run = run_chapter(chapter("01_ok.ipynb", params, solution, grader, (body, ["nbval-check-output"])), tmp_path / "ok")
+    assert not run.error and run.ran == len(run.executed.cells) == 5, run.error  # with papermill's injected cell
+    assert "passed" in output_text(run.executed.cells[3]) and run.figures == ["f.txt"]
+    assert run.checked == {4: [{"output_type": "stream", "name": "stdout", "text": "quick True\n"}]}
+    assert [(e, p) for _, e, p in run.relative] == [("open", "nbval-sanitize.cfg")]
+    assert [(r["kind"], NOT_IMPLEMENTED in r["text"], r["error"]) for r in run.replay] == [
+        ("stub", False, ""),
+        ("grader", True, ""),
+    ]
+
+    run = run_chapter(
+        chapter("02_bad.ipynb", params, ("raise ValueError('broken')", []), ("x = 1", [])), tmp_path / "bad"
+    )
+    assert "ValueError: broken" in run.error and run.ran == 2 and run.error.startswith("cell ")
+    hang = chapter("03_hang.ipynb", params, ("import time\ntime.sleep(600)", []))
+    run = run_chapter(hang, tmp_path / "hang", cell_timeout_s=3)
+    assert "time.sleep(600)" in run.error and "timed out" in run.error, run.error
