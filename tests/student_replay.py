@@ -46,7 +46,7 @@ import symtable
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ["ReplayCell", "Plan", "replay_plan", "cell_source"]
+__all__ = ["ReplayCell", "Plan", "replay_plan"]
 
 PARAMETERS, SOLUTION, GRADER = "parameters", "solution", "grader"
 #: names that reach variables by string, which the static analysis cannot follow, and the
