@@ -119,22 +119,27 @@ def assembly_backend(n_tets: int | None = None) -> str:
     return "compiled"
 
 
-def jit(fn):
+def jit(fn=None, *, inline: bool = False):
     """``numba.njit`` with the on-disk cache, or without it where no cache folder is writable.
 
     Parameters
     ----------
     fn : callable
-        A function numba can compile in nopython mode.
+        A function numba can compile in nopython mode (``@jit`` or ``@jit(inline=True)``).
+    inline : bool
+        Inline it into its callers at numba's IR level (a small helper of a loop: no call,
+        no reference counting of its array arguments per element).
 
     Returns
     -------
     numba.core.registry.CPUDispatcher
         The compiled function (lazily: compiled, or loaded from the cache, at its first call).
     """
+    if fn is None:
+        return lambda f: jit(f, inline=inline)
     import numba
 
-    options = dict(nogil=True, error_model="numpy")
+    options = dict(nogil=True, error_model="numpy", inline="always" if inline else "never")
     try:
         return numba.njit(cache=True, **options)(fn)
     except RuntimeError as err:  # "cannot cache function ...: no locator available"

@@ -1,14 +1,14 @@
-"""The element sums of every material law, each law one compiled loop over the tets (numba).
+"""The element sums of the laws given by their tangent, each one compiled loop over the tets (numba).
 
-Each law's loop (:func:`neo_hookean_sums`, :func:`yeoh_sums`, :func:`hyperfoam_sums`, compiled
-separately, when first used) visits each tet once: F from its four nodes, the law's energy density,
-stress or tangent at F (neo-Hookean and Yeoh here, the foam law in :mod:`.foam`), and then,
-by ``mode``, the energy alone, the energy and the nodal gradient, the element Hessian added
-straight into the CSR data of the global Hessian through each entry's precomputed slot, the
-dense element Hessians, or the tangents. The Hessian of a law given by its tangent is
-H[(a, i), (b, k)] = sum_jl G[a, j] V A[(i, j), (k, l)] G[b, l] (two small contractions);
-the neo-Hookean one is the closed form of :meth:`lab.fem.materials.NeoHookean.hessian`.
-Importing this module imports numba (:func:`lab.fem.kernels.backend.jit`).
+:func:`yeoh_sums` and :func:`hyperfoam_sums` (the foam law at an element in :mod:`.foam`)
+visit each tet once: F from its four nodes (:func:`deformation`, shared with the
+neo-Hookean loop of :mod:`.neo_hookean`), the law's energy density, stress or tangent A at F,
+and then, by ``mode``, the energy alone, the energy and the nodal gradient, the element
+Hessian H[(a, i), (b, k)] = sum_jl G[a, j] V A[(i, j), (k, l)] G[b, l] (two small
+contractions) added straight into the CSR data of the global Hessian through each entry's
+precomputed slot, the dense element Hessians, or the tangents. Small helpers are inlined
+(no call and no reference counting per tet). Importing this module imports numba
+(:func:`lab.fem.kernels.backend.jit`).
 """
 
 from __future__ import annotations
@@ -20,73 +20,52 @@ import numpy as np
 from lab.fem.kernels.backend import jit
 from lab.fem.kernels.foam import foam_element
 
-#: The laws, by number (``kind``).
-NEO_HOOKEAN, YEOH, HYPERFOAM = 0, 1, 2
-#: What :func:`element_sums` computes (``mode``).
+#: What a loop computes (``mode``).
 ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS = 0, 1, 2, 3, 4
 
 
-@jit
-def _deformation(x, tets, G, e, F):
-    """F (3, 3) of tet ``e``: F_ij = sum_a x[tets[e, a], i] G[e, a, j]."""
-    for i in range(3):
-        for j in range(3):
-            s = 0.0
-            for a in range(4):
-                s += x[tets[e, a], i] * G[e, a, j]
-            F[i, j] = s
+@jit(inline=True)
+def deformation(x, tets, G, e):
+    """F of tet ``e`` as 9 scalars, row by row: F_ij = sum_a x[tets[e, a], i] G[e, a, j]."""
+    n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+    g00, g01, g02, g10, g11, g12 = G[e, 0, 0], G[e, 0, 1], G[e, 0, 2], G[e, 1, 0], G[e, 1, 1], G[e, 1, 2]
+    g20, g21, g22, g30, g31, g32 = G[e, 2, 0], G[e, 2, 1], G[e, 2, 2], G[e, 3, 0], G[e, 3, 1], G[e, 3, 2]
+    a0, a1, a2, a3 = x[n0, 0], x[n1, 0], x[n2, 0], x[n3, 0]
+    b0, b1, b2, b3 = x[n0, 1], x[n1, 1], x[n2, 1], x[n3, 1]
+    c0, c1, c2, c3 = x[n0, 2], x[n1, 2], x[n2, 2], x[n3, 2]
+    return (
+        a0 * g00 + a1 * g10 + a2 * g20 + a3 * g30,
+        a0 * g01 + a1 * g11 + a2 * g21 + a3 * g31,
+        a0 * g02 + a1 * g12 + a2 * g22 + a3 * g32,
+        b0 * g00 + b1 * g10 + b2 * g20 + b3 * g30,
+        b0 * g01 + b1 * g11 + b2 * g21 + b3 * g31,
+        b0 * g02 + b1 * g12 + b2 * g22 + b3 * g32,
+        c0 * g00 + c1 * g10 + c2 * g20 + c3 * g30,
+        c0 * g01 + c1 * g11 + c2 * g21 + c3 * g31,
+        c0 * g02 + c1 * g12 + c2 * g22 + c3 * g32,
+    )
 
 
-@jit
-def _inverse(F, Fi):
-    """det F; and F^-1 into Fi where det F > 0 (the adjugate over the determinant)."""
+@jit(inline=True)
+def _fill(F, f):
+    """The 9 scalars ``f`` of :func:`deformation` into the (3, 3) array F."""
+    F[0, 0], F[0, 1], F[0, 2], F[1, 0], F[1, 1], F[1, 2], F[2, 0], F[2, 1], F[2, 2] = f
+
+
+@jit(inline=True)
+def _inverse(F, Fi, want):
+    """det F; and, if ``want``, F^-1 into Fi where det F > 0 (the adjugate over the determinant)."""
     a, b, c = F[0, 0], F[0, 1], F[0, 2]
     d, e, f = F[1, 0], F[1, 1], F[1, 2]
     g, h, i = F[2, 0], F[2, 1], F[2, 2]
-    c00, c01, c02 = e * i - f * h, c * h - b * i, b * f - c * e
-    c10, c11, c12 = f * g - d * i, a * i - c * g, c * d - a * f
-    c20, c21, c22 = d * h - e * g, b * g - a * h, a * e - b * d
+    c00, c10, c20 = e * i - f * h, f * g - d * i, d * h - e * g
     J = a * c00 + b * c10 + c * c20
-    if J > 0:
-        Fi[0, 0], Fi[0, 1], Fi[0, 2] = c00 / J, c01 / J, c02 / J
-        Fi[1, 0], Fi[1, 1], Fi[1, 2] = c10 / J, c11 / J, c12 / J
-        Fi[2, 0], Fi[2, 1], Fi[2, 2] = c20 / J, c21 / J, c22 / J
+    if J > 0 and want:
+        r = 1.0 / J
+        Fi[0, 0], Fi[0, 1], Fi[0, 2] = c00 * r, (c * h - b * i) * r, (b * f - c * e) * r
+        Fi[1, 0], Fi[1, 1], Fi[1, 2] = c10 * r, (a * i - c * g) * r, (c * d - a * f) * r
+        Fi[2, 0], Fi[2, 1], Fi[2, 2] = c20 * r, (b * g - a * h) * r, (a * e - b * d) * r
     return J
-
-
-@jit
-def _neo_hookean(F, Fi, J, mu, lam, order, P):
-    """Energy density of the neo-Hookean law; with ``order`` >= 1 the stress into P."""
-    logJ = math.log(J)
-    I1 = 0.0
-    for i in range(3):
-        for j in range(3):
-            I1 += F[i, j] * F[i, j]
-    if order >= 1:
-        c = mu - lam * logJ
-        for i in range(3):
-            for j in range(3):
-                P[i, j] = mu * F[i, j] - c * Fi[j, i]
-    return 0.5 * mu * (I1 - 3) - mu * logJ + 0.5 * lam * logJ * logJ
-
-
-@jit
-def _neo_hookean_hessian(G, e, Fi, J, mu, lam, Ag, H):
-    """The closed-form element Hessian (144,) of the neo-Hookean law (V in mu, lam):
-    c Ag[a, k] Ag[b, i] + lam Ag[a, i] Ag[b, k] + mu (G G^T)[a, b] d_ik, Ag = G F^-1."""
-    c = mu - lam * math.log(J)
-    for a in range(4):
-        for k in range(3):
-            Ag[a, k] = G[e, a, 0] * Fi[0, k] + G[e, a, 1] * Fi[1, k] + G[e, a, 2] * Fi[2, k]
-    for a in range(4):
-        for b in range(4):
-            gg = mu * (G[e, a, 0] * G[e, b, 0] + G[e, a, 1] * G[e, b, 1] + G[e, a, 2] * G[e, b, 2])
-            for i in range(3):
-                for k in range(3):
-                    h = c * Ag[a, k] * Ag[b, i] + lam * Ag[a, i] * Ag[b, k]
-                    if i == k:
-                        h += gg
-                    H[12 * (3 * a + i) + 3 * b + k] = h
 
 
 @jit
@@ -125,7 +104,7 @@ def _yeoh(F, Fi, J, c1, c2, c3, kappa, order, P, A):
     return W
 
 
-@jit
+@jit(inline=True)
 def _contract(G, e, Ve, A, T, H):
     """H (144,) = K (Ve A) K^T for the tangent A (9, 9), K[(a, i), (k, l)] = d_ik G[e, a, l];
     T (9, 12) is scratch."""
@@ -143,7 +122,7 @@ def _contract(G, e, Ve, A, T, H):
                 )
 
 
-@jit
+@jit(inline=True)
 def _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out):
     """Tet e's share by ``mode``: V G P^T into ``grad``, V A into ``out``, or its Hessian H
     (144,) into ``data`` at ``slots[e]`` or into ``out[e]``."""
@@ -168,42 +147,16 @@ def _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out):
 
 
 @jit
-def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
-    """One pass over the tets of the neo-Hookean law (prm[:, :2] = mu, lam in Pa).
+def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
+    """One pass over the tets of the Yeoh law (prm = c10, c20, c30, kappa in Pa).
 
     ``mode``: ENERGY; GRADIENT (dE/dx also added into ``grad`` (N, 3)); HESSIAN (element
     Hessians added into ``data`` at ``slots`` (M, 144), -1: a clamped dof, skipped);
-    ELEMENT_HESSIANS (into ``out`` (M, 12, 12)); TANGENTS (V A into ``out`` (M, 9, 9), not
-    for this law). Node positions ``x`` (N, 3) m, ``tets`` (M, 4), shape-function gradients
-    ``G`` (M, 4, 3), rest volumes ``V`` (M,), per-tet parameters ``prm`` (M, 4) and the
-    foam's exponents ``alpha``, ``beta`` (unused here). Returns (energy J, number of
-    inverted tets); nothing is added for an inverted tet."""
-    F, Fi, P, A, H, Ag = (
-        np.empty((3, 3)),
-        np.empty((3, 3)),
-        np.empty((3, 3)),
-        np.empty((1, 1)),
-        np.empty(144),
-        np.empty((4, 3)),
-    )
-    energy, bad = 0.0, 0
-    for e in range(tets.shape[0]):
-        _deformation(x, tets, G, e, F)
-        J = _inverse(F, Fi)
-        if not J > 0:
-            bad += 1
-            continue
-        Ve = V[e]
-        energy += Ve * _neo_hookean(F, Fi, J, prm[e, 0], prm[e, 1], 1 if mode == GRADIENT else 0, P)
-        if mode == HESSIAN or mode == ELEMENT_HESSIANS:
-            _neo_hookean_hessian(G, e, Fi, J, Ve * prm[e, 0], Ve * prm[e, 1], Ag, H)
-        _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
-    return energy, bad
-
-
-@jit
-def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
-    """:func:`neo_hookean_sums` for the Yeoh law (prm = c10, c20, c30, kappa in Pa)."""
+    ELEMENT_HESSIANS (into ``out`` (M, 12, 12)); TANGENTS (V A into ``out`` (M, 9, 9)).
+    Node positions ``x`` (N, 3) m, ``tets`` (M, 4), shape-function gradients ``G`` (M, 4, 3),
+    rest volumes ``V`` (M,), per-tet parameters ``prm`` (M, 4) and the foam's exponents
+    ``alpha``, ``beta`` (unused here). Returns (energy J, number of inverted tets); nothing is
+    added for an inverted tet."""
     F, Fi, P, A, T, H = (
         np.empty((3, 3)),
         np.empty((3, 3)),
@@ -215,8 +168,8 @@ def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
     order = 0 if mode == ENERGY else (1 if mode == GRADIENT else 2)
     energy, bad = 0.0, 0
     for e in range(tets.shape[0]):
-        _deformation(x, tets, G, e, F)
-        J = _inverse(F, Fi)
+        _fill(F, deformation(x, tets, G, e))
+        J = _inverse(F, Fi, mode != ENERGY)
         if not J > 0:
             bad += 1
             continue
@@ -224,13 +177,14 @@ def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
         energy += Ve * _yeoh(F, Fi, J, prm[e, 0], prm[e, 1], prm[e, 2], prm[e, 3], order, P, A)
         if mode == HESSIAN or mode == ELEMENT_HESSIANS:
             _contract(G, e, Ve, A, T, H)
-        _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
+        if mode != ENERGY:
+            _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
     return energy, bad
 
 
 @jit
 def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
-    """:func:`neo_hookean_sums` for the hyperfoam law (prm[:, 0] = mu in Pa; ``alpha``, ``beta``)."""
+    """:func:`yeoh_sums` for the hyperfoam law (prm[:, 0] = mu in Pa; ``alpha``, ``beta``)."""
     F, Fi, P, A, T, H = (
         np.empty((3, 3)),
         np.empty((3, 3)),
@@ -243,8 +197,8 @@ def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out
     order = 0 if mode == ENERGY else (1 if mode == GRADIENT else 2)
     energy, bad = 0.0, 0
     for e in range(tets.shape[0]):
-        _deformation(x, tets, G, e, F)
-        J = _inverse(F, Fi)
+        _fill(F, deformation(x, tets, G, e))
+        J = _inverse(F, Fi, mode != ENERGY)
         W = foam_element(F, Fi, J, prm[e, 0], alpha, beta, order, P, A, w) if J > 0 else math.nan
         if math.isnan(W):  # inverted, or squashed flat (an eigenvalue of C not positive)
             bad += 1
@@ -253,12 +207,9 @@ def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out
         energy += Ve * W
         if mode == HESSIAN or mode == ELEMENT_HESSIANS:
             _contract(G, e, Ve, A, T, H)
-        _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
+        if mode != ENERGY:
+            _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
     return energy, bad
-
-
-#: The compiled sums of each law, by ``kind``.
-SUMS = (neo_hookean_sums, yeoh_sums, hyperfoam_sums)
 
 
 @jit

@@ -18,7 +18,7 @@ from lab.fem.materials.elements import JACOBI_SWEEPS
 from lab.fem.materials.hyperfoam import REPEATED_LOG_GAP
 
 
-@jit
+@jit(inline=True)
 def _rotation(app, aqq, apq):
     """The Jacobi rotation (c, s, t) zeroing apq, as ``_eigh3`` (t = 0 where apq = 0)."""
     t = 0.0
@@ -72,7 +72,7 @@ def jacobi3(C, Q, c, vectors):
     Q[2, 0], Q[2, 1], Q[2, 2] = q20, q21, q22
 
 
-@jit
+@jit(inline=True)
 def _divided(la, lb, p):
     """(c_a^p - c_b^p) / (c_a - c_b) from the logs la, lb (``_divided_power``'s form)."""
     m, x = 0.5 * (la + lb), 0.5 * (la - lb)

@@ -2,7 +2,8 @@
 
 :class:`CompiledLaw` wraps a neo-Hookean, Yeoh or hyperfoam law on a mesh
 (:mod:`lab.fem.materials`) and gives its energy, nodal gradient, element Hessians and
-Hessian products from :func:`lab.fem.kernels.elements.element_sums`, plus
+Hessian products from its compiled loop (:func:`lab.fem.kernels.neo_hookean.neo_hookean_sums`,
+:func:`lab.fem.kernels.elements.yeoh_sums`, :func:`lab.fem.kernels.elements.hyperfoam_sums`), plus
 :meth:`CompiledLaw.add_hessian`, which adds every element Hessian straight into the data
 array of the global CSR Hessian. Each agrees with the law's own (NumPy) method to rounding
 and raises or returns +inf for inverted tets alike.
@@ -19,7 +20,8 @@ from lab.fem.materials.yeoh import Yeoh
 
 
 def law_parameters(law):
-    """``(kind, prm (M, 4), alpha, beta)`` of a law the kernels know, else None."""
+    """``(kind, prm (M, 4), alpha, beta)`` of a law the kernels know (kind 0: neo-Hookean,
+    1: Yeoh, 2: hyperfoam), else None."""
     M = len(law.V)
     prm = np.zeros((M, 4))
     if type(law) is NeoHookean:
@@ -44,11 +46,12 @@ class CompiledLaw:
     """
 
     def __init__(self, law):
-        from lab.fem.kernels import elements
+        from lab.fem.kernels import elements, neo_hookean
 
         self.law = law
         self._k = elements
         self.kind, self._prm, self._alpha, self._beta = law_parameters(law)
+        self._sums = (neo_hookean.neo_hookean_sums, elements.yeoh_sums, elements.hyperfoam_sums)[self.kind]
         self._tets = np.ascontiguousarray(law.tets, dtype=np.int64)
         self._G = np.ascontiguousarray(law.G, dtype=float)
         self._V = np.ascontiguousarray(law.V, dtype=float)
@@ -56,7 +59,7 @@ class CompiledLaw:
 
     def _run(self, mode, x_W, grad=None, data=None, slots=None, out=None):
         g0, d0, s0, o0 = self._none
-        return self._k.SUMS[self.kind](
+        return self._sums(
             mode,
             np.ascontiguousarray(x_W, dtype=float),
             self._tets,
@@ -174,7 +177,7 @@ class CompiledLaw:
         callable
             dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
         """
-        if self.kind == self._k.NEO_HOOKEAN:
+        if self.kind == 0:
             return self.law.hessian_product(x_W)  # closed form, about a gradient's cost already
         out = np.empty((len(self._V), 9, 9))
         _, bad = self._run(self._k.TANGENTS, x_W, out=out)
