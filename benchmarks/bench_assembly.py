@@ -38,6 +38,7 @@ import numpy as np  # noqa: E402
 from assembly_startup import cold_start  # noqa: E402
 
 import lab.data.simulation as simulation  # noqa: E402
+import lab.fem.solve.linsolve as linsolve  # noqa: E402
 import lab.fem.solve.statics as statics  # noqa: E402
 import lab.fem.solve.steps as steps  # noqa: E402
 from lab.asbuilt.arm import as_built_fem  # noqa: E402
@@ -48,6 +49,7 @@ from lab.description import load_robot  # noqa: E402
 from lab.fem import ArmFEM, solve_static, use_assembly  # noqa: E402
 from lab.fem.kernels import COMPILED_MIN_TETS, compiled_law  # noqa: E402
 from lab.fem.solve.linsolve import default_backend, factorize  # noqa: E402
+from lab.fem.solve.warmstart import WalkPredictor  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BOTH = ("numpy", "compiled")
@@ -195,8 +197,10 @@ def warm_samples(fems: dict, n_walk: int, rounds: int) -> None:
 PHASES = {  # name: where the solver looks each timed function up
     "Hessian assembly": [(ArmFEM, "hessian")],
     "factorisation": [(steps, "factorize"), (statics, "factorize")],
+    "linear solves": [(linsolve._Pardiso, "solve"), (linsolve._SuperLU, "solve")],
     "energy and gradient": [(ArmFEM, "energy"), (ArmFEM, "gradient")],
     "Hessian products": [(ArmFEM, "hessian_operator")],
+    "warm-start predictions": [(WalkPredictor, "ranked")],
 }
 
 
@@ -241,23 +245,26 @@ def floor(asm: dict, cold: dict) -> None:
         "+ one factorisation (ms CPU, medians)"
     )
     say()
-    say("| model | assembly | factorisation | floor | Newton step | step / floor |")
-    say("|---|---|---|---|---|---|")
+    say("| model | assembly | factorisation | floor | Newton step | step / floor | the same, unprojected solves |")
+    say("|---|---|---|---|---|---|---|")
     with use_assembly("compiled"):
         for name, (U, _, _) in cold.items():
             fem, u, q, t = asm[name]
             H = fem.hessian(q, u)
             t_fact = cpu(lambda H=H: factorize(H), 5)
             t_asm = t["whole Hessian"]["compiled"]
-            per = []
+            per, plain = [], []
             for u_c in U:
                 t0 = time.process_time()
                 s = solve_static(fem, u_c)
                 per.append((time.process_time() - t0) / s.factorizations)
-            step = float(np.median(per))
+                if not s.projected_steps:
+                    plain.append(per[-1])
+            step, unit = float(np.median(per)), t_asm + t_fact
+            alone = f"{np.median(plain) / unit:.2f} ({len(plain)} of {len(U)})" if plain else f"none of {len(U)}"
             say(
-                f"| {name} | {1e3 * t_asm:.2f} | {1e3 * t_fact:.2f} | {1e3 * (t_asm + t_fact):.2f} | "
-                f"{1e3 * step:.2f} | {step / (t_asm + t_fact):.2f} |"
+                f"| {name} | {1e3 * t_asm:.2f} | {1e3 * t_fact:.2f} | {1e3 * unit:.2f} | {1e3 * step:.2f} | "
+                f"{step / unit:.2f} | {alone} |"
             )
         say()
         say("Where the time goes (instrumented runs; ms CPU per factorisation for cold solves, per sample for a walk):")

@@ -24,8 +24,6 @@ EXPORT_EXCEPTIONS: dict[str, str] = {
     "the description's own comes from body_of",
     "lab.fem.bodies.TaperedBody": "the body a user builds at another resolution and passes to ArmFEM(robot, body=...); "
     "the description's own comes from body_of",
-    "lab.fem.kernels.KernelFallbackWarning": "the warning a user filters where numba is missing or cannot cache "
-    "(its message names the remedy)",
     "lab.jobs.JOBS": "command name -> job module: how a notebook or script finds the run(spec) of a command "
     "it knows by its CLI name (lab.cli.COMMANDS's counterpart)",
     "lab.learn.TrainResult": "what train() returns (model, split, log, errors); its signature names it, so the "

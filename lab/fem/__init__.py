@@ -53,7 +53,7 @@ from lab.fem.bodies import (
     save_mesh,
     tapered_mesh,
 )
-from lab.fem.kernels import set_assembly, use_assembly
+from lab.fem.kernels import COMPILED_MIN_TETS, KernelFallbackWarning, assembly_backend, set_assembly, use_assembly
 from lab.fem.materials import (
     MATERIALS,
     Hyperfoam,
@@ -88,6 +88,7 @@ from lab.fem.solve import (
 
 __all__ = [
     "ACTUATORS",
+    "COMPILED_MIN_TETS",
     "BODIES",
     "MATERIALS",
     "Actuator",
@@ -102,6 +103,7 @@ __all__ = [
     "Hyperfoam",
     "HyperfoamMaterial",
     "InvertedElementError",
+    "KernelFallbackWarning",
     "Marker",
     "Material",
     "MaterialLaw",
@@ -123,6 +125,7 @@ __all__ = [
     "Yeoh",
     "YeohMaterial",
     "as_built_description",
+    "assembly_backend",
     "barycentric",
     "body_of",
     "chamber_surface",

@@ -20,7 +20,6 @@ __all__ = [
     "COMPILED_MIN_TETS",
     "KernelFallbackWarning",
     "assembly_backend",
-    "compiled_law",
     "set_assembly",
     "use_assembly",
 ]
