@@ -2,9 +2,9 @@
 benchmarks/bench_assembly.py (imported from the scripts' folder).
 
 Fresh ``python -m lab`` processes, the code before (``git archive REV lab``) and after (this
-tree) alternating, each run's child CPU time (user + system, from ``getrusage``) and wall
-time; numba's cache in a folder of its own (``NUMBA_CACHE_DIR``), warmed by one run first,
-and, for the very first call, empty each time.
+tree) alternating, each run's child CPU time (user + system, from ``getrusage``; wall time on
+a loaded machine says little); numba's cache in a folder of its own (``NUMBA_CACHE_DIR``),
+warmed by one run first, and, for the very first call, empty each time.
 """
 
 import os
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-RUNS = 3
+RUNS = 5
 SIMULATE = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", "--out", "{out}"]
 CASES = {
     "python -m lab --help": ["--help"],
@@ -73,16 +73,21 @@ def cold_start(rev: str, say) -> None:
         empty = []
         for r in range(2):
             empty.append(run(ROOT, SIMULATE, env | {"NUMBA_CACHE_DIR": str(tmp / f"empty-{r}")}, tmp))
-    say(f"## 6. Cold start of the command line (fresh processes, median of {RUNS}; before: {rev})")
+    say(f"## 6. Cold start of the command line (fresh processes, {RUNS} each; before: {rev})")
     say()
-    say("| command | before: CPU s (wall s) | after: CPU s (wall s) | CPU after - before |")
+    say("| command | before: CPU s, median (min) | after: CPU s, median (min) | CPU after - before, median (min) |")
     say("|---|---|---|---|")
     for case in CASES:
-        b, a = (np.median(np.array(times[case, t]), axis=0) for t in ("before", "after"))
-        say(f"| {case} | {b[0]:.2f} ({b[1]:.2f}) | {a[0]:.2f} ({a[1]:.2f}) | {a[0] - b[0]:+.2f} |")
-    e = np.array(empty)
+        b, a = (np.array(times[case, t])[:, 0] for t in ("before", "after"))
+        say(
+            f"| {case} | {np.median(b):.2f} ({b.min():.2f}) | {np.median(a):.2f} ({a.min():.2f}) | "
+            f"{np.median(a) - np.median(b):+.2f} ({a.min() - b.min():+.2f}) |"
+        )
+    e = np.array(empty)[:, 0]
+    warm = np.array(times[list(CASES)[1], "after"])[:, 0]
     say(
-        f"| the default-mesh simulate, numba's cache empty (first call ever: compiles the neo-Hookean kernels; "
-        f"2 runs) | | {e[:, 0].min():.2f}-{e[:, 0].max():.2f} ({e[:, 1].min():.2f}-{e[:, 1].max():.2f}) | |"
+        f"| the default-mesh simulate, numba's cache empty (the first call ever compiles the neo-Hookean "
+        f"kernels; 2 runs) | | {np.median(e):.2f} ({e.min():.2f}) | {np.median(e) - np.median(warm):+.2f} "
+        f"({e.min() - warm.min():+.2f}) against the warm cache |"
     )
     say()

@@ -17,9 +17,9 @@ assemblies interleaved round by round, medians:
    it is indefinite (PARDISO's inertia, the most negative element eigenvalue, det F);
 6. the command line's cold start, ``python -m lab --help`` and a tiny ``simulate`` in fresh
    processes, before (the code at ``--baseline-rev``, from ``git archive``) and after, with
-   numba's cache warm and, once, empty (child CPU time, median of 3).
+   numba's cache warm and empty (child CPU time, 5 runs each).
 
-About 10 minutes on 2 loaded cores; ``--quick``: fewer commands and rounds, no cold start.
+About 20 minutes on 2 loaded cores; ``--quick``: fewer commands and rounds, no cold start.
 """
 
 import os
@@ -313,46 +313,53 @@ def projection(fem, robot, n_cmd: int, seed: int = 1) -> None:
             log.append((H, last_q["q"]))
         return d, fac
 
+    def min_det(q):
+        return np.linalg.det(fem.elastic.deformation_gradient(fem.to_nodes(q))).min()
+
     fem.hessian, statics.newton_step = watched_hessian, watched_newton
-    first, projected, facts, indefinite = None, 0, 0, 0
+    rows, projected, facts, J_eq = [], 0, 0, []
     try:
         with use_assembly("compiled"):
+            law = compiled_law(fem.elastic)
             for u in U:
                 log.clear()
                 s = solve_static(fem, u)
                 projected, facts = projected + s.projected_steps, facts + s.factorizations
-                indefinite += len(log)
-                if log and first is None:
-                    first = (u, s, *log[0])
+                J_eq.append(min_det(s.q))
+                for H, q in log:
+                    w = np.linalg.eigvalsh(law.hessian(fem.to_nodes(q)))[:, 0].min()
+                    diag = np.median(H.diagonal())
+                    away = np.abs(q - fem.rest_q()).max()
+                    rows.append((factorize(H).n_negative, w, w / diag, diag, min_det(q), away))
+                if log and "cost" not in last_q:
+                    q = log[0][1]
+                    last_q["cost"] = [cpu(lambda p=p, q=q, u=u: hessian(q, u, p), 3) for p in (False, True)]
     finally:
         del fem.hessian
         statics.newton_step = newton
+    el = fem.elastic
     say(
-        f"{n_cmd} cold solves: {facts} factorisations, {indefinite} Newton steps where the exact Hessian was not "
-        f"positive definite, {projected} of them ended in a projected step (the diagonal shifts {steps.SHIFTS} x "
-        "median "
-        "diagonal did not make it definite)."
+        f"The member's law: hyperfoam, alpha = {el.alpha:.2f}, beta = {el.beta:.2f} (alpha beta = "
+        f"{el.alpha * el.beta:.1f}); {len(el.V):,} tets. {n_cmd} cold solves from rest: {facts} factorisations, "
+        f"{len(rows)} Newton steps where the exact Hessian was not positive definite, {projected} of them ended in a "
+        f"projected step (the diagonal shifts {steps.SHIFTS} x the median diagonal did not make it definite)."
     )
-    if first is None:
+    if rows:
+        r = np.array(rows)
+
+        def span(k, fmt):
+            return f"{format(r[:, k].min(), fmt)} to {format(r[:, k].max(), fmt)}"
+
         say()
-        return
-    u, s, H, q = first
-    x = fem.to_nodes(q)
-    J = np.linalg.det(fem.elastic.deformation_gradient(x))
-    with use_assembly("compiled"):
-        w = np.linalg.eigvalsh(compiled_law(fem.elastic).hessian(x))[:, 0]
-    J_eq = np.linalg.det(fem.elastic.deformation_gradient(fem.to_nodes(s.q)))
-    e = int(np.argmin(w))
-    centroid = fem.mesh.X_W[fem.mesh.tets[e]].mean(axis=0)
-    lu, diag = factorize(H), np.median(H.diagonal())
-    say(
-        f"First such iterate (u = {np.round(u, 2).tolist()}): PARDISO counts {lu.n_negative} negative eigenvalues; "
-        f"median diagonal {diag:.0f} N/m, so the largest shift is {steps.SHIFTS[-1] * diag:.1f} N/m; "
-        f"the most negative element-Hessian eigenvalue is {w[e]:.3g} N/m (tet {e}, centroid "
-        f"{np.round(centroid * 1e3, 1).tolist()} mm, det F = {J[e]:.2f}); smallest det F there {J.min():.2f}, "
-        f"at the equilibrium {J_eq.min():.2f}; the iterate is {1e3 * np.abs(q - fem.rest_q()).max():.1f} mm from rest, "
-        f"the equilibrium {1e3 * np.abs(s.q - fem.rest_q()).max():.1f} mm."
-    )
+        say(
+            f"At those iterates: PARDISO counts {span(0, '.0f')} negative eigenvalues; the most negative eigenvalue of "
+            f"an element Hessian is {span(1, '.3g')} N/m, {span(2, '.3g')} times the median diagonal entry "
+            f"({span(3, '.0f')} N/m); the smallest det F of a tet is {span(4, '.2f')} (at the equilibria: "
+            f"{min(J_eq):.2f} to {max(J_eq):.2f}); the iterates are {1e3 * r[:, 5].min():.1f} to "
+            f"{1e3 * r[:, 5].max():.1f} mm from rest. There a projected assembly costs {1e3 * last_q['cost'][1]:.0f} "
+            f"ms CPU against {1e3 * last_q['cost'][0]:.1f} ms for the exact one (the eigen-decomposition of every "
+            "12 x 12 element block)."
+        )
     say()
 
 
