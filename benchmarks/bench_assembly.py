@@ -19,7 +19,7 @@ assemblies interleaved round by round, medians:
    processes, before (the code at ``--baseline-rev``, from ``git archive``) and after, with
    numba's cache warm and empty (child CPU time, 5 runs each).
 
-About 20 minutes on 2 loaded cores; ``--quick``: fewer commands and rounds, no cold start.
+About 30 minutes on 2 loaded cores; ``--quick``: fewer commands and rounds, no cold start.
 """
 
 import os
@@ -341,8 +341,9 @@ def projection(fem, robot, n_cmd: int, seed: int = 1) -> None:
     say(
         f"The member's law: hyperfoam, alpha = {el.alpha:.2f}, beta = {el.beta:.2f} (alpha beta = "
         f"{el.alpha * el.beta:.1f}); {len(el.V):,} tets. {n_cmd} cold solves from rest: {facts} factorisations, "
-        f"{len(rows)} Newton steps where the exact Hessian was not positive definite, {projected} of them ended in a "
-        f"projected step (the diagonal shifts {steps.SHIFTS} x the median diagonal did not make it definite)."
+        f"{len(rows)} Newton steps refused (the exact Hessian not positive definite, or its step no descent "
+        f"direction), {projected} of them ended in a projected step (the diagonal shifts {steps.SHIFTS} x the "
+        "median diagonal did not make it definite)."
     )
     if rows:
         r = np.array(rows)
@@ -369,7 +370,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer commands and rounds, no cold start")
     ap.add_argument("--out", help="also write the printout here")
     args = ap.parse_args()
-    rounds, n_cmd, n_walk = (1, 2, 6) if args.quick else (3, 4, 16)
+    rounds, n_cmd, n_walk = (1, 2, 6) if args.quick else (5, 4, 16)
     say(f"command: python benchmarks/{Path(__file__).name} " + " ".join(sys.argv[1:]))
     cpu_name = next(
         (ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")),
