@@ -27,6 +27,25 @@ CASES = {
 }
 
 
+#: In a fresh process: CPU s of ``import numba``, and of the first compiled assembly of the
+#: default three-cable arm less a second one (loading the kernels from the cache).
+LOAD = """import time, numpy as np
+t0 = time.process_time()
+import numba
+t1 = time.process_time()
+from lab.description import load_robot
+from lab.fem import ArmFEM
+f = ArmFEM(load_robot("three-cable"))
+q, u = f.rest_q(), np.zeros(3)
+t2 = time.process_time()
+f.hessian(q, u)
+t3 = time.process_time()
+f.hessian(q, u)
+t4 = time.process_time()
+print(t1 - t0, (t3 - t2) - (t4 - t3))
+"""
+
+
 def run(tree: Path, argv: list, env: dict, cwd: Path) -> tuple[float, float]:
     """(child CPU s, wall s) of ``python -m lab *argv`` importing lab from ``tree``."""
     out = cwd / f"out-{time.perf_counter_ns()}.csv"
@@ -70,6 +89,17 @@ def cold_start(rev: str, say) -> None:
             for label, tree in (("before", base), ("after", ROOT))[:: 1 if r % 2 == 0 else -1]:
                 for case, argv in CASES.items():
                     times[case, label].append(run(tree, argv, env, tmp))
+        load = []
+        for _ in range(RUNS):
+            out = subprocess.run(
+                [sys.executable, "-c", LOAD],
+                cwd=tmp,
+                env=env | {"PYTHONPATH": str(ROOT)},
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+            load.append([float(v) for v in out.stdout.split()])
         empty = []
         for r in range(2):
             empty.append(run(ROOT, SIMULATE, env | {"NUMBA_CACHE_DIR": str(tmp / f"empty-{r}")}, tmp))
@@ -89,5 +119,11 @@ def cold_start(rev: str, say) -> None:
         f"| the default-mesh simulate, numba's cache empty (the first call ever compiles the neo-Hookean "
         f"kernels; 2 runs) | | {np.median(e):.2f} ({e.min():.2f}) | {np.median(e) - np.median(warm):+.2f} "
         f"({e.min() - warm.min():+.2f}) against the warm cache |"
+    )
+    load = np.median(np.array(load), axis=0)
+    say()
+    say(
+        f"Loading the kernels in a fresh process, cache warm (median of {RUNS}): import numba {load[0]:.2f} s CPU, "
+        f"the first compiled assembly of the three-cable arm less a second one {load[1]:.2f} s."
     )
     say()

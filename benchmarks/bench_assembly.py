@@ -304,13 +304,13 @@ def projection(fem, robot, n_cmd: int, seed: int = 1) -> None:
 
     def watched_hessian(q, u, project=False):
         if not project:
-            last_q["q"] = q
+            last_q["q"], last_q["n"] = q, last_q["n"] + 1
         return hessian(q, u, project)
 
     def watched_newton(H, g, cond):
         d, fac = newton(H, g, cond)
         if d is None:
-            log.append((H, last_q["q"]))
+            log.append((H, last_q["q"], last_q["n"]))
         return d, fac
 
     def min_det(q):
@@ -323,14 +323,17 @@ def projection(fem, robot, n_cmd: int, seed: int = 1) -> None:
             law = compiled_law(fem.elastic)
             for u in U:
                 log.clear()
+                last_q["n"] = 0
                 s = solve_static(fem, u)
                 projected, facts = projected + s.projected_steps, facts + s.factorizations
                 J_eq.append(min_det(s.q))
-                for H, q in log:
-                    w = np.linalg.eigvalsh(law.hessian(fem.to_nodes(q)))[:, 0].min()
+                for H, q, n in log:
+                    w = np.linalg.eigvalsh(law.hessian(fem.to_nodes(q)))[:, 0]
                     diag = np.median(H.diagonal())
                     away = np.abs(q - fem.rest_q()).max()
-                    rows.append((factorize(H).n_negative, w, w / diag, diag, min_det(q), away))
+                    rows.append((factorize(H).n_negative, w.min(), w.min() / diag, diag, min_det(q), away, n))
+                    if w.min() < last_q.get("worst", (0.0,))[0]:
+                        last_q["worst"] = (w.min(), int(np.argmin(w)))
                 if log and "cost" not in last_q:
                     q = log[0][1]
                     last_q["cost"] = [cpu(lambda p=p, q=q, u=u: hessian(q, u, p), 3) for p in (False, True)]
@@ -357,11 +360,21 @@ def projection(fem, robot, n_cmd: int, seed: int = 1) -> None:
             f"an element Hessian is {span(1, '.3g')} N/m, {span(2, '.3g')} times the median diagonal entry "
             f"({span(3, '.0f')} N/m); the smallest det F of a tet is {span(4, '.2f')} (at the equilibria: "
             f"{min(J_eq):.2f} to {max(J_eq):.2f}); the iterates are {1e3 * r[:, 5].min():.1f} to "
-            f"{1e3 * r[:, 5].max():.1f} mm from rest. There a projected assembly costs {1e3 * last_q['cost'][1]:.0f} "
+            f"{1e3 * r[:, 5].max():.1f} mm from rest, each at assembly {r[:, 6].min():.0f} to {r[:, 6].max():.0f} "
+            f"of its solve (assembly 1 is at rest). The most negative element eigenvalue is in a tet "
+            f"{_eyelet_distance(fem, last_q['worst'][1]):.1f} mm from the nearest eyelet. There a projected assembly "
+            f"costs {1e3 * last_q['cost'][1]:.0f} "
             f"ms CPU against {1e3 * last_q['cost'][0]:.1f} ms for the exact one (the eigen-decomposition of every "
             "12 x 12 element block)."
         )
     say()
+
+
+def _eyelet_distance(fem, tet: int) -> float:
+    """Distance (mm) from a tet's rest centroid to the nearest eyelet (via point) of any cable."""
+    eyelets = np.vstack([r.points(fem.X_W)[1:] for a in fem.actuators for r in getattr(a, "routes", [])])
+    centroid = fem.X_W[fem.mesh.tets[tet]].mean(axis=0)
+    return 1e3 * float(np.linalg.norm(eyelets - centroid, axis=1).min())
 
 
 def main() -> None:
