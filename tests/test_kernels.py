@@ -5,6 +5,7 @@ equilibrium), with finite differences on the compiled path too; inverted tets be
 a static solve gives the same tip; and the choice of assembly, its fall-backs and the lazy
 numba import."""
 
+import copy
 import subprocess
 import sys
 import warnings
@@ -174,6 +175,23 @@ def test_pneumatic_arm_chamber_blocks_and_yeoh():
     H0, H1 = both(lambda: fem.hessian(q, u))
     assert close(H1.data, H0.data)
     assert close(*both(lambda: fem.gradient(q, u)), 1e-12)
+
+
+def test_a_model_with_kernels_copies(three_cable):
+    from lab.fem.kernels import elements, laws
+
+    assert (laws.ENERGY, laws.GRADIENT, laws.HESSIAN, laws.ELEMENT_HESSIANS, laws.TANGENTS) == (
+        elements.ENERGY,
+        elements.GRADIENT,
+        elements.HESSIAN,
+        elements.ELEMENT_HESSIANS,
+        elements.TANGENTS,
+    )
+    fem = ArmFEM(three_cable, n_rings=1, n_axial=4)
+    q, u = fem.rest_q(), np.array([1.0, 0.0, 0.0])
+    with use_assembly("compiled"):
+        g = fem.gradient(q, u)
+        assert np.array_equal(copy.deepcopy(fem).gradient(q, u), g)
 
 
 def test_cable_blocks_embed_as_the_embedding_matrix_does(coarse_fem):

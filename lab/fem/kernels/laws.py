@@ -18,6 +18,9 @@ from lab.fem.materials.hyperfoam import Hyperfoam
 from lab.fem.materials.neo_hookean import NeoHookean
 from lab.fem.materials.yeoh import Yeoh
 
+#: What a loop computes (the ``mode`` of :mod:`lab.fem.kernels.elements`, which imports numba).
+ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS = 0, 1, 2, 3, 4
+
 
 def law_parameters(law):
     """``(kind, prm (M, 4), alpha, beta)`` of a law the kernels know (kind 0: neo-Hookean,
@@ -49,9 +52,9 @@ class CompiledLaw:
         from lab.fem.kernels import elements, neo_hookean
 
         self.law = law
-        self._k = elements
         self.kind, self._prm, self._alpha, self._beta = law_parameters(law)
         self._sums = (neo_hookean.neo_hookean_sums, elements.yeoh_sums, elements.hyperfoam_sums)[self.kind]
+        self._scatter = elements.scatter_add
         self._tets = np.ascontiguousarray(law.tets, dtype=np.int64)
         self._G = np.ascontiguousarray(law.G, dtype=float)
         self._V = np.ascontiguousarray(law.V, dtype=float)
@@ -87,7 +90,7 @@ class CompiledLaw:
         float
             Energy, J (+inf if an element is inverted).
         """
-        e, bad = self._run(self._k.ENERGY, x_W)
+        e, bad = self._run(ENERGY, x_W)
         return np.inf if bad else float(e)
 
     def energy_and_gradient(self, x_W: np.ndarray):
@@ -106,7 +109,7 @@ class CompiledLaw:
             dE/dx, N (None if an element is inverted).
         """
         grad = np.zeros((len(x_W), 3))
-        e, bad = self._run(self._k.GRADIENT, x_W, grad=grad)
+        e, bad = self._run(GRADIENT, x_W, grad=grad)
         return (np.inf, None) if bad else (float(e), grad)
 
     def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:
@@ -123,7 +126,7 @@ class CompiledLaw:
             dE/dx, N (:class:`InvertedElementError` if an element is inverted).
         """
         grad = np.zeros((len(x_W), 3))
-        _, bad = self._run(self._k.GRADIENT, x_W, grad=grad)
+        _, bad = self._run(GRADIENT, x_W, grad=grad)
         if bad:
             raise InvertedElementError(bad)
         return grad
@@ -142,7 +145,7 @@ class CompiledLaw:
             d2E_t/dx2 per tet, N/m, dofs (node a, axis i).
         """
         out = np.empty((len(self._V), 12, 12))
-        _, bad = self._run(self._k.ELEMENT_HESSIANS, x_W, out=out)
+        _, bad = self._run(ELEMENT_HESSIANS, x_W, out=out)
         if bad:
             raise InvertedElementError(bad)
         return out
@@ -159,7 +162,7 @@ class CompiledLaw:
         slots : ndarray of int64, shape (M, 144)
             Where entry (r, c) of tet t's Hessian goes: ``data[slots[t, 12 r + c]]``; -1 to skip.
         """
-        _, bad = self._run(self._k.HESSIAN, x_W, data=data, slots=slots)
+        _, bad = self._run(HESSIAN, x_W, data=data, slots=slots)
         if bad:
             raise InvertedElementError(bad)
 
@@ -180,7 +183,7 @@ class CompiledLaw:
         if self.kind == 0:
             return self.law.hessian_product(x_W)  # closed form, about a gradient's cost already
         out = np.empty((len(self._V), 9, 9))
-        _, bad = self._run(self._k.TANGENTS, x_W, out=out)
+        _, bad = self._run(TANGENTS, x_W, out=out)
         if bad:
             raise InvertedElementError(bad)
         return self.law.hessian_product(x_W, tangent=out)
@@ -197,4 +200,4 @@ class CompiledLaw:
         values : ndarray, shape (n,)
             The values.
         """
-        self._k.scatter_add(data, slots, np.ascontiguousarray(values, dtype=float))
+        self._scatter(data, slots, np.ascontiguousarray(values, dtype=float))
