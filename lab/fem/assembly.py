@@ -21,8 +21,9 @@ class HessianPattern:
 
     Parameters
     ----------
-    block_dofs : list of ndarray of int, each shape (n_b, k_b)
-        Mesh dofs of each kind of block: n_b blocks of k_b dofs (the tets' first: (M, 12)).
+    block_dofs : list of ndarray
+        Mesh dofs (int) of each kind of block, shape (n_b, k_b): n_b blocks of k_b dofs (the
+        tets' first: (M, 12)).
     dof_to_free : ndarray of int, shape (3N,)
         Free coordinate of each mesh dof, -1 for a clamped one.
     n_free : int
@@ -32,10 +33,12 @@ class HessianPattern:
     ----------
     indices, indptr : ndarray of int32
         The CSR pattern (sorted, no duplicates) of the (n_free, n_free) Hessian.
-    element_slots : ndarray of int64, shape (n_0, k_0^2)
-        Slot of each entry of each block of the first kind (the tets'), -1 where clamped.
-    block_slots : list of ndarray of int64, each shape (n_b k_b^2,)
-        Slots of the ravelled entries of each further kind of blocks, in order.
+    element_slots : ndarray
+        Slot (int64) of each entry of each block of the first kind (the tets'), -1 where
+        clamped: shape (n_0, k_0 k_0), (M, 144) for the tets.
+    block_slots : list of ndarray
+        Slots (int64) of the ravelled entries of each further kind of blocks, in order: one
+        array of n_b k_b k_b slots per kind.
     """
 
     def __init__(self, block_dofs: list[np.ndarray], dof_to_free: np.ndarray, n_free: int):

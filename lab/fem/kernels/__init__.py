@@ -1,11 +1,12 @@
 """Compiled element kernels: the material laws' energy, gradient and Hessian assembly in numba.
 
-:func:`compiled_law` gives a law's element sums by the kernels (:mod:`.laws` over the one
-loop of :mod:`.elements`, the foam law's eigen-decomposition in :mod:`.foam`), or None when
+:func:`compiled_law` gives a law's element sums by the kernels (:mod:`lab.fem.kernels.laws` over
+the loops of :mod:`lab.fem.kernels.neo_hookean` and :mod:`lab.fem.kernels.elements`, the foam
+law's eigen-decomposition in :mod:`lab.fem.kernels.foam`), or None when
 the NumPy reference assembly is chosen (:func:`set_assembly`, :func:`use_assembly`) or the
 law has no kernel; :class:`lab.fem.model.ArmFEM` uses them for its energy, gradient and
 Hessian, which it then scatters straight into the CSR data. Importing this package does not
-import numba (:mod:`.backend`); the first compiled assembly does.
+import numba (:mod:`lab.fem.kernels.backend`); the first compiled assembly does.
 """
 
 from lab.fem.kernels.backend import (

@@ -1,8 +1,8 @@
 """The element sums of the laws given by their tangent, each one compiled loop over the tets (numba).
 
-:func:`yeoh_sums` and :func:`hyperfoam_sums` (the foam law at an element in :mod:`.foam`)
-visit each tet once: F from its four nodes (:func:`deformation`, shared with the
-neo-Hookean loop of :mod:`.neo_hookean`), the law's energy density, stress or tangent A at F,
+``yeoh_sums`` and ``hyperfoam_sums`` (the foam law at an element in :mod:`lab.fem.kernels.foam`)
+visit each tet once: F from its four nodes (``deformation``, shared with the
+neo-Hookean loop of :mod:`lab.fem.kernels.neo_hookean`), the law's energy density, stress or tangent A at F,
 and then, by ``mode``, the energy alone, the energy and the nodal gradient, the element
 Hessian H[(a, i), (b, k)] = sum_jl G[a, j] V A[(i, j), (k, l)] G[b, l] (two small
 contractions) added straight into the CSR data of the global Hessian through each entry's
@@ -48,7 +48,7 @@ def deformation(x, tets, G, e):
 
 @jit(inline=True)
 def _fill(F, f):
-    """The 9 scalars ``f`` of :func:`deformation` into the (3, 3) array F."""
+    """The 9 scalars ``f`` of ``deformation`` into the (3, 3) array F."""
     F[0, 0], F[0, 1], F[0, 2], F[1, 0], F[1, 1], F[1, 2], F[2, 0], F[2, 1], F[2, 2] = f
 
 
@@ -184,7 +184,7 @@ def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
 
 @jit
 def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
-    """:func:`yeoh_sums` for the hyperfoam law (prm[:, 0] = mu in Pa; ``alpha``, ``beta``)."""
+    """``yeoh_sums`` for the hyperfoam law (prm[:, 0] = mu in Pa; ``alpha``, ``beta``)."""
     F, Fi, P, A, T, H = (
         np.empty((3, 3)),
         np.empty((3, 3)),

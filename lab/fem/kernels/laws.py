@@ -2,8 +2,8 @@
 
 :class:`CompiledLaw` wraps a neo-Hookean, Yeoh or hyperfoam law on a mesh
 (:mod:`lab.fem.materials`) and gives its energy, nodal gradient, element Hessians and
-Hessian products from its compiled loop (:func:`lab.fem.kernels.neo_hookean.neo_hookean_sums`,
-:func:`lab.fem.kernels.elements.yeoh_sums`, :func:`lab.fem.kernels.elements.hyperfoam_sums`), plus
+Hessian products from its compiled loop (``neo_hookean_sums`` of :mod:`lab.fem.kernels.neo_hookean`,
+``yeoh_sums`` or ``hyperfoam_sums`` of :mod:`lab.fem.kernels.elements`), plus
 :meth:`CompiledLaw.add_hessian`, which adds every element Hessian straight into the data
 array of the global CSR Hessian. Each agrees with the law's own (NumPy) method to rounding
 and raises or returns +inf for inverted tets alike.

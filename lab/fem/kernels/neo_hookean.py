@@ -4,7 +4,7 @@ The law of :class:`lab.fem.materials.NeoHookean`: W = mu/2 (I1 - 3) - mu ln J + 
 P = mu F - c F^-T with c = mu - lam ln J, and the closed-form element Hessian
 c Ag[a, k] Ag[b, i] + lam Ag[a, i] Ag[b, k] + mu (G G^T)[a, b] d_ik, Ag = G F^-1 (volumes
 included). F, F^-1 and P stay in registers (the law is cheap, so arrays per tet would cost
-more than the law); ``mode`` as in :mod:`.elements`. Importing this module imports numba.
+more than the law); ``mode`` as in :mod:`lab.fem.kernels.elements`. Importing this module imports numba.
 """
 
 from __future__ import annotations
