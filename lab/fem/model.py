@@ -336,8 +336,7 @@ class ArmFEM(ActuatedModel):
 
     def hessian_operator(self, q: np.ndarray, u):
         """Exact Hessian products at ``q`` without assembling the Hessian (a setup and each
-        product cost about as much as a gradient, ~0.4 ms on the default mesh, against
-        ~6 ms for an assembly).
+        product cost about as much as a gradient; docs/fem-cost.md has both costs).
 
         Parameters
         ----------
