@@ -143,3 +143,16 @@ def test_epoch_counters_add_the_workers_epochs():
     import os
 
     assert seen[0][0] == 0 and seen[-1] == (10, 10) and not os.path.exists(path)
+
+
+def test_the_backpropagated_gradient_matches_central_differences():
+    from helpers import fd_parameter_jacobian
+
+    from lab.learn.lm_subsample import _error_and_gradient
+
+    u, y = smooth(25, seed=6)
+    net = init_mlp(u, y, (4, 5), seed=1)
+    e, JE = _error_and_gradient(net, u, y)
+    np.testing.assert_allclose(e, net.predict(u) - y, rtol=1e-14)
+    J_fd = fd_parameter_jacobian(net, u)
+    assert np.abs(JE - J_fd.T @ e.ravel()).max() <= 1e-7 * np.abs(JE).max()

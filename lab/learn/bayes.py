@@ -84,8 +84,8 @@ def _step(system, JE, theta, ratio, mu, n_e, buf):
     return None if d is None else d - (ratio / c) * theta
 
 
-def _systems(net, u, y, max_mb, dense=False):
-    perf, JE, system = _jacobian_products(net, u, y, max_mb, dense)
+def _systems(net, u, y, max_mb, dense=False, work=None):
+    perf, JE, system = _jacobian_products(net, u, y, max_mb, dense, work)
     if system[0] == "primal":
         system = (*system, y.size)  # the eigenvalues of J^T J are N_e times those stored
     return perf, JE, system
@@ -134,8 +134,8 @@ def _train_br(model, data, opt, progress):
     u_train, y_train, u_val, y_val, u_test, y_test = _arrays(data)
     n_e, n_p = y_train.size, net.n_params
     theta = net.get_params()
-    dense = opt.dense_reference
-    perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense)
+    dense, work = opt.dense_reference, {}  # work: gauss_newton's arrays, kept across epochs
+    perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense, work)
     buf = np.empty_like(system[1], order="F")
     ssw = float(theta @ theta)
     gamma = min(float(n_p), 0.5 * n_e)
@@ -171,7 +171,7 @@ def _train_br(model, data, opt, progress):
                     break
             mu *= opt.mu_inc
         net.set_params(theta)
-        perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense)
+        perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense, work)
         ssw = float(theta @ theta)
         if mu <= opt.mu_max:  # an accepted step: re-estimate the hyperparameters there
             gamma = effective_parameters(system, ratio, dense)

@@ -33,11 +33,25 @@ from lab.learn.mlp import MLP, _slope
 __all__ = ["gauss_newton"]
 
 
-def _early_jacobian(net: MLP, acts, n_y: int, p_e: int) -> np.ndarray:
+def _array(work, name, shape, dtype=np.float64, order="C", zero=False) -> np.ndarray:
+    """An array for ``name``: new, or ``work``'s from an earlier call of the same shape
+    (fresh memory costs page faults on every epoch; kept memory does not)."""
+    if work is None:
+        return (np.zeros if zero else np.empty)(shape, dtype, order=order)
+    key = (name, tuple(shape), np.dtype(dtype).char, order)
+    out = work.get(key)
+    if out is None:
+        out = work[key] = np.empty(shape, dtype, order=order)
+    if zero:
+        out.fill(0.0)
+    return out
+
+
+def _early_jacobian(net: MLP, acts, n_y: int, p_e: int, work=None) -> np.ndarray:
     """The columns of J of every hidden layer but the last, in units of y, (n, n_y, p_e)."""
     n = len(acts[0])
     deltas = net._backward(acts)  # deltas[l] = d y_n / d z_{l+1}, (n, n_y, n_{l+1})
-    J = np.empty((n, n_y, p_e))
+    J = _array(work, "J", (n, n_y, p_e))
     k = 0
     for l, w in enumerate(net.weights[:-2]):
         d = deltas[l] / net.y_gain[None, :, None]  # units of y
@@ -48,7 +62,7 @@ def _early_jacobian(net: MLP, acts, n_y: int, p_e: int) -> np.ndarray:
     return J
 
 
-def gauss_newton(net: MLP, u: np.ndarray, y: np.ndarray, max_mb: float = 256.0, single: bool = False):
+def gauss_newton(net: MLP, u: np.ndarray, y: np.ndarray, max_mb: float = 256.0, single: bool = False, work=None):
     """The sum of squared errors, J^T e and the upper triangle of J^T J of ``net`` on (u, y).
 
     Parameters
@@ -65,6 +79,10 @@ def gauss_newton(net: MLP, u: np.ndarray, y: np.ndarray, max_mb: float = 256.0, 
         Multiply J's blocks in float32 (twice BLAS's speed; J^T J to about 1e-6 relative,
         what a curvature estimated from a sample of rows can take: :mod:`lab.learn.lm_subsample`);
         J^T e and the sum of squares stay float64.
+    work : dict, optional
+        Arrays kept between calls (a trainer's epochs): the temporaries and the result are
+        reused, not allocated anew. The returned ``JJ`` then belongs to ``work``: the next
+        call with it overwrites it.
 
     Returns
     -------
@@ -87,15 +105,17 @@ def gauss_newton(net: MLP, u: np.ndarray, y: np.ndarray, max_mb: float = 256.0, 
     per_sample = max(p_q + 2 * (h + 1), n_y * p_e)
     chunk = max(1, int(max_mb * 2**20 // (8 * per_sample)))
     dt = np.float32 if single else np.float64
+    z = {"dtype": dt, "zero": True}
     acc = {
         "dtype": dt,
         "syrk": ssyrk if single else dsyrk,
-        "M": np.zeros((h + 1, h + 1), dt, order="F"),  # A^T A, A = [a_{L-1}, 1]
-        "ZZ": np.zeros((p_q, p_q), dt, order="F"),  # Z^T Z
-        "ZA": np.zeros((p_q, h + 1), dt),  # Z^T A
-        "EE": np.zeros((p_e, p_e), dt, order="F"),  # J_e^T J_e
-        "EA": np.zeros((n_y, p_e, h + 1), dt),  # J_e,k^T A per output k
-        "EZ": np.zeros((n_y, p_e, p_q), dt),  # J_e,k^T Z per output k
+        "work": work,
+        "M": _array(work, "M", (h + 1, h + 1), order="F", **z),  # A^T A, A = [a_{L-1}, 1]
+        "ZZ": _array(work, "ZZ", (p_q, p_q), order="F", **z),  # Z^T Z
+        "ZA": _array(work, "ZA", (p_q, h + 1), **z),  # Z^T A
+        "EE": _array(work, "EE", (p_e, p_e), order="F", **z),  # J_e^T J_e
+        "EA": _array(work, "EA", (n_y * p_e, h + 1), **z),  # J_e,k^T A per output k, stacked
+        "EZ": _array(work, "EZ", (n_y * p_e, p_q), **z),  # J_e,k^T Z per output k, stacked
         "JE_e": np.zeros(p_e),
         "JE_q": np.zeros(p_q),
         "JE_w": np.zeros((n_y, h)),
@@ -112,9 +132,9 @@ def gauss_newton(net: MLP, u: np.ndarray, y: np.ndarray, max_mb: float = 256.0, 
 
 def _accumulate(net, acc, acts, e, V, g, h, n_in, p_q, p_e):
     """Add one chunk of samples to the blocks of J^T J and J^T e."""
-    n, n_y, dt, syrk = len(e), e.shape[1], acc["dtype"], acc["syrk"]
+    n, n_y, dt, syrk, work = len(e), e.shape[1], acc["dtype"], acc["syrk"], acc["work"]
     a = acts[-1]
-    A = np.empty((n, h + 1), dt)
+    A = _array(work, "A", (n, h + 1), dt)
     A[:, :h], A[:, h] = a, 1.0
     acc["M"] = syrk(1.0, A.T, beta=1.0, c=acc["M"], overwrite_c=1)
     eg = e / g
@@ -124,7 +144,7 @@ def _accumulate(net, acc, acts, e, V, g, h, n_in, p_q, p_e):
         return
     # the last hidden layer: J[(i, k), (j, m)] = V[k, j] Z[i, (j, m)], Z = slope_j x~_m
     x, sl = acts[-2], _slope(net.activation, a)  # (n, n_in), (n, h)
-    Z = np.empty((n, p_q), dt)
+    Z = _array(work, "Z", (n, p_q), dt)
     Zw = Z[:, : h * n_in].reshape(n, h, n_in)
     if n_in < h:  # a few long products beat many short ones
         for m in range(n_in):
@@ -133,41 +153,47 @@ def _accumulate(net, acc, acts, e, V, g, h, n_in, p_q, p_e):
         np.multiply(sl[:, :, None], x[:, None, :], out=Zw, casting="same_kind")
     Z[:, h * n_in :] = sl
     acc["ZZ"] = syrk(1.0, Z.T, beta=1.0, c=acc["ZZ"], overwrite_c=1)
-    acc["ZA"] += Z.T @ A
+    acc["ZA"] += np.matmul(Z.T, A, out=_array(work, "ZA+", (p_q, h + 1), dt))
     ES = (e @ V) * sl  # (n, h): J_q^T e = sum_i ES[i, j] x~[i, m]
     acc["JE_q"][: h * n_in] += (ES.T @ x).ravel()
     acc["JE_q"][h * n_in :] += ES.sum(axis=0)
     if not p_e:
         return
-    J = _early_jacobian(net, acts, n_y, p_e)  # (n, n_y, p_e)
+    J = _early_jacobian(net, acts, n_y, p_e, work)  # (n, n_y, p_e)
     acc["JE_e"] += J.reshape(-1, p_e).T @ e.ravel()
-    J = J.astype(dt, copy=False)
+    if dt is not np.float64:
+        J = J.astype(dt)
     J2, Jt = J.reshape(-1, p_e), J.reshape(n, n_y * p_e).T  # rows (i, k); columns (i), rows (k, p)
     acc["EE"] = syrk(1.0, J2.T, beta=1.0, c=acc["EE"], overwrite_c=1)
-    acc["EA"] += (Jt @ A).reshape(n_y, p_e, h + 1)
-    acc["EZ"] += (Jt @ Z).reshape(n_y, p_e, p_q)  # J_e,k^T Z; times V[k, unit] when assembled
+    acc["EA"] += np.matmul(Jt, A, out=_array(work, "EA+", (n_y * p_e, h + 1), dt))
+    acc["EZ"] += np.matmul(Jt, Z, out=_array(work, "EZ+", (n_y * p_e, p_q), dt))  # times V[k, unit] later
 
 
 def _assemble(acc, V, g, h, n_in, p_q, p_e, n_y):
     """J^T e and the upper triangle of J^T J in get_params order from the accumulated blocks."""
+    work = acc["work"]
     p_h = p_e + p_q
     n_p = p_h + n_y * (h + 1)
-    JJ = np.zeros((n_p, n_p), order="F")
+    JJ = _array(work, "JJ", (n_p, n_p), order="F", zero=True)
     w0, b0 = p_h, p_h + n_y * h  # where the output weights (row-major, k then j) and biases start
     M, ig2 = acc["M"], 1.0 / (g * g)
+    EA = acc["EA"].reshape(n_y, p_e, h + 1)
     for k in range(n_y):
         w = slice(w0 + k * h, w0 + (k + 1) * h)
         JJ[w, w] = M[:h, :h] * ig2[k]
         JJ[w, b0 + k] = M[:h, h] * ig2[k]
         JJ[b0 + k, b0 + k] = M[h, h] * ig2[k]
-        JJ[:p_e, w] = acc["EA"][k][:, :h] / g[k]
-        JJ[:p_e, b0 + k] = acc["EA"][k][:, h] / g[k]
+        JJ[:p_e, w] = EA[k][:, :h] / g[k]
+        JJ[:p_e, b0 + k] = EA[k][:, h] / g[k]
     if p_q:
         units = np.concatenate([np.repeat(np.arange(h), n_in), np.arange(h)])  # the unit j of each column
         q = slice(p_e, p_h)
-        JJ[q, q] = (V.T @ V)[np.ix_(units, units)] * acc["ZZ"]
-        JJ[:p_e, q] = sum(acc["EZ"][k] * V[k, units] for k in range(n_y))
+        C = np.take((V.T @ V)[units], units, axis=1, out=_array(work, "C", (p_q, p_q)))
+        np.multiply(C, acc["ZZ"], out=JJ[q, q])
+        EZ, part = acc["EZ"].reshape(n_y, p_e, p_q), _array(work, "EZk", (p_e, p_q))
         for k in range(n_y):
+            np.multiply(EZ[k], V[k, units], out=part)
+            JJ[:p_e, q] += part
             block = (V[k, units] / g[k])[:, None] * acc["ZA"]
             JJ[q, w0 + k * h : w0 + (k + 1) * h] = block[:, :h]
             JJ[q, b0 + k] = block[:, h]

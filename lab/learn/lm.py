@@ -6,11 +6,15 @@
 its order, the step (J^T J / N_e + mu I) dtheta = -J^T e / N_e (Cholesky; the kernel form when
 there are more parameters than residuals), the validation failures, and the best network seen
 returned. Errors e = y(u) - y_data are in metres; the performance is MATLAB's ``mse`` over
-N_e = N n_y elements; J = dy/dtheta is :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
+N_e = N n_y elements; J = dy/dtheta is :meth:`lab.learn.mlp.MLP.parameter_jacobian`, whose
+products J^T J and J^T e :mod:`lab.learn.gauss_newton` forms from the layers' structure
+(``LMOptions(dense_reference=True)``: J in full, the reference); small systems run on one
+BLAS thread (:func:`lab.learn.algorithm_choice.blas_threads`).
 
 Splits (``dividerand``): :mod:`lab.learn.split`; split + init + fit with one seeded random
-stream: :func:`lab.learn.train.train`; Adam and L-BFGS for large datasets:
-:mod:`lab.learn.gradient`; error metrics: :mod:`lab.learn.metrics`.
+stream: :func:`lab.learn.train.train`; for large datasets the same loop with a sampled
+curvature, :mod:`lab.learn.lm_subsample` (``--algorithm auto`` picks it by size), and Adam and
+L-BFGS, :mod:`lab.learn.gradient`; error metrics: :mod:`lab.learn.metrics`.
 Each rule, epoch by epoch: docs/design/learn.md.
 """
 
@@ -173,18 +177,19 @@ def _arrays(data: TrainingData) -> tuple[np.ndarray, ...]:
     return data.u_train, data.y_train, data.u_val, data.y_val, data.u_test, data.y_test
 
 
-def _jacobian_products(model, u, y, max_mb, dense=False):
+def _jacobian_products(model, u, y, max_mb, dense=False, work=None):
     """Training MSE, J^T e / N_e, and the LM system: ("primal", J^T J / N_e) or, when there
     are more parameters than residuals, ("kernel", J J^T, J, e). Only upper triangles are
     filled (BLAS syrk on the F-ordered view J^T, no copies). The primal form comes from
-    :func:`lab.learn.gauss_newton.gauss_newton` unless ``dense`` (the reference: J in full)."""
+    :func:`lab.learn.gauss_newton.gauss_newton` (its arrays kept in ``work`` across epochs)
+    unless ``dense`` (the reference: J in full)."""
     n_e, n_p = y.size, model.n_params
     if n_p > n_e and 8 * n_e * n_p <= max_mb * 2**20:
         y_hat, J = model.parameter_jacobian(u)
         e = (y_hat - y).ravel()
         return float(e @ e / n_e), J.T @ e / n_e, ("kernel", dsyrk(1.0, J.T, trans=1), J, e)
     if not dense:
-        sse, JE, JJ = gauss_newton(model, u, y, max_mb)
+        sse, JE, JJ = gauss_newton(model, u, y, max_mb, work=work)
         JJ /= n_e
         return sse / n_e, JE / n_e, ("primal", JJ)
     chunk = max(1, int(max_mb * 2**20 // (8 * y.shape[1] * n_p)))
@@ -284,7 +289,8 @@ def _train_lm(model, data, opt, progress, products=None, algorithm="lm"):
     has_val, n_e = data.has_validation, y_train.size
     theta = net.get_params()
     if products is None:
-        products = lambda net: _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb, opt.dense_reference)  # noqa: E731
+        work, mb, dense = {}, opt.max_jacobian_mb, opt.dense_reference
+        products = lambda net: _jacobian_products(net, u_train, y_train, mb, dense, work)  # noqa: E731
     perf, JE, system = products(net)
     buf = np.empty_like(system[1], order="F")
     vperf = mse(net, u_val, y_val)

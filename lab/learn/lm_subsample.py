@@ -97,13 +97,13 @@ def _error_and_gradient(net, u, y):
     return e, np.concatenate(grads[::-1])
 
 
-def _products(net, u, y, rows, rng, max_mb):
+def _products(net, u, y, rows, rng, max_mb, work):
     """MSE and J^T e / N_e on all rows; ("primal", J^T J / N_e) from ``rows`` of them."""
     n, n_e = len(u), y.size
     e, JE = _error_and_gradient(net, u, y)
     JE /= n_e
     pick = np.sort(rng.choice(n, rows, replace=False)) if rows < n else slice(None)
-    _, _, JJ = gauss_newton(net, u[pick], y[pick], max_mb, single=SINGLE and rows < n)  # all rows: LM's own
+    _, _, JJ = gauss_newton(net, u[pick], y[pick], max_mb, single=SINGLE and rows < n, work=work)  # all: LM's
     JJ /= min(rows, n) * y.shape[1]  # the sample's mean curvature stands for the set's
     return float(np.vdot(e, e)) / n_e, JE, ("primal", JJ)
 
@@ -146,7 +146,8 @@ def train_lm_subsample(
     rows = min(int(rows), len(data.u_train))
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     u, y, mb = data.u_train, data.y_train, opt.max_jacobian_mb
-    products = lambda net: _products(net, u, y, rows, rng, mb)  # noqa: E731
+    work = {}  # gauss_newton's arrays, kept across epochs
+    products = lambda net: _products(net, u, y, rows, rng, mb, work)  # noqa: E731
     with blas_threads(rows * model.n_y, model.n_params):
         net, log = _train_lm(model, data, opt, progress, products, "lm-subsample")
     log.options["rows"] = rows
