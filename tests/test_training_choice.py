@@ -46,11 +46,14 @@ def test_auto_trains_a_small_set_by_lm_and_a_large_one_by_subsampled_lm():
     assert auto.log.algorithm == "lm" and auto.model.metadata["training"]["algorithm_choice"].startswith("auto: ")
     np.testing.assert_array_equal(auto.model.get_params(), lm.model.get_params())  # LM itself
     u, y = smooth(LARGE)
-    big = train(u, y, algorithm="auto", epochs=2, options=LMOptions(min_grad=0))
+    big = train(u, y, algorithm="auto", epochs=2, options=LMOptions(min_grad=1e-8, mu=0.01))
     training = big.model.metadata["training"]
     assert big.log.algorithm == training["algorithm"] == "lm-subsample" and "> 2e+09" in training["algorithm_choice"]
     assert training["options"]["rows"] == curvature_rows((3, 20, 20, 3), len(big.split.train)) < len(big.split.train)
-    assert training["options"]["min_grad"] == 0  # LM's options carried over
+    assert training["options"]["min_grad"] == 1e-8 and training["options"]["mu"] == 0.01  # LM's, as changed
+    assert training["options"]["max_fail"] == 20  # the sub-sampled LM's own default
+    default = train(u, y, algorithm="auto", epochs=1).model.metadata["training"]["options"]
+    assert default["min_grad"] == 0 and default["max_fail"] == 20
 
 
 def test_subsampled_lm_of_every_row_is_lm_and_a_sample_is_seeded():

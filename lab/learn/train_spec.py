@@ -143,7 +143,7 @@ class TrainSpec(Spec):
         None,
         type=float,
         check=non_negative,
-        help="LM/BR: gradient stop (default 1e-6 for lm, lm-subsample and auto, 1e-7 for br; 0 disables)",
+        help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br, none for lm-subsample; 0 disables)",
     )
     members: int = option(5, type=int, check=positive_int, help="ensemble: number of networks K >= 2")
     ratios: tuple[float, float, float] = option(
