@@ -20,7 +20,7 @@ def foam_fem(three_cable):
     return as_built_fem(three_cable, family_member(three_cable, "foam:0"))
 
 
-COMMANDS = [[0.8, 0.0, 0.0], [0.0, 1.2, 0.4], [0.6, 0.6, 0.0], [1.0, 0.2, 0.9]]
+COMMANDS = [[3.0, 1.0, 0.0], [0.0, 3.0, 2.0], [1.0, 0.0, 3.0]]  # rad: each took 4-5 projected steps without the limiter
 
 
 def test_foam_solves_need_no_projection_and_reach_the_same_equilibrium(foam_fem, monkeypatch):
