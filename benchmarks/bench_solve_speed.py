@@ -12,7 +12,9 @@ time (``time.process_time``) for
 1. cold static solves with dx/du from rest on fixed grid commands: the three-cable and
    six-cable arms (default meshes) and the as-built foam member ``foam:0`` (hyperfoam);
 2. a warm data-generation walk (``lab.data.simulation.solve_chunk``, as ``simulate`` runs it)
-   on the three-cable and six-cable arms.
+   on the three-cable and six-cable arms;
+3. once, in the new code only: the foam member's whole safe grid with the line search's
+   volume limiter (``statics.MIN_VOLUME_RATIO``) on and off.
 
 Per model: the medians over rounds (summed over commands, or per sample), the ratio
 new / baseline, the largest tip difference between the versions and the factorisations and
@@ -69,7 +71,8 @@ for name, (fem, robot) in fems.items():
         proj += s.projected_steps
     out["cold"][name] = {"s": times, "tips": tips, "factorizations": fac, "projected": proj}
 for name in ("three-cable", "six-cable"):
-    robot = fems[name][1]
+    fem, robot = fems[name]
+    simulation._fem = lambda *_, fem=fem: fem  # the default mesh's model, as above
     cmds = grid_commands(robot, 7 if robot.n_inputs == 3 else 3)
     walk = cmds[grid_chunks(robot, cmds)[0].order[:n_walk]]
     simulation.solve_chunk(robot, 0, 0, walk[:2])  # warm-up: the model is built and cached
@@ -78,6 +81,22 @@ for name in ("three-cable", "six-cable"):
     per = (time.process_time() - t0) / len(walk)
     out["warm"][name] = {"s": per, "tips": np.asarray(res["p_tip_W"]).tolist(),
                          "factorizations": int(np.sum(res["factorizations"]))}
+if len(sys.argv) > 3:  # the volume limiter on and off, in this code, on the foam member's safe grid
+    from lab.fem.solve import statics
+
+    fem, robot = fems["foam member 0"]
+    U = grid_commands(robot, 4)
+    U = U[robot.is_safe(U)]
+    for ratio in (statics.MIN_VOLUME_RATIO, 0.0):
+        statics.MIN_VOLUME_RATIO = ratio
+        t0, proj, with_proj, fac, tips = time.process_time(), 0, 0, 0, []
+        for u in U:
+            s = solve_static(fem, u)
+            proj, with_proj, fac = proj + s.projected_steps, with_proj + (s.projected_steps > 0), fac + s.factorizations
+            tips.append(s.p_tip_W)
+        out.setdefault("limiter", []).append({"ratio": ratio, "solves": len(U), "projected": proj,
+            "with_projected": with_proj, "factorizations": fac, "s": time.process_time() - t0,
+            "tips": np.array(tips).tolist()})
 print(json.dumps(out))
 """
 
@@ -92,11 +111,15 @@ def archive(rev: str, into: Path) -> Path:
     return into
 
 
-def child(code_root: Path, cwd: Path, n_cmd: int, n_walk: int) -> dict:
+def child(code_root: Path, cwd: Path, n_cmd: int, n_walk: int, limiter: bool = False) -> dict:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env.update(PYTHONPATH=str(code_root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     r = subprocess.run(
-        [sys.executable, "-c", CHILD, str(n_cmd), str(n_walk)], cwd=cwd, env=env, capture_output=True, text=True
+        [sys.executable, "-c", CHILD, str(n_cmd), str(n_walk)] + (["limiter"] if limiter else []),
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
     )
     if r.returncode != 0:
         raise SystemExit(f"child on {code_root} failed:\n{r.stderr[-3000:]}")
@@ -125,7 +148,8 @@ def main(argv=None) -> int:
         runs = {k: [] for k in roots}
         for r in range(args.rounds):
             for k in list(roots)[:: 1 if r % 2 == 0 else -1]:
-                runs[k].append(child(roots[k], tmp, args.commands, args.walk))
+                limiter = k == "new" and not runs[k]  # once: the foam grid with and without the limiter
+                runs[k].append(child(roots[k], tmp, args.commands, args.walk, limiter))
                 print(f"round {r + 1}: {k} done", file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -161,6 +185,19 @@ def main(argv=None) -> int:
             f"| {name} | {t['baseline']:.1f} | {t['new']:.1f} | {t['new'] / t['baseline']:.2f} | <= 0.55 | "
             f"{tip:.1e} | {w['baseline']['factorizations']} / {w['new']['factorizations']} |"
         )
+    on, off = runs["new"][0]["limiter"]
+    tip = np.abs(np.array(on["tips"]) - np.array(off["tips"])).max()
+    lines += [
+        "",
+        f"## The line search's volume limiter, new code, foam member 0: all {on['solves']} safe commands of the "
+        "4-per-input grid, cold solves without dx/du (one run)",
+        "| MIN_VOLUME_RATIO | CPU s | factorisations | projected steps | solves with a projected step |",
+        "|---|---|---|---|---|",
+    ]
+    for v in (on, off):
+        cells = [v["ratio"], f"{v['s']:.1f}", v["factorizations"], v["projected"], v["with_projected"]]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines.append(f"largest tip difference with and without: {tip:.1e} m; CPU ratio {on['s'] / off['s']:.2f}")
     lines += ["", f"wall {time.monotonic() - t_start:.0f} s; load average at the end {os.getloadavg()[0]:.1f}"]
     text = "\n".join(lines) + "\n"
     print(text)
