@@ -74,3 +74,18 @@ def test_unknown_algorithm_is_refused(member):
     robot, u, y = member
     with pytest.raises(InputError, match="algorithm"):
         calibrate(robot, u, y, **MESH, algorithm="gauss-newton")
+
+
+def test_another_robot_of_the_same_description_repeats_no_first_pass(member, fits):
+    from lab.transfer import samples
+
+    robot, u, y = member
+    y2 = y + 1e-4 * np.random.default_rng(1).standard_normal(y.shape)  # another robot's tips
+    samples._FIRST.clear()
+    alone = calibrate(robot, u, y2, **MESH)
+    calibrate(robot, u, y, **MESH)  # remembers its first pass
+    after = calibrate(robot, u, y2, **MESH)
+    assert after.n_solves == alone.n_solves - len(u)  # the pass's solves saved
+    assert after.n_factorisations < alone.n_factorisations
+    assert np.array_equal(after.theta, alone.theta) and np.array_equal(after.residuals_m, alone.residuals_m)
+    assert after.rms_nominal_m == alone.rms_nominal_m

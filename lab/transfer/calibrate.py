@@ -36,7 +36,7 @@ from lab.fem.solve.parameters import ParametrisedFEM
 from lab.transfer.discrepancy import model_check
 from lab.transfer.levenberg import ALGORITHMS, minimise
 from lab.transfer.prior import DEFAULT_PRIOR_STD, default_groups, prior_std
-from lab.transfer.samples import Samples
+from lab.transfer.samples import Samples, first_pass
 
 __all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "default_groups", "prior_std"]
 
@@ -316,7 +316,11 @@ def calibrate(
     if algorithm not in ALGORITHMS:
         raise InputError(f"algorithm must be one of {list(ALGORITHMS)}, got {algorithm!r}")
     samples = Samples(pf, u, _marker_indices(pf.fem(theta0), markers), reuse=algorithm == "fast")
-    q, tips, (dq, J) = samples.first(theta0)
+    if algorithm == "marquardt":  # the reference, as it was
+        q, tips, (dq, J) = samples.first(theta0)
+    else:  # the same pass, not repeated for another robot of the same description and commands
+        key = (robot.sha256, n_rings, n_axial, axes, tuple(groups), markers)
+        q, tips, (dq, J) = first_pass(samples, theta0, key)
     _check_reach(robot, y, tips, markers)
     rms0 = _rms(tips - y)
     if log:

@@ -32,7 +32,7 @@ __all__ = ["nearby_preconditioner", "nearby_sensitivities", "refined_solve"]
 #: ~1 mm away, where the soft bending mode has changed too much to precondition well.
 NEAR_M = 1e-6
 #: Conjugate-gradient iterations of :func:`refined_solve` before it gives up.
-MAX_ITER = 8
+CG_ITERATIONS = 8
 #: Converged when an update changes what is wanted of the solution by less than this,
 #: relative to its largest entry; the error left is then ~1e-12, what a direct solve with
 #: the exact Hessian attains (PARDISO and SuperLU agree to ~1e-12 on the default mesh).
@@ -67,7 +67,7 @@ def nearby_preconditioner(fac, condensation):
     return apply
 
 
-def refined_solve(hessian, precondition, R, weights, *, max_iter: int = MAX_ITER, rtol: float = RTOL):
+def refined_solve(hessian, precondition, R, weights, *, max_iter: int = CG_ITERATIONS, rtol: float = RTOL):
     """X with H X = R by preconditioned conjugate gradients, the columns side by side (one
     preconditioner call per iteration for all of them), accurate in what the caller wants of
     it: W^T X, W = ``weights``.
