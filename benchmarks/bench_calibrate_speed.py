@@ -2,7 +2,7 @@
 against the loop before it (``algorithm="marquardt"``, kept as the reference), interleaved in
 one process.
 
-    python benchmarks/bench_calibrate_speed.py            # ~40 min on 2 busy cores
+    python benchmarks/bench_calibrate_speed.py            # 15 to 40 min on 2 shared cores
     python benchmarks/bench_calibrate_speed.py --robots shipped random:0 random:1 --quick-repeats 1
 
 Part 1, chapter 05's calibration recovery cell in full mode, robot by robot (the cell's own
