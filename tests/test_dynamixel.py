@@ -29,7 +29,7 @@ CABLES = ["top", "lower-left", "lower-right"]
 # Physical truth: arbitrary zeros, servo 2 mirrored and reported a turn lower at power-up.
 SPECS = [ServoSpec(1, zero_tick=1000), ServoSpec(2, zero_tick=5000, direction=-1), ServoSpec(3, zero_tick=3100)]
 CONFIG = [ServoConfig(s.dxl_id, s.direction, s.zero_tick, c) for s, c in zip(SPECS, CABLES)]
-LATENCY_MS = 100.0  # reply timeout 2 x 100 + 2 ms: generous for a loaded CI machine
+LATENCY_MS = 100.0  # reply timeout 2 x 100 + 2 ms of the polling thread's CPU time (the emulator is a thread here)
 
 
 @pytest.fixture
@@ -47,6 +47,7 @@ def connect(emu, config=CONFIG, baud=57600, **kw):
         profile_velocity_rad_s=kw.pop("pv", 3.0),
         u_max_rad=3.0,
         latency_timer_ms=LATENCY_MS,
+        reply_timer=kw.pop("reply_timer", time.thread_time),
         **kw,
     )
 
@@ -110,10 +111,10 @@ def test_stuffed_values_cross_the_sdk_both_ways(emu):
 
 def _sdk_port(emu):
     """The SDK's port, with the driver's reply timeout (the SDK's own 34 ms is too short for
-    the emulator's thread on a loaded machine)."""
+    the emulator's thread on a loaded machine), on this thread's CPU time."""
     from lab.rig.dynamixel import _PortHandler
 
-    port = _PortHandler(emu.port, LATENCY_MS)
+    port = _PortHandler(emu.port, LATENCY_MS, time.thread_time)
     assert port.setBaudRate(57600)
     return port
 
@@ -294,3 +295,64 @@ def test_sync_read_round_trip_latency(emu, bus):
         assert list(bus.read_present_ticks()) == list(want)
     latency_ms = (time.perf_counter() - t0) / n * 1e3
     print(f"sync read of 3 servos through the pty: {latency_ms:.2f} ms")
+
+
+_STARVED_READER = """
+import sys, time
+from lab.rig.dynamixel import ServoConfig, XM430Bus
+from lab.rig.emulators import EmulatedXM430Bus, ServoSpec
+
+specs = [ServoSpec(1, zero_tick=1000), ServoSpec(2, zero_tick=5000, direction=-1), ServoSpec(3, zero_tick=3100)]
+config = [ServoConfig(s.dxl_id, s.direction, s.zero_tick, c) for s, c in zip(specs, ["a", "b", "c"])]
+timer = {"thread": time.thread_time, "wall": None}[sys.argv[1]]
+with EmulatedXM430Bus(specs) as emu:
+    bus = XM430Bus(emu.port, 57600, config, profile_velocity_rad_s=3.0, latency_timer_ms=20.0, reply_timer=timer)
+    print("ready", flush=True)
+    t_end = time.monotonic() + float(sys.argv[2])
+    n = 0
+    while time.monotonic() < t_end:
+        bus.read_register(1 + n % 3, 64, 1)  # torque enable: one instruction, one status packet, no retry
+        n += 1
+    bus.close()
+print("reads", n, flush=True)
+"""
+
+
+@pytest.mark.parametrize("timer", ["thread", "wall"])
+def test_a_starved_process_is_not_a_lost_status_packet(timer):
+    """A process stopped by the scheduler (here SIGSTOP for 0.3 s, far past the 42 ms reply
+    timeout, again and again) before its emulated bus thread has answered: on the polling
+    thread's CPU time (what the emulated benches use) no reply is lost in 6 s of reads. On the
+    wall clock a stop inside an exchange ends the run with "There is no status packet" (after
+    8-15 stops, measured), which is what a loaded CI machine did to the hardware tests."""
+    import signal
+    import subprocess
+    import sys
+
+    from helpers import subprocess_env
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _STARVED_READER, timer, "6"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=subprocess_env(),
+    )
+    stops = 0
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        while proc.poll() is None and stops < 100:
+            time.sleep(0.02)
+            proc.send_signal(signal.SIGSTOP)
+            time.sleep(0.3)
+            proc.send_signal(signal.SIGCONT)
+            stops += 1
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    if timer == "thread":
+        assert proc.returncode == 0 and stops >= 10, err[-2000:]
+        assert int(out.split()[-1]) > stops
+    else:
+        assert proc.returncode == 1 and "There is no status packet" in err

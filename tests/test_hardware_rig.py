@@ -142,7 +142,7 @@ def test_rig_on_natnet_4_1_multicast_in_millimetres_with_noise(three_cable, tmp_
     scene = dataclasses.replace(MocapScene(), length_unit_m=1e-3)
     with EmulatedBench(three_cable, scene=scene, natnet_version=(4, 1), multicast=multicast, noise_m=0.2e-3) as bench:
         cfg = bench.write_config(tmp_path / "rig.toml", mocap={"calibration_frames": 60, "frame_timeout_s": 2.0})
-        with HardwareRig.from_config(cfg, three_cable) as rig:
+        with HardwareRig.from_config(cfg, three_cable, **bench.rig_options()) as rig:
             u = np.array([0.0, 1.0, 1.5])
             rig.send(u)
             frames = settle(rig, u)

@@ -109,7 +109,14 @@ def test_a_new_session_clears_a_fired_watchdog_and_moves(three_cable, tmp_path):
         cfg = bench.write_config(tmp_path / "rig.toml", servos={"bus_watchdog_ms": 100})
         c = load_hardware_config(cfg, three_cable)
         first = XM430Bus(
-            c.port, c.baud_rate, c.servos, profile_velocity_rad_s=3.0, bus_watchdog_ms=100, clock=bench.clock
+            c.port,
+            c.baud_rate,
+            c.servos,
+            profile_velocity_rad_s=3.0,
+            bus_watchdog_ms=100,
+            latency_timer_ms=c.latency_timer_ms,
+            clock=bench.clock,
+            reply_timer=time.thread_time,
         )
         first.torque_on()
         first.write_goal_u([0.5, 0.5, 0.5])  # ... and then nothing more: no close, no torque off
@@ -211,7 +218,7 @@ def test_killed_track_process_leaves_the_servos_stopped(how, three_cable, tmp_pa
                 assert before == after, "servos still moving after the watchdog time"
                 assert all(bench.bus.servo(i).watchdog_tripped for i in ids)
                 assert time.monotonic() - t_kill < 5
-                with HardwareRig.from_config(cfg, three_cable) as rig:  # the next session
+                with HardwareRig.from_config(cfg, three_cable, **bench.rig_options()) as rig:  # the next session
                     u = np.array([0.3, 0.2, 0.1])
                     rig.send(u)
                     wait_until(lambda: np.allclose(rig.present_u(), u, atol=0.01), 60, "servos at the new goal")

@@ -86,11 +86,10 @@ WATCHDOG_MARGIN = 0.5
 class XM430Bus:
     """A connected, configured bus of XM430 servos (torque off until ``torque_on``).
 
-    ``servos`` are in motor (cable) order; ``profile_velocity_rad_s`` caps each spool's
-    speed; ``u_max_rad`` with ``start_margin_rad`` bounds the accepted start-up angles;
-    ``clock`` (s) times the quiet spells of the bus for the Bus Watchdog.
-    Raises ``ServoError`` (port closed, torque off) if any of it fails.
-    """
+    ``servos`` are in motor (cable) order; ``profile_velocity_rad_s`` caps each spool's speed;
+    ``u_max_rad`` with ``start_margin_rad`` bounds the accepted start-up angles; ``clock`` (s)
+    times quiet spells for the Bus Watchdog; ``reply_timer`` (s) the status-packet timeout
+    (wall clock if None). Raises ``ServoError`` (port closed, torque off) if any of it fails."""
 
     def __init__(
         self,
@@ -104,6 +103,7 @@ class XM430Bus:
         latency_timer_ms: float = 16.0,
         bus_watchdog_ms: float = 0.0,
         clock=time.monotonic,
+        reply_timer=None,
     ):
         self.servos = tuple(servos)
         self.ids = [s.dxl_id for s in self.servos]
@@ -130,7 +130,7 @@ class XM430Bus:
         self._closed = False
         self._unconfirmed_at_fail: list[int] | None = None  # torque-off result of the last failure
         self._ph = PacketHandler(2.0)
-        self._port = _PortHandler(self.port_name, latency_timer_ms)
+        self._port = _PortHandler(self.port_name, latency_timer_ms, reply_timer)
         try:
             ok = self._port.setBaudRate(self.baud_rate)  # opens the port
         except IO_ERRORS as err:

@@ -130,11 +130,23 @@ READ_TRIES = 3
 
 class LatencyPortHandler(PortHandler):
     """The SDK's port with the reply timeout computed from the adapter's actual latency
-    timer (the SDK hard-codes 16 ms: it waits 2 x latency + 2 ms for a status packet)."""
+    timer (the SDK hard-codes 16 ms: it waits 2 x latency + 2 ms for a status packet).
 
-    def __init__(self, port_name: str, latency_timer_ms: float):
+    ``reply_timer`` (s, optional) is what the timeout is measured on; the SDK's default is the
+    wall clock. Emulated hardware passes ``time.thread_time``: the emulated bus is a thread of
+    the same process, and a loaded machine that leaves the process no CPU must not turn into a
+    lost packet, while a silent servo still times out after the same time spent polling.
+    """
+
+    def __init__(self, port_name: str, latency_timer_ms: float, reply_timer=None):
         super().__init__(port_name)
         self.latency_timer_ms = float(latency_timer_ms)
+        self._reply_timer = reply_timer
+
+    def getCurrentTime(self):
+        if self._reply_timer is None:
+            return super().getCurrentTime()
+        return self._reply_timer() * 1000.0  # ms, as the SDK counts
 
     def setPacketTimeout(self, packet_length):
         self.packet_start_time = self.getCurrentTime()

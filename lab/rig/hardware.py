@@ -32,8 +32,9 @@ class HardwareRig(Rig):
     """The physical robot behind the rig interface (wall clock, real servos and mocap).
 
     ``clock`` (s) is the rig clock's source; ``frame_wanted`` is called before each wait
-    for a frame. Both are for emulated hardware on a virtual clock
-    (``EmulatedBench.rig_options()``); on real hardware leave them out.
+    for a frame; ``reply_timer`` (s) is what the servos' reply timeout is measured on. All
+    three are for emulated hardware (``EmulatedBench.rig_options()``); on real hardware
+    leave them out.
     """
 
     kind = "hardware"
@@ -45,6 +46,7 @@ class HardwareRig(Rig):
         *,
         clock: Callable[[], float] = time.monotonic,
         frame_wanted: Callable[[], None] | None = None,
+        reply_timer: Callable[[], float] | None = None,
     ):
         super().__init__(robot, config.frame_rate_hz)
         self.config = config
@@ -67,6 +69,7 @@ class HardwareRig(Rig):
                 latency_timer_ms=config.latency_timer_ms,
                 bus_watchdog_ms=config.bus_watchdog_ms,
                 clock=self.now,
+                reply_timer=reply_timer,
             )
             self._bus.torque_on()
             self._poll()
@@ -77,7 +80,7 @@ class HardwareRig(Rig):
     @classmethod
     def from_config(cls, path: str | Path, robot: RobotDescription, **options) -> HardwareRig:
         """Rig from a TOML file (``lab/rigs/hardware-example.toml`` documents the format);
-        ``options``: ``clock``/``frame_wanted`` as for the constructor."""
+        ``options``: ``clock``/``frame_wanted``/``reply_timer`` as for the constructor."""
         return cls(robot, load_hardware_config(path, robot), **options)
 
     # --- the rig interface ------------------------------------------------------------

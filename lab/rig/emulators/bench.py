@@ -179,15 +179,21 @@ class EmulatedBench:
     def rig_options(self) -> dict:
         """Keyword arguments that put a ``HardwareRig`` on this bench's clock.
 
+        The emulated bus answers from a thread of this process, so the driver's reply timeout
+        is measured on the waiting thread's CPU time (``time.thread_time``): a loaded
+        machine that starves the process is not a lost status packet, and a silent servo
+        still times out after the driver has polled for the timeout.
+
         Returns
         -------
         dict
-            On virtual time ``clock`` (the :class:`VirtualClock`) and ``frame_wanted``
-            (the wish for each frame the rig waits for); empty on the wall clock.
+            ``reply_timer``; on virtual time also ``clock`` (the :class:`VirtualClock`) and
+            ``frame_wanted`` (the wish for each frame the rig waits for).
         """
+        options = {"reply_timer": time.thread_time}
         if self.clock is None:
-            return {}
-        return {"clock": self.clock, "frame_wanted": self.clock.want_frame}
+            return options
+        return options | {"clock": self.clock, "frame_wanted": self.clock.want_frame}
 
     def config_text(self, servos: dict | None = None, mocap: dict | None = None) -> str:
         """TOML of a hardware configuration for this bench; ``servos``/``mocap`` override
