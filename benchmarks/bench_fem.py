@@ -57,7 +57,7 @@ if "pardiso" in t_fact:
     from lab.fem.solve.linsolve import _Pardiso
 
     def analyse_and_factorize():
-        _Pardiso._pattern = None  # forget the symbolic analysis: phase 12, not 22
+        _Pardiso.forget_analysis()  # phase 12, not 22
         factorize(H, "pardiso")
 
     print(

@@ -30,3 +30,31 @@ def coarse_fem(three_cable):
 @pytest.fixture(scope="session")
 def default_fem(three_cable):
     return ArmFEM(three_cable)
+
+
+@pytest.fixture(scope="session")
+def chapter_runs(tmp_path_factory):
+    """Each chapter's one quick run, shared by its checks (``tests/chapter_run.py``)."""
+    from chapter_run import ChapterRuns
+
+    return ChapterRuns(tmp_path_factory.mktemp("chapters"))
+
+
+@pytest.hookimpl(optionalhook=True, tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """xdist's ``--dist loadfile`` (scripts/test) or ``load`` (``-n`` alone), except that a
+    chapter's checks that share its run (``chapter_run.SHARED_CHECKS``) go to one worker
+    together, so that no two workers run the same chapter. Other modes are xdist's own."""
+    dist = config.getvalue("dist")
+    if dist not in ("load", "loadfile"):
+        return None
+    from chapter_run import chapter_of
+    from xdist.scheduler import LoadFileScheduling, LoadScopeScheduling
+
+    class ChapterScheduling(LoadFileScheduling if dist == "loadfile" else LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            if chapter := chapter_of(nodeid):
+                return f"chapter {chapter}"
+            return super()._split_scope(nodeid) if dist == "loadfile" else nodeid
+
+    return ChapterScheduling(config, log)

@@ -1,10 +1,14 @@
 """The course's exercises: graders, the student edition, and both editions of the chapters.
 
 The source notebooks pass every grader (tests/test_notebooks.py checks each grader cell's
-output); here the student edition is built and run: each grader must report "not
-implemented yet" and the rest of the chapter must still run.
+output); here the student edition is built and shown to run: each grader must report "not
+implemented yet" and the rest of the chapter must still run. The cells of the edition that
+can behave differently from the chapter (its stubs, its graders and what depends on them)
+run again after the chapter's own run (tests/chapter_run.py, tests/student_replay.py); a
+chapter for which that cannot be shown is executed in full from build/student/.
 """
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -63,9 +67,40 @@ def test_every_exercise_is_followed_by_its_grader():
 @pytest.mark.slow
 @pytest.mark.timeout(NOTEBOOK_TEST_TIMEOUT_S)
 @pytest.mark.parametrize("notebook", WITH_EXERCISES, ids=[nb.name for nb in WITH_EXERCISES])
-def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
+def test_student_edition_runs_and_says_not_implemented(notebook, chapter_runs, request, tmp_path):
     student = ROOT / "build" / "student" / notebook.name
     assert student_edition(notebook, student, up="../") >= 1
+    run = chapter_runs.get(notebook, request)
+    why = full_run_needed(run, student)
+    if why:
+        print(f"{notebook.name}: the student edition is executed in full: {why}")
+        graders = run_in_full(notebook, student, tmp_path)
+    else:  # the cells that differ from the chapter's own run, replayed after it (tests/student_replay.py)
+        failed = [r for r in run.replay if r["error"]]
+        assert not failed, f"{notebook.name}: the student edition fails at its cell {failed[0]['index']}: {failed[0]}"
+        graders = [r["text"] for r in run.replay if r["kind"] == "grader"]
+    assert graders, f"{notebook.name}: the student edition has no grader"
+    for text in graders:
+        assert NOT_IMPLEMENTED in text, f"{notebook.name}: a grader of the student edition says {text!r}"
+
+
+def full_run_needed(run, student: Path) -> str:
+    """Why the chapter's run with its replayed cells does not stand for a run of the
+    student edition in ``student`` (see tests/student_replay.py); "" when it does."""
+    if run.plan.cells is None:
+        return run.plan.reason
+    if run.error:
+        return f"the chapter's own run failed ({run.error.splitlines()[0]})"
+    if hashlib.sha256(student.read_bytes()).hexdigest() != run.edition_sha256:
+        return "the edition written is not the one the replay was planned for"
+    here = [(cell, path) for cell, event, path in run.relative if not path.startswith("../")]
+    if here:
+        return f"the chapter opened {here[0][1]!r} relative to its working folder (cell {here[0][0]})"
+    return ""
+
+
+def run_in_full(notebook: Path, student: Path, tmp_path: Path) -> list[str]:
+    """Execute the whole student edition from its folder; its graders' outputs."""
     out = tmp_path / notebook.name
     execute_notebook(
         student,
@@ -74,11 +109,11 @@ def test_student_edition_runs_and_says_not_implemented(notebook, tmp_path):
         cwd=str(student.parent),
         kernel_name="python3",
     )
-    graders = [c for c in json.loads(out.read_text())["cells"] if "grader" in c.get("metadata", {}).get("tags", [])]
-    assert graders
-    for c in graders:
-        text = output_text(c)
-        assert NOT_IMPLEMENTED in text, text
+    return [
+        output_text(c)
+        for c in json.loads(out.read_text())["cells"]
+        if "grader" in c.get("metadata", {}).get("tags", [])
+    ]
 
 
 def test_chapters_01_to_07_pose_two_to_four_exercises():

@@ -55,6 +55,7 @@ SUBPACKAGES = [
     "fem.materials",
     "fem.actuators",
     "fem.solve",
+    "fem.kernels",
     "data",
     "learn",
     "dynamics",

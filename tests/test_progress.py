@@ -121,14 +121,14 @@ def test_train_counts_the_epochs_its_algorithm_allows(data, tmp_path, capsys):
 @pytest.mark.parametrize(
     "kind, words",
     [
-        (["--model", "ensemble", "--members", "2"], "x 6 epochs)"),  # 2 members x 3 epochs, one worker
-        (["--model", "ensemble", "--members", "3", "--jobs", "2"], "x 9 epochs / 2 workers)"),
+        (["--model", "ensemble", "--members", "2", "--jobs", "1"], "x 6 epochs)"),  # 2 members x 3 epochs
+        (["--model", "ensemble", "--members", "3", "--jobs", "2"], "x 9 epochs)"),  # the workers' epochs together
         (["--model", "inverse-mlp"], "x 3 epochs)"),
     ],
 )
 def test_ensembles_and_the_inverse_say_how_long_too(kind, words, data, tmp_path, capsys):
     """The README's recipe for a lab's own data trains an ensemble: it says how long as the
-    plain network does (every member's epochs; per finished member on several workers)."""
+    plain network does (every member's epochs; on several workers, theirs together as they go)."""
     assert main(["train", str(data), "--hidden", "3", "--epochs", "3", *kind, "--out", str(tmp_path / "m.npz")]) == 0
     err = capsys.readouterr().err
     assert "estimate: about " in err and words in err, err

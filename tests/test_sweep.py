@@ -35,6 +35,7 @@ from sweep_progress import PROGRESS_CASES
 from sweep_realtime import REALTIME_CASES
 from sweep_rig_none import RIG_NONE_CASES
 from sweep_times import TIMES_CASES
+from sweep_training import TRAINING_CASES
 from sweep_units import UNITS_CASES
 
 SIM = ["simulate", "--grid", "2", "--jobs", "1", "--no-progress", *COARSE]
@@ -1068,6 +1069,7 @@ CASES = [
     *TIMES_CASES,
     *PROGRESS_CASES,
     *DESIGNS_CASES,
+    *TRAINING_CASES,
     # --- markers the IK drives (track --markers) -------------------------------------------
     Case(
         "track-markers-unknown",

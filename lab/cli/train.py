@@ -3,8 +3,10 @@
 The model flags are those of :class:`lab.learn.TrainSpec` (``--model``, ``--hidden``,
 ``--algorithm``, ``--epochs``, ``--min-grad``, ``--members``, ``--split`` (ratios, random
 rows or whole ``group`` sequences), ``--history`` (past commands as inputs), ``--seed``,
-``--activation``, ``--jobs``); :func:`lab.jobs.train.run` reads the data and fits
-the model, this command writes it, prints its errors per set and writes the JSON report.
+``--activation``, ``--jobs``: an ensemble's members, on all cores by default); ``--algorithm
+auto``, the default, picks LM or its sub-sampled form by size and the first line says which.
+:func:`lab.jobs.train.run` reads the data and fits the model, this command writes it, prints
+its errors per set and writes the JSON report.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from lab.cli.paths import check_paths, check_writable
 from lab.cli.progress import Progress, add_progress_flag
 from lab.jobs import train as job
 from lab.learn.train_spec import TrainSpec
+from lab.workers import default_jobs
 
 
 def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
@@ -32,7 +35,7 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
         help="more datasets of the same robot, appended to DATA before the split (e.g. Sobol samples between "
         "a grid's lattice points)",
     )
-    add_spec_flags(t, TrainSpec)
+    add_spec_flags(t, TrainSpec, default_words={"jobs": "all cores"}, base=_base())
     t.add_argument(
         "--init",
         metavar="MODEL.npz",
@@ -47,6 +50,11 @@ def add_parser(subparsers, parents=()) -> argparse.ArgumentParser:
     add_progress_flag(t)
     t.set_defaults(func=run)
     return t
+
+
+def _base() -> TrainSpec:
+    """This command's defaults: an ensemble's members on all cores (results do not depend on it)."""
+    return TrainSpec(jobs=default_jobs())
 
 
 def _inputs(args) -> dict:
@@ -64,13 +72,13 @@ def _inputs(args) -> dict:
 def run(args) -> int:
     from lab.files import atomic_write_text
 
-    spec = spec_from_args(TrainSpec, args)
+    spec = spec_from_args(TrainSpec, args, base=_base())
     check_paths(_inputs(args), {"--out": args.out, "--report": args.report})
     check_writable(args.out)
     if args.report:
         check_writable(args.report, "--report")
-    side_by_side = min(spec.jobs, spec.members) if spec.model == "ensemble" else 1  # members on workers
-    with Progress("epoch", enabled=not args.no_progress, at_most=True, parallel=side_by_side) as progress:
+    # epochs come as they are trained, by all of an ensemble's workers together: no division by workers
+    with Progress("epoch", enabled=not args.no_progress, at_most=True) as progress:
         result = job.run(
             spec,
             args.data,

@@ -108,5 +108,33 @@ def parse_material(mat: dict) -> Material:
                 f"field 'material.bulk_modulus_pa' = {bulk} Pa is below the shear modulus 2 C10 = {mu} Pa; "
                 "silicone is nearly incompressible"
             )
-        nu = (3 * bulk - 2 * mu) / (2 * (3 * bulk + mu))
-    return Material("yeoh", 2 * mu * (1 + nu), float(nu), rho, grad, (c10, c20, c30), bulk)
+    E, nu = yeoh_small_strain(c10, nu if bulk is None else None, bulk)
+    return Material("yeoh", E, nu, rho, grad, (c10, c20, c30), bulk)
+
+
+def yeoh_small_strain(c10_pa: float, poisson_ratio: float | None = None, bulk_modulus_pa: float | None = None):
+    """Young's modulus and Poisson's ratio of a Yeoh law's small-strain limit.
+
+    The shear modulus is mu = 2 C10; Poisson's ratio is given, or follows from the bulk
+    modulus K as (3K - 2 mu) / (2 (3K + mu)); E = 2 mu (1 + nu). Whatever scales a Yeoh law
+    (a calibration's softness) derives E here too, so a description written to TOML reads
+    back bit for bit.
+
+    Parameters
+    ----------
+    c10_pa : float
+        C10, Pa.
+    poisson_ratio : float, optional
+        nu; give it or ``bulk_modulus_pa``.
+    bulk_modulus_pa : float, optional
+        K, Pa.
+
+    Returns
+    -------
+    tuple of float
+        (E in Pa, nu).
+    """
+    mu = 2 * c10_pa
+    if bulk_modulus_pa is not None:
+        poisson_ratio = (3 * bulk_modulus_pa - 2 * mu) / (2 * (3 * bulk_modulus_pa + mu))
+    return float(2 * mu * (1 + poisson_ratio)), float(poisson_ratio)

@@ -11,7 +11,8 @@ The concepts, one folder each, so a new one has an obvious home:
   angle-controlled cables (:class:`CableActuator`); an actuator may ask the statics for a
   :class:`Condensation`.
 - :mod:`.model`: :class:`ArmFEM`, the assembled energy E(x, u) of body, material, gravity
-  and actuators, with its exact derivatives.
+  and actuators, with its exact derivatives; its element sums run as compiled kernels
+  (:mod:`.kernels`) or, the reference, in NumPy (:func:`set_assembly`, :func:`use_assembly`).
 - :mod:`.solve`: the equilibrium x(u) = argmin_x E(x, u) and dx/du (:func:`solve_static`,
   :func:`sensitivities`), warm-started walks (:class:`WalkPredictor`) and the FEM of
   as-built parameters theta with dx/dtheta (:class:`ParametrisedFEM`).
@@ -52,6 +53,7 @@ from lab.fem.bodies import (
     save_mesh,
     tapered_mesh,
 )
+from lab.fem.kernels import COMPILED_MIN_TETS, KernelFallbackWarning, assembly_backend, set_assembly, use_assembly
 from lab.fem.materials import (
     MATERIALS,
     Hyperfoam,
@@ -86,6 +88,7 @@ from lab.fem.solve import (
 
 __all__ = [
     "ACTUATORS",
+    "COMPILED_MIN_TETS",
     "BODIES",
     "MATERIALS",
     "Actuator",
@@ -100,6 +103,7 @@ __all__ = [
     "Hyperfoam",
     "HyperfoamMaterial",
     "InvertedElementError",
+    "KernelFallbackWarning",
     "Marker",
     "Material",
     "MaterialLaw",
@@ -121,6 +125,7 @@ __all__ = [
     "Yeoh",
     "YeohMaterial",
     "as_built_description",
+    "assembly_backend",
     "barycentric",
     "body_of",
     "chamber_surface",
@@ -136,8 +141,10 @@ __all__ = [
     "register_material",
     "save_mesh",
     "sensitivities",
+    "set_assembly",
     "solve_static",
     "spring",
     "tapered_mesh",
+    "use_assembly",
     "yeoh_matching",
 ]

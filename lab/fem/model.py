@@ -9,8 +9,11 @@ slice u_a of the inputs u. The solver works on ``q``, the stacked free coordinat
 :meth:`ArmFEM.to_nodes` and :meth:`ArmFEM.to_free` convert to and from node positions
 ``x_W`` (N, 3).
 
-Sparse assembly uses a pattern computed once: every element and actuator block's entries
-are mapped to their slot in the CSR data array, so each Hessian is one ``bincount``.
+Sparse assembly uses a pattern computed once (:class:`lab.fem.assembly.HessianPattern`):
+every element and actuator block's entries are mapped to their slot in the CSR data array.
+The element sums (energy, gradient, Hessians added straight into those slots) run as
+compiled kernels (:mod:`lab.fem.kernels`), or, as the reference, the law's NumPy methods
+with one ``bincount``.
 """
 
 from __future__ import annotations
@@ -20,8 +23,10 @@ import scipy.sparse as sp
 
 from lab.description import RobotDescription
 from lab.errors import InputError
+from lab.fem.assembly import HessianPattern
 from lab.fem.bodies import CylinderBody, FreeCoordinates, body_of
 from lab.fem.bodies.mesh import TetMesh
+from lab.fem.kernels import assembly_backend, compiled_law
 from lab.fem.materials.neo_hookean import project_psd
 from lab.fem.model_inputs import ActuatedModel
 from lab.fem.model_material import description_material
@@ -110,7 +115,10 @@ class ArmFEM(ActuatedModel):
         self.actuators = self._build_actuators(actuators, cable_slack_m)
         self.markers = body.markers()
         self.tip_nodes, self.tip_weights = self.markers["tip"].nodes, self.markers["tip"].weights
-        self._build_pattern()
+        dofs = [(3 * mesh.tets[:, :, None] + np.arange(3)).reshape(-1, 12)]  # the tets', then the actuators'
+        dofs += [d for act in self.actuators for d in act.block_dofs()]
+        self._pattern = HessianPattern(dofs, self.coordinates.dof_to_free, self.n_free)
+        self._compiled = (None, None)  # (law, its compiled sums), see _sums
         self._S_tip = self.coordinates.point_matrix(self.markers["tip"])
         self._S_markers = sp.vstack([self.coordinates.point_matrix(m) for m in self.markers.values()]).tocsr()
 
@@ -240,9 +248,9 @@ class ArmFEM(ActuatedModel):
         """
         x = self.to_nodes(q)
         if with_gradient:
-            e, g_nodes = self.elastic.energy_and_gradient(x)
+            e, g_nodes = self._sums().energy_and_gradient(x)
         else:
-            e = self.elastic.energy(x)
+            e = self._sums().energy(x)
         if not np.isfinite(e):
             return (np.inf, None, None) if with_gradient else np.inf
         e -= float(np.sum(self.f_gravity_W * x))
@@ -274,7 +282,7 @@ class ArmFEM(ActuatedModel):
             The gradient in N, or ``(g, condensation)``.
         """
         x = self.to_nodes(q)
-        g, condensation = (self.elastic.nodal_gradient(x) - self.f_gravity_W).ravel()[self.free_dofs], None
+        g, condensation = (self._sums().nodal_gradient(x) - self.f_gravity_W).ravel()[self.free_dofs], None
         for act, u_a in self._split(u):
             g_a, c = act.gradient(x, u_a)
             g, condensation = g + g_a, self._offset(act, c) or condensation
@@ -312,20 +320,23 @@ class ArmFEM(ActuatedModel):
             The Hessian.
         """
         x = self.to_nodes(q)
-        H_el = self.elastic.hessian(x)
+        law, pattern = self._sums(), self._pattern
+        blocks = [b for act, u_a in self._split(u) for b in act.hessian_blocks(x, u_a)]
+        if law is self.elastic:  # the NumPy reference: all blocks summed by one bincount
+            H_el = law.hessian(x)
+            return pattern.assemble([(project_psd(H_el) if project else H_el).ravel(), *blocks])
+        data = np.zeros(pattern.nnz)
         if project:
-            H_el = project_psd(H_el)
-        blocks = [H_el.ravel()]
-        for act, u_a in self._split(u):
-            blocks += act.hessian_blocks(x, u_a)
-        values = np.concatenate(blocks)[self._keep]
-        data = np.bincount(self._slot, weights=values, minlength=len(self._indices))
-        return sp.csr_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
+            law.scatter(data, pattern.element_slots.ravel(), project_psd(law.hessian(x)).ravel())
+        else:
+            law.add_hessian(x, data, pattern.element_slots)
+        for block, slots in zip(blocks, pattern.block_slots, strict=True):
+            law.scatter(data, slots, block)
+        return pattern.matrix(data)
 
     def hessian_operator(self, q: np.ndarray, u):
         """Exact Hessian products at ``q`` without assembling the Hessian (a setup and each
-        product cost about as much as a gradient, ~0.4 ms on the default mesh, against
-        ~6 ms for an assembly).
+        product cost about as much as a gradient; docs/fem-cost.md has both costs).
 
         Parameters
         ----------
@@ -340,7 +351,7 @@ class ArmFEM(ActuatedModel):
             v (n_free,) m -> d2E/dq2 v (n_free,) N.
         """
         x = self.to_nodes(q)
-        elastic = self.elastic.hessian_product(x)
+        elastic = self._sums().hessian_product(x)
         products = [act.hessian_product(x, u_a) for act, u_a in self._split(u)]
 
         def apply(v: np.ndarray) -> np.ndarray:
@@ -377,24 +388,12 @@ class ArmFEM(ActuatedModel):
             out[:, act.inputs] = act.mixed_derivative(x, u_a)
         return out
 
-    # ---------------------------------------------------------------- assembly pattern
-    def _block_dofs(self) -> list[np.ndarray]:
-        dofs = [(3 * self.mesh.tets[:, :, None] + np.arange(3)).reshape(-1, 12)]
-        for act in self.actuators:
-            dofs += act.block_dofs()
-        return dofs
-
-    def _build_pattern(self) -> None:
-        dof_to_free = self.coordinates.dof_to_free
-        rows, cols = [], []
-        for d in self._block_dofs():
-            f = dof_to_free[d]
-            rows.append(np.repeat(f, f.shape[1], axis=1).ravel())
-            cols.append(np.tile(f, (1, f.shape[1])).ravel())
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        self._keep = (rows >= 0) & (cols >= 0)
-        key = rows[self._keep] * self.n_free + cols[self._keep]
-        unique, self._slot = np.unique(key, return_inverse=True)
-        r = unique // self.n_free
-        self._indices = (unique % self.n_free).astype(np.int32)
-        self._indptr = np.searchsorted(r, np.arange(self.n_free + 1)).astype(np.int32)
+    # ---------------------------------------------------------------- assembly
+    def _sums(self):
+        """The elastic law's element sums: its compiled kernels when they are in use
+        (:mod:`lab.fem.kernels`; built at the first call), else the law itself."""
+        if assembly_backend(len(self.elastic.V)) != "compiled":
+            return self.elastic
+        if self._compiled[0] is not self.elastic:
+            self._compiled = (self.elastic, compiled_law(self.elastic))
+        return self._compiled[1] or self.elastic

@@ -69,13 +69,15 @@ def run(spec: TrainSpec, splits: SplitsSpec, data, *, forward=None, command: str
     u, y, _, _, ids = read_all(data, ())
     x, groups, split_info = inputs_and_groups(spec, u, ids, data, log)
     forward_net = forward_model(spec, forward)
+    spec, choice = spec.resolved(x.shape[1], y.shape[1], len(u))  # auto: lm or lm-subsample by size
     # spec.jobs workers run one split each; an ensemble's members train one after another there
     spec.replace(jobs=1).check_fits(x.shape[1], y.shape[1], len(u), copies=min(spec.jobs, splits.n_splits))
     if log is not None:
         net = "-".join(map(str, [x.shape[1], *spec.hidden, y.shape[1]]))
+        how = f"{spec.algorithm}{f', {choice}' if choice else ''}"
         what = {
-            "mlp": f"{net} network ({spec.algorithm})",
-            "ensemble": f"{spec.members} x {net} ensemble ({spec.algorithm})",
+            "mlp": f"{net} network ({how})",
+            "ensemble": f"{spec.members} x {net} ensemble ({how})",
         }
         past = f", history {spec.history}" if spec.history else ""
         log(

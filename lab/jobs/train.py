@@ -112,6 +112,8 @@ class TrainRun:
             "wall_s": self.wall_s,
             "code_version": code_version(),
         }
+        if "algorithm_choice" in training:
+            report["algorithm_choice"] = training["algorithm_choice"]
         if self.spec.algorithm == "br" and "bayesian_regularisation" in training:
             report["bayesian_regularisation"] = training["bayesian_regularisation"]
         if self.calibration is not None:
@@ -228,14 +230,16 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
         if spec.model != "mlp" or not isinstance(init_model, MLP):
             raise InputError(f"--init {init}: continues an mlp (lab.mlp file) with TrainSpec.model mlp only")
         spec = spec.replace(hidden=tuple(init_model.hidden))
+    spec, choice = spec.resolved(x.shape[1], y.shape[1], len(u))  # auto: lm or lm-subsample by size
     spec.check_fits(x.shape[1], y.shape[1], len(u))
     what = network_words(spec, x.shape[1], y.shape[1])
     if log is not None:
         past = f" (history {spec.history}: {u.shape[1]} motors x {spec.history + 1} commands)" if spec.history else ""
+        why = f" ({choice})" if choice else ""
         log(
             f"{' + '.join(map(str, [data, *extra_data]))}: {len(u)} samples, {x.shape[1]} inputs{past} -> "
             f"{y.shape[1]} outputs; training {spec.model}"
-            f"{f' {what} ({spec.activation}) with {spec.algorithm}' if what else ''}, "
+            f"{f' {what} ({spec.activation}) with {spec.algorithm}{why}' if what else ''}, "
             f"{spec.split} split {list(spec.ratios)}, seed {spec.seed}"
         )
     cal = None
@@ -265,6 +269,8 @@ def run(spec: TrainSpec, data, *, extra_data=(), init=None, forward=None, comman
             log(f"warning: {split_info['split_warning']}")
     file_sha = hashlib.sha256(Path(data).read_bytes()).hexdigest()
     training = model.metadata["training"]
+    if choice:
+        training["algorithm_choice"] = choice
     training.setdefault("data_sha256", data_sha256(u, y))
     training["data"] = {"path": str(data), "file_sha256": file_sha, "robot": (meta.get("robot") or {}).get("name")}
     if extra:

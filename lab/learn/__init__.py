@@ -2,7 +2,10 @@
 
 :class:`MLP` (:mod:`.mlp`, initialised by :mod:`.mlp_init`) with the Appendix's analytic Jacobian, stored by
 :mod:`.model_io` (``.npz`` + JSON, no pickle); training by MATLAB-faithful
-Levenberg-Marquardt (:mod:`.lm`) or Adam / L-BFGS (:mod:`.gradient`) behind one entry
+Levenberg-Marquardt (:mod:`.lm`, its products from the layers' structure in
+:mod:`.gauss_newton`), its sub-sampled form for large datasets (:mod:`.lm_subsample`; which
+one by size: :mod:`.algorithm_choice`), Bayesian regularisation (:mod:`.bayes`) or Adam /
+L-BFGS (:mod:`.gradient`) behind one entry
 point :func:`train` (``lab/learn/train.py``) on ``dividerand`` splits (:mod:`.split`); every trainer
 takes one :class:`TrainingData` (:mod:`.training_data`) and its algorithm's options; error
 metrics (:mod:`.metrics`) and the repeated-split and network-size studies (:mod:`.studies`).
@@ -26,6 +29,7 @@ from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfg
 from lab.learn.history import MAX_HISTORY, at_rest, data_bounds, history_features, history_of, with_past
 from lab.learn.inverse import InverseModel, fit_inverse, inverse_tip_errors, load_inverse
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, lm_step, mse, stop_message, train_lm
+from lab.learn.lm_subsample import LMSubsampleOptions, train_lm_subsample
 from lab.learn.metrics import error_report, mean_distance_m, mse_m2, workspace_size_m
 from lab.learn.mlp import MLP, minmax_gain
 from lab.learn.mlp_init import init_mlp
@@ -121,6 +125,8 @@ __all__ = [
     "TrainLog",
     "train_lm",
     "lm_step",
+    "LMSubsampleOptions",
+    "train_lm_subsample",
     "AdamOptions",
     "LBFGSOptions",
     "TrainingData",

@@ -20,7 +20,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.linalg import eigvalsh
+from scipy.linalg.lapack import dpotrf, dtrtri
 
+from lab.learn.algorithm_choice import blas_threads
 from lab.learn.lm import LMOptions, TrainLog, _arrays, _checked, _jacobian_products, _lm_step, mse
 from lab.learn.mlp import MLP
 from lab.learn.training_data import TrainingData
@@ -36,7 +38,7 @@ class BROptions(LMOptions):
 
     Parameters
     ----------
-    epochs, mu, mu_dec, mu_inc, mu_max, max_fail, min_grad, goal, max_jacobian_mb
+    epochs, mu, mu_dec, mu_inc, mu_max, max_fail, min_grad, goal, max_jacobian_mb, dense_reference
         As :class:`lab.learn.lm.LMOptions`; ``min_grad`` bounds the gradient of the
         regularised objective.
     """
@@ -45,14 +47,27 @@ class BROptions(LMOptions):
     min_grad: float = 1e-7
 
 
-def effective_parameters(system, ratio: float) -> float:
+def effective_parameters(system, ratio: float, dense: bool = False) -> float:
     """MacKay's gamma = sum_k lambda_k / (lambda_k + ratio) over the eigenvalues of J^T J,
     from a system of :func:`lab.learn.lm._jacobian_products` (upper triangle of J^T J / N_e
-    or of J J^T); ``ratio`` = alpha / beta (m^2 per unit squared weight)."""
+    or of J J^T); ``ratio`` = alpha / beta (m^2 per unit squared weight). Computed as
+    m - r tr((S + r I)^-1) (S the stored m x m matrix, r the ratio in its scale) from a
+    Cholesky factor and its inverse; ``dense`` (the reference), or a factor that fails,
+    from the eigenvalues (negative round-off ones clipped to 0)."""
+    scale = system[2] if system[0] == "primal" else 1.0  # eig(J^T J) = scale eig(S)
+    if ratio > 0 and not dense:
+        S = system[1]
+        r = ratio / scale
+        A = np.array(S, order="F")
+        A.flat[:: len(A) + 1] += r
+        U, info = dpotrf(A, lower=0, clean=1, overwrite_a=1)
+        if info == 0:
+            Ui, info = dtrtri(U, lower=0, overwrite_c=1)
+            trace = float(np.vdot(Ui, Ui))  # |U^-1|_F^2 = tr(A^-1)
+            if info == 0 and np.isfinite(trace):
+                return float(len(S) - r * trace)
     lam = eigvalsh(system[1], lower=False, check_finite=False, overwrite_a=False)
-    if system[0] == "primal":
-        lam = lam * system[2]
-    lam = np.clip(lam, 0.0, None)
+    lam = np.clip(lam * scale, 0.0, None)
     return float(np.sum(lam / (lam + ratio))) if ratio > 0 else float(np.count_nonzero(lam > 0))
 
 
@@ -69,8 +84,8 @@ def _step(system, JE, theta, ratio, mu, n_e, buf):
     return None if d is None else d - (ratio / c) * theta
 
 
-def _systems(net, u, y, max_mb):
-    perf, JE, system = _jacobian_products(net, u, y, max_mb)
+def _systems(net, u, y, max_mb, dense=False, work=None):
+    perf, JE, system = _jacobian_products(net, u, y, max_mb, dense, work)
     if system[0] == "primal":
         system = (*system, y.size)  # the eigenvalues of J^T J are N_e times those stored
     return perf, JE, system
@@ -108,12 +123,19 @@ def train_br(model: MLP, data: TrainingData, options: BROptions | None = None, p
         condenses it.
     """
     opt = _checked(options, BROptions)
+    _arrays(data)
+    with blas_threads(data.y_train.size, model.n_params):
+        return _train_br(model, data, opt, progress)
+
+
+def _train_br(model, data, opt, progress):
     t0 = time.perf_counter()
     net = model.copy()
     u_train, y_train, u_val, y_val, u_test, y_test = _arrays(data)
     n_e, n_p = y_train.size, net.n_params
     theta = net.get_params()
-    perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb)
+    dense, work = opt.dense_reference, {}  # work: gauss_newton's arrays, kept across epochs
+    perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense, work)
     buf = np.empty_like(system[1], order="F")
     ssw = float(theta @ theta)
     gamma = min(float(n_p), 0.5 * n_e)
@@ -149,10 +171,10 @@ def train_br(model: MLP, data: TrainingData, options: BROptions | None = None, p
                     break
             mu *= opt.mu_inc
         net.set_params(theta)
-        perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb)
+        perf, JE, system = _systems(net, u_train, y_train, opt.max_jacobian_mb, dense, work)
         ssw = float(theta @ theta)
         if mu <= opt.mu_max:  # an accepted step: re-estimate the hyperparameters there
-            gamma = effective_parameters(system, ratio)
+            gamma = effective_parameters(system, ratio, dense)
             alpha, beta = _hyper(gamma, perf * n_e, ssw, n_e)
     cols = ("epoch", "perf", "vperf", "tperf", "mu", "gradient", "gamma", "alpha", "beta", "ssw")
     history = {c: np.array([row[i] for row in hist]) for i, c in enumerate(cols)}

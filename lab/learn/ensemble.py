@@ -306,7 +306,9 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
         Members (>= 2), the run's seed and worker processes.
     progress : callable, optional
         ``progress(done, total)``: ``done`` of at most ``total`` = k x the epoch limit
-        epochs trained, after every epoch on one worker and after every member on several.
+        epochs trained, after every epoch (on several workers: a few times a second, the
+        epochs of all of them together, from 0 as the first worker starts training;
+        :class:`lab.learn.worker_progress.EpochCounters`).
     **train_kwargs
         Passed to :func:`lab.learn.train`.
 
@@ -337,18 +339,29 @@ def train_ensemble(u, y, hidden=(20, 20), k: int = 5, seed: int = 0, n_jobs: int
             if progress is not None:
                 progress((i + 1) * epochs, total)
     else:
+        import contextlib
+
         from joblib import Parallel, delayed
 
+        from lab.learn.worker_progress import EpochCounters
         from lab.workers import kill_local_workers, worker_config
 
         try:
-            with worker_config():
+            with (
+                worker_config(),
+                (
+                    EpochCounters([epochs] * len(jobs), progress) if progress is not None else contextlib.nullcontext()
+                ) as counters,
+            ):
+                tell = (lambda i: {"progress": counters.reporter(i)}) if counters is not None else (lambda i: {})
                 members = []
-                run = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(_train_member)(*job) for job in jobs)
+                run = Parallel(n_jobs=n_jobs, return_as="generator")(
+                    delayed(_train_member)(*job[:4], {**job[4], **tell(i)}) for i, job in enumerate(jobs)
+                )
                 for member in run:  # in the members' order, each as it is done
                     members.append(member)
-                    if progress is not None:
-                        progress(len(members) * epochs, total)
+                    if counters is not None:
+                        counters.finished(len(members) - 1)
         except BaseException:  # Ctrl-C / SIGTERM: stop the workers
             kill_local_workers()
             raise

@@ -1,9 +1,11 @@
 """First-order and quasi-Newton training for large datasets: Adam and L-BFGS.
 
-Levenberg-Marquardt (:mod:`lab.learn.lm`) needs the (N n_y) x n_params Jacobian and an
-n_params^2 system per epoch: ideal for a few hundred samples, costly for tens of
+Levenberg-Marquardt (:mod:`lab.learn.lm`) needs J^T J, N n_y n_params^2 multiply-adds, and
+an n_params^2 system per epoch: ideal for a few hundred samples, costly for tens of
 thousands. These two only need the loss gradient, computed by plain backpropagation
-(:meth:`lab.learn.mlp.MLP.gradient`, no Jacobian matrix).
+(:meth:`lab.learn.mlp.MLP.gradient`, no Jacobian matrix); on the networks of this lab they
+stop at several times LM's error, so the default for large datasets is LM with a sampled
+curvature instead (:mod:`lab.learn.lm_subsample`, benchmarks/bench_training.py).
 
 The loss they minimise is the MSE in *normalised* output units (``mapminmax`` of y to
 [-1, 1]), which is well scaled whatever the data's units; reported errors (``history``)

@@ -6,11 +6,15 @@
 its order, the step (J^T J / N_e + mu I) dtheta = -J^T e / N_e (Cholesky; the kernel form when
 there are more parameters than residuals), the validation failures, and the best network seen
 returned. Errors e = y(u) - y_data are in metres; the performance is MATLAB's ``mse`` over
-N_e = N n_y elements; J = dy/dtheta is :meth:`lab.learn.mlp.MLP.parameter_jacobian`.
+N_e = N n_y elements; J = dy/dtheta is :meth:`lab.learn.mlp.MLP.parameter_jacobian`, whose
+products J^T J and J^T e :mod:`lab.learn.gauss_newton` forms from the layers' structure
+(``LMOptions(dense_reference=True)``: J in full, the reference); small systems run on one
+BLAS thread (:func:`lab.learn.algorithm_choice.blas_threads`).
 
 Splits (``dividerand``): :mod:`lab.learn.split`; split + init + fit with one seeded random
-stream: :func:`lab.learn.train.train`; Adam and L-BFGS for large datasets:
-:mod:`lab.learn.gradient`; error metrics: :mod:`lab.learn.metrics`.
+stream: :func:`lab.learn.train.train`; for large datasets the same loop with a sampled
+curvature, :mod:`lab.learn.lm_subsample` (``--algorithm auto`` picks it by size), and Adam and
+L-BFGS, :mod:`lab.learn.gradient`; error metrics: :mod:`lab.learn.metrics`.
 Each rule, epoch by epoch: docs/design/learn.md.
 """
 
@@ -20,10 +24,12 @@ import time
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.linalg.blas import dsyrk
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from lab.errors import InputError
+from lab.learn.algorithm_choice import blas_threads
+from lab.learn.gauss_newton import gauss_newton
 from lab.learn.metrics import mse_m2
 from lab.learn.mlp import MLP
 from lab.learn.training_data import TrainingData
@@ -101,6 +107,12 @@ class LMOptions:
         Training MSE at or below which training stops (m^2).
     max_jacobian_mb : float
         Memory bound for J, MB: J is built in chunks of samples (MATLAB's ``mem_reduc``).
+    dense_reference : bool
+        The reference linear algebra: J formed in full by
+        :meth:`lab.learn.mlp.MLP.parameter_jacobian` and J^T J by BLAS ``syrk`` (and, for
+        Bayesian regularisation, gamma from the eigenvalues of J^T J). False (the default):
+        :func:`lab.learn.gauss_newton.gauss_newton`'s products from the layers' structure
+        (and gamma from a Cholesky factor): the same algorithm, equal to round-off, faster.
     """
 
     epochs: int = 1000
@@ -112,6 +124,12 @@ class LMOptions:
     min_grad: float = 1e-6
     goal: float = 0.0
     max_jacobian_mb: float = 256.0
+    dense_reference: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.dense_reference, bool):
+            name = f"{type(self).__name__}.dense_reference"
+            raise InputError(f"{name} must be True or False, got {self.dense_reference!r}")
 
 
 @dataclass
@@ -159,15 +177,21 @@ def _arrays(data: TrainingData) -> tuple[np.ndarray, ...]:
     return data.u_train, data.y_train, data.u_val, data.y_val, data.u_test, data.y_test
 
 
-def _jacobian_products(model, u, y, max_mb):
+def _jacobian_products(model, u, y, max_mb, dense=False, work=None):
     """Training MSE, J^T e / N_e, and the LM system: ("primal", J^T J / N_e) or, when there
     are more parameters than residuals, ("kernel", J J^T, J, e). Only upper triangles are
-    filled (BLAS syrk on the F-ordered view J^T, no copies)."""
+    filled (BLAS syrk on the F-ordered view J^T, no copies). The primal form comes from
+    :func:`lab.learn.gauss_newton.gauss_newton` (its arrays kept in ``work`` across epochs)
+    unless ``dense`` (the reference: J in full)."""
     n_e, n_p = y.size, model.n_params
     if n_p > n_e and 8 * n_e * n_p <= max_mb * 2**20:
         y_hat, J = model.parameter_jacobian(u)
         e = (y_hat - y).ravel()
         return float(e @ e / n_e), J.T @ e / n_e, ("kernel", dsyrk(1.0, J.T, trans=1), J, e)
+    if not dense:
+        sse, JE, JJ = gauss_newton(model, u, y, max_mb, work=work)
+        JJ /= n_e
+        return sse / n_e, JE / n_e, ("primal", JJ)
     chunk = max(1, int(max_mb * 2**20 // (8 * y.shape[1] * n_p)))
     JJ, JE, sse = None, np.zeros(n_p), 0.0
     for s in range(0, len(u), chunk):
@@ -189,11 +213,11 @@ def _lm_step(system, JE, mu, n_e, buf):
     else:  # dtheta = -J^T (J J^T + mu N_e I)^{-1} e
         buf.flat[:: len(buf) + 1] += mu * n_e
         rhs = system[3]
-    try:
-        c = cho_solve(cho_factor(buf, lower=False, overwrite_a=True, check_finite=False), rhs, check_finite=False)
-    except (LinAlgError, ValueError):
+    U, info = dpotrf(buf, lower=0, overwrite_a=1)  # LAPACK directly: the wrappers' checks cost as much
+    if info != 0:
         return None
-    if not np.all(np.isfinite(c)):
+    c, info = dpotrs(U, rhs, lower=0)
+    if info != 0 or not np.all(np.isfinite(c)):
         return None
     return c if system[0] == "primal" else -(system[2].T @ c)
 
@@ -251,12 +275,23 @@ def train_lm(model: MLP, data: TrainingData, options: LMOptions | None = None, p
         and ``val_fail``; the stop reason and the best epoch.
     """
     opt = _checked(options, LMOptions)
+    _arrays(data)
+    with blas_threads(data.y_train.size, model.n_params):
+        return _train_lm(model, data, opt, progress)
+
+
+def _train_lm(model, data, opt, progress, products=None, algorithm="lm"):
+    """trainlm's loop; ``products(net)`` -> (MSE, J^T e / N_e, system) of the training set
+    (default :func:`_jacobian_products`; :mod:`lab.learn.lm_subsample` passes its own)."""
     t0 = time.perf_counter()
     net = model.copy()
     u_train, y_train, u_val, y_val, u_test, y_test = _arrays(data)
     has_val, n_e = data.has_validation, y_train.size
     theta = net.get_params()
-    perf, JE, system = _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb)
+    if products is None:
+        work, mb, dense = {}, opt.max_jacobian_mb, opt.dense_reference
+        products = lambda net: _jacobian_products(net, u_train, y_train, mb, dense, work)  # noqa: E731
+    perf, JE, system = products(net)
     buf = np.empty_like(system[1], order="F")
     vperf = mse(net, u_val, y_val)
     best = {"theta": theta.copy(), "perf": perf, "vperf": vperf, "epoch": 0}
@@ -288,7 +323,7 @@ def train_lm(model: MLP, data: TrainingData, options: LMOptions | None = None, p
                     break
             mu *= opt.mu_inc
         net.set_params(theta)
-        perf, JE, system = _jacobian_products(net, u_train, y_train, opt.max_jacobian_mb)
+        perf, JE, system = products(net)
         vperf = mse(net, u_val, y_val)
         improved = vperf < best["vperf"] if has_val else perf < best["perf"]
         if improved:
@@ -299,4 +334,5 @@ def train_lm(model: MLP, data: TrainingData, options: LMOptions | None = None, p
     net.set_params(best["theta"])
     cols = ("epoch", "perf", "vperf", "tperf", "mu", "gradient", "val_fail")
     history = {c: np.array([row[i] for row in hist]) for i, c in enumerate(cols)}
-    return net, TrainLog("lm", stop, int(hist[-1][0]), best["epoch"], history, asdict(opt), time.perf_counter() - t0)
+    log = TrainLog(algorithm, stop, int(hist[-1][0]), best["epoch"], history, asdict(opt), time.perf_counter() - t0)
+    return net, log

@@ -125,18 +125,21 @@ def net_options(algorithm: str = "lm", min_grad: float | None = None):
 
     Returns
     -------
-    LMOptions, BROptions or None
-        ``LMOptions(min_grad=...)`` for "lm", ``BROptions(min_grad=...)`` for "br"; None
-        otherwise (Adam and L-BFGS have no such stop) or without ``min_grad``.
+    LMOptions, BROptions, LMSubsampleOptions or None
+        ``LMOptions(min_grad=...)`` for "lm" and "auto", ``BROptions(min_grad=...)`` for
+        "br", ``LMSubsampleOptions(min_grad=...)`` for "lm-subsample"; None otherwise (Adam
+        and L-BFGS have no such stop) or without ``min_grad``.
     """
-    if min_grad is None or algorithm not in ("lm", "br"):
+    if min_grad is None or algorithm not in ("lm", "br", "lm-subsample", "auto"):
         return None
     if min_grad < 0:
         raise InputError(f"min_grad must be >= 0, got {min_grad}")
     from lab.learn.bayes import BROptions
     from lab.learn.lm import LMOptions
+    from lab.learn.lm_subsample import LMSubsampleOptions
 
-    return LMOptions(min_grad=min_grad) if algorithm == "lm" else BROptions(min_grad=min_grad)
+    kind = {"br": BROptions, "lm-subsample": LMSubsampleOptions}.get(algorithm, LMOptions)
+    return kind(min_grad=min_grad)
 
 
 def load_model(path):

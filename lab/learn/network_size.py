@@ -32,13 +32,14 @@ def n_parameters(layer_sizes) -> int:
 
 def training_bytes(layer_sizes, n_train: int, algorithm: str = "lm", max_jacobian_mb: float = JACOBIAN_BUDGET_MB):
     """Estimated peak memory (bytes) of training ``layer_sizes`` on ``n_train`` samples by
-    ``algorithm`` ("lm", "br", "adam", "lbfgs"): parameter vectors, activations and, for
-    LM/BR, the Jacobian and the damped system with its factorisation."""
+    ``algorithm`` ("lm", "br", "lm-subsample", "adam", "lbfgs"): parameter vectors,
+    activations and, for the LMs and BR, the Jacobian and the damped system with its
+    factorisation (an upper bound for "lm-subsample", whose Jacobian covers fewer rows)."""
     sizes = [int(s) for s in layer_sizes]
     n_p, n_y, n = n_parameters(sizes), sizes[-1], max(int(n_train), 1)
     vectors = 32 * 8 * n_p  # weights, best weights, steps, gradients, optimiser history
     activations = 3 * 8 * n * sum(sizes)  # forward and backward passes
-    if algorithm not in ("lm", "br"):
+    if algorithm not in ("lm", "br", "lm-subsample", "auto"):  # no Jacobian, no system
         return vectors + activations
     n_e, budget = n * n_y, max_jacobian_mb * 2**20
     if n_p > n_e and 8 * n_e * n_p <= budget:  # the kernel form: an (N n_y)^2 system

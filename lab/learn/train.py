@@ -10,15 +10,17 @@ records what is needed to reproduce the run in the model's metadata.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Protocol
 
 import numpy as np
 
 from lab.errors import InputError
+from lab.learn.algorithm_choice import choose_algorithm
 from lab.learn.bayes import BROptions, br_summary, train_br
 from lab.learn.gradient import AdamOptions, LBFGSOptions, train_adam, train_lbfgs
 from lab.learn.lm import STOP_MESSAGES, LMOptions, TrainLog, train_lm
+from lab.learn.lm_subsample import LMSubsampleOptions, train_lm_subsample
 from lab.learn.metrics import error_report
 from lab.learn.mlp import MLP
 from lab.learn.mlp_init import init_mlp
@@ -26,10 +28,19 @@ from lab.learn.network_size import check_network_size
 from lab.learn.split import Split, check_enough_data, divide
 from lab.learn.training_data import TrainingData
 
-ALGORITHMS = ("lm", "adam", "lbfgs", "br")
+#: The trainers; ``auto`` picks ``lm`` or ``lm-subsample`` by size
+#: (:func:`lab.learn.algorithm_choice.choose_algorithm`).
+ALGORITHMS = ("lm", "adam", "lbfgs", "br", "lm-subsample", "auto")
 
-#: algorithm -> the type of its options
-ALGORITHM_OPTIONS = {"lm": LMOptions, "adam": AdamOptions, "lbfgs": LBFGSOptions, "br": BROptions}
+#: algorithm -> the type of its options (``auto``: LM's, carried over to ``lm-subsample``)
+ALGORITHM_OPTIONS = {
+    "lm": LMOptions,
+    "adam": AdamOptions,
+    "lbfgs": LBFGSOptions,
+    "br": BROptions,
+    "lm-subsample": LMSubsampleOptions,
+    "auto": LMOptions,
+}
 
 
 class EpochProgress(Protocol):
@@ -185,14 +196,17 @@ def train(
         Hidden activation, one of ``lab.learn.mlp.ACTIVATIONS``.
     algorithm : str
         "lm" (:func:`lab.learn.lm.train_lm`), "br" (Bayesian regularisation,
-        :func:`lab.learn.bayes.train_br`), "adam" or "lbfgs" (:mod:`lab.learn.gradient`).
+        :func:`lab.learn.bayes.train_br`), "adam" or "lbfgs" (:mod:`lab.learn.gradient`),
+        "lm-subsample" (:func:`lab.learn.lm_subsample.train_lm_subsample`) or "auto" (one of
+        the two LMs by size, :func:`lab.learn.algorithm_choice.choose_algorithm`, recorded as
+        ``metadata["training"]["algorithm_choice"]``).
     ratios : tuple of float
         (train, validation, test) split ratios.
     seed : int
         Seed of the random stream.
     epochs : int, optional
         Overrides the options' maximum number of epochs.
-    options : LMOptions, BROptions, AdamOptions or LBFGSOptions, optional
+    options : LMOptions, BROptions, AdamOptions, LBFGSOptions or LMSubsampleOptions, optional
         The algorithm's options (``ALGORITHM_OPTIONS``); None: its defaults. Another
         type is an InputError.
     progress : EpochProgress, optional
@@ -219,6 +233,12 @@ def train(
     rng = np.random.default_rng(seed)
     split = divide(len(u), ratios, rng, groups)
     sizes = init.layer_sizes if init is not None else (u.shape[1], *hidden, y.shape[1])
+    choice = None
+    if algorithm == "auto":
+        algorithm, choice = choose_algorithm(sizes, len(split.train))
+        if options is not None and algorithm == "lm-subsample":  # LM's settings that were changed
+            default = asdict(type(options)())
+            options = LMSubsampleOptions(**{k: v for k, v in asdict(options).items() if v != default[k]})
     check_network_size(sizes, len(split.train), algorithm)  # before allocating any weight
     model = init_mlp(u, y, hidden, activation, rng)
     if init is not None:
@@ -232,14 +252,16 @@ def train(
     opt = options if options is not None else ALGORITHM_OPTIONS[algorithm]()
     if epochs is not None:
         opt = replace(opt, epochs=epochs)
-    if algorithm == "adam":
-        model, log = train_adam(model, data, opt, seed=rng, progress=progress)
+    if algorithm in ("adam", "lm-subsample"):  # they draw from the stream too
+        fit = train_adam if algorithm == "adam" else train_lm_subsample
+        model, log = fit(model, data, opt, seed=rng, progress=progress)
     else:
         fit = {"lm": train_lm, "br": train_br, "lbfgs": train_lbfgs}[algorithm]
         model, log = fit(model, data, opt, progress=progress)
     errors = {name: error_report(model, *sets[name]) for name in sets}
     model.metadata["training"] = {
         "algorithm": log.algorithm,
+        **({"algorithm_choice": choice} if choice else {}),
         "options": {k: v for k, v in log.options.items() if k != "seed"},
         "epochs": log.epochs,
         "best_epoch": log.best_epoch,

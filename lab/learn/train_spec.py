@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from numbers import Integral
 
 from lab.errors import FieldError
+from lab.learn.algorithm_choice import choose_algorithm
 from lab.learn.history import MAX_HISTORY
 from lab.learn.mlp import ACTIVATIONS
 from lab.learn.model_specs import model_spec
@@ -98,7 +99,8 @@ class TrainSpec(Spec):
     hidden : tuple of int
         Hidden layer widths.
     algorithm : str
-        Network training: ``lm``, ``adam``, ``lbfgs`` or ``br``.
+        Network training: ``lm``, ``adam``, ``lbfgs``, ``br``, ``lm-subsample`` or ``auto``
+        (by size; :meth:`resolved` picks).
     activation : str
         Hidden activation.
     epochs : int, optional
@@ -128,15 +130,20 @@ class TrainSpec(Spec):
     )
     hidden: tuple[int, ...] = option((20, 20), type=int, check=_widths, help="hidden layer widths")
     algorithm: str = option(
-        "lm",
+        "auto",
         choices=ALGORITHMS,
-        help="network training: Levenberg-Marquardt (MATLAB trainlm), Adam, L-BFGS, or "
-        "Bayesian regularisation (MATLAB trainbr)",
+        help="network training: Levenberg-Marquardt (MATLAB trainlm), Adam, L-BFGS, Bayesian regularisation "
+        "(MATLAB trainbr), LM whose curvature comes from a random sample of rows each epoch (lm-subsample, for "
+        "large datasets), or auto (the default): lm while LM's epoch is cheap (training rows x outputs x "
+        "parameters^2 <= 2e9), lm-subsample above",
     )
     activation: str = option("tanh", choices=ACTIVATIONS, help="hidden activation")
     epochs: int | None = option(None, type=int, check=positive_int, help="maximum epochs (default 1000)")
     min_grad: float | None = option(
-        None, type=float, check=non_negative, help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br; 0 disables)"
+        None,
+        type=float,
+        check=non_negative,
+        help="LM/BR: gradient stop (default 1e-6 for lm, 1e-7 for br, none for lm-subsample; 0 disables)",
     )
     members: int = option(5, type=int, check=positive_int, help="ensemble: number of networks K >= 2")
     ratios: tuple[float, float, float] = option(
@@ -196,6 +203,32 @@ class TrainSpec(Spec):
             seed=self.seed,
             n_jobs=self.jobs,
         )
+
+    def resolved(self, n_u: int, n_y: int, n_samples: int) -> tuple[TrainSpec, str | None]:
+        """This spec with ``algorithm`` ``auto`` replaced by the trainer
+        :func:`lab.learn.algorithm_choice.choose_algorithm` picks for its network on the
+        training rows of ``n_samples`` (:meth:`n_train`), and the reason in words; the spec
+        itself and None for another algorithm or a model without a network.
+
+        Parameters
+        ----------
+        n_u, n_y : int
+            Inputs and outputs of the data.
+        n_samples : int
+            Samples of the dataset.
+
+        Returns
+        -------
+        spec : TrainSpec
+            The spec with a concrete algorithm.
+        reason : str or None
+            Why, e.g. "auto: 831 residuals x 563 parameters, ..."; None when nothing was chosen.
+        """
+        if self.algorithm != "auto" or self.model not in ("mlp", "ensemble", "inverse-mlp"):
+            return self, None
+        sizes = (n_y, *self.hidden, n_u) if self.model == "inverse-mlp" else (n_u, *self.hidden, n_y)
+        algorithm, reason = choose_algorithm(sizes, self.n_train(n_samples))
+        return self.replace(algorithm=algorithm), reason
 
     def n_train(self, n_samples: int) -> int:
         """Samples in the training part of ``n_samples`` split by ``ratios`` (dividerand).

@@ -128,13 +128,31 @@ class CableRoute:
         K = len(l)
         P = (np.eye(3)[None] - n[:, :, None] * n[:, None, :]) / l[:, None, None]
         H = np.zeros((K, 3, K, 3))
-        for s in range(K):  # segment s joins via s-1 and via s
-            H[s, :, s] += P[s]
-            if s > 0:
-                H[s - 1, :, s - 1] += P[s]
-                H[s, :, s - 1] -= P[s]
-                H[s - 1, :, s] -= P[s]
+        s, t = np.arange(K), np.arange(1, K)  # segment s joins via s-1 and via s
+        H[s, :, s] += P
+        H[t - 1, :, t - 1] += P[1:]
+        H[t, :, t - 1] -= P[1:]
+        H[t - 1, :, t] -= P[1:]
         return L, dL, H.reshape(3 * K, 3 * K)
+
+    def embed_hessian(self, H_p: np.ndarray) -> np.ndarray:
+        """``W^T H_p W`` (:meth:`embedding_matrix`) without forming W: a second derivative
+        with respect to the via points as one over the dofs of their tets.
+
+        Parameters
+        ----------
+        H_p : ndarray, shape (3K, 3K)
+            With respect to the via point coordinates (ravelled x, y, z per point).
+
+        Returns
+        -------
+        ndarray, shape (12K, 12K)
+            With respect to the dofs of ``self.nodes`` (ravelled x, y, z per node).
+        """
+        K = len(self.nodes)
+        w = self.weights
+        H = (w[:, :, None, None, None, None] * H_p.reshape(K, 1, 3, K, 1, 3)) * w[None, None, None, :, :, None]
+        return H.reshape(12 * K, 12 * K)
 
     def embedding_matrix(self) -> np.ndarray:
         """The via points as a linear map of the dofs of their tets.
@@ -243,9 +261,8 @@ def route_hessian(route: CableRoute, x_W: np.ndarray, L_star_m: float, k: float,
     node: ``W^T (E'' g g^T + E' d2L/dp2) W`` with g = dL/dp."""
     L, dL_dp, d2L_dp2 = route.length_derivatives(x_W)
     _, tension, stiffness = spring(L - L_star_m, k, eps)
-    W = route.embedding_matrix()
     g = dL_dp.ravel()
-    return W.T @ (stiffness * np.outer(g, g) + tension * d2L_dp2) @ W
+    return route.embed_hessian(stiffness * np.outer(g, g) + tension * d2L_dp2)
 
 
 class CableSet:

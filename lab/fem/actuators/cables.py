@@ -268,9 +268,8 @@ class CableActuator(Actuator):
         for c, L_star in zip(self.routes, self.targets(u)):
             L, dL_dp, d2L_dp2 = c.length_derivatives(x_W)
             _, dE, d2E = self.law(L - L_star)
-            W = c.embedding_matrix()
             g_p = dL_dp.ravel()
-            blocks.append((W.T @ (d2E * np.outer(g_p, g_p) + dE * d2L_dp2) @ W).ravel())
+            blocks.append(c.embed_hessian(d2E * np.outer(g_p, g_p) + dE * d2L_dp2).ravel())
         return blocks
 
     def hessian_product(self, x_W, u):

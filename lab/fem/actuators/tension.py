@@ -201,8 +201,7 @@ class TensionTendonActuator(Actuator):
         """
         blocks = []
         for c, t in zip(self.routes, np.asarray(u, float)):
-            W = c.embedding_matrix()
-            blocks.append((t * (W.T @ c.length_derivatives(x_W)[2] @ W)).ravel())
+            blocks.append((t * c.embed_hessian(c.length_derivatives(x_W)[2])).ravel())
         return blocks
 
     def hessian_product(self, x_W, u):

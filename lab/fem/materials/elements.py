@@ -76,6 +76,11 @@ class TetElements:
         """F (M, 3, 3) for node positions ``x_W`` (N, 3)."""
         return np.ascontiguousarray(self._F(x_W).transpose(2, 0, 1))
 
+    def volume_ratio(self, x_W: np.ndarray) -> np.ndarray:
+        """det F (M,): each element's volume over its rest volume, at node positions
+        ``x_W`` (N, 3) m (negative where an element is inverted)."""
+        return _det3(self.deformation_gradient(x_W))
+
 
 def _det3(F: np.ndarray) -> np.ndarray:
     """Determinants of (M, 3, 3) matrices (closed form; faster than LAPACK for 3x3)."""

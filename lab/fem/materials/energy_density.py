@@ -135,20 +135,22 @@ class EnergyDensityLaw(TetElements):
         K = (np.eye(3)[None, None, :, :, None] * self.G[:, :, None, None, :]).reshape(M, 12, 9)
         return np.matmul(np.matmul(K, self._tangent(x_W)), K.transpose(0, 2, 1))
 
-    def hessian_product(self, x_W: np.ndarray):
+    def hessian_product(self, x_W: np.ndarray, tangent: np.ndarray | None = None):
         """A function dx (N, 3) -> d2E/dx2 dx (N, 3): exact Hessian products, dP = A : dF.
 
         Parameters
         ----------
         x_W : ndarray, shape (N, 3)
             Node positions in frame W, m.
+        tangent : ndarray, shape (M, 9, 9), optional
+            V A at ``x_W`` if already computed (e.g. by :mod:`lab.fem.kernels`), Pa m^3.
 
         Returns
         -------
         callable
             dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
         """
-        A = self._tangent(x_W)
+        A = self._tangent(x_W) if tangent is None else tangent
         B, B_T = self._operators(len(x_W))
         M = len(A)
 

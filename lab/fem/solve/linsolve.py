@@ -1,11 +1,24 @@
 """Sparse direct solvers for the Newton and sensitivity systems.
 
-``factorize(H)`` returns an object with ``solve(b)`` for one or many right-hand sides.
-Backends, picked by ``benchmarks/bench_fem.py`` on this project's meshes:
+``factorize(H)`` returns an object with ``solve(b)`` for one or many right-hand sides and
+``n_negative``, the number of H's negative eigenvalues, which tells the Newton solver an
+indefinite Hessian apart. Backends, picked by ``benchmarks/bench_fem.py`` on this
+project's meshes:
 
-* ``"pardiso"`` — MKL PARDISO through ``pypardiso`` (pip-installable), real symmetric
-  indefinite mode, so it factorises the exact (possibly indefinite) Hessian;
+* ``"pardiso"`` — MKL PARDISO through ``pypardiso`` (pip-installable). It tries a
+  Cholesky factorisation first (``mtype`` 2, faster than LDL^T on the arms' Hessians:
+  ``benchmarks/bench_linsolve.txt``); where PARDISO meets a non-positive pivot (error
+  -4: the matrix is not positive definite) it factorises that matrix again as real
+  symmetric indefinite (``mtype`` -2, LDL^T), whose inertia gives ``n_negative``. So it
+  factorises the exact (possibly indefinite) Hessian; an indefinite one costs a failed
+  Cholesky more.
+  :data:`PARDISO_MODE` ``= "indefinite"`` goes straight to LDL^T (the previous
+  behaviour; the same results to round-off);
 * ``"splu"`` — SciPy's SuperLU, always available, the fallback.
+
+MKL's library is located without a directory walk (:mod:`lab.fem.solve.mkl`), so the
+first factorisation in a process (each worker, notebook kernel, command) does not pay
+``pypardiso``'s own search (about a second of CPU time on this project's environment).
 
 ``LAB_LINEAR_SOLVER`` selects one by name; the default is PARDISO where MKL loads. Where
 it cannot (Apple-silicon Macs, a broken MKL), the default falls back to SciPy with one
@@ -16,12 +29,14 @@ round-off, only slower. ``LAB_LINEAR_SOLVER=splu`` chooses SciPy and silences it
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from lab.errors import InputError, LabRuntimeError
+from lab.fem.solve import mkl
 
 
 class SingularMatrixError(LabRuntimeError):
@@ -73,64 +88,136 @@ class _SuperLU:
         return self._lu.solve(np.asarray(b, dtype=float))
 
 
+def _pypardiso():
+    """``import pypardiso``, pointed at MKL's library first (:mod:`.mkl`: no directory walk)."""
+    if "pypardiso" not in sys.modules:
+        mkl.point_pypardiso_at_mkl()
+    import pypardiso
+
+    return pypardiso
+
+
+#: How PARDISO factorises, in-process (for benchmarks and tests): ``"definite-first"``
+#: (the default) tries Cholesky (``mtype`` 2) and, where PARDISO reports a non-positive
+#: pivot, factorises that matrix again as real symmetric indefinite (LDL^T with
+#: Bunch-Kaufman pivoting, ``mtype`` -2, whose inertia counts its negative eigenvalues);
+#: ``"indefinite"`` goes straight to LDL^T (the previous behaviour). Both give the same
+#: solutions (to round-off) and the same ``n_negative`` test.
+PARDISO_MODE = "definite-first"
+PARDISO_MODES = {"definite-first": (2, -2), "indefinite": (-2,)}
+
+
+class _Handle:
+    """One ``PyPardisoSolver`` (one PARDISO handle) for one matrix type, and the sparsity
+    pattern its symbolic analysis belongs to."""
+
+    def __init__(self, mtype: int):
+        self.solver = _pypardiso().PyPardisoSolver(mtype=mtype)
+        self.pattern = None  # (indptr, indices)
+        self.holds_factor = False
+
+    def free_factor(self):
+        """Release the numerical factor (PARDISO phase 0; the analysis is kept)."""
+        if self.holds_factor:
+            self.solver.set_phase(0)
+            self.solver._call_pardiso(sp.csr_matrix((0, 0)), np.zeros(0))
+            self.holds_factor = False
+
+
 class _Pardiso:
-    """One PARDISO handle per process, reused (finding and loading MKL costs ~10 ms):
-    a factorisation stays valid until the next call to :func:`factorize`.
+    """PARDISO handles kept for the process, one per matrix type (loading MKL and the
+    symbolic analysis are paid once): a factorisation stays valid until the next call to
+    :func:`factorize` (after that, its ``solve`` factorises its matrix again).
 
     The symbolic analysis (fill-reducing ordering, phase 11) depends only on the
-    sparsity pattern, which is fixed for a mesh, so it runs once per pattern and each
-    Newton iteration pays for the numerical factorisation (phase 22) alone: about half
-    the cost of analysis + factorisation on the default mesh. This drives pypardiso's
-    ``PyPardisoSolver`` through its phase interface (pinned pypardiso 0.4.7).
+    sparsity pattern, which is fixed for a mesh, so it runs once per pattern and handle,
+    and each Newton iteration pays for the numerical factorisation (phase 22) alone:
+    about half the cost of analysis + factorisation on the default mesh. A Cholesky
+    factorisation that fails on a non-positive pivot keeps its handle's analysis. Only
+    one handle holds a numerical factor at a time (the others' are freed). This drives
+    pypardiso's ``PyPardisoSolver`` through its phase interface (pinned pypardiso 0.4.7).
     """
 
     name = "pardiso"
-    _solver = None
-    _generation = 0  # which factorisation the shared handle holds
-    _pattern = None  # (indptr, indices) the stored symbolic analysis belongs to
+    _handles: dict[int, _Handle] = {}
+    _generation = 0  # which factorisation the handles hold
+    #: Factorisations begun in ``"definite-first"`` mode that found the matrix not positive
+    #: definite and fell back to LDL^T (a count for benchmarks).
+    fallbacks = 0
 
-    def __init__(self, H: sp.csr_matrix):
-        import pypardiso
-
-        if _Pardiso._solver is None:
-            _Pardiso._solver = pypardiso.PyPardisoSolver(mtype=-2)  # real symmetric indefinite
+    def __init__(self, H: sp.csr_matrix, mode: str | None = None):
+        mode = PARDISO_MODE if mode is None else mode
+        if mode not in PARDISO_MODES:
+            raise InputError(f"PARDISO_MODE={mode!r}: choose one of {sorted(PARDISO_MODES)}")
         self._A = sp.triu(H, format="csr")
         self._A.sort_indices()
-        self._factorize()
-        # Inertia from the LDL^T factorisation: tells an indefinite Hessian apart.
-        self.n_negative = int(self._solver.get_iparm(23))
-        self.n_perturbed = int(self._solver.get_iparm(14))  # pivots PARDISO had to perturb
-        if int(self._solver.get_iparm(30)) != 0:
+        pypardiso = _pypardiso()
+        *first, last = PARDISO_MODES[mode]
+        for mtype in first:
+            try:
+                self._factorize(mtype)
+                break
+            except pypardiso.pardiso_wrapper.PyPardisoError:  # -4: a non-positive pivot (any other
+                _Pardiso.fallbacks += 1  # failure too: LDL^T then decides, as it did before)
+        else:
+            try:
+                self._factorize(last)
+            except pypardiso.pardiso_wrapper.PyPardisoError as err:
+                raise SingularMatrixError(str(err)) from None
+        solver = self._solver
+        # Inertia from the LDL^T factorisation tells an indefinite Hessian apart; a
+        # Cholesky factorisation exists only for a positive definite one.
+        self.n_negative = 0 if self.mtype == 2 else int(solver.get_iparm(23))
+        self.n_perturbed = int(solver.get_iparm(14))  # pivots PARDISO had to perturb
+        if int(solver.get_iparm(30)) != 0:
             raise SingularMatrixError("PARDISO found a zero pivot")
         global _pardiso_worked
         _pardiso_worked = True
 
-    def _factorize(self):
-        import pypardiso
+    @classmethod
+    def forget_analysis(cls) -> None:
+        """Make the next factorisation analyse the pattern again (phase 12; benchmarks)."""
+        for handle in cls._handles.values():
+            handle.pattern = None
 
-        solver, A = self._solver, self._A
+    def _factorize(self, mtype: int):
+        """Factorise ``self._A`` with the handle of ``mtype`` (PyPardisoError if PARDISO fails)."""
+        handle = _Pardiso._handles.get(mtype)
+        if handle is None:
+            handle = _Pardiso._handles[mtype] = _Handle(mtype)
+        solver, A = handle.solver, self._A
         try:
             solver._check_A(A)
         except ValueError as err:  # "Matrix A is singular, because it contains empty row(s)"
             if "singular" not in str(err):
                 raise
             raise SingularMatrixError(str(err)) from None
-        known = _Pardiso._pattern
+        _Pardiso._generation += 1  # whatever a handle held is gone from here on
+        self._generation, self.mtype, self._solver = _Pardiso._generation, mtype, solver
+        known = handle.pattern
         same = known is not None and np.array_equal(known[0], A.indptr) and np.array_equal(known[1], A.indices)
         solver.set_phase(22 if same else 12)  # numerical only, or analysis + numerical
+        solver.iparm[29] = 0  # iparm(30), where a Cholesky met a non-positive pivot: not reset by PARDISO
+        handle.holds_factor = True
         try:
             solver._call_pardiso(A, np.zeros((A.shape[0], 1)))
-        except pypardiso.pardiso_wrapper.PyPardisoError as err:
-            _Pardiso._pattern = None
-            raise SingularMatrixError(str(err)) from None
+        except Exception as err:
+            # A Cholesky that met a non-positive pivot (-4) has analysed this pattern.
+            analysed = mtype == 2 and getattr(err, "value", None) == -4
+            handle.pattern = (A.indptr.copy(), A.indices.copy()) if analysed else None
+            raise
         if not same:
-            _Pardiso._pattern = (A.indptr.copy(), A.indices.copy())
-        _Pardiso._generation += 1
-        self._generation = _Pardiso._generation
+            handle.pattern = (A.indptr.copy(), A.indices.copy())
+        for other in _Pardiso._handles.values():
+            if other is not handle:
+                other.free_factor()
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        if self._generation != _Pardiso._generation:  # the handle now holds another matrix
-            self._factorize()
+        if self._generation != _Pardiso._generation:  # the handles now hold another matrix
+            try:
+                self._factorize(self.mtype)
+            except _pypardiso().pardiso_wrapper.PyPardisoError as err:
+                raise SingularMatrixError(str(err)) from None
         b = np.asarray(b, dtype=float)
         rhs = np.asfortranarray(b.reshape(len(b), -1))
         # Iterative refinement (two steps, PARDISO's default) only after perturbed
@@ -145,7 +232,7 @@ class _Pardiso:
 def _available() -> list[str]:
     if _pardiso_problem is None:
         try:
-            import pypardiso  # noqa: F401
+            _pypardiso()
         except Exception as err:  # ImportError, or OSError when MKL's libraries do not load
             _fall_back(f"import pypardiso failed: {type(err).__name__}: {err}")
     return (["pardiso"] if _pardiso_problem is None else []) + ["splu"]
@@ -197,7 +284,7 @@ def factorize(H: sp.csr_matrix, backend: str | None = None):
         return BACKENDS[name](H)
     try:
         return _Pardiso(H)
-    except SingularMatrixError:
+    except (SingularMatrixError, InputError):
         raise
     except Exception as err:  # e.g. OSError: MKL's libraries do not load on this machine
         if _pardiso_worked:

@@ -28,6 +28,7 @@ import dataclasses
 import numpy as np
 
 from lab.description import RobotDescription
+from lab.description.material import yeoh_small_strain
 from lab.errors import InputError
 from lab.fem.bodies import body_of
 from lab.fem.bodies.mesh import TetMesh
@@ -354,13 +355,20 @@ def as_built_description(robot: RobotDescription, layout: ParameterLayout, theta
         for c, d, s in zip(robot.cables, v["via_shift_m"], slack)
     )
     extra = {"density_kg_m3": robot.density_kg_m3 * v["density"]} if "density" in layout.groups else {}
+    E = robot.youngs_modulus_pa * v["softness"]
     if robot.material_model == "yeoh":  # softness scales every coefficient of the law alike
         extra["yeoh_c_pa"] = tuple(float(v["softness"] * c) for c in robot.yeoh_c_pa)
         if robot.bulk_modulus_pa is not None:
             extra["bulk_modulus_pa"] = float(v["softness"] * robot.bulk_modulus_pa)
+        # E and nu as the TOML reader derives them from the scaled law (bit for bit)
+        E, extra["poisson_ratio"] = yeoh_small_strain(
+            extra["yeoh_c_pa"][0],
+            robot.poisson_ratio if robot.bulk_modulus_pa is None else None,
+            extra.get("bulk_modulus_pa"),
+        )
     return dataclasses.replace(
         robot,
-        youngs_modulus_pa=robot.youngs_modulus_pa * v["softness"],
+        youngs_modulus_pa=E,
         stiffness_gradient=robot.stiffness_gradient if v["gradient"] is None else np.array([0.0, *v["gradient"]]),
         cables=cables,
         **extra,

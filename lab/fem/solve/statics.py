@@ -4,8 +4,9 @@ Newton uses the exact Hessian in condensed steps (:mod:`lab.fem.solve.steps`: th
 :class:`~lab.fem.actuators.Condensation`, e.g. the cables' stretches); where it is
 indefinite, a diagonally shifted one; only if that gives no descent direction either is the
 elastic part projected to PSD element by element (always descends, but slow and expensive).
-A backtracking line search treats inverted elements as infinite energy, with an Armijo slack
-of 1e-14 |E| so rounding does not reject the last, converged steps. Near the equilibrium,
+A backtracking line search treats inverted elements as infinite energy and rejects a step
+that shrinks any element below ``MIN_VOLUME_RATIO`` of its volume, with an Armijo slack of
+1e-14 |E| so rounding does not reject the last, converged steps. Near the equilibrium,
 chord steps reuse the last factorisation with secant updates while they contract well
 (``CHORD_WINDOW``).
 
@@ -55,6 +56,15 @@ from lab.fem.solve.steps import (
 CHORD_WINDOW = 1e4
 CHORD_CONTRACTION = 0.4
 CHORD_FINAL = 1e-3
+
+#: A line-search trial that leaves any element with less than this fraction of its current
+#: volume is rejected, as an inverted one is. From rest, the first full Newton step of a
+#: foam arm crushed the elements beside a cable's eyelets to 0.46-0.68 of their volume,
+#: where the hyperfoam's Hessian is truly indefinite: the next steps needed the PSD
+#: projection (32 projected steps on 75 solves of a foam member). Shorter steps around
+#: that corner reach the same equilibrium without it, and in fewer factorisations
+#: (``docs/fem-cost.md``).
+MIN_VOLUME_RATIO = 0.8
 
 
 class StaticSolveError(LabRuntimeError):
@@ -218,6 +228,7 @@ def solve_static(
     status, projected, it, n_fact, fac, step_prev, q_fac = "max_iter", 0, 0, 0, None, np.inf, None
     chord = False
     pairs = []
+    J = fem.elastic.volume_ratio(fem.to_nodes(q))  # (M,) det F at q
     while it < max_iter:
         if np.max(np.abs(g)) <= tol_force_n and not chord:  # chord steps: see CHORD_FINAL
             status = "converged"
@@ -279,8 +290,10 @@ def solve_static(
             else:
                 E_try = fem.energy(q_try, u)
             if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
-                accepted = True
-                break
+                J_try = fem.elastic.volume_ratio(fem.to_nodes(q_try))
+                if np.all(J_try >= MIN_VOLUME_RATIO * J):
+                    accepted = True
+                    break
             alpha *= 0.5
         if not accepted:
             if chord:  # the old factorisation no longer fits: refactorise here
@@ -289,7 +302,7 @@ def solve_static(
             status = "line_search_failed"
             break
         q_old, g_old = q, g
-        q, E, step_prev = q_try, E_try, alpha * step
+        q, E, J, step_prev = q_try, E_try, J_try, alpha * step
         if alpha == 1.0:
             g, cond = g_try, cond_try
         else:
