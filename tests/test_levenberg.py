@@ -44,7 +44,8 @@ def test_same_optimum_as_the_reference(fits):
     assert np.allclose(new.std, ref.std, rtol=1e-2)
     assert new.check["model_discrepancy"] == ref.check["model_discrepancy"]
     assert abs(new.rms_m - ref.rms_m) <= 1e-3 * ref.rms_m
-    assert new.rms_nominal_m == ref.rms_nominal_m  # the first pass is the same solves
+    # the first pass is the same solves (equal to round-off: PARDISO's state differs between them)
+    assert new.rms_nominal_m == pytest.approx(ref.rms_nominal_m, rel=1e-12)
 
 
 def test_no_more_trials_and_fewer_factorisations(fits):
