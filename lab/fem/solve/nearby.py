@@ -72,12 +72,10 @@ def refined_solve(hessian, precondition, R, weights, *, max_iter: int = CG_ITERA
     preconditioner call per iteration for all of them), accurate in what the caller wants of
     it: W^T X, W = ``weights``.
 
-    A column stops once an update changes its W^T x by less than ``rtol`` of the largest
-    entry of W^T X and so does the error that update leaves, estimated from the contraction
-    of its last two updates (update x ratio / (1 - ratio)). With a nearby factorisation the
-    updates contract by 1e-3 to 1e-5 an iteration and the estimate adds nothing; with a far
-    one (rest, for a bent arm) they contract slowly, and the last update alone left errors of
-    1.5e-9 relative.
+    A column stops once two updates in a row change its W^T x by less than ``rtol`` of the
+    largest entry of W^T X. With a nearby factorisation the updates contract by 1e-3 to 1e-5
+    an iteration; with a far one (rest, for a bent arm) they contract slowly and erratically,
+    and one small update could stop a column 1.5e-9 (relative) from the solution.
 
     Parameters
     ----------
@@ -122,10 +120,9 @@ def refined_solve(hessian, precondition, R, weights, *, max_iter: int = CG_ITERA
         X[:, cols] += step
         res[:, cols] -= (rz[cols] / curvature) * HP
         size = np.max(np.abs(step.T @ weights), axis=1)
-        ratio = size / last[cols]
-        left = np.where(ratio < 1, size * ratio / np.maximum(1 - ratio, 1e-300), np.inf)
+        settled = np.maximum(size, last[cols]) <= rtol * scale  # two updates in a row
         last[cols] = size
-        active[cols[(size <= rtol * scale) & (left <= rtol * scale)]] = False
+        active[cols[settled]] = False
         if not active.any():
             return X, products
         cols = np.flatnonzero(active)
