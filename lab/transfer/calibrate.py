@@ -9,8 +9,9 @@ every observed marker of each sample, tip first, stacked (x, y, z) per marker: y
 
     C(theta) = sum_i |y(u_i; theta) - y_i|^2 / noise^2 + sum_j ((theta_j - theta0_j) / s_j)^2
 
-by Levenberg-Marquardt with ``J = dy/dtheta`` from the exact-Hessian sensitivities. The
-prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well posed with as few as 5 samples;
+by Levenberg-Marquardt (:mod:`lab.transfer.levenberg`) with ``J = dy/dtheta`` from the
+exact-Hessian sensitivities. The prior (:data:`DEFAULT_PRIOR_STD`) keeps the problem well
+posed with as few as 5 samples;
 ``noise`` (default 0.5 mm per coordinate) weighs the data against it. Warm starts make most
 solves one or two Newton steps. The uncertainty is the Gauss-Newton (Laplace) covariance at
 the optimum. Whether the model explains the data at all is a chi-square test of the residual
@@ -33,8 +34,9 @@ from lab.errors import InputError
 from lab.fem.solve.parameter_layout import ParameterLayout, parse_groups
 from lab.fem.solve.parameters import ParametrisedFEM
 from lab.transfer.discrepancy import model_check
+from lab.transfer.levenberg import ALGORITHMS, minimise
 from lab.transfer.prior import DEFAULT_PRIOR_STD, default_groups, prior_std
-from lab.transfer.samples import Samples
+from lab.transfer.samples import Samples, first_pass
 
 __all__ = ["DEFAULT_PRIOR_STD", "CalibrationResult", "calibrate", "default_groups", "prior_std"]
 
@@ -79,6 +81,12 @@ class CalibrationResult:
         Parameters the data determine.
     markers : tuple of str
         The observed markers, in the data's order (the tip first).
+    n_trials, n_rejected : int
+        Levenberg-Marquardt trial steps (each re-solves the samples) and those rejected.
+    n_factorisations : int
+        Hessian factorisations, the solves' and the sensitivities'.
+    algorithm : str
+        The loop that ran (``ALGORITHMS`` of :mod:`lab.transfer.levenberg`).
     """
 
     layout: ParameterLayout
@@ -100,6 +108,10 @@ class CalibrationResult:
     covariance_raw: np.ndarray | None = None
     p_eff: float | None = None
     markers: tuple = ("tip",)
+    n_trials: int = 0
+    n_rejected: int = 0
+    n_factorisations: int = 0
+    algorithm: str = "fast"
 
     @property
     def std(self) -> np.ndarray:
@@ -236,6 +248,7 @@ def calibrate(
     log=None,
     groups=None,
     markers=None,
+    algorithm: str | None = None,
 ) -> CalibrationResult:
     """Identify theta of ``robot``'s FEM from real samples: inputs ``u_real`` (N, m) (rad or
     N per cable) and marker positions ``y_real`` (N, 3K) m (frame W). Mesh: ``n_rings``/``n_axial``, else
@@ -272,6 +285,9 @@ def calibrate(
     markers : sequence of str, optional
         The markers the columns of ``y_real`` hold, in order (names of
         ``robot.marker_names``); default all of them (K = 1, the tip, for today's robots).
+    algorithm : str, optional
+        The Levenberg-Marquardt loop (``ALGORITHMS`` of :mod:`lab.transfer.levenberg`):
+        ``"fast"`` (default) or ``"marquardt"``, the loop before it, kept as the reference.
 
     Returns
     -------
@@ -296,48 +312,22 @@ def calibrate(
     pf = ParametrisedFEM(robot, n_rings=n_rings, n_axial=n_axial, axes=axes, groups=groups)
     lay, theta0 = pf.layout, pf.nominal
     s = prior_std(lay, prior)
-    samples = Samples(pf, u, _marker_indices(pf.fem(theta0), markers))
-    q, tips, (dq, J) = samples.first(theta0)
+    algorithm = ALGORITHMS[0] if algorithm is None else algorithm
+    if algorithm not in ALGORITHMS:
+        raise InputError(f"algorithm must be one of {list(ALGORITHMS)}, got {algorithm!r}")
+    samples = Samples(pf, u, _marker_indices(pf.fem(theta0), markers), reuse=algorithm == "fast")
+    if algorithm == "marquardt":  # the reference, as it was
+        q, tips, (dq, J) = samples.first(theta0)
+    else:  # the same pass, not repeated for another robot of the same description and commands
+        key = (robot.sha256, n_rings, n_axial, axes, tuple(groups), markers)
+        q, tips, (dq, J) = first_pass(samples, theta0, key)
     _check_reach(robot, y, tips, markers)
-
-    def cost(theta, tips):
-        return float(np.sum((tips - y) ** 2) / noise_m**2 + np.sum(((theta - theta0) / s) ** 2))
-
-    theta, c, lam, converged, it = theta0.copy(), cost(theta0, tips), 1e-3, False, 0
     rms0 = _rms(tips - y)
-    history = [{"iteration": 0, "rms_m": rms0, "cost": c}]
     if log:
         log(f"nominal: RMS {_what(markers)} misfit {1e3 * rms0:.3f} mm over {len(u)} samples")
-    while it < max_iter and not converged:
-        it += 1
-        Jd = J.reshape(-1, lay.size) / noise_m
-        A = Jd.T @ Jd + np.diag(1 / s**2)
-        b = Jd.T @ ((tips - y).ravel() / noise_m) + (theta - theta0) / s**2
-        while True:
-            step = np.linalg.solve(A + lam * np.diag(np.diag(A)), -b)
-            trial = theta + step
-            got = samples.solve(trial, q + dq @ step)
-            if got is not None and (c_trial := cost(trial, got[1])) < c:
-                break
-            lam *= 4.0
-            if lam > 1e10:
-                break
-        if lam > 1e10:  # no step decreases the cost: at the minimum to rounding
-            converged = True
-            break
-        lam = max(lam / 3.0, 1e-9)
-        theta, c, (q, tips) = trial, c_trial, got
-        dq, J = samples.sensitivities(theta, q)
-        converged = bool(np.max(np.abs(step) / s) < tol)
-        rms = _rms(tips - y)
-        history.append(
-            {"iteration": it, "rms_m": rms, "cost": c, "max_step_over_prior_std": float(np.max(abs(step) / s))}
-        )
-        if log:
-            log(
-                f"iteration {it}: RMS {_what(markers)} misfit {1e3 * rms:.3f} mm, largest step "
-                f"{np.max(abs(step) / s):.2g} prior std"
-            )
+    run = minimise(samples, y, theta0, s, noise_m, (q, tips, dq, J), max_iter=max_iter, tol=tol, log=log,
+                   what=_what(markers), algorithm=algorithm)  # fmt: skip
+    theta, tips, J = run.theta, run.tips, run.J
     cov_raw, cov, sigma, p_eff = _covariance(J.reshape(-1, lay.size), tips - y, s, noise_m)
     return CalibrationResult(
         layout=lay,
@@ -351,14 +341,18 @@ def calibrate(
         sigma_m=sigma,
         residuals_m=tips - y,
         rms_nominal_m=rms0,
-        iterations=it,
-        converged=converged,
+        iterations=run.iterations,
+        converged=run.converged,
         n_solves=samples.n_solves,
         wall_s=time.perf_counter() - t0,
         n_rings=n_rings,
         n_axial=n_axial,
-        history=history,
+        history=run.history,
         markers=markers,
+        n_trials=run.trials,
+        n_rejected=run.rejected,
+        n_factorisations=samples.n_factorisations,
+        algorithm=algorithm,
     )
 
 

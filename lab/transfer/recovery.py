@@ -83,6 +83,7 @@ def recovery_rows(
     n_axial: int | None = None,
     noise_m: float | None = None,
     play_as_slack: bool = False,
+    algorithm: str | None = None,
 ) -> list[dict]:
     """Calibrate ``robot`` to the emulated robot with ``defects`` at commands ``u_real``
     (N, m) rad (settled tips plus its mocap noise, seeded by ``seed``), on one mesh for the
@@ -112,6 +113,8 @@ def recovery_rows(
         The fit's declared noise, m per coordinate.
     play_as_slack : bool
         The true slack includes the play.
+    algorithm : str, optional
+        The fit's Levenberg-Marquardt loop (:func:`lab.transfer.calibrate`; default its default).
 
     Returns
     -------
@@ -125,7 +128,7 @@ def recovery_rows(
     body = AsBuiltBody(robot, defects, n_rings=n_rings, n_axial=n_axial)
     tips = quasi_static_tips(body, u, defects.noise_sigma_m, seed)
     kw = {} if noise_m is None else {"noise_m": noise_m}
-    res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial, **kw)
+    res = calibrate(robot, u, tips, n_rings=n_rings, n_axial=n_axial, algorithm=algorithm, **kw)
     check = res.check
     truth = true_theta(res.layout, defects, play_as_slack=play_as_slack)
     # theta's first entry is ln(softness): report the softness itself
@@ -158,13 +161,23 @@ def recovery_rows(
     ]
 
 
-def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m) -> list[dict]:
+def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm) -> list[dict]:
     from lab.asbuilt.family import family_member
     from lab.workers import watch_parent
 
     watch_parent()
     defects = family_member(robot, label, n_rings=n_rings, n_axial=n_axial)
-    return recovery_rows(robot, defects, u, label=label, seed=seed, n_rings=n_rings, n_axial=n_axial, noise_m=noise_m)
+    return recovery_rows(
+        robot,
+        defects,
+        u,
+        label=label,
+        seed=seed,
+        n_rings=n_rings,
+        n_axial=n_axial,
+        noise_m=noise_m,
+        algorithm=algorithm,
+    )
 
 
 def family_recovery(
@@ -177,10 +190,11 @@ def family_recovery(
     n_axial: int | None = None,
     n_jobs: int = 1,
     noise_m: float | None = None,
+    algorithm: str | None = None,
 ) -> list[dict]:
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
     :func:`lab.asbuilt.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
-    each), rows in the order of ``labels``; ``noise_m`` as there.
+    each), rows in the order of ``labels``; ``noise_m`` and ``algorithm`` as there.
 
     Parameters
     ----------
@@ -198,6 +212,8 @@ def family_recovery(
         Worker processes.
     noise_m : float, optional
         The fits' declared noise, m per coordinate.
+    algorithm : str, optional
+        The fits' Levenberg-Marquardt loop (:func:`lab.transfer.calibrate`).
 
     Returns
     -------
@@ -211,7 +227,7 @@ def family_recovery(
     u = np.asarray(u_real, float)
     with worker_config():
         parts = Parallel(n_jobs=max(1, min(n_jobs, len(labels))))(
-            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial, noise_m) for label in labels
+            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm) for label in labels
         )
     return [r for part in parts for r in part]
 

@@ -34,6 +34,7 @@ from lab.fem.bodies import body_of
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
+from lab.fem.solve.nearby import nearby_sensitivities
 from lab.fem.solve.parameter_layout import AXES, DEFAULT_GROUPS, ParameterError, ParameterLayout
 from lab.fem.solve.statics import StaticSolution, solve_static
 
@@ -84,6 +85,7 @@ class ParametrisedFEM:
             gradient=robot.stiffness_gradient[1:], slack_m=[c.slack_m for c in robot.cables]
         )
         self._cached: tuple[bytes, ArmFEM] | None = None
+        self.n_factorisations = 0  # by :meth:`sensitivities`
 
     def _gradient(self, v: dict) -> np.ndarray:
         """(g_y, g_z) at unpacked theta ``v``: fitted, else the description's."""
@@ -260,10 +262,11 @@ class ParametrisedFEM:
                     out[:, lay.shift(c)] = d_shift[k]
         return out
 
-    def sensitivities(self, theta, q: np.ndarray, u_motor, markers=None):
+    def sensitivities(self, theta, q: np.ndarray, u_motor, markers=None, factorisation=None):
         """At an equilibrium q of the FEM at theta: dq/du (n_free, m), dq/dtheta
         (n_free, p), and the observed markers' Jacobians J_y_u (3K, m) and J_y_theta (3K, p)
-        from one factorisation of the exact Hessian.
+        from one factorisation of the exact Hessian, or from ``factorisation``, the solve's
+        own (:func:`lab.fem.solve.nearby.nearby_sensitivities`).
 
         Parameters
         ----------
@@ -276,6 +279,9 @@ class ParametrisedFEM:
         markers : sequence of int, optional
             Which of the FEM's markers (indices into ``fem.marker_names``, the tip is 0);
             default the tip alone (K = 1).
+        factorisation : tuple, optional
+            ``StaticSolution.factorisation`` of the solve that found q (``keep_factorisation``):
+            no new factorisation where it serves.
 
         Returns
         -------
@@ -289,10 +295,16 @@ class ParametrisedFEM:
             The same, m per unit of each parameter.
         """
         fem = self.fem(theta)
-        lu = factorize(fem.hessian(q, u_motor))
         m = self.robot.n_inputs
-        dq = -lu.solve(np.hstack([fem.mixed_derivative(q, u_motor), self.force_derivative(theta, q, u_motor)]))
-        J = marker_rows(fem, markers) @ dq
+        B = np.hstack([fem.mixed_derivative(q, u_motor), self.force_derivative(theta, q, u_motor)])
+        S = marker_rows(fem, markers)
+        got = None if factorisation is None else nearby_sensitivities(fem, q, u_motor, B, S, *factorisation)
+        if got is None:
+            self.n_factorisations += 1
+            dq = -factorize(fem.hessian(q, u_motor)).solve(B)
+            J = S @ dq
+        else:
+            dq, J = got
         return dq[:, :m], dq[:, m:], J[:, :m], J[:, m:]
 
 

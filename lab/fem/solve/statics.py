@@ -118,6 +118,11 @@ class StaticSolution:
         Every marker (:attr:`lab.fem.ArmFEM.marker_names`, the tip first) in frame W, m.
     J_y_u : ndarray, shape (3K, m), optional
         d y / du of the ravelled markers if asked, m per unit of input.
+    factorisation : tuple, optional
+        If asked (``keep_factorisation``) and converged: the last exact factorisation
+        (``Factorised``, of a Newton iterate near ``q``; None after
+        shifted or projected steps), the condensation at ``q`` and how far ``q`` lies from
+        that iterate (largest coordinate, m), for :mod:`lab.fem.solve.nearby`.
     """
 
     u_motor: np.ndarray
@@ -134,6 +139,7 @@ class StaticSolution:
     J_tip_u: np.ndarray | None = field(default=None, repr=False)
     y_W: np.ndarray | None = field(default=None, repr=False)
     J_y_u: np.ndarray | None = field(default=None, repr=False)
+    factorisation: tuple | None = field(default=None, repr=False)
 
 
 def solve_static(
@@ -149,6 +155,7 @@ def solve_static(
     check_command: bool = True,
     refine_du=None,
     stop_if_indefinite: bool = False,
+    keep_factorisation: bool = False,
 ) -> StaticSolution:
     """Minimise E(q, u) from ``q0`` (default: rest). Returns the equilibrium.
 
@@ -172,6 +179,8 @@ def solve_static(
     ``stop_if_indefinite``: return at once, with ``status="indefinite"``, if the exact
     Hessian at ``q0`` is not positive definite (one factorisation spent), for a caller
     that has other starting points to try first.
+    ``keep_factorisation``: return the last exact factorisation with the equilibrium
+    (``factorisation``), for sensitivities without a new one (:mod:`lab.fem.solve.nearby`).
     ``iterations`` counts all steps, ``factorizations`` the assemblies (each with its
     factorisation; a shifted one counts once more).
     Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
@@ -199,6 +208,8 @@ def solve_static(
         Input steps along which a reused dq/du is refined.
     stop_if_indefinite : bool
         Return at once where the exact Hessian at ``q0`` is indefinite.
+    keep_factorisation : bool
+        Keep the last exact factorisation in the solution's ``factorisation``.
 
     Returns
     -------
@@ -214,7 +225,7 @@ def solve_static(
         raise InputError("initial state has inverted elements; start from rest (q0=None)")
     if tol_force_n is None:
         tol_force_n = max(1e-5 * float(np.abs(fem.f_gravity_W).max()), 1e-11)
-    status, projected, it, n_fact, fac, step_prev = "max_iter", 0, 0, 0, None, np.inf
+    status, projected, it, n_fact, fac, step_prev, q_fac = "max_iter", 0, 0, 0, None, np.inf, None
     chord = False
     pairs = []
     J = fem.elastic.volume_ratio(fem.to_nodes(q))  # (M,) det F at q
@@ -241,7 +252,7 @@ def solve_static(
             u_h = hessian_inputs(u, g, cond)  # u, but for a condensation not in the Hessian
             H = fem.hessian(q, u_h)
             d, fac = newton_step(H, g, cond)
-            pairs = []
+            q_fac, pairs = q, []
             exact = d is not None
             if not exact and stop_if_indefinite and it == 1:
                 status = "indefinite"
@@ -315,6 +326,8 @@ def solve_static(
         factorizations=n_fact,
     )
     sol.y_W = fem.observe(x)
+    if keep_factorisation and sol.converged:
+        sol.factorisation = (fac, cond, None if fac is None else float(np.max(np.abs(q - q_fac))))
     if sensitivity and sol.converged:
         if sensitivity == "reuse" and fac is not None:
             sol.dq_du = reused_sensitivity(fem, fac, q, u, cond, refine_du)
