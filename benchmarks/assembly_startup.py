@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from timing import baseline_code
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = 5
@@ -68,9 +69,7 @@ def cold_start(rev: str, say) -> None:
     """Print the table of section 6 through ``say``, the baseline being git revision ``rev``."""
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        base = tmp / "base"
-        base.mkdir()
-        subprocess.run(f"git -C {ROOT} archive {rev} lab | tar -x -C {base}", shell=True, check=True)
+        base = baseline_code(rev, tmp / "base")
         env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
         env |= {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_CACHE_DIR": str(tmp / "numba-cache")}
         for tree in (base, ROOT):  # each run imports the tree it is meant to

@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from timing import baseline_code
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -103,14 +104,6 @@ print(json.dumps(out))
 TARGETS = {"three-cable": 0.55, "six-cable": 0.55, "foam member 0": 0.45}
 
 
-def archive(rev: str, into: Path) -> Path:
-    """The ``lab`` package at ``rev``, extracted under ``into``."""
-    into.mkdir(parents=True, exist_ok=True)
-    tar = subprocess.run(["git", "-C", str(ROOT), "archive", rev, "lab"], capture_output=True, check=True).stdout
-    subprocess.run(["tar", "-x", "-C", str(into)], input=tar, check=True)
-    return into
-
-
 def child(code_root: Path, cwd: Path, n_cmd: int, n_walk: int, limiter: bool = False) -> dict:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env.update(PYTHONPATH=str(code_root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
@@ -144,7 +137,7 @@ def main(argv=None) -> int:
     tmp = Path(tempfile.mkdtemp(prefix="bench-solve-"))
     t_start = time.monotonic()
     try:
-        roots = {"baseline": archive(args.baseline_rev, tmp / "baseline"), "new": ROOT}
+        roots = {"baseline": baseline_code(args.baseline_rev, tmp / "baseline"), "new": ROOT}
         runs = {k: [] for k in roots}
         for r in range(args.rounds):
             for k in list(roots)[:: 1 if r % 2 == 0 else -1]:

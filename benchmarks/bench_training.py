@@ -44,6 +44,7 @@ from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from timing import baseline_code  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the checkout this script lives in, not another installed copy
@@ -166,13 +167,6 @@ def _tree_cpu(argv, env, cwd) -> tuple[float, float, str]:
     return used, wall, p.stderr + p.stdout
 
 
-def _archive(rev: str, into: Path) -> Path:
-    into.mkdir(parents=True, exist_ok=True)
-    tar = subprocess.run(["git", "-C", str(ROOT), "archive", rev, "lab"], capture_output=True, check=True).stdout
-    subprocess.run(["tar", "-x", "-C", str(into)], input=tar, check=True)
-    return into
-
-
 def section_recipe(baseline: str | None, repeats: int) -> None:
     tmp = Path(tempfile.mkdtemp(prefix="bench-training-"))
     try:
@@ -193,7 +187,7 @@ def section_recipe(baseline: str | None, repeats: int) -> None:
             "this code, default threads, --jobs 1": ({**here}, ["--jobs", "1"]),
         }
         if baseline:
-            old = {**base_env, "PYTHONPATH": str(_archive(baseline, tmp / "baseline"))}
+            old = {**base_env, "PYTHONPATH": str(baseline_code(baseline, tmp / "baseline"))}
             variants[f"{baseline}, default threads"] = (old, [])
             variants[f"{baseline}, OMP/OPENBLAS=1"] = ({**one, "PYTHONPATH": old["PYTHONPATH"]}, [])
         say("## B. The README's recipe: train --model ensemble --algorithm br --hidden 10 10 --split group "

@@ -60,6 +60,12 @@ class CompiledLaw:
         self._V = np.ascontiguousarray(law.V, dtype=float)
         self._none = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 144), dtype=np.int64), np.zeros((0, 0, 0)))
 
+    def _run_checked(self, mode, x_W, **outputs) -> None:
+        """``_run`` for the modes that fill arrays: InvertedElementError if an element is inverted."""
+        _, bad = self._run(mode, x_W, **outputs)
+        if bad:
+            raise InvertedElementError(bad)
+
     def _run(self, mode, x_W, grad=None, data=None, slots=None, out=None):
         g0, d0, s0, o0 = self._none
         return self._sums(
@@ -126,9 +132,7 @@ class CompiledLaw:
             dE/dx, N (:class:`InvertedElementError` if an element is inverted).
         """
         grad = np.zeros((len(x_W), 3))
-        _, bad = self._run(GRADIENT, x_W, grad=grad)
-        if bad:
-            raise InvertedElementError(bad)
+        self._run_checked(GRADIENT, x_W, grad=grad)
         return grad
 
     def hessian(self, x_W: np.ndarray) -> np.ndarray:
@@ -145,9 +149,7 @@ class CompiledLaw:
             d2E_t/dx2 per tet, N/m, dofs (node a, axis i).
         """
         out = np.empty((len(self._V), 12, 12))
-        _, bad = self._run(ELEMENT_HESSIANS, x_W, out=out)
-        if bad:
-            raise InvertedElementError(bad)
+        self._run_checked(ELEMENT_HESSIANS, x_W, out=out)
         return out
 
     def add_hessian(self, x_W: np.ndarray, data: np.ndarray, slots: np.ndarray) -> None:
@@ -162,9 +164,7 @@ class CompiledLaw:
         slots : ndarray of int64, shape (M, 144)
             Where entry (r, c) of tet t's Hessian goes: ``data[slots[t, 12 r + c]]``; -1 to skip.
         """
-        _, bad = self._run(HESSIAN, x_W, data=data, slots=slots)
-        if bad:
-            raise InvertedElementError(bad)
+        self._run_checked(HESSIAN, x_W, data=data, slots=slots)
 
     def hessian_product(self, x_W: np.ndarray):
         """Exact Hessian products at ``x_W`` (the law's own, from the compiled tangents for a
@@ -183,9 +183,7 @@ class CompiledLaw:
         if self.kind == 0:
             return self.law.hessian_product(x_W)  # closed form, about a gradient's cost already
         out = np.empty((len(self._V), 9, 9))
-        _, bad = self._run(TANGENTS, x_W, out=out)
-        if bad:
-            raise InvertedElementError(bad)
+        self._run_checked(TANGENTS, x_W, out=out)
         return self.law.hessian_product(x_W, tangent=out)
 
     def scatter(self, data: np.ndarray, slots: np.ndarray, values: np.ndarray) -> None:
