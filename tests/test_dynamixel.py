@@ -332,7 +332,8 @@ def test_a_starved_process_is_not_a_lost_status_packet(timer):
     from helpers import subprocess_env
 
     proc = subprocess.Popen(
-        [sys.executable, "-c", _STARVED_READER, timer, "6"],
+        # 6 s of reads on thread time; on the wall clock up to 100 stops (~32 s), not a 6 s race
+        [sys.executable, "-c", _STARVED_READER, timer, "6" if timer == "thread" else "60"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
