@@ -40,3 +40,18 @@ def test_volume_ratio_is_det_F(foam_fem):
     J = foam_fem.elastic.volume_ratio(x)
     assert np.allclose(J, np.linalg.det(foam_fem.elastic.deformation_gradient(x)), rtol=1e-12, atol=1e-14)
     assert np.ptp(J) > 0.01  # the noise changed the volumes: a real comparison
+
+
+def test_compiled_volume_ratio_is_the_reference(foam_fem):
+    from lab.fem.kernels import compiled_law
+
+    q = foam_fem.rest_q() + np.random.default_rng(1).normal(scale=1e-3, size=foam_fem.n_free)
+    x = foam_fem.to_nodes(q)
+    a, b = foam_fem.mesh.tets[-1, :2]  # a tet at the tip (free nodes): collapsed onto an edge
+    x[a] = x[b]
+    q = foam_fem.to_free(x)
+    reference = foam_fem.elastic.volume_ratio(x)
+    compiled = compiled_law(foam_fem.elastic).volume_ratio(x)
+    assert np.min(reference) <= 0 < np.max(reference)
+    assert np.allclose(compiled, reference, rtol=1e-12, atol=1e-13)
+    assert np.allclose(foam_fem.volume_ratio(q), reference, rtol=1e-12, atol=1e-13)  # the model's, either assembly

@@ -365,28 +365,20 @@ class ArmFEM(ActuatedModel):
 
         return apply
 
-    def mixed_derivative(self, q: np.ndarray, u) -> np.ndarray:
-        """d2E/dq du (n_free, n_inputs): how each input changes the forces (N per unit of u).
+    def volume_ratio(self, q: np.ndarray) -> np.ndarray:
+        """det F of every tet: its volume over its rest volume (the compiled kernels' when in use).
 
         Parameters
         ----------
         q : ndarray, shape (n_free,)
             Free coordinates, m.
-        u : array_like, shape (n_inputs,)
-            Inputs.
 
         Returns
         -------
-        ndarray, shape (n_free, n_inputs)
-            The mixed derivative.
+        ndarray, shape (M,)
+            The ratios (negative where a tet is inverted).
         """
-        x = self.to_nodes(q)
-        if len(self.actuators) == 1:
-            return self.actuators[0].mixed_derivative(x, np.asarray(u, dtype=float))
-        out = np.zeros((self.n_free, self.n_inputs))
-        for act, u_a in self._split(u):
-            out[:, act.inputs] = act.mixed_derivative(x, u_a)
-        return out
+        return self._sums().volume_ratio(self.to_nodes(q))
 
     # ---------------------------------------------------------------- assembly
     def _sums(self):

@@ -195,3 +195,26 @@ class ActuatedModel:
             Shaped as ``stretch_m``.
         """
         return spring(stretch_m, self.robot.cable_stiffness_n_m, self.robot.slack_smoothing_m)
+
+    def mixed_derivative(self, q: np.ndarray, u) -> np.ndarray:
+        """d2E/dq du (n_free, n_inputs): how each input changes the forces (N per unit of u).
+
+        Parameters
+        ----------
+        q : ndarray, shape (n_free,)
+            Free coordinates, m.
+        u : array_like, shape (n_inputs,)
+            Inputs.
+
+        Returns
+        -------
+        ndarray, shape (n_free, n_inputs)
+            The mixed derivative.
+        """
+        x = self.to_nodes(q)
+        if len(self.actuators) == 1:
+            return self.actuators[0].mixed_derivative(x, np.asarray(u, dtype=float))
+        out = np.zeros((self.n_free, self.n_inputs))
+        for act, u_a in self._split(u):
+            out[:, act.inputs] = act.mixed_derivative(x, u_a)
+        return out

@@ -54,7 +54,8 @@ class CompiledLaw:
         self.law = law
         self.kind, self._prm, self._alpha, self._beta = law_parameters(law)
         self._sums = (neo_hookean.neo_hookean_sums, elements.yeoh_sums, elements.hyperfoam_sums)[self.kind]
-        self._scatter = elements.scatter_add
+        self._product = neo_hookean.neo_hookean_product
+        self._scatter, self._volume_ratios = elements.scatter_add, elements.volume_ratios
         self._tets = np.ascontiguousarray(law.tets, dtype=np.int64)
         self._G = np.ascontiguousarray(law.G, dtype=float)
         self._V = np.ascontiguousarray(law.V, dtype=float)
@@ -180,11 +181,46 @@ class CompiledLaw:
         callable
             dx (N, 3) m -> d2E/dx2 dx (N, 3) N.
         """
-        if self.kind == 0:
-            return self.law.hessian_product(x_W)  # closed form, about a gradient's cost already
+        if self.kind == 0:  # closed form: one compiled pass over the tets per product
+            x = np.ascontiguousarray(x_W, dtype=float)
+            bad = int(np.sum(self.volume_ratio(x) <= 0))
+            if bad:
+                raise InvertedElementError(bad)
+
+            def apply(dx: np.ndarray) -> np.ndarray:
+                out = np.zeros((len(x), 3))
+                self._product(
+                    x,
+                    np.ascontiguousarray(dx, dtype=float).reshape(-1, 3),
+                    self._tets,
+                    self._G,
+                    self._V,
+                    self._prm,
+                    out,
+                )
+                return out
+
+            return apply
         out = np.empty((len(self._V), 9, 9))
         self._run_checked(TANGENTS, x_W, out=out)
         return self.law.hessian_product(x_W, tangent=out)
+
+    def volume_ratio(self, x_W: np.ndarray) -> np.ndarray:
+        """det F of every tet (the law's ``volume_ratio``, compiled).
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+
+        Returns
+        -------
+        ndarray, shape (M,)
+            Each tet's volume over its rest volume (negative where inverted).
+        """
+        out = np.empty(len(self._V))
+        self._volume_ratios(np.ascontiguousarray(x_W, dtype=float), self._tets, self._G, out)
+        return out
 
     def scatter(self, data: np.ndarray, slots: np.ndarray, values: np.ndarray) -> None:
         """``data[slots[i]] += values[i]`` in order, skipping slots of -1.

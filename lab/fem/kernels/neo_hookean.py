@@ -91,3 +91,50 @@ def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, o
                 for t in range(12):
                     out[e, r, t] = H[12 * r + t]
     return energy, bad
+
+
+@jit
+def neo_hookean_product(x, dx, tets, G, V, prm, out):
+    """d2E/dx2 dx of the neo-Hookean law added into ``out`` (N, 3) N, one pass over the tets.
+
+    Per tet, with dF = dx^T G and c = mu - lam ln J (times V):
+    dP = mu dF + lam tr(F^-1 dF) F^-T + c (F^-1 dF F^-1)^T, then G (V dP)^T at the nodes.
+    Node positions ``x`` and the direction ``dx`` (N, 3) m; the other arguments as in
+    ``neo_hookean_sums``. Returns the number of inverted tets (nothing is added for them).
+    """
+    Fi, D, T = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    bad = 0
+    for e in range(tets.shape[0]):
+        a, b, c, d, f, g, h, i, j = deformation(x, tets, G, e)
+        c00, c10, c20 = f * j - g * i, g * h - d * j, d * i - f * h
+        J = a * c00 + b * c10 + c * c20
+        if not J > 0:
+            bad += 1
+            continue
+        r = 1.0 / J
+        Fi[0, 0], Fi[0, 1], Fi[0, 2] = c00 * r, (c * i - b * j) * r, (b * g - c * f) * r
+        Fi[1, 0], Fi[1, 1], Fi[1, 2] = c10 * r, (a * j - c * h) * r, (c * d - a * g) * r
+        Fi[2, 0], Fi[2, 1], Fi[2, 2] = c20 * r, (b * h - a * i) * r, (a * f - b * d) * r
+        D[0, 0], D[0, 1], D[0, 2], D[1, 0], D[1, 1], D[1, 2], D[2, 0], D[2, 1], D[2, 2] = deformation(dx, tets, G, e)
+        Ve = V[e]
+        mu, lam = Ve * prm[e, 0], Ve * prm[e, 1]
+        cm = mu - lam * math.log(J)
+        trace = 0.0
+        for p in range(3):
+            for s in range(3):
+                trace += Fi[p, s] * D[s, p]
+        for p in range(3):  # W = F^-1 dF (into T's rows, then T = W F^-1 in place, row by row)
+            w0 = Fi[p, 0] * D[0, 0] + Fi[p, 1] * D[1, 0] + Fi[p, 2] * D[2, 0]
+            w1 = Fi[p, 0] * D[0, 1] + Fi[p, 1] * D[1, 1] + Fi[p, 2] * D[2, 1]
+            w2 = Fi[p, 0] * D[0, 2] + Fi[p, 1] * D[1, 2] + Fi[p, 2] * D[2, 2]
+            for s in range(3):
+                T[p, s] = w0 * Fi[0, s] + w1 * Fi[1, s] + w2 * Fi[2, s]
+        for p in range(3):  # V dP = mu dF + lam tr(F^-1 dF) F^-T + c T^T, into D
+            for s in range(3):
+                D[p, s] = mu * D[p, s] + lam * trace * Fi[s, p] + cm * T[s, p]
+        for q in range(4):
+            n = tets[e, q]
+            G0, G1, G2 = G[e, q, 0], G[e, q, 1], G[e, q, 2]
+            for p in range(3):
+                out[n, p] += G0 * D[p, 0] + G1 * D[p, 1] + G2 * D[p, 2]
+    return bad

@@ -228,7 +228,7 @@ def solve_static(
     status, projected, it, n_fact, fac, step_prev, q_fac = "max_iter", 0, 0, 0, None, np.inf, None
     chord = False
     pairs = []
-    J = fem.elastic.volume_ratio(fem.to_nodes(q))  # (M,) det F at q
+    J = fem.volume_ratio(q)  # (M,) det F at q
     while it < max_iter:
         if np.max(np.abs(g)) <= tol_force_n and not chord:  # chord steps: see CHORD_FINAL
             status = "converged"
@@ -290,7 +290,7 @@ def solve_static(
             else:
                 E_try = fem.energy(q_try, u)
             if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
-                J_try = fem.elastic.volume_ratio(fem.to_nodes(q_try))
+                J_try = fem.volume_ratio(q_try)
                 if np.all(J_try >= MIN_VOLUME_RATIO * J):
                     accepted = True
                     break
