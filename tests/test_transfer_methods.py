@@ -167,3 +167,20 @@ def test_init_mlp_still_plain(data):
     # load_model's dispatch leaves plain network files as they were
     base = data[0]
     assert isinstance(base, MLP) and not isinstance(init_mlp(data[1], data[2], (4,)), ResidualModel)
+
+
+@pytest.mark.parametrize("mu", [1e-20, 1e-3, 1e2])
+def test_finetune_step_from_the_svd_is_the_normal_equations_step(mu):
+    # fewer residuals than parameters: the thin-SVD step against a dense solve of the same system
+    from lab.learn.finetune import _damped_solver
+
+    rng = np.random.default_rng(4)
+    Jf, g = rng.normal(size=(12, 40)), rng.normal(size=40)
+    n_e, lam = 12, 1e-3
+    dense = np.linalg.solve(Jf.T @ Jf / n_e + (lam + mu) * np.eye(40), -g)
+    step = _damped_solver(Jf, n_e, lam, g)(mu)
+    assert np.allclose(step, dense, rtol=1e-9, atol=1e-12 * np.abs(dense).max())
+    tall = rng.normal(size=(60, 40))  # more residuals than parameters: the dense solve itself
+    assert np.allclose(
+        _damped_solver(tall, 60, lam, g)(mu), np.linalg.solve(tall.T @ tall / 60 + (lam + mu) * np.eye(40), -g)
+    )

