@@ -74,6 +74,31 @@ def test_a_chapters_checks_go_to_one_worker(request):
         assert sched._split_scope(other) == other_scope
 
 
+def test_the_longest_units_of_work_go_out_first(request):
+    """The chapters' shared runs and the site's build are handed to the workers before the
+    many short files (xdist's own order, most tests first, left a chapter running alone at
+    the end of the suite)."""
+    if not request.config.pluginmanager.hasplugin("xdist"):
+        pytest.skip("pytest-xdist is not loaded (-p no:xdist)")
+    config = type("Config", (), {"getvalue": staticmethod({"dist": "loadfile", "tx": ["popen", "popen"]}.get)})
+    sched = request.config.hook.pytest_xdist_make_scheduler(config=config, log=None)
+    units = {
+        "tests/test_sweep.py": {f"tests/test_sweep.py::t[{i}]": False for i in range(300)},
+        "chapter 11_any_soft_body.ipynb": {"tests/test_nbval.py::test_headline_numbers[11_any_soft_body.ipynb]": False},
+        "tests/test_docs_site.py": {"tests/test_docs_site.py::test_build_gives_no_warning": False},
+        "chapter 12_fluidic_arm.ipynb": {"tests/test_nbval.py::test_headline_numbers[12_fluidic_arm.ipynb]": False},
+        "tests/test_tiny.py": {"tests/test_tiny.py::t": False},
+    }
+    sched.workqueue.update(units)
+    node = type("Node", (), {"send_runtest_some": lambda self, indexes: None})()
+    sched.registered_collections = {node: [n for unit in units.values() for n in unit]}
+    while sched.workqueue:
+        sched._assign_work_unit(node)
+    handed = list(sched.assigned_work[node])  # the units in the order they went out
+    assert handed[:3] == ["chapter 12_fluidic_arm.ipynb", "tests/test_docs_site.py", "tests/test_sweep.py"], handed
+    assert handed[-1] == "tests/test_tiny.py"
+
+
 @pytest.mark.slow
 def test_a_chapter_run_keeps_what_each_check_reads(tmp_path):
     """The shared run (tests/chapter_run.py) of a small chapter: the cells' outputs, the
