@@ -148,3 +148,23 @@ def test_a_broken_mkl_path_falls_back_to_superlu_with_one_warning(tmp_path):
         PYPARDISO_MKL_RT=str(tmp_path / "libmkl_rt.so.3"),  # a path set by the user is kept
     )
     assert out.strip() == "['splu', 'splu', 'splu'] 1 True"
+
+
+def test_any_csr_layout_of_a_matrix_gives_its_solution(pardiso, hessians):
+    """PARDISO reads the upper triangle through a pattern cached per sparsity pattern: a
+    matrix with unsorted or duplicate entries, or a CSC or COO one, solves as its canonical
+    CSR does."""
+    H = hessians[0]
+    n, b = H.shape[0], np.random.default_rng(1).standard_normal(H.shape[0])
+    x = np.linalg.solve(H.toarray(), b)
+    rows = np.repeat(np.arange(n), np.diff(H.indptr))
+    flip = np.lexsort((-H.indices, rows))  # every row's columns in decreasing order
+    unsorted = sp.csr_matrix((H.data[flip], H.indices[flip], H.indptr), shape=H.shape)
+    doubled = np.repeat(np.arange(H.nnz), 2)  # every entry split in two halves, side by side
+    duplicated = sp.csr_matrix((H.data[doubled] / 2, H.indices[doubled], 2 * H.indptr), shape=H.shape)
+    assert not unsorted.has_sorted_indices and not duplicated.has_canonical_format
+    for layout in (H, unsorted, duplicated, H.tocsc(), H.tocoo()):
+        assert np.allclose(linsolve.factorize(layout).solve(b), x, rtol=1e-10, atol=1e-12 * np.abs(x).max())
+    patterns = len(linsolve._PATTERNS)
+    linsolve.factorize(H.copy())  # the same pattern again: no new one
+    assert len(linsolve._PATTERNS) == patterns
