@@ -37,23 +37,27 @@ analytic Jacobian) and scipy.optimize.minimize (L-BFGS-B), each at SciPy's defau
 at the loosest tried that reach our residual, and tight; best of 3 passes each.
 """
 
-import argparse
-import copy
 import os
-import time
 
-import numpy as np
-from scipy.optimize import least_squares, minimize
+for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):  # one thread, as stated,
+    os.environ.setdefault(_var, "1")  # also when the caller's shell does not set it
 
-from lab.control.command_set import CommandSet
-from lab.control.ik import IKConfig, IKSolver, grid_seeds
-from lab.control.trajectories import circle
-from lab.data.designs import sobol_commands
-from lab.description import load_robot
-from lab.fem.model import ArmFEM
-from lab.fem.solve.statics import sensitivities, solve_static
-from lab.learn.mlp import load_model
-from lab.peers import SkfemArm, lab_loaded_arm, lab_tip_load_gradient, mujoco_arm
+import argparse  # noqa: E402
+import copy  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy.optimize import least_squares, minimize  # noqa: E402
+
+from lab.control.command_set import CommandSet  # noqa: E402
+from lab.control.ik import IKConfig, IKSolver, grid_seeds  # noqa: E402
+from lab.control.trajectories import circle  # noqa: E402
+from lab.data.designs import sobol_commands  # noqa: E402
+from lab.description import load_robot  # noqa: E402
+from lab.fem.model import ArmFEM  # noqa: E402
+from lab.fem.solve.statics import sensitivities, solve_static  # noqa: E402
+from lab.learn.mlp import load_model  # noqa: E402
+from lab.peers import SkfemArm, lab_loaded_arm, lab_tip_load_gradient, mujoco_arm  # noqa: E402
 
 V_TOL = 1e-4  # m/s: a node this slow is ~4 um from rest on the softest bending mode (~25 rad/s)
 HOLD_S = 0.1  # s simulated: longer than a quarter period of that mode, so no turning point counts

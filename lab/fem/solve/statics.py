@@ -285,13 +285,13 @@ def solve_static(
         alpha, accepted = 1.0, False
         for _ in range(1 if chord else 40):
             q_try = q + alpha * d
-            if alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
-                E_try, g_try, cond_try = fem.energy(q_try, u, with_gradient=True)
-            else:
-                E_try = fem.energy(q_try, u)
-            if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
-                J_try = fem.volume_ratio(q_try)
-                if np.all(J_try >= MIN_VOLUME_RATIO * J):
+            J_try = fem.volume_ratio(q_try)  # first: far cheaper than a foam's energy
+            if np.all(J_try >= MIN_VOLUME_RATIO * J):
+                if alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
+                    E_try, g_try, cond_try = fem.energy(q_try, u, with_gradient=True)
+                else:
+                    E_try = fem.energy(q_try, u)
+                if E_try <= E + 1e-4 * alpha * slope + 1e-14 * abs(E):
                     accepted = True
                     break
             alpha *= 0.5
