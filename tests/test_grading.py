@@ -202,6 +202,8 @@ def test_the_rerun_line_is_the_call_as_written_else_the_checker_and_its_paramete
         written.details.splitlines()[0] == "To rerun it: check_goal_ticks(lambda u, z, d: np.asarray(z), 3.0, case=1)"
     )
     assert written.details.splitlines()[-1] == "your_function(u, z, d)"
+    after_accents = ("déjà", check_goal_ticks(ticks, 3.0, show=False))[1]  # columns count bytes, not letters
+    assert after_accents.details == result.details
     check = check_goal_ticks  # a call that does not name the checker: its name and parameters instead
     unnamed = check(ticks, 3.0, show=False)
     assert unnamed.details.splitlines()[0] == "To rerun it: check_goal_ticks(your_function, u_max_rad, case=1)"

@@ -274,8 +274,8 @@ def _call_site(checker: Callable) -> ast.Call | None:
     lines = linecache.getlines(caller.f_code.co_filename, caller.f_globals)
     if None in (line, end, col, end_col) or not lines or end > len(lines):
         return None
-    text = "".join(lines[line - 1 : end])
-    text = text[col : len(text) - len(lines[end - 1]) + end_col]
+    code = [s.encode() for s in lines[line - 1 : end]]  # the columns count UTF-8 bytes
+    text = b"".join(code)[col : sum(map(len, code)) - len(code[-1]) + end_col].decode()
     call = ast.parse(text.strip(), mode="eval").body
     func = getattr(call, "func", None)
     name = func.id if isinstance(func, ast.Name) else getattr(func, "attr", None)
@@ -307,7 +307,7 @@ def rerun_call(checker: Callable, student: Callable, case: int) -> tuple[str, st
     name = function_name(student)
     try:
         call = _call_site(checker)
-    except (SyntaxError, ValueError, IndexError):  # not one expression, or no positions
+    except (SyntaxError, ValueError, IndexError, UnicodeDecodeError):  # not one expression, or no positions
         call = None
     if call is not None:
         kept = [k for k in call.keywords if k.arg not in ("case", "show")]  # a rerun is shown
