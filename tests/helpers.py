@@ -5,6 +5,7 @@ import base64
 import io
 import json
 import os
+import re
 import select
 import subprocess
 import sys
@@ -93,6 +94,20 @@ def default_sigint() -> None:
 #: whole quick chapter about 1.5 min; the limits leave 5-10x for a loaded machine.
 CELL_TIMEOUT_S = 600
 NOTEBOOK_TEST_TIMEOUT_S = 1800
+
+
+def assert_reruns(result, rerun):
+    """``result``, a failed grade, names the call that runs its case alone (``case=k``) and
+    ``rerun(k)`` (its checker called again with ``case=k``) fails with the very same words:
+    the case is the same case, and the message is the same message. Returns ``result``."""
+    assert result.status == "failed" and result.case is not None, result
+    first = result.details.splitlines()[0]
+    assert re.fullmatch(rf"To rerun it: check_\w+\(.+, case={result.case}\)", first), result.details
+    assert "Its inputs, as code" in result.details, result.details
+    again = rerun(result.case)
+    assert (again.status, again.case, str(again)) == (result.status, result.case, str(result))
+    assert again.details == result.details
+    return result
 
 
 def output_text(cell) -> str:

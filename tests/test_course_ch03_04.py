@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import assert_reruns
 
 from lab.course.ch03 import check_lm_step, check_lm_training, check_network_jacobian, lm_training_cases
 from lab.course.ch04 import check_gd_step, check_projection, check_tracking_error
@@ -61,14 +62,19 @@ def test_chapter_3_graders_pass_right_and_catch_wrong_answers():
     without_g_u = lambda net, u: _jacobian(net, u) / net.u_gain  # noqa: E731
     for wrong in (without_g_y, without_g_u, lambda net, u: _jacobian(net, u).T):
         assert check_network_jacobian(wrong, show=False).status == "failed"
+    assert_reruns(
+        check_network_jacobian(wrong, show=False), lambda k: check_network_jacobian(wrong, case=k, show=False)
+    )
     assert check_lm_step(_lm_step, show=False).status == "passed"
     assert check_lm_step(lambda *a: -_lm_step(*a), show=False).status == "failed"  # uphill
-    assert check_lm_step(lambda net, u, y, mu: _lm_step(net, u, y, mu * 3), show=False).status == "failed"
+    wrong = lambda net, u, y, mu: _lm_step(net, u, y, mu * 3)  # noqa: E731
+    assert_reruns(check_lm_step(wrong, show=False), lambda k: check_lm_step(wrong, case=k, show=False))
     assert check_lm_training(_loop(_lm_step), show=False).status == "passed"  # its own step: rounding only
     assert check_lm_training(_loop(lm_step), show=False).status == "passed"
     for wrong in (_loop(lm_step, retry=False), _loop(lm_step, grow=1.0, shrink=1.0), _loop(lm_step, check=False)):
         assert check_lm_training(wrong, show=False).status == "failed"
-    assert check_lm_training(_loop(lm_step, shrink=1.0), show=False).status == "failed"
+    wrong = _loop(lm_step, shrink=1.0)
+    assert_reruns(check_lm_training(wrong, show=False), lambda k: check_lm_training(wrong, case=k, show=False))
 
 
 def test_chapter_3_training_cases_have_failed_trial_steps():
@@ -112,7 +118,7 @@ def _shifted_once(v, u_max, sum_max):
 )
 def test_chapter_4_projection_grader_catches_wrong_projections(wrong):
     assert check_projection(_project, show=False).status == "passed"
-    assert check_projection(wrong, show=False).status == "failed"
+    assert_reruns(check_projection(wrong, show=False), lambda k: check_projection(wrong, case=k, show=False))
 
 
 def test_chapter_4_gd_step_and_tracking_graders():
@@ -124,7 +130,9 @@ def test_chapter_4_gd_step_and_tracking_graders():
 
     assert check_gd_step(step, model, 3.0, show=False).status == "passed"
     no_clip = lambda model, u, target, alpha, u_min, u_max: step(model, u, target, alpha, -9, 9)  # noqa: E731
-    assert check_gd_step(no_clip, model, 3.0, show=False).status == "failed"
+    assert_reruns(
+        check_gd_step(no_clip, model, 3.0, show=False), lambda k: check_gd_step(no_clip, model, 3.0, case=k, show=False)
+    )
 
     def error_cm(targets_W, achieved_W):
         d = np.linalg.norm(achieved_W - targets_W, axis=1)
@@ -132,4 +140,6 @@ def test_chapter_4_gd_step_and_tracking_graders():
 
     assert check_tracking_error(error_cm, show=False).status == "passed"
     per_axis = lambda t, a: (100 * np.abs(a - t).mean(), 100 * np.abs(a - t).max())  # noqa: E731
-    assert check_tracking_error(per_axis, show=False).status == "failed"
+    assert_reruns(
+        check_tracking_error(per_axis, show=False), lambda k: check_tracking_error(per_axis, case=k, show=False)
+    )

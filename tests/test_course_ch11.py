@@ -7,6 +7,7 @@ tension piece by piece, not by the spring's clipped sums).
 """
 
 import numpy as np
+from helpers import assert_reruns
 
 from lab.course.ch11 import check_cable_tension, check_radius_profile, check_stalk_marker
 
@@ -22,6 +23,7 @@ def test_radius_profile_grader():
     ends = lambda p, x: p[0, 1] + (p[-1, 1] - p[0, 1]) * x / p[-1, 0]  # noqa: E731
     for wrong in (nearest, ends):
         assert not _passed(check_radius_profile(wrong, show=False))
+    assert_reruns(check_radius_profile(wrong, show=False), lambda k: check_radius_profile(wrong, case=k, show=False))
 
 
 def _affine(X, x, Xa, P, centre=True):
@@ -38,6 +40,7 @@ def test_stalk_marker_grader():
     assert _passed(check_stalk_marker(about_origin_but_from_Xa, show=False))  # the same affine map: right too
     for wrong in (translated, nearest_node):
         assert not _passed(check_stalk_marker(wrong, show=False))
+    assert_reruns(check_stalk_marker(wrong, show=False), lambda k: check_stalk_marker(wrong, case=k, show=False))
 
 
 def _tension(L, L0, r, u, k, eps, smooth=True, sign=-1):
@@ -55,3 +58,4 @@ def test_cable_tension_grader():
         lambda L, L0, r, u, k, eps: k * (L - (L0 - r * u)),  # two-sided: pushes when slack
     ):
         assert not _passed(check_cable_tension(wrong, show=False))
+    assert_reruns(check_cable_tension(wrong, show=False), lambda k: check_cable_tension(wrong, case=k, show=False))

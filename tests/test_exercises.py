@@ -41,17 +41,20 @@ def test_stub_keeps_signature_and_docstring():
 def test_grade_says_what_is_wrong(capsys):
     ref = lambda x: (float(x.sum()), 2 * x)  # noqa: E731
     cases = [(np.arange(3.0),)]
-    assert "passed" in grade("demo", ref, ref, cases)
-    assert "FAILED on case 1 of 1: item 1: at index (2,): 5 instead of 4" in grade(
-        "demo", lambda x: (float(x.sum()), 2 * x + (x == 2)), ref, cases
-    )
+    assert grade("demo", ref, ref, cases) == "exercise 'demo': passed (1 random cases)"
+    wrong = grade("demo", lambda x: (float(x.sum()), 2 * x + (x == 2)), ref, cases)
+    assert wrong.startswith(
+        "exercise 'demo': FAILED on case 1 of 1: entry 3 of the 2nd returned value (result[1][2]) is 5, expected 4"
+    ), wrong
 
     def todo(x):
         raise NotImplementedError
 
-    assert NOT_IMPLEMENTED in grade("demo", todo, ref, cases)
+    todo_line = f"exercise 'demo': {NOT_IMPLEMENTED} - write the function above, then run this cell again"
+    assert grade("demo", todo, ref, cases) == todo_line
     assert "FAILED on case 1 of 1: ZeroDivisionError" in grade("demo", lambda x: 1 / 0, ref, cases)  # never raises
-    assert "shape (2,), expected (3,)" in grade("demo", lambda x: (0.0, x[:2]), lambda x: (0.0, x), cases)
+    short = grade("demo", lambda x: (0.0, x[:2]), lambda x: (0.0, x), cases)
+    assert "the 2nd returned value (result[1]) is an array of shape (2,), expected an array of shape (3,)" in short
 
 
 def test_every_exercise_is_followed_by_its_grader():
@@ -127,7 +130,8 @@ def test_chapters_01_to_07_pose_two_to_four_exercises():
 
 def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
     """In a kernel, a grader cell whose last line is ``grade(...)`` shows one output (HTML,
-    plain text as fallback), green for pass and red for fail, the failing case's inputs."""
+    plain text as fallback), green for pass and red for fail, the failing case's inputs as
+    code; a checker's failure names the call that reruns the case, as the cell wrote it."""
     import nbformat
 
     code = (
@@ -137,7 +141,12 @@ def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
     )
     bad = "grade('bad', lambda x: 2 * x + (x == 2), ref, [(np.arange(5.0),)], hint='twice')"
     said = "from lab.course import say, than\nsay(f'tracks {than(0.45, 0.06)} the paper')"
-    cells = [nbformat.v4.new_code_cell(c) for c in (code, bad, said)]
+    checked = (
+        "from lab.course.ch12 import check_enclosed_volume\n"
+        "def enclosed_volume(x_W, triangles):\n    return 1.0\n"
+        "check_enclosed_volume(enclosed_volume)"
+    )
+    cells = [nbformat.v4.new_code_cell(c) for c in (code, bad, said, checked)]
     nb = nbformat.v4.new_notebook(cells=cells)
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     path = tmp_path / "g.ipynb"
@@ -149,7 +158,12 @@ def test_grade_shows_once_as_html_with_the_failing_inputs(tmp_path):
         data = cell["outputs"][0]["data"]
         assert words in "".join(data["text/plain"]) and colour in "".join(data["text/html"])
     failed = "".join(cells[1]["outputs"][0]["data"]["text/plain"])
-    assert "x: array (5,) [0, 1, 2, 3, …]" in failed and "Hint: twice" in failed, failed
+    assert "x = np.array([0.0, 1.0, 2.0, 3.0, 4.0])" in failed and "Hint: twice" in failed, failed
+    assert "entry 3 of the result (result[2]) is 5, expected 4" in failed, failed
     # A computed statement (lab.course.say) is shown once too, as Markdown.
     (out,) = cells[2]["outputs"]
     assert "".join(out["data"]["text/markdown"]) == "tracks above the paper", out
+    # A checker's failure names the cell's own call with the case to rerun, read from the cell.
+    (out,) = cells[3]["outputs"]
+    rerun = "To rerun it: check_enclosed_volume(enclosed_volume, case=1)"
+    assert rerun in "".join(out["data"]["text/plain"]) and rerun in "".join(out["data"]["text/html"]), out

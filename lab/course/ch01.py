@@ -36,7 +36,7 @@ def _cable_length_lab(anchor_W, via_W):
     return route.length_gradient(via_W)
 
 
-def check_cable_length(student, *, show: bool = True) -> Grade:
+def check_cable_length(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 1.1: ``student(anchor_W (3,), via_W (K, 3)) -> (L m, dL/dvia (K, 3))`` on
     random routes of 1 to 6 via points, against :meth:`lab.fem.CableRoute.length_gradient`."""
     rng = np.random.default_rng(11)
@@ -47,6 +47,8 @@ def check_cable_length(student, *, show: bool = True) -> Grade:
         _cable_length_lab,
         cases,
         show=show,
+        case=case,
+        checker=check_cable_length,
         hint="a segment grows when its far end moves away along it and shrinks when its near end does; "
         "a via point ends one segment and starts the next, except the last",
     )
@@ -72,7 +74,7 @@ def newton_cases(fem, solutions, seed: int = 12) -> list[tuple]:
     return cases
 
 
-def check_newton_solve(student, fem, solutions, *, show: bool = True) -> Grade:
+def check_newton_solve(student, fem, solutions, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 1.2: ``student(fem, u_motor, q0) -> q`` (n_free,) m, the equilibrium found by
     Newton's method from ``q0``, against :func:`lab.fem.solve_static` from the same start,
     to 1 µm per coordinate. ``solutions``: the chapter's solved commands (StaticSolutions,
@@ -84,6 +86,8 @@ def check_newton_solve(student, fem, solutions, *, show: bool = True) -> Grade:
         lambda fem, u, q0: solve_static(fem, u, q0).q,
         newton_cases(fem, sols),
         show=show,
+        case=case,
+        checker=check_newton_solve,
         rtol=0.0,
         atol=1e-6,
         hint="repeat: a step from the exact Hessian and the gradient, shortened while it does not lower the "
@@ -112,15 +116,17 @@ class NotWarmStarted(LabRuntimeError):
     cold starts from rest."""
 
 
-def check_warm_walk(student, fem, *, show: bool = True) -> Grade:
+def check_warm_walk(student, fem, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 1.3: ``student(fem, u_path (N, m) rad) -> [StaticSolution] * N``. Its tips
     (N, 3) m must be those of cold solves from rest (:func:`lab.fem.solve_static`, to
     0.1 µm), and its solutions' Newton iterations at most :data:`WARM_FRACTION` of the cold
     solves' (else it fails with :class:`NotWarmStarted`)."""
     cases = walk_cases(fem)
-    cold = {id(path): [solve_static(fem, u) for u in path] for _, path in cases}
+    cold: dict[int, list] = {}  # each path's cold solves, solved for the cases run (all, or case=)
 
     def walked(fem, u_path):
+        if id(u_path) not in cold:  # before the student's walk, which could change u_path
+            cold[id(u_path)] = [solve_static(fem, u) for u in u_path]
         sols = list(student(fem, u_path))
         if len(sols) != len(u_path):
             raise ValueError(f"expected {len(u_path)} solutions (one per command), got {len(sols)}")
@@ -143,6 +149,9 @@ def check_warm_walk(student, fem, *, show: bool = True) -> Grade:
         reference,
         cases,
         show=show,
+        case=case,
+        checker=check_warm_walk,
+        given=student,
         rtol=0.0,
         atol=1e-7,
         hint="every solve must converge (solve_static raises if not); the first command starts from rest",

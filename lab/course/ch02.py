@@ -35,7 +35,7 @@ CAPTURE_TOL_M = 2.5e-4
 CAPTURE_LIMIT_S = 120.0
 
 
-def check_goal_ticks(student, u_max_rad: float, *, show: bool = True) -> Grade:
+def check_goal_ticks(student, u_max_rad: float, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 2.1: ``student(u_rad (n,), zero_ticks (n,), direction (n,)) -> ticks (n,)``
     on random angles in [0, ``u_max_rad``], offsets and mounting directions, exactly."""
     rng = np.random.default_rng(22)
@@ -46,6 +46,8 @@ def check_goal_ticks(student, u_max_rad: float, *, show: bool = True) -> Grade:
         ticks_from_u,
         cases,
         show=show,
+        case=case,
+        checker=check_goal_ticks,
         rtol=0,
         atol=0,
         hint="one revolution is 4096 ticks; round the angle to whole ticks, then turn it the way the spool "
@@ -58,7 +60,7 @@ def _first_settled_lab(readings_W, n_previous=20, tol_m=1e-4):
     return next((k for k, r in enumerate(readings_W) if detector.update(r)), -1)
 
 
-def check_first_settled(student, *, show: bool = True) -> Grade:
+def check_first_settled(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 2.2: ``student(readings_W (N, 3) m, n_previous, tol_m) -> index or -1`` on
     creeping, noisy, partly occluded (NaN) sequences, against :class:`lab.capture.SettleDetector`."""
     rng = np.random.default_rng(21)
@@ -75,6 +77,8 @@ def check_first_settled(student, *, show: bool = True) -> Grade:
         _first_settled_lab,
         cases,
         show=show,
+        case=case,
+        checker=check_first_settled,
         hint="compare with the mean of the previous n_previous *valid* readings, then add the current one",
     )
 
@@ -114,7 +118,7 @@ def capture_cases(robot, seed: int = 24, n_cases: int = 4) -> list[tuple]:
     return cases
 
 
-def check_capture_sample(student, body, *, show: bool = True) -> Grade:
+def check_capture_sample(student, body, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 2.3: ``student(rig, u_motor (m,) rad) -> p_tip_W (3,) m``, one sample by the
     protocol (reset, wait until settled, record), against :func:`lab.capture.measure` on an
     identical emulated rig, to :data:`CAPTURE_TOL_M` per coordinate.
@@ -144,6 +148,9 @@ def check_capture_sample(student, body, *, show: bool = True) -> Grade:
         lambda rig, u_motor: measure(twins[id(rig)], u_motor, Protocol()).p_tip_W,
         cases,
         show=show,
+        case=case,
+        checker=check_capture_sample,
+        given=student,
         rtol=0.0,
         atol=CAPTURE_TOL_M,
         hint="the rig has just held a larger command: erase its history first (all cables in together, then "

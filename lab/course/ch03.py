@@ -31,7 +31,7 @@ def _data(rng: np.random.Generator, n: int, n_u: int = 3, n_y: int = 3) -> tuple
     return u, y
 
 
-def check_network_jacobian(student, *, show: bool = True) -> Grade:
+def check_network_jacobian(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 3.1: ``student(net, u) -> dy/du`` (n_y, n_u) m/rad for one input ``u`` (n_u,)
     rad, against :meth:`MLP.jacobian` on random networks (depths 1-3, tanh and logistic, one
     with 4 inputs and 2 outputs), three random inputs each."""
@@ -49,12 +49,14 @@ def check_network_jacobian(student, *, show: bool = True) -> Grade:
         lambda net, u: net.jacobian(u),
         cases,
         show=show,
+        case=case,
+        checker=check_network_jacobian,
         hint="check each factor's shape against the boxed product; forgetting G_u or G_y^-1 scales whole rows "
         "and columns",
     )
 
 
-def check_lm_step(student, *, show: bool = True) -> Grade:
+def check_lm_step(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 3.2: ``student(net, u, y, mu) -> dtheta`` (n_params,), against
     :func:`lab.learn.lm_step` on random networks, data and damping, on both sides of
     n_params = N_e (the primal and the kernel form of the same system)."""
@@ -70,6 +72,8 @@ def check_lm_step(student, *, show: bool = True) -> Grade:
         lm_step,
         cases,
         show=show,
+        case=case,
+        checker=check_lm_step,
         rtol=1e-6,
         atol=1e-12,
         hint="e is prediction minus data, flattened in the row order of parameter_jacobian's J; both sides of "
@@ -95,7 +99,7 @@ def _trained_params(net, u, y, epochs: int) -> np.ndarray:
     return trained.get_params()
 
 
-def check_lm_training(student, *, show: bool = True) -> Grade:
+def check_lm_training(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 3.3: ``student(net, u, y, epochs) -> theta`` (n_params,), the parameters after
     ``epochs`` epochs of trainlm's loop from ``net``'s, against :func:`lab.learn.train_lm`.
     The student's function gets its own copy of each network, so a loop that changes the
@@ -107,6 +111,9 @@ def check_lm_training(student, *, show: bool = True) -> Grade:
         _trained_params,
         cases,
         show=show,
+        case=case,
+        checker=check_lm_training,
+        given=student,
         rtol=1e-6,
         atol=1e-8,
         hint="an epoch ends only when a trial step lowers the training error: a failed try is undone, "

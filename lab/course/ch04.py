@@ -49,7 +49,7 @@ def projection_cases() -> list[tuple]:
     return cases
 
 
-def check_projection(student, *, show: bool = True) -> Grade:
+def check_projection(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 4.1: ``student(v, u_max, sum_max) -> P(v)`` (m,) rad, the nearest command to
     ``v`` with every angle in [0, u_max] and their sum at most ``sum_max``, against
     :meth:`CommandSet.project` to 1e-9 rad."""
@@ -59,6 +59,8 @@ def check_projection(student, *, show: bool = True) -> Grade:
         lambda v, u_max, sum_max: _allowed(len(v), u_max, sum_max).project(v),
         projection_cases(),
         show=show,
+        case=case,
+        checker=check_projection,
         rtol=0.0,
         atol=1e-9,
         hint="when the sum rule is active, every angle that is not held at a limit moves by the same amount; "
@@ -66,7 +68,7 @@ def check_projection(student, *, show: bool = True) -> Grade:
     )
 
 
-def check_gd_step(student, model, u_max_rad: float, *, show: bool = True) -> Grade:
+def check_gd_step(student, model, u_max_rad: float, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 4.2: ``student(model, u, target, alpha, u_min, u_max)`` -> the next command (3,)
     rad, against :func:`projected_gradient_step` on the box ``CommandSet(u_min, u_max)``:
     ten random commands, targets (the tip of ``model`` at a random command), motor limits
@@ -86,6 +88,8 @@ def check_gd_step(student, model, u_max_rad: float, *, show: bool = True) -> Gra
         ),
         cases,
         show=show,
+        case=case,
+        checker=check_gd_step,
         hint="step against the gradient of O (it points uphill), then bring each angle back inside its limits",
     )
 
@@ -108,7 +112,7 @@ def _track_result(targets_W: np.ndarray, achieved_W: np.ndarray) -> TrackResult:
     )
 
 
-def check_tracking_error(student, *, show: bool = True) -> Grade:
+def check_tracking_error(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 4.3: ``student(targets_W, achieved_W) -> (mean, max)`` distance in cm, against
     :attr:`TrackResult.mean_error_m` and ``max_error_m`` on the four built-in trajectories
     (5-40 targets each) with recorded tips off by 0.1 mm to 1 cm."""
@@ -128,5 +132,7 @@ def check_tracking_error(student, *, show: bool = True) -> Grade:
         reference,
         cases,
         show=show,
+        case=case,
+        checker=check_tracking_error,
         hint="the 3-D distance per target (not per axis, not squared), then the mean and the maximum; m -> cm",
     )

@@ -28,7 +28,7 @@ from lab.learn.finetune import _folds
 __all__ = ["check_maximin_order", "check_gp_jacobian", "check_prior_weight"]
 
 
-def check_maximin_order(maximin_order, *, show: bool = True) -> Grade:
+def check_maximin_order(maximin_order, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 5.1: ``maximin_order(pool (P, m), first, n) -> n indices`` on random pools
     (3 and 6 motors, up to 200 candidates); the commands picked are compared, in order."""
     rng = np.random.default_rng(51)
@@ -42,6 +42,9 @@ def check_maximin_order(maximin_order, *, show: bool = True) -> Grade:
         cases,
         hint="keep, for every candidate, its distance to the nearest command chosen so far; take the largest",
         show=show,
+        case=case,
+        checker=check_maximin_order,
+        given=maximin_order,
     )
 
 
@@ -49,7 +52,7 @@ def _gp_reference(X, alpha, length_scales, s2, u):
     return GPCorrection(X, alpha, length_scales, s2, np.zeros(alpha.shape[1])).predict_and_jacobian(u[None])[1][0]
 
 
-def check_gp_jacobian(gp_jacobian, *, show: bool = True) -> Grade:
+def check_gp_jacobian(gp_jacobian, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 5.2: ``gp_jacobian(X (N, m), alpha (N, 3), length_scales (m,), s2, u (m,))
     -> dm/du (3, m)`` on random processes of 1 to 30 samples (3 and 6 inputs)."""
     rng = np.random.default_rng(52)
@@ -68,6 +71,8 @@ def check_gp_jacobian(gp_jacobian, *, show: bool = True) -> Grade:
         hint="differentiate one kernel term through its exponent (chain rule), then weight and sum over the "
         "samples as m does; the constant c does not depend on u",
         show=show,
+        case=case,
+        checker=check_gp_jacobian,
     )
 
 
@@ -77,7 +82,9 @@ def _lab_choice(sim_model, u_rad, y_m, lambdas, seed):
     return record["lambda"], np.array([record["cv_mean_distance_m"][lam] for lam in lambdas])
 
 
-def check_prior_weight(choose_prior_weight, sim_model, u_real, y_real, *, show: bool = True) -> Grade:
+def check_prior_weight(
+    choose_prior_weight, sim_model, u_real, y_real, *, case: int | None = None, show: bool = True
+) -> Grade:
     """Exercise 5.3: ``choose_prior_weight(fit, u (N, m), y (N, 3), lambdas (L,), folds)
     -> (best lambda, cross-validation error (L,) m)`` for output-layer fine-tuning of
     ``sim_model`` on random subsets (8, 13 and all) of the real samples ``u_real`` (N, m) rad,
@@ -95,17 +102,19 @@ def check_prior_weight(choose_prior_weight, sim_model, u_real, y_real, *, show: 
         lambdas = tuple(float(v) for v in 10.0 ** np.sort(rng.choice(np.arange(-10, 0), 4, replace=False)))
         seeds.append(int(rng.integers(1000)))
         cases.append((fit, u_real[pick], y_real[pick], lambdas, _folds(len(pick), seeds[-1])))
-    # lab's answer for each case in turn (grade asks for them in the cases' order): finetune
-    # draws the same folds from the case's seed, fits and records every weight's CV error
-    by_lab = (_lab_choice(sim_model, u, y, lambdas, seed) for (_, u, y, lambdas, _), seed in zip(cases, seeds))
+    # lab's answer for a case: finetune draws the same folds from the case's seed (found by
+    # the case's own u array), fits and records every weight's CV error
+    seed_of = {id(u): seed for (_, u, *_), seed in zip(cases, seeds)}
     return grade(
         "choosing the prior weight by cross-validation",
         choose_prior_weight,
-        lambda *case: next(by_lab),
+        lambda fit, u, y, lambdas, folds: _lab_choice(sim_model, u, y, lambdas, seed_of[id(u)]),
         cases,
         rtol=1e-9,
         atol=1e-12,
         hint="for each weight, fit on all samples but one fold and measure on that fold only; average the "
         "tip distances over every held-out sample, then keep the weight with the smallest average",
         show=show,
+        case=case,
+        checker=check_prior_weight,
     )

@@ -94,7 +94,9 @@ def _walk_cases(model, commands: CommandSet, rng: np.random.Generator) -> list[t
     return cases
 
 
-def check_walk_in_place(walk_in_place, model, commands: CommandSet, *, show: bool = True) -> Grade:
+def check_walk_in_place(
+    walk_in_place, model, commands: CommandSet, *, case: int | None = None, show: bool = True
+) -> Grade:
     """Exercise 6.1: ``walk_in_place(model, commands, u_start (m,) rad, direction (m,),
     step_rad, n_steps) -> u (K, m) rad`` through the network ``model`` on the allowed set
     ``commands``, against ``_walk_in_place_by_lab`` to 1e-6 rad on nine walks of 15 to 60 steps of
@@ -111,6 +113,8 @@ def check_walk_in_place(walk_in_place, model, commands: CommandSet, *, show: boo
         "step length; the tip then has moved a little: put it back moving only along what that same Jacobian "
         "sees, iterating until the tip is back; do not keep a corrected command outside the allowed set",
         show=show,
+        case=case,
+        checker=check_walk_in_place,
     )
 
 
@@ -118,7 +122,9 @@ def _walk_by_lab(solver, targets_m, u_start_rad):
     return solver.follow(targets_m, u0=u_start_rad).u_motor
 
 
-def check_regularised_walk(regularised_walk, model, commands: CommandSet, *, show: bool = True) -> Grade:
+def check_regularised_walk(
+    regularised_walk, model, commands: CommandSet, *, case: int | None = None, show: bool = True
+) -> Grade:
     """Exercise 6.2: ``regularised_walk(solver, targets (N, 3) m, u_start (m,) rad) -> u (N, m)
     rad`` through the network ``model`` on the allowed set ``commands``: three of the
     chapter's paths (12 to 16 targets) and a random smooth path of reachable targets, each with
@@ -147,4 +153,6 @@ def check_regularised_walk(regularised_walk, model, commands: CommandSet, *, sho
         "blend of the previous command and the posture; the regularised answer is polished by a solve "
         "without any pull",
         show=show,
+        case=case,
+        checker=check_regularised_walk,
     )

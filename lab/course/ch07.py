@@ -29,7 +29,9 @@ def _one_width_by_lab(u_rad, y_m, width, n_runs, seed, epochs):
     return float(np.mean([r["test_mean_distance_m"] for r in rows]))
 
 
-def check_mean_test_distance(mean_test_distance, u_data, y_data, *, show: bool = True) -> Grade:
+def check_mean_test_distance(
+    mean_test_distance, u_data, y_data, *, case: int | None = None, show: bool = True
+) -> Grade:
     """Exercise 7.1: ``mean_test_distance(u (N, 3) rad, y (N, 3) m, width, n_runs, seed,
     epochs) -> m`` on three random 60-sample subsets of ``u_data``, ``y_data``, widths 2-5,
     2-3 runs, random seeds, 5 epochs."""
@@ -50,6 +52,8 @@ def check_mean_test_distance(mean_test_distance, u_data, y_data, *, show: bool =
         hint="one training per run, each with its own seed from run_seeds; measure each run on its own test "
         "set only, as a distance (not squared), then average over the runs",
         show=show,
+        case=case,
+        checker=check_mean_test_distance,
     )
 
 
@@ -59,7 +63,7 @@ def _quartiles_by_lab(width, distance_m):
     return tuple(np.array([s[k] for s in stats], dtype=float) for k in ("width", "median", "q25", "q75"))
 
 
-def check_median_and_quartiles(median_and_quartiles, sweeps, *, show: bool = True) -> Grade:
+def check_median_and_quartiles(median_and_quartiles, sweeps, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 7.2: ``median_and_quartiles(width (N,), distance (N,) m) -> (widths (K,),
     median (K,), q25 (K,), q75 (K,))`` on five random sweeps (shuffled runs, 1-10 per width)
     and on each of ``sweeps`` (lists of ``size_sweep`` rows: ``width``,
@@ -79,4 +83,6 @@ def check_median_and_quartiles(median_and_quartiles, sweeps, *, show: bool = Tru
         hint="group the runs by width, widths in increasing order; the runs of one width are not sorted, and "
         "a quartile falls between two runs unless the count is just right",
         show=show,
+        case=case,
+        checker=check_median_and_quartiles,
     )

@@ -44,7 +44,7 @@ def _pool_case(rng: np.random.Generator) -> tuple:
     return x_pool[order], spread[order], x_data, int(rng.integers(3, 9)), float(rng.uniform(0.15, 0.4))
 
 
-def check_pick_apart(student, *, show: bool = True) -> Grade:
+def check_pick_apart(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 8.1: ``student(x_pool, spread, x_data, n, radius)`` -> indices (n,) of the
     candidates picked, in the order picked, against :func:`pick_apart` on 12 random pools."""
     rng = np.random.default_rng(81)
@@ -54,6 +54,8 @@ def check_pick_apart(student, *, show: bool = True) -> Grade:
         pick_apart,
         [_pool_case(rng) for _ in range(12)],
         show=show,
+        case=case,
+        checker=check_pick_apart,
         rtol=0.0,
         atol=0.0,
         hint="after each pick, the candidates near the one just picked must lose their advantage, "
@@ -61,7 +63,7 @@ def check_pick_apart(student, *, show: bool = True) -> Grade:
     )
 
 
-def check_gp_jacobian(student, *, show: bool = True) -> Grade:
+def check_gp_jacobian(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 8.2: ``student(x, X, alpha, length_scales, signal_variance)`` -> (m (n_y,),
     dm/dx (n_y, n_x)), against :class:`GPCorrection` on 6 random GPs (1-6 inputs, 3-40
     samples) at random points."""
@@ -89,6 +91,8 @@ def check_gp_jacobian(student, *, show: bool = True) -> Grade:
         by_lab,
         cases,
         show=show,
+        case=case,
+        checker=check_gp_jacobian,
         rtol=1e-8,
         atol=1e-12,
         hint="each kernel value depends on x only through its exponent: differentiate that (the chain rule), "
@@ -108,7 +112,7 @@ class _Fixed:
         return self.f_k
 
 
-def check_ensemble_spread(student, *, show: bool = True) -> Grade:
+def check_ensemble_spread(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 8.3: ``student(f)`` for member predictions f (K, N, 3) m -> (mean (N, 3), spread
     (N, 3)), against :meth:`Ensemble.predict_with_std` (unscaled) on 5 random ensembles of 2-6
     members at 1-20 commands."""
@@ -120,11 +124,13 @@ def check_ensemble_spread(student, *, show: bool = True) -> Grade:
         lambda f: Ensemble([_Fixed(f_k) for f_k in f]).predict_with_std(None, scaled=False),
         cases,
         show=show,
+        case=case,
+        checker=check_ensemble_spread,
         hint="K members are a sample of networks, not the whole population: mind the divisor",
     )
 
 
-def check_calibration(student, *, show: bool = True) -> Grade:
+def check_calibration(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 8.4: ``student(y_true, mean, std)`` (N, 3) m each -> (fraction within 1 sigma,
     within 2 sigma), against :func:`calibration` on Gaussian errors with true, too small and
     too large spreads (4 cases, 20-300 samples)."""
@@ -146,5 +152,7 @@ def check_calibration(student, *, show: bool = True) -> Grade:
         by_lab,
         cases,
         show=show,
+        case=case,
+        checker=check_calibration,
         hint="measure each coordinate's error in units of its own predicted spread, then count",
     )

@@ -30,7 +30,7 @@ from lab.tracking.closed_loop import Correction, correct_command
 __all__ = ["check_step_response", "check_ilc", "check_frequency_response", "measured_frequency_response"]
 
 
-def check_step_response(student, *, show: bool = True) -> Grade:
+def check_step_response(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 9.1: ``student(t, tau_s, weight)`` -> the fraction of an equilibrium step
     covered at times ``t`` (shape of t), against :meth:`Relaxation.step` for 6 random filters
     of 1-3 modes at 1-30 random times, some before the step."""
@@ -46,6 +46,8 @@ def check_step_response(student, *, show: bool = True) -> Grade:
         lambda t, tau_s, weight: Relaxation(tau_s, weight).step(t),
         cases,
         show=show,
+        case=case,
+        checker=check_step_response,
         hint="solve each mode's equation for a unit step of the equilibrium, starting at rest; "
         "the tip is the weighted sum of the modes, and nothing moves before the step",
     )
@@ -107,7 +109,7 @@ def _ilc_cases(rng: np.random.Generator) -> list[tuple]:
     return cases
 
 
-def check_ilc(student, *, show: bool = True) -> Grade:
+def check_ilc(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 9.2: ``student(measure, jacobian, u0, targets, passes, gain, damping,
     max_step_rad)`` -> (mean error per pass (passes,) m, the last pass's commands (N, m) rad),
     against passes of :func:`correct_command` on 6 toy arms of 3-6 motors, 3-9 targets and 2-5
@@ -118,6 +120,8 @@ def check_ilc(student, *, show: bool = True) -> Grade:
         _ilc_by_lab,
         _ilc_cases(np.random.default_rng(92)),
         show=show,
+        case=case,
+        checker=check_ilc,
         rtol=1e-6,
         atol=1e-9,
         hint="measure a whole pass before correcting any target; correct every target with the Jacobian at its "
@@ -138,7 +142,7 @@ def measured_frequency_response(period_s: float, tau_s, weight) -> tuple[float, 
     return float(np.hypot(a, b)), float(np.arctan2(b, a))  # y = a sin + b cos = |H| sin(w t + phase)
 
 
-def check_frequency_response(student, *, show: bool = True) -> Grade:
+def check_frequency_response(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 9.3: ``student(period_s, tau_s, weight)`` -> (|H|, arg H in rad), against
     :func:`measured_frequency_response` for 4 random two-mode filters at periods of 2-20 s
     (to 2e-3: the measurement's own accuracy)."""
@@ -150,6 +154,8 @@ def check_frequency_response(student, *, show: bool = True) -> Grade:
         measured_frequency_response,
         cases,
         show=show,
+        case=case,
+        checker=check_frequency_response,
         rtol=2e-3,
         atol=2e-3,
         hint="drive one mode's equation with a complex exponential of the period's angular frequency and look "

@@ -29,7 +29,7 @@ from lab.studies.baselines import fit_poly
 __all__ = ["check_revisit_floor", "check_held_out_sequences", "check_history_features", "fit_linear"]
 
 
-def check_revisit_floor(student, *, show: bool = True) -> Grade:
+def check_revisit_floor(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 10.1: ``student(u, y)`` -> the floor (m) from every pair of rows with identical
     commands, against :func:`revisit_floor` on 5 random data sets (6 motors, 12-60 rows) with
     planted repeats, one command sent three times."""
@@ -48,6 +48,8 @@ def check_revisit_floor(student, *, show: bool = True) -> Grade:
         revisit_floor,
         cases,
         show=show,
+        case=case,
+        checker=check_revisit_floor,
         hint="group the rows by their command first; every pair within a group counts once",
     )
 
@@ -78,7 +80,7 @@ def _sequences_case(rng: np.random.Generator) -> tuple:
     return u, y + 0.001 * rng.normal(size=y.shape), seq_ids, fit_linear
 
 
-def check_held_out_sequences(student, *, show: bool = True) -> Grade:
+def check_held_out_sequences(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 10.2: ``student(u, y, seq_ids, fit)`` -> the RMS 3-D distance (m) over all rows,
     each predicted by the model fitted without its sequence, against scikit-learn's
     ``LeaveOneGroupOut`` splits on 6 random data sets (2-6 motors, 3-6 sequences)."""
@@ -89,12 +91,14 @@ def check_held_out_sequences(student, *, show: bool = True) -> Grade:
         _held_out_by_sklearn,
         [_sequences_case(rng) for _ in range(6)],
         show=show,
+        case=case,
+        checker=check_held_out_sequences,
         hint="a row may be predicted only by a model that never saw any row of its sequence; "
         "pool every held-out row's squared 3-D distance before the mean and the root",
     )
 
 
-def check_history_features(student, *, show: bool = True) -> Grade:
+def check_history_features(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 10.3: ``student(u, seq_ids, k)`` -> (N, m (k+1)) columns [u_t, ..., u_{t-k}]
     within each sequence, against :func:`history_features` on 6 random cases (1-5 sequences,
     1-6 motors, k = 0-3)."""
@@ -110,5 +114,7 @@ def check_history_features(student, *, show: bool = True) -> Grade:
         history_features,
         cases,
         show=show,
+        case=case,
+        checker=check_history_features,
         hint="for each row, find where its sequence started; a step back never goes past that row",
     )

@@ -45,7 +45,7 @@ def _radius_by_mesh(profile_m, x_m) -> np.ndarray:
     return r[np.round(np.atleast_1d(x_m) / L * n).astype(int)]  # the cases' x sit on the layers
 
 
-def check_radius_profile(student, *, show: bool = True) -> Grade:
+def check_radius_profile(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 11.1: ``student(profile_m, x_m)`` -> radii (P,) m at ``x_m`` (P,) m of the
     piecewise-linear profile ``profile_m`` (S, 2) [x, r] m, against the outermost nodes of
     :func:`~lab.fem.bodies.tapered_mesh` on 5 random profiles (2-5 stations), the stations
@@ -67,6 +67,8 @@ def check_radius_profile(student, *, show: bool = True) -> Grade:
         atol=1e-12,
         hint="find the two stations around each x and interpolate the radius linearly between them",
         show=show,
+        case=case,
+        checker=check_radius_profile,
     )
 
 
@@ -93,7 +95,7 @@ def _stalk_case(rng: np.random.Generator) -> tuple:
     return X_nodes, x_nodes, X_a, P
 
 
-def check_stalk_marker(student, *, show: bool = True) -> Grade:
+def check_stalk_marker(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 11.3: ``student(X_nodes, x_nodes, X_a, P)`` -> (3,) m, the marker on a stalk
     at rest point ``P`` moved with the least-squares affine motion x ~ c + F (X - X_a) of the
     nodes (rest ``X_nodes`` (n, 3) m, deformed ``x_nodes`` (n, 3) m) about ``X_a`` (3,) m,
@@ -110,6 +112,8 @@ def check_stalk_marker(student, *, show: bool = True) -> Grade:
         hint="fit the 12 numbers of c and F to all the nodes at once (a linear least-squares problem); "
         "the marker is then c + F (P - X_a)",
         show=show,
+        case=case,
+        checker=check_stalk_marker,
     )
 
 
@@ -117,7 +121,7 @@ def _spring_tension(L_m, L0_m, r_m, u_rad, k_n_m, eps_m):
     return spring(L_m - (L0_m - r_m * u_rad), k_n_m, eps_m)[1]
 
 
-def check_cable_tension(student, *, show: bool = True) -> Grade:
+def check_cable_tension(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 11.2: ``student(L_m, L0_m, r_m, u_rad, k_n_m, eps_m)`` -> tensions (P,) N of
     angle-controlled cables of lengths ``L_m`` (P,) m, rest length ``L0_m`` m, spool radius
     ``r_m`` m at angles ``u_rad`` (P,) rad, against the description's one-sided spring
@@ -140,4 +144,6 @@ def check_cable_tension(student, *, show: bool = True) -> Grade:
         atol=1e-12,
         hint="the free length is L0 - r u; the stretch is L minus it; three pieces: slack, the smoothing band, taut",
         show=show,
+        case=case,
+        checker=check_cable_tension,
     )

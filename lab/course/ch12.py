@@ -70,7 +70,7 @@ def _surfaces(rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
     return cases
 
 
-def check_enclosed_volume(student, *, show: bool = True) -> Grade:
+def check_enclosed_volume(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 12.1: ``student(x_W, triangles)`` -> the signed volume (float, m^3) a closed
     triangle surface encloses, positive when the triangles (T, 3) are wound with normals
     into the cavity, against :func:`~lab.fem.actuators.chamber_surfaces.cavity_volume` on 9
@@ -87,6 +87,8 @@ def check_enclosed_volume(student, *, show: bool = True) -> Grade:
         hint="cut the enclosed solid into tetrahedra that share one apex and add their signed volumes; then "
         "check the sign against the winding: which way does a triangle's normal point for a positive volume?",
         show=show,
+        case=case,
+        checker=check_enclosed_volume,
     )
 
 
@@ -105,7 +107,7 @@ def _gradient_by_differences(x_W, triangles) -> np.ndarray:
     return g
 
 
-def check_volume_gradient(student, *, show: bool = True) -> Grade:
+def check_volume_gradient(student, *, case: int | None = None, show: bool = True) -> Grade:
     """Exercise 12.2: ``student(x_W, triangles)`` -> dV/dx (N, 3) m^2, the derivative of the
     enclosed volume with respect to every node's position (zero rows for nodes on no
     triangle), against central differences of
@@ -121,4 +123,6 @@ def check_volume_gradient(student, *, show: bool = True) -> Grade:
         hint="each triangle's term is linear in each of its three vertices: differentiate it with respect to "
         "one vertex, then add every triangle's contribution into the rows of its nodes",
         show=show,
+        case=case,
+        checker=check_volume_gradient,
     )

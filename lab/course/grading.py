@@ -2,21 +2,30 @@
 
 :func:`grade` calls the student's function and the reference on every case (random
 inputs the chapter's checker module draws), compares the results to a tolerance and
-shows one result, once: green "passed", red "FAILED" with what differs and the failing
-case's inputs (shapes and a few values), or "not implemented yet". In JupyterLab the
-result is HTML; elsewhere (papermill's text, a terminal) it is one plain line. A grader
-never raises, so the rest of the chapter runs either way.
+shows one result, once: green "passed", red "FAILED" or "not implemented yet". A failure
+says where the result differs in words ("row 2, column 1 of the 2nd returned value is 5,
+expected 4"), the call that runs that case alone (``check_x(f, case=2)``: every checker
+passes its ``case=`` on) and the case's inputs as Python to paste (:mod:`lab.course.failures`).
+In JupyterLab the result is HTML; elsewhere (papermill's text, a terminal) it is plain
+text. A grader never raises (but for a ``case=`` that names no case), so the rest of the
+chapter runs either way.
 
 The references and the cases live in ``lab.course`` (one checker module per chapter), not
 in a visible notebook cell: a grader cell calls its checker, it never spells the answer.
+A checker builds all its cases every time, from its own seed, so case k of a rerun is case
+k of the full check.
 """
 
 from __future__ import annotations
 
 import html
+import operator
 from collections.abc import Callable, Iterable
 
 import numpy as np
+
+from lab.course.failures import describe_inputs, function_name, inputs_text, rerun_call, where_differs
+from lab.errors import InputError
 
 __all__ = ["grade", "Grade", "NOT_IMPLEMENTED", "describe_inputs"]
 
@@ -34,16 +43,24 @@ class Grade(str):
     status : str
         "passed", "failed" or "todo".
     details : str
-        The failing case's inputs, or "".
+        How to rerun the failing case and its inputs, or "".
+    case : int or None
+        The failing case, counted from 1 (None unless it failed).
+    inputs : tuple or None
+        The failing case's arguments, all of them: ``f(*result.inputs)`` calls the
+        student's function ``f`` on that case (None unless it failed).
     """
 
     status: str
     details: str
+    case: int | None
+    inputs: tuple | None
     _shown: bool
 
-    def __new__(cls, line: str, status: str, details: str = ""):
+    def __new__(cls, line: str, status: str, details: str = "", *, case: int | None = None, inputs=None):
         self = super().__new__(cls, line)
         self.status, self.details, self._shown = status, details, False
+        self.case, self.inputs = case, inputs
         return self
 
     def _repr_html_(self) -> str:
@@ -76,59 +93,18 @@ class Grade(str):
             self.show()
 
 
-def _value(x) -> str:
-    if isinstance(x, (str, bytes, bool, int, float, np.generic)) or x is None:
-        return repr(x.item() if isinstance(x, np.generic) else x)
-    if isinstance(x, (tuple, list)) and len(x) <= 4 and all(np.isscalar(v) for v in x):
-        return repr(type(x)(v.item() if isinstance(v, np.generic) else v for v in x))
+def _chosen(case, n: int, checker: Callable | None) -> list[int]:
+    """The cases to run, counted from 0: all, or the one ``case`` (counted from 1) names."""
+    if case is None:
+        return list(range(n))
+    who = f"{checker.__name__} has" if checker is not None else "there are"
     try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        return f"a {type(x).__name__}"
-    flat = a.ravel()
-    few = ", ".join(f"{v:.4g}" for v in flat[:4]) + (", …" if flat.size > 4 else "")
-    return f"array {a.shape} [{few}]"
-
-
-def describe_inputs(args: tuple, names: Iterable[str] = ()) -> str:
-    """The inputs of one case, one per line: name (or position), then the value, or the
-    shape and first values of an array."""
-    names = list(names)
-    return "\n".join(f"{names[k] if k < len(names) else f'argument {k + 1}'}: {_value(a)}" for k, a in enumerate(args))
-
-
-def _compare(got, want, rtol: float, atol: float) -> str | None:
-    """None if ``got`` matches ``want`` (arrays, numbers or tuples of them), else what differs."""
-    if isinstance(want, tuple):
-        if not isinstance(got, tuple) or len(got) != len(want):
-            return f"expected a tuple of {len(want)} values, got {type(got).__name__}"
-        for k, (g, w) in enumerate(zip(got, want)):
-            if (why := _compare(g, w, rtol, atol)) is not None:
-                return f"item {k}: {why}"
-        return None
-    try:
-        g = np.asarray(got, dtype=float)
-    except (TypeError, ValueError):
-        return f"expected numbers, got {type(got).__name__}"
-    w = np.asarray(want, dtype=float)
-    if g.shape != w.shape:
-        return f"shape {g.shape}, expected {w.shape}"
-    err = np.abs(g - w)
-    tol = atol + rtol * np.abs(w)
-    if not np.all(np.isfinite(g)) or np.any(err > tol):
-        excess = np.where(np.isfinite(err), err - tol, np.inf)
-        i = np.unravel_index(int(np.argmax(excess)), err.shape) if err.ndim else ()
-        return f"at index {tuple(int(k) for k in i)}: {g[i]:.6g} instead of {w[i]:.6g}"
-    return None
-
-
-def _arg_names(fn: Callable) -> list[str]:
-    import inspect
-
-    try:
-        return list(inspect.signature(fn).parameters)
-    except (TypeError, ValueError):
-        return []
+        k = operator.index(case) if not isinstance(case, bool) else None
+    except TypeError:
+        k = None
+    if k is None or not 1 <= k <= n:
+        raise InputError(f"case must be a whole number from 1 to {n} ({who} {n} cases), got {case!r}")
+    return [k - 1]
 
 
 def grade(
@@ -141,6 +117,9 @@ def grade(
     atol: float = 1e-10,
     hint: str = "",
     show: bool = True,
+    case: int | None = None,
+    checker: Callable | None = None,
+    given: Callable | None = None,
 ) -> Grade:
     """Check ``student(*args)`` against ``reference(*args)`` for every ``args`` in ``cases``.
 
@@ -158,17 +137,32 @@ def grade(
         Shown after a wrong result (not after an exception): the idea, never the answer.
     show : bool
         Show the result (once); off for a caller that collects results.
+    case : int, optional
+        Run only this case, counted from 1 (what a failure's rerun line passes).
+    checker : callable, optional
+        The ``check_*`` function that calls this (and is running): a failure names the call
+        that reruns the case, ``checker(..., case=k)``.
+    given : callable, optional
+        The student's function as given to ``checker``, where ``student`` wraps it: it names
+        the inputs and the call in a failure. Default: ``student``.
 
     Returns
     -------
     Grade
-        "passed", "FAILED ..." (which case, what differs, its inputs) or
-        "not implemented yet". Never raises.
+        "passed", "FAILED ..." (which case, where it differs, how to rerun it and its
+        inputs as code) or "not implemented yet". Never raises but for a bad ``case``.
+
+    Raises
+    ------
+    InputError
+        ``case`` is not a whole number from 1 to the number of cases.
     """
     cases = list(cases)
-    names = _arg_names(student)
+    given = student if given is None else given
     result = None
-    for k, args in enumerate(cases):
+    for k in _chosen(case, len(cases), checker):
+        args, why = cases[k], None
+        kept = tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)  # as given, if changed
         try:
             got = student(*args)
         except NotImplementedError:
@@ -176,16 +170,20 @@ def grade(
             result = Grade(line, "todo")
             break
         except Exception as err:  # noqa: BLE001 - a student's bug is reported, not raised
-            line = f"exercise '{name}': FAILED on case {k + 1} of {len(cases)}: {type(err).__name__}: {err}"
-            result = Grade(line, "failed", "inputs of that case:\n" + describe_inputs(args, names))
-            break
-        why = _compare(got, reference(*args), rtol, atol)
+            why = f"{type(err).__name__}: {err}"
+        else:
+            why = where_differs(got, reference(*args), rtol, atol)
+            why = None if why is None else why + (f". Hint: {hint}" if hint else "")
         if why is not None:
             line = f"exercise '{name}': FAILED on case {k + 1} of {len(cases)}: {why}"
-            line += f". Hint: {hint}" if hint else ""
-            result = Grade(line, "failed", "inputs of that case:\n" + describe_inputs(args, names))
+            rerun, called = rerun_call(checker, given, k + 1) if checker is not None else ("", "")
+            called = called or function_name(given)
+            details = (f"To rerun it: {rerun}\n" if rerun else "") + inputs_text(kept, given, student, rerun, called)
+            result = Grade(line, "failed", details, case=k + 1, inputs=kept)
             break
-    if result is None:
+    if result is None and case is not None:
+        result = Grade(f"exercise '{name}': case {k + 1} of {len(cases)} passed", "passed")
+    elif result is None:
         result = Grade(f"exercise '{name}': passed ({len(cases)} random cases)", "passed")
     if show:
         result.show()
