@@ -9,26 +9,30 @@ where that time goes (a second, instrumented run of the same walk), and the targ
 of issue 2: 308-point grid < 60 s, >= 15,000 six-cable samples < 30 min.
 """
 
-import argparse
 import os
-import time
 
-import numpy as np
-from timing import best_of
+for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):  # one BLAS/MKL thread per
+    os.environ.setdefault(_var, "1")  # process, also when the caller's shell does not set it
 
-import lab.data.simulation
-import lab.fem.model
-import lab.fem.solve.linsolve
-import lab.fem.solve.statics
-import lab.fem.solve.steps
-import lab.fem.solve.warmstart
-from lab.data.chunks import grid_chunks
-from lab.data.designs import grid_commands
-from lab.data.simulation import default_jobs, simulate
-from lab.description import load_robot
-from lab.fem.model import ArmFEM
-from lab.fem.solve.linsolve import _available, factorize
-from lab.fem.solve.statics import solve_static
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from timing import best_of  # noqa: E402
+
+import lab.data.simulation  # noqa: E402
+import lab.fem.model  # noqa: E402
+import lab.fem.solve.linsolve  # noqa: E402
+import lab.fem.solve.statics  # noqa: E402
+import lab.fem.solve.steps  # noqa: E402
+import lab.fem.solve.warmstart  # noqa: E402
+from lab.data.chunks import grid_chunks  # noqa: E402
+from lab.data.designs import grid_commands  # noqa: E402
+from lab.data.simulation import default_jobs, simulate  # noqa: E402
+from lab.description import load_robot  # noqa: E402
+from lab.fem.model import ArmFEM  # noqa: E402
+from lab.fem.solve.linsolve import _available, factorize  # noqa: E402
+from lab.fem.solve.statics import solve_static  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--six-full", action="store_true", help="simulate the full six-cable 5-level grid")
