@@ -88,7 +88,7 @@ def main(argv=None) -> int:
         "command: python benchmarks/bench_chapter_load.py "
         + shlex.join(["--load", str(args.load), "--chapters", *args.chapters]),  # fmt: skip
         f"load average before the first run: {before[0]:.1f}/{before[1]:.1f}/{before[2]:.1f}; "
-        f"loaded runs: {args.load} CPU-bound process(es) beside the chapter",
+        f"idle runs: nothing of ours beside the chapter; loaded runs: {args.load} CPU-bound process(es) beside it",
         f"{'chapter':<32} {'idle s':>8} {'loaded s':>9} {'ratio':>6}   load average at the end (idle, loaded)",
     ]
     print("\n".join(lines), flush=True)
@@ -108,9 +108,11 @@ def main(argv=None) -> int:
         rows.append({"chapter": nb.name, "quick_idle_s": idle, "quick_loaded_s": loaded, "ratio": f"{ratio:.2f}",
                      "load": args.load, "date": today, "machine": machine})  # fmt: skip
     ratios = sorted(float(r["ratio"]) for r in rows)
+    csv_path = args.csv.resolve()
+    shown = csv_path.relative_to(ROOT) if csv_path.is_relative_to(ROOT) else csv_path
     lines.append(
         f"ratio loaded/idle: median {statistics.median(ratios):.2f}, range {ratios[0]:.2f}-{ratios[-1]:.2f} "
-        f"over {len(ratios)} chapter(s) -> {args.csv}"
+        f"over {len(ratios)} chapter(s) -> {shown}"
     )
     print(lines[-1])
     write_load_times(args.csv, rows)
