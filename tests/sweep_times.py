@@ -6,6 +6,9 @@ Every case's folder holds a course of one chapter (``nb/01_a.ipynb``), its measu
 of the chapter as scripts/reproduce leaves it (``01_a.ipynb`` with ``01_a.ipynb.time``).
 A file that is not a chapter-times CSV is never overwritten, a measured time in the README
 is never replaced by a dash, and a bad number names its file, line and column; no traceback.
+The line under the table on a busy machine comes from ``--load-times`` (default
+``benchmarks/chapter_load.csv``, relative to the case's folder: left out when missing); a
+bad file there is refused the same way, before the README is touched.
 """
 
 from pathlib import Path
@@ -13,6 +16,12 @@ from pathlib import Path
 from sweep import Case
 
 TIMES = "chapter,quick_s,full_s,full_date,full_machine,full_load,full_jobs\n01_a.ipynb,,30.0,2026-01-01,2 CPUs,1.0,2\n"
+#: Two chapters' quick runs alone and beside two CPU-bound processes (benchmarks/bench_chapter_load.py).
+LOAD = (
+    "chapter,quick_idle_s,quick_loaded_s,ratio,load,date,machine\n"
+    '03_c.ipynb,10.0,20.0,2.00,2,2026-01-02,"2 CPUs, Test CPU"\n'
+    '04_d.ipynb,10.0,30.0,3.00,2,2026-01-02,"2 CPUs, Test CPU"\n'
+)
 RECORD = ["record-times", "--jobs", "1", "{dir}/01_a.ipynb"]
 WRITE = ["chapter-times", "--notebooks", "{dir}/nb", "--write", "{dir}/README.md"]
 KEPT = ("{dir}/README.md", "{dir}/times.csv", "{dir}/01_a.ipynb", "{dir}/01_a.ipynb.time")
@@ -34,9 +43,21 @@ def _with(name: str, content: str | bytes):
     def setup(d: Path):
         _course(d)
         path = d / name
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(content) if isinstance(content, bytes) else path.write_text(content)
 
     return setup
+
+
+def _says(*words: str):
+    """The README's table keeps its time and has the load line with these words (none: no line)."""
+
+    def after(d: Path) -> None:
+        text = (d / "README.md").read_text()
+        assert "| `01_a.ipynb` | – | 30 s |" in text, text
+        assert ("Under load:" in text) == bool(words) and all(w in text for w in words), text
+
+    return after
 
 
 def _recorded(d: Path) -> None:
@@ -212,6 +233,106 @@ CASES = [
         ("times.csv, line 3: 2 fields where its header has 7",),
         KEPT,
         setup=_with("times.csv", TIMES + "02_b.ipynb,1\n"),
+    ),  # fmt: skip
+    # --- the line under the table: how much a busy machine stretched the quick runs ---------
+    Case(
+        "times-write-load-times",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        0,
+        ("README.md: rewritten",),
+        ("{dir}/times.csv", "{dir}/load.csv"),
+        setup=_with("load.csv", LOAD),
+        after=_says("with 2 other CPU-bound processes running beside it, a quick run took 2.5× as long", "load.csv`"),
+    ),  # fmt: skip
+    Case(
+        "times-write-default-load-times",
+        [*WRITE, "--times", "{dir}/times.csv"],
+        0,
+        ("README.md: rewritten",),
+        ("{dir}/times.csv", "{dir}/benchmarks/chapter_load.csv"),
+        setup=_with("benchmarks/chapter_load.csv", LOAD),
+        after=_says("(median of chapters 03 and 04; range 2.0–3.0×; 2026-01-02", "`benchmarks/chapter_load.csv`"),
+    ),  # fmt: skip
+    Case(
+        "times-write-no-load-times",
+        [*WRITE, "--times", "{dir}/times.csv"],
+        0,
+        ("README.md: up to date",),
+        KEPT,
+        setup=_course,
+        after=_says(),
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-missing",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        2,
+        ("load.csv: no such file (a chapter-load CSV",),
+        KEPT,
+        setup=_course,
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-a-folder",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/nb"],
+        2,
+        ("nb: a folder, not a chapter-load CSV",),
+        KEPT,
+        setup=_course,
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-binary",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/b.csv"],
+        2,
+        ("b.csv: not a chapter-load CSV", "not UTF-8 text"),
+        ("{dir}/b.csv", *KEPT),
+        setup=_with("b.csv", BINARY),
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-is-chapter-times",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/times.csv"],
+        2,
+        ("times.csv, line 1: not a chapter-load CSV", "its header must be chapter,quick_idle_s,"),
+        KEPT,
+        setup=_course,
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-bad-ratio",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        2,
+        ("load.csv, line 3, column ratio: '2.50' is not quick_loaded_s / quick_idle_s (3.00)",),
+        ("{dir}/load.csv", *KEPT),
+        setup=_with("load.csv", LOAD.replace("3.00", "2.50")),
+    ),  # fmt: skip
+    Case(
+        "times-print-load-times-not-a-number",
+        ["chapter-times", "--notebooks", "{dir}/nb", "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        2,
+        ("load.csv, line 2, column quick_loaded_s: 'slow' is not a finite number > 0",),
+        ("{dir}/load.csv", *KEPT),
+        setup=_with("load.csv", LOAD.replace("20.0", "slow")),
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-mixed-loads",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        2,
+        ("load.csv, line 3, column load: 4 where line 2 has 2", "one load per file"),
+        ("{dir}/load.csv", *KEPT),
+        setup=_with("load.csv", LOAD.replace("3.00,2,", "3.00,4,")),
+    ),  # fmt: skip
+    Case(
+        "times-write-default-load-times-bad",
+        [*WRITE, "--times", "{dir}/times.csv"],
+        2,
+        ("benchmarks/chapter_load.csv, line 2, column date: '02/01/2026' is not a date (YYYY-MM-DD)",),
+        ("{dir}/benchmarks/chapter_load.csv", *KEPT),
+        setup=_with("benchmarks/chapter_load.csv", LOAD.replace("2026-01-02", "02/01/2026", 1)),
+    ),  # fmt: skip
+    Case(
+        "times-write-load-times-header-only",
+        [*WRITE, "--times", "{dir}/times.csv", "--load-times", "{dir}/load.csv"],
+        2,
+        ("load.csv: no chapter measured",),
+        ("{dir}/load.csv", *KEPT),
+        setup=_with("load.csv", LOAD.splitlines()[0] + "\n"),
     ),  # fmt: skip
 ]
 TIMES_CASES = [Case(**{**c.__dict__, "module": "lab.course"}) for c in CASES]

@@ -3,9 +3,11 @@
     python -m lab.course student-edition [--notebooks DIR] [--out DIR]
         the student edition into build/student/, keeping the student's work
         (scripts/student-edition, scripts/jupyter --student)
-    python -m lab.course chapter-times [--write [FILE ...]]
+    python -m lab.course chapter-times [--write [FILE ...]] [--times CSV] [--load-times CSV]
         print the time-per-chapter table; --write rewrites the generated course text:
-        the tables in README.md and docs/course.md, chapter 00's syllabus (scripts/chapter-times)
+        the tables in README.md and docs/course.md, chapter 00's syllabus (scripts/chapter-times);
+        under the table, how much a busy machine stretched the quick runs, from --load-times
+        (default benchmarks/chapter_load.csv, left out when that file is missing)
     python -m lab.course record-times --jobs N [--times CSV] [--beside CSV] EXECUTED.ipynb ...
         add a run's chapter times to figures/chapter_times.csv (scripts/reproduce; a run of
         some chapters only writes build/chapter_times.partial.csv, beside the full run's)
@@ -38,6 +40,12 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--write", nargs="*", metavar="FILE", help=f"rewrite these (none named: {', '.join(GENERATED)})")
     t.add_argument("--times", default="figures/chapter_times.csv", help="the measured times")
     t.add_argument("--notebooks", default="notebooks", help="the chapters")
+    t.add_argument(
+        "--load-times",
+        metavar="CSV",
+        help="quick runs idle and under load, from benchmarks/bench_chapter_load.py (default: "
+        "benchmarks/chapter_load.csv, no line under the table when it is missing; a file named here must exist)",
+    )
     r = sub.add_parser("record-times", help="add a scripts/reproduce run's chapter times to the CSV")
     r.add_argument("executed", nargs="+", help="papermill's output notebooks (NAME.time beside each)")
     r.add_argument("--jobs", type=int, required=True, help="chapters run at a time")
@@ -46,7 +54,15 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _write_generated(files: list[str], notebooks: str, times: str) -> None:
+def _load_times(named: str | None) -> str:
+    """The chapter-load CSV: one named must exist and read; the default may be missing."""
+    from lab.course.load_times import LOAD_TIMES, load_sentence
+
+    load_sentence(named or LOAD_TIMES, must_exist=named is not None)  # a bad file is refused here
+    return named or LOAD_TIMES
+
+
+def _write_generated(files: list[str], notebooks: str, times: str, load_times: str | None) -> None:
     from lab.course.syllabus import write_syllabus
     from lab.course.times import read_times, write_times_block
 
@@ -55,8 +71,9 @@ def _write_generated(files: list[str], notebooks: str, times: str) -> None:
             raise InputError(f"{f}: no such file to write the course text into")
     if any(not f.endswith(".ipynb") for f in files or GENERATED):
         read_times(times, must_exist=True)  # a missing or bad CSV is refused before any file is written
+        load_times = _load_times(load_times)
     for f in files or GENERATED:
-        changed = write_syllabus(f) if f.endswith(".ipynb") else write_times_block(f, notebooks, times)
+        changed = write_syllabus(f) if f.endswith(".ipynb") else write_times_block(f, notebooks, times, load_times)
         print(f"{f}: {'rewritten' if changed else 'up to date'}", file=sys.stderr)
 
 
@@ -85,9 +102,9 @@ def main(argv: list[str] | None = None) -> int:
             from lab.course.times import times_markdown
 
             if args.write is None:
-                print(times_markdown(args.notebooks, args.times), end="")
+                print(times_markdown(args.notebooks, args.times, _load_times(args.load_times)), end="")
             else:
-                _write_generated(args.write, args.notebooks, args.times)
+                _write_generated(args.write, args.notebooks, args.times, args.load_times)
         else:
             _record(args.times, args.executed, args.jobs, args.beside)
     except LabError as e:

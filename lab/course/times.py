@@ -11,11 +11,12 @@ read 6 s for a chapter that took 24 s on a loaded machine).
 every chapter to ``figures/chapter_times.csv``, after a run of some to
 ``build/chapter_times.partial.csv``, beside it), and never overwrites a file that is not such
 a CSV; :func:`read_times` checks every number and names the file, line and column of a bad one;
-:func:`times_markdown` renders the table with a sentence on the machine and load;
-:func:`write_times_block` replaces it between ``<!-- chapter-times -->`` and
-``<!-- /chapter-times -->`` in the README and docs/course.md (``scripts/chapter-times
---write``; tests/test_student_path.py fails when they differ from the CSV), never replacing a
-measured time with a dash.
+:func:`times_markdown` renders the table with a sentence on the machine and load (and one on
+how much a busy machine stretched the quick runs, from ``benchmarks/chapter_load.csv``:
+:mod:`lab.course.load_times`); :func:`write_times_block` replaces it between
+``<!-- chapter-times -->`` and ``<!-- /chapter-times -->`` in the README and docs/course.md
+(``scripts/chapter-times --write``; tests/test_student_path.py fails when they differ from
+the CSVs), never replacing a measured time with a dash.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ import platform
 import re
 from pathlib import Path
 
+from lab.course.load_times import load_sentence
+from lab.course.load_times import text_of as _text
 from lab.errors import InputError
 from lab.files import atomic_write_text
 
@@ -52,16 +55,6 @@ def machine_name() -> str:
     except OSError:
         pass
     return f"{n} CPUs, {model}" if model else f"{n} CPUs"
-
-
-def _text(path: Path, what: str) -> str:
-    """The UTF-8 text of ``path``; an :class:`InputError` naming it when it is a folder or binary."""
-    if not path.is_file():
-        raise InputError(f"{path}: a folder, not {what}" if path.is_dir() else f"{path}: no such file ({what})")
-    try:
-        return path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not {what} (not UTF-8 text: byte {e.start} is {e.object[e.start]:#04x})") from None
 
 
 def _number(path: Path, line: int, column: str, text: str) -> None:
@@ -238,7 +231,7 @@ def _conditions(rows: list[dict], mode: str) -> str:
     return text + "."
 
 
-def times_markdown(notebooks: str | Path, times: str | Path) -> str:
+def times_markdown(notebooks: str | Path, times: str | Path, load_times: str | Path | None = None) -> str:
     """The time per chapter in quick and full mode, as Markdown.
 
     Parameters
@@ -247,6 +240,9 @@ def times_markdown(notebooks: str | Path, times: str | Path) -> str:
         The folder of the chapters (every ``NN_name.ipynb`` in it gets a row).
     times : str or pathlib.Path
         The CSV of measured times (s); it must exist.
+    load_times : str or pathlib.Path, optional
+        A chapter-load CSV (:mod:`lab.course.load_times`): a line on how much a busy machine
+        stretched the quick runs; a missing file, or None, gives no line.
 
     Returns
     -------
@@ -262,7 +258,8 @@ def times_markdown(notebooks: str | Path, times: str | Path) -> str:
         r = rows.get(name, dict.fromkeys(COLUMNS, ""))
         lines.append(f"| `{name}` | {_seconds(r['quick_s'])} | {_seconds(r['full_s'])} |")
     known = [rows[n] for n in names if n in rows]
-    return "\n".join([*lines, "", *(f"- {_conditions(known, m)}" for m in MODES)]) + "\n"
+    notes = [_conditions(known, m) for m in MODES] + ([load_sentence(load_times)] if load_times else [])
+    return "\n".join([*lines, "", *(f"- {n}" for n in notes if n)]) + "\n"
 
 
 def _cells(block: str) -> dict[tuple[str, str], str]:
@@ -273,16 +270,19 @@ def _cells(block: str) -> dict[tuple[str, str], str]:
     return out
 
 
-def write_times_block(path: str | Path, notebooks: str | Path, times: str | Path) -> bool:
+def write_times_block(
+    path: str | Path, notebooks: str | Path, times: str | Path, load_times: str | Path | None = None
+) -> bool:
     """Replace the text between ``<!-- chapter-times -->`` and ``<!-- /chapter-times -->`` in
-    the Markdown file ``path`` by :func:`times_markdown`; True when it changed. A measured time
-    in the file is never replaced by a dash: a CSV without it is refused (an InputError)."""
+    the Markdown file ``path`` by :func:`times_markdown` (same arguments); True when it changed.
+    A measured time in the file is never replaced by a dash: a CSV without it is refused (an
+    InputError)."""
     path = Path(path)
     text = _text(path, "a Markdown file")
     if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
         raise InputError(f"{path}: needs one {BEGIN} ... {END} block for the chapter times")
     head, rest = text.split(BEGIN)
-    table = times_markdown(notebooks, times)
+    table = times_markdown(notebooks, times, load_times)
     new_cells = _cells(table)
     old_cells = _cells(rest.split(END, 1)[0])
     lost = [f"{c} ({m} mode, {t})" for (c, m), t in old_cells.items() if t != "–" and new_cells.get((c, m)) == "–"]
