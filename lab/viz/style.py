@@ -164,13 +164,13 @@ def plain_log_ticks(ax, which: str = "both") -> None:
     Parameters
     ----------
     ax : matplotlib.axes.Axes
-        The axes (a linear axis of it is left alone).
+        The axes (its log and symlog axes get the formatter; a linear one is left alone).
     which : str, optional
         ``"x"``, ``"y"`` or ``"both"``.
     """
     axes = {"x": [ax.xaxis], "y": [ax.yaxis], "both": [ax.xaxis, ax.yaxis]}[which]
     for axis in axes:
-        if axis.get_scale() == "log":
+        if axis.get_scale() in ("log", "symlog"):
             axis.set_major_formatter(PlainLogFormatter())
             axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False, minor_thresholds=(1.2, 0.5)))
 

@@ -14,7 +14,7 @@ Drawn here rather than in the notebook so that a test checks what a student sees
 
 from __future__ import annotations
 
-from lab.viz.style import plain_log_ticks
+from lab.viz.style import LIMIT_STYLE, plain_log_ticks
 
 __all__ = ["plot_lm_training"]
 
@@ -56,7 +56,7 @@ def plot_lm_training(log, n_train: int, *, figsize=(11, 3.8)):
     ax_g.semilogy(hist["epoch"], hist["mu"], "s-", ms=3, label=r"$\mu$")
     min_grad = float(log.options.get("min_grad", 0.0))
     if min_grad > 0:
-        ax_g.axhline(min_grad, color="C3", ls="--", label=f"min_grad = {_short(min_grad)}")
+        ax_g.axhline(min_grad, **LIMIT_STYLE, label=f"min_grad = {_short(min_grad)}")
     ax_g.set(xlabel="epoch [1]", ylabel="gradient [m²], μ [1]", title="Levenberg–Marquardt state")
     ax_g.legend()
     for ax in (ax_p, ax_g):
