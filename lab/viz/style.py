@@ -149,7 +149,14 @@ class PlainLogFormatter(LogFormatter):
     """Log-axis tick labels as plain numbers (``0.02``, ``0.5``, ``20``, ``300``) between
     0.001 and 10,000; outside that, ``1e-05``. Which ticks get a label is
     :class:`matplotlib.ticker.LogFormatter`'s rule (decades; also 2, 3, 5 ... over a short
-    range)."""
+    range).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        Those of :class:`matplotlib.ticker.LogFormatter` (``labelOnlyBase``,
+        ``minor_thresholds``, ...).
+    """
 
     def _num_to_string(self, x, vmin, vmax):
         if 1e-3 <= x < 1e4:
