@@ -63,9 +63,16 @@ def plot_commands(ax, result, robot, legend: bool = True) -> None:
         ax.legend(fontsize=7, loc="upper right", ncol=len(robot.cables))
 
 
+def _is_loop(points) -> bool:
+    """Whether a path (N, 3) ends next to its start (a circle, a square), not a spiral or helix:
+    the gap about one of its steps (at most 1.1 of the median step)."""
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    return bool(len(points) > 2 and np.linalg.norm(points[-1] - points[0]) <= 1.1 * np.median(steps))
+
+
 def _plane(ax, result, a: int, b: int, label: bool = True) -> None:
     t, p = 100 * result.targets_W, 100 * result.achieved_W
-    closed = np.vstack([t, t[:1]]) if result.trajectory != "helix" else t
+    closed = np.vstack([t, t[:1]]) if result.trajectory != "helix" and _is_loop(t) else t
     ax.plot(closed[:, a], closed[:, b], "-", **target_kw(lw=2.5, label="target" if label else None))
     ax.plot(p[:, a], p[:, b], ".", **achieved_kw(ms=3.5, label="achieved" if label else None))
     ax.set_xlabel(f"{'xyz'[a]} [cm]")
