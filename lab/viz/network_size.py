@@ -15,10 +15,12 @@ import numpy as np
 
 from lab.viz.style import LIMIT_STYLE, MODEL_COLOR, legend_outside, paper_style, plain_log_ticks
 
-__all__ = ["RUN_SPREAD", "plot_network_size", "plot_stopping"]
+__all__ = ["RUN_SPREAD", "RUN_SPREAD_MAX", "plot_network_size", "plot_stopping"]
 
-#: The runs of one width spread over +- this fraction of the step to the nearer neighbouring width.
+#: The runs of one width spread over +- this fraction of the step to the nearer neighbouring
+#: width, and at most +- ``RUN_SPREAD_MAX`` neurons (a run stays next to its width).
 RUN_SPREAD = 0.3
+RUN_SPREAD_MAX = 1.5
 MEAN_COLOR = "#ff7f0e"
 QUANTITIES = ("mean", "median", "q25", "q75")
 MEAN_LABEL = "mean (the paper's statistic)"
@@ -67,7 +69,7 @@ def plot_network_size(panels: dict, *, w_cross=None, references=None, n_layers: 
         for j, w in enumerate(widths):
             gap = min(gaps[max(j - 1, 0)], gaps[min(j, len(gaps) - 1)])  # to the nearer neighbour
             mine = sorted((r for r in runs if r["width"] == w), key=lambda r: r["run"])
-            x = w + _offsets(len(mine), RUN_SPREAD * gap)
+            x = w + _offsets(len(mine), min(RUN_SPREAD * gap, RUN_SPREAD_MAX))
             y_mm = [1e3 * r["test_mean_distance_m"] for r in mine]
             text = f"each run ({len(mine)} per width, side by side)"
             handles.setdefault("runs", ax.scatter(x, y_mm, s=9, color="0.55", lw=0, zorder=2, label=text))
