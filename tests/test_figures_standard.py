@@ -201,7 +201,7 @@ CHECKS = (roles, log_ticks, units, legends, grids, counting, aspect, references)
 def check(fig) -> dict:
     """``{check: errors}`` of every check on ``fig``, drawn once (at a low resolution: the
     checks compare positions, not pixels)."""
-    fig.set_dpi(40)
+    fig.set_dpi(30)
     fig.canvas.draw()
     return {c.__name__: c(fig) for c in CHECKS}
 
