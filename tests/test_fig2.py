@@ -37,7 +37,9 @@ def test_figure2_has_a_panel_and_motor_bars_per_frame(coarse_fem, tmp_path):
     assert all(CommandSet.from_robot(robot).contains(u) for u in commands)
     fig = plot_square_frames(coarse_fem, targets, commands, n_frames=4, ncols=2, title="tiny")
     panels = [ax for ax in fig.axes if ax.name == "3d"]
-    assert [ax.get_title() for ax in panels] == [f"{k + 1}: target {i} of 8" for k, i in enumerate((0, 2, 4, 6))]
+    # frames and targets both counted from 1
+    titles = [f"frame {k + 1}: target {i + 1} of 8" for k, i in enumerate((0, 2, 4, 6))]
+    assert [ax.get_title() for ax in panels] == titles
     bars = [ax for ax in fig.axes if ax.name != "3d" and ax.patches]
     assert len(bars) == 4
     for ax, i in zip(bars, (0, 2, 4, 6)):
@@ -48,9 +50,15 @@ def test_figure2_has_a_panel_and_motor_bars_per_frame(coarse_fem, tmp_path):
     marker = [np.ravel(ln.get_data_3d()) for ln in panels[1].lines if ln.get_marker() == "o"]
     assert len(marker) == 1
     np.testing.assert_allclose(marker[0], 100 * tip, atol=1e-4)  # cm
-    strip = [ax for ax in fig.axes if ax.name != "3d" and not ax.patches]
+    strip = [ax for ax in fig.axes if ax.get_xlabel().startswith("target number")]
     assert len(strip) == 1 and len([ln for ln in strip[0].lines if len(ln.get_xdata()) == 8]) == robot.n_cables
-    assert fig.legends and "tiny" in fig._suptitle.get_text()
+    assert strip[0].get_xlim() == (1, 8)  # targets counted from 1
+    # the tracking face-on: every target of the square, each frame's target numbered
+    (front,) = [ax for ax in fig.axes if ax.get_xlabel() == "y [cm]"]
+    assert sorted(t.get_text() for t in front.texts) == ["1", "2", "3", "4"]
+    key = [ax.get_legend() for ax in fig.axes if not ax.axison and ax.get_legend() is not None]
+    assert len(key) == 1 and any(t.get_text().startswith("motor limit u_max") for t in key[0].get_texts())
+    assert "tiny" in fig._suptitle.get_text()
     path = tmp_path / "fig2_square.png"
     fig.savefig(path, dpi=60)
     assert path.stat().st_size > 10_000

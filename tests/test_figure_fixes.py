@@ -71,11 +71,11 @@ def test_figure2_tick_labels_legible_at_notebook_width(coarse_fem):
     targets = trajectories.builtin("square", 16)
     phase = np.linspace(0, 2 * np.pi, len(targets), endpoint=False)[:, None]
     commands = 1.2 + 0.8 * np.sin(phase + np.array([0.0, 2.1, 4.2]))
-    fig = plot_square_frames(coarse_fem, targets, commands)  # the default layout: 8 frames, 4 a row
+    fig = plot_square_frames(coarse_fem, targets, commands)  # the default layout: 4 frames, 2 a row
     fig.canvas.draw()
     width_in = fig.get_size_inches()[0]
     panels = [ax for ax in fig.axes if ax.name == "3d"]
-    assert len(panels) == 8
+    assert len(panels) == 4
     for ax in panels:
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
             sizes = [t.get_fontsize() for t in axis.get_ticklabels() if t.get_text()] + [axis.label.get_fontsize()]

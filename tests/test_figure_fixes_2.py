@@ -94,8 +94,8 @@ def test_capture_rate_tolerance_labels_do_not_overlap():
 @pytest.mark.parametrize("name", ["transfer_curve.csv", "transfer_curve_foam.csv"])
 def test_transfer_curve_legend_clear_of_the_data(name):
     fig, axes = plot_transfer_curve(read_curve(DATA / name))
-    legend = axes[0].get_legend()
-    assert "goal 0.25" in [t.get_text() for t in legend.get_texts()]  # the goal's label: a legend entry
+    (legend,) = fig.legends  # one legend, the figure's, beside the panels
+    assert "goal 0.25 cm" in [t.get_text() for t in legend.get_texts()]  # the goal's label: a legend entry
     assert not [t for t in axes[0].texts if t.get_text()]  # ... not a text in the margin
     _assert_legend_clear(fig, legend)
     plt.close(fig)
@@ -133,7 +133,7 @@ def _result(name: str, n: int | None = None, seed: int = 0) -> TrackResult:
 
 
 def _data_axes(fig):
-    return [ax for ax in fig.axes if ax.get_lines() and ax.get_xlabel() in ("y [cm]", "x [cm]", "target index")]
+    return [ax for ax in fig.axes if ax.get_lines() and ax.get_xlabel() in ("y [cm]", "x [cm]", "target number [1]")]
 
 
 def test_tracking_row_keys_sit_beside_the_data():

@@ -132,7 +132,7 @@ def test_figure_has_a_line_per_method_and_the_paper_references():
     ]
     rows += [_row(f"random:{k}", "sim-only", 0, 0.01) for k in range(2)]
     fig, axes = plot_transfer_curve(rows)
-    labels = [t.get_text() for t in axes[0].get_legend().get_texts()]
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert "finetune" in labels and "residual" in labels and any(t.startswith("sim data only") for t in labels)
     assert sum(t.startswith("paper:") for t in labels) == 3
     plt.close(fig)

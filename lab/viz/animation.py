@@ -5,8 +5,8 @@ the arm is built from rigid pieces whose transforms carry the deformation (frame
 metres): the foam body as a chain of scaled unit cylinders along the deformed centreline;
 each cable as one thin cylinder per segment, coloured by its motor command through
 ``n_color_levels`` copies whose visibility is animated; the tip marker (red sphere), the
-moving target (black sphere), the target path (black line) and the achieved tip path (pink
-line), as in Figure 5 of the paper.
+moving target (pink sphere), the target path (pink line) and the achieved tip path
+(near-black line), in the colours of every figure (:mod:`lab.viz.style`).
 
 :func:`animation_html` returns the page (meshcat's JavaScript embedded, no network needed);
 show it in a notebook with ``IPython.display.HTML(notebook_iframe(html))``. It costs about
@@ -32,8 +32,8 @@ from lab.viz.arm import (
     set_view,
 )
 
-TARGET_RGB = (0.0, 0.0, 0.0)
-ACHIEVED_RGB = (1.0, 0.41, 0.71)  # pink: the achieved path of Fig. 5
+TARGET_RGB = (0.890, 0.467, 0.761)  # lab.viz.style.TARGET_COLOR: pink, as in every figure
+ACHIEVED_RGB = (0.15, 0.15, 0.15)  # lab.viz.style.ACHIEVED_COLOR: near-black
 CABLE_RADIUS_M = 0.0012
 MARKER_RADIUS_M = 0.004
 
@@ -237,7 +237,7 @@ def animate_arm(
         over [0, u_max] (None: grey cables).
     targets_W : array_like, shape (T, 3), optional
         Adds a moving target sphere (m, world frame) and, with ``paths``, the target path
-        (black) and the achieved tip path (pink) as lines.
+        (pink) and the achieved tip path (near-black) as lines.
     fps : float, optional
         Frames per second.
     prefix : str, optional

@@ -384,6 +384,7 @@ def plot_arm_views(fem, q=None, u_motor=None, *, unit: str = "cm", u_max=None, f
     ):
         plot_arm(ax, fem, q, u_motor, unit=unit, dims=dims, u_max=u_max, geometry=geo)
         ax.set_title(title)
+    ax3.set_proj_type("ortho")  # no perspective: lengths compare across the view
     ax3.set_box_aspect((1, 1, 1), zoom=0.85)  # equal: plot_arm made the limits a cube
     ax3.locator_params(nbins=4)
     if u_motor is not None:

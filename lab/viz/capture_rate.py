@@ -73,7 +73,7 @@ def plot_capture_rate(rows, ax=None, *, after_learning: bool = True, goal_rate_p
     if goal_rate_per_hour:
         ax.axhline(goal_rate_per_hour, color="0.5", lw=0.8, ls=":", label=f"goal {goal_rate_per_hour:g} per hour")
     ax.set_xlabel("mean distance from the settled tip [mm]")
-    ax.set_ylabel("samples per hour of robot time" + (" (after learning)" if after_learning else ""))
+    ax.set_ylabel("samples per hour of robot time" + (" (after learning)" if after_learning else "") + " [1/h]")
     ax.set_title("capture protocols on emulated as-built robots (labels: tolerance, mm)", fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)

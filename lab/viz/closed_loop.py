@@ -1,5 +1,7 @@
 """Figure of the closed-loop chapter (09): tracking error per pass, open loop to corrected.
 
+:func:`plot_passes` draws the passes of one run in the plane of its shape (y-z, cm): the
+target pink, each pass's achieved tips in a colour of its own.
 :func:`plot_closed_loop` draws the mean error (cm, log axis) against the pass, one panel
 per correction mode, one line per (model, trajectory): colour by model, marker by
 trajectory; the chapter's goals (0.03 cm with the real-data model, 0.05 cm with the
@@ -11,9 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MODEL_COLORS", "TRAJECTORY_MARKERS", "plot_closed_loop"]
+from lab.viz.style import MODEL_COLOR, SERIES_COLORS, SIM_ONLY_COLOR, achieved_kw, plain_log_ticks, target_kw
 
-MODEL_COLORS = {"real": "C0", "sim": "C3"}
+__all__ = ["MODEL_COLORS", "TRAJECTORY_MARKERS", "plot_closed_loop", "plot_passes"]
+
+#: The real-data model blue (a model's colour), the sim-data model red (as sim-only in chapter 05).
+MODEL_COLORS = {"real": MODEL_COLOR, "sim": SIM_ONLY_COLOR}
 TRAJECTORY_MARKERS = {"circle": "o", "square": "s", "rose": "^", "helix": "D"}
 MODE_TITLES = {"ilc": "iterative learning control (whole passes)", "feedback": "per-target feedback (iterations)"}
 
@@ -71,10 +76,50 @@ def plot_closed_loop(rows, *, metric: str = "mean_error_m", figsize=(11, 4.2)):
         passes = sorted({r["pass"] for r in mine})
         ax.set_xticks(passes, ["0\n(open loop)" if p == 0 else str(p) for p in passes])
         ax.set_yscale("log")
-        ax.set_xlabel("pass" if mode == "ilc" else "iteration at each target")
+        plain_log_ticks(ax, "y")
+        ax.set_xlabel("pass [1]" if mode == "ilc" else "iteration at each target [1]")
         ax.set_title(MODE_TITLES.get(mode, mode), fontsize=10)
-        ax.grid(alpha=0.3, which="both")
+        ax.grid(alpha=0.3, which="major")
     what = "mean" if metric == "mean_error_m" else "max" if metric == "max_error_m" else metric
     axes[0, 0].set_ylabel(f"{what} distance from target [cm]")
     axes[0, 0].legend(fontsize=7, loc="upper right")
     return fig, np.ravel(axes)
+
+
+def plot_passes(doc: dict, ax=None, *, title: str = ""):
+    """The target (pink) and each pass's achieved tips of one closed-loop run, y-z in cm,
+    equal scales, the legend with each pass's mean error.
+
+    Parameters
+    ----------
+    doc : dict
+        A run as written by the closed-loop study: ``targets`` (N, 3) m and ``passes``, each
+        with ``pass``, ``achieved`` (N, 3) m and ``mean_error_m``.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (None: a new figure).
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.2, 4.8), layout="constrained")
+    target = 100 * np.asarray(doc["targets"], float)
+    ax.plot(target[:, 1], target[:, 2], "-", **target_kw(lw=2.0))
+    for i, p in enumerate(doc["passes"]):
+        tip = 100 * np.asarray(p["achieved"], float)
+        what = " (open loop)" if p["pass"] == 0 else ""
+        label = f"pass {p['pass']}{what}: mean {100 * p['mean_error_m']:.3f} cm"
+        ax.plot(
+            tip[:, 1], tip[:, 2], ".", **achieved_kw(ms=3, label=label, color=SERIES_COLORS[i % len(SERIES_COLORS)])
+        )
+    ax.set(xlabel="y [cm]", ylabel="z [cm]", aspect="equal")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="center")  # inside the closed shape: pinned, not "best"
+    ax.grid(True, alpha=0.3)
+    return ax

@@ -5,13 +5,16 @@ against the period (s) on log-log axes, one colour per robot, open loop dashed a
 feed-forward solid (rows of :mod:`lab.studies.period_curve`). :func:`plot_streamed_trajectory`
 draws a target shape with what the tip did over the last period of two streamed runs (track
 results of :mod:`lab.tracking.stream`, e.g. open loop and feed-forward at T = 5 s), in the
-plane of the shape (y-z, cm). Both put their legend beside the axes, never on the data:
-ten curves fill every corner of the period plot, and a closed shape every corner of its own.
+plane of the shape (y-z, cm). Both put their legend outside the axes, never on the data
+(ten curves fill every corner of the period plot, and a closed shape every corner of its
+own): beside the period plot, below the shape.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from lab.viz.style import SERIES_COLORS, achieved_kw, plain_log_ticks, target_kw
 
 __all__ = ["MODE_STYLES", "plot_period_curve", "plot_streamed_trajectory"]
 
@@ -71,6 +74,7 @@ def plot_period_curve(rows, ax=None, *, goal_ratio: float | None = 3.0, goal_per
             ax.plot(goal_period_s, 1e3 * open_at[0] / goal_ratio, marker="_", color=color, ms=16, mew=2)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    plain_log_ticks(ax)
     periods = sorted({float(r["period_s"]) for r in rows})
     ax.set_xticks(periods, [f"{p:g}" for p in periods])
     ax.minorticks_off()
@@ -104,8 +108,8 @@ def _doc(result):
 
 
 def plot_streamed_trajectory(results: dict, ax=None):
-    """Draws the first result's targets (black) and each result's measured tip over the
-    last period, y-z plane in cm.
+    """Draws the first result's targets (pink) and each result's measured tip over the
+    last period (one colour each, never the target's), y-z plane in cm.
 
     Parameters
     ----------
@@ -128,16 +132,18 @@ def plot_streamed_trajectory(results: dict, ax=None):
     first = next(iter(docs.values()))
     order = np.argsort(np.asarray(first.get("t_s", np.arange(len(first["targets"]))), float))
     target = 100 * np.asarray(first["targets"], float)[order]
-    ax.plot(target[:, 1], target[:, 2], "k-", lw=2.0, label="target")
+    ax.plot(target[:, 1], target[:, 2], "-", **target_kw(lw=2.0))
     for i, (label, doc) in enumerate(docs.items()):
         tip = 100 * np.asarray(doc["achieved"], float)
         err = 100 * float(doc["mean_error_m"])
-        ax.plot(tip[:, 1], tip[:, 2], ".", ms=2, color=f"C{i + 1}", label=f"{label} (mean {err:.2f} cm)")
+        kw = achieved_kw(ms=2, label=f"{label} (mean {err:.2f} cm)", color=SERIES_COLORS[i % len(SERIES_COLORS)])
+        ax.plot(tip[:, 1], tip[:, 2], ".", **kw)
     period = first.get("period_s")
     ax.set_title(f"streamed at T = {period:g} s: last period" if period else "streamed trajectory", fontsize=9)
     ax.set_xlabel("y [cm]")
     ax.set_ylabel("z [cm]")
     ax.set_aspect("equal")
-    _legend_beside(ax)
+    # below the axes: beside it, the legend would sit between this panel and a neighbour
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), borderaxespad=0.0, ncol=1)
     ax.grid(True, alpha=0.3)
     return ax

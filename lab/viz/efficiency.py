@@ -2,7 +2,7 @@
 
 :func:`plot_error_vs_n` draws, per sampling strategy, a metric of
 :mod:`lab.studies.data_curve` against the number of samples N on log-log axes (the mean
-over the rows of each N: several seeds or robots; the band spans their range), one
+over the rows of each N: several seeds or robots; a bar spans their range), one
 panel per (data set, metric). :func:`plot_calibration` draws the reliability curve of a
 predicted spread: the fraction of held-out errors within ``k`` predicted standard
 deviations against ``k``, next to the Gaussian's ``erf(k / sqrt 2)``.
@@ -12,25 +12,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.viz.style import GOAL_STYLE, STRATEGY_COLORS, legend_outside, mean_and_range, plain_log_ticks
+
 __all__ = ["STRATEGY_COLORS", "METRIC_LABELS", "plot_error_vs_n", "plot_calibration"]
 
-STRATEGY_COLORS = {
-    "grid": "C3",
-    "sobol": "C0",
-    "lhs": "C2",
-    "maximin": "C4",
-    "random": "C7",
-    "active": "C1",
-}
 METRIC_LABELS = {
     "model_error_m": "model error, held-out random commands [mm]",
-    "tracking_mean_m": "Table I tracking error, mean of 3 shapes [mm]",
+    "tracking_mean_m": "tracking error, Table I, mean of 3 shapes [mm]",
 }
 
 
 def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), *, goals=None, figsize=None):
     """One row of panels per data set, one column per metric: each strategy's mean over the
-    rows of each N against N, log-log, the band spanning their range.
+    rows of each N against N, log-log, a bar spanning their range (series dodged).
+
+    The strategies keep one colour and one legend order (:data:`STRATEGY_COLORS`) in every
+    panel; the one legend sits beside the panels. A panel whose data set lacks a strategy
+    that another one has says so in its title ("not run: active").
 
     Parameters
     ----------
@@ -39,7 +37,8 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
     metrics : sequence of str, optional
         The columns drawn, one per panel column.
     goals : dict, optional
-        ``{metric: (value_m, label)}`` drawn as horizontal lines.
+        ``{metric: value_m}`` (or ``{metric: (value_m, label)}``, the label unused) drawn as
+        horizontal lines, labelled in mm.
     figsize : tuple of float, optional
         Figure size (inches; default from the number of panels).
 
@@ -51,14 +50,19 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    goals = goals or {}
+    goals = {k: float(v[0] if isinstance(v, tuple) else v) for k, v in (goals or {}).items()}
     n_rows, n_cols = len(panels), len(metrics)
     fig, axes = plt.subplots(
-        n_rows, n_cols, figsize=figsize or (5.6 * n_cols, 3.9 * n_rows), layout="constrained", squeeze=False
+        n_rows, n_cols, figsize=figsize or (5.0 * n_cols + 1.8, 3.6 * n_rows), layout="constrained", squeeze=False
     )
+    seen = {r["strategy"] for rows in panels.values() for r in rows}
+    order = [s for s in STRATEGY_COLORS if s in seen] + sorted(seen - set(STRATEGY_COLORS))
+    handles: dict = {}
     for row_axes, (title, rows) in zip(axes, panels.items()):
+        missing = [s for s in order if s not in {r["strategy"] for r in rows}]
         for ax, metric in zip(row_axes, metrics):
-            for strategy in dict.fromkeys(r["strategy"] for r in rows):
+            shown = [s for s in order if any(r["strategy"] == s for r in rows)]
+            for k, strategy in enumerate(shown):
                 by_n: dict = {}
                 for r in rows:
                     v = float(r[metric])
@@ -66,27 +70,26 @@ def plot_error_vs_n(panels: dict, metrics=("model_error_m", "tracking_mean_m"), 
                         by_n.setdefault(int(r["n"]), []).append(1e3 * v)
                 if not by_n:
                     continue
-                ns = np.array(sorted(by_n))
-                vals = [np.array(by_n[n]) for n in ns]
+                ns = sorted(by_n)
                 color = STRATEGY_COLORS.get(strategy, "k")
-                ax.plot(ns, [v.mean() for v in vals], "o-", color=color, ms=4, lw=1.6, label=strategy)
-                if any(len(v) > 1 for v in vals):
-                    ax.fill_between(ns, [v.min() for v in vals], [v.max() for v in vals], color=color, alpha=0.12)
+                line = mean_and_range(ax, ns, [by_n[n] for n in ns], color=color, k=k, n=len(shown), label=strategy)
+                handles.setdefault(strategy, line)
             if metric in goals:
-                value_m, label = goals[metric]
-                ax.axhline(1e3 * value_m, color="k", ls="--", lw=0.9)
-                ax.text(1.01, 1e3 * value_m, label, fontsize=7, va="center", transform=ax.get_yaxis_transform())
+                mm = 1e3 * goals[metric]
+                what = METRIC_LABELS.get(metric, metric).split(",")[0]
+                handles.setdefault(f"goal {metric}", ax.axhline(mm, **GOAL_STYLE, label=f"goal, {what}: {mm:g} mm"))
             ax.set_xscale("log")
             ax.set_yscale("log")
+            plain_log_ticks(ax)
             # the Ns asked for (a grid's safe counts sit next to them and would overlap)
             ns_all = sorted({int(r["n"]) for r in rows if r["strategy"] != "grid"} or {int(r["n"]) for r in rows})
-            ax.set_xticks(ns_all, [str(n) for n in ns_all], fontsize=8)  # the Ns measured, not 10^k labels
+            ax.set_xticks(ns_all, [str(n) for n in ns_all])  # the Ns measured, not 10^k labels
             ax.xaxis.set_minor_formatter(NullFormatter())
-            ax.set_xlabel("samples N")
-            ax.set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=9)
-            ax.set_title(title, fontsize=10)
-            ax.grid(alpha=0.3, which="both")
-        row_axes[0].legend(fontsize=7, loc="upper right")
+            ax.set_xlabel("samples N [samples]")
+            ax.set_ylabel(METRIC_LABELS.get(metric, f"{metric.removesuffix('_m')} [mm]"), fontsize=9)
+            ax.set_title(title + (f" (not run: {', '.join(missing)})" if missing else ""), fontsize=10)
+            ax.grid(alpha=0.3, which="major")
+    legend_outside(fig, [handles[s] for s in order if s in handles] + [h for k, h in handles.items() if k not in order])
     return fig, axes
 
 
@@ -114,14 +117,14 @@ def plot_calibration(curves: dict, k_max: float = 3.0, *, ax=None):
     if ax is None:
         _, ax = plt.subplots(figsize=(5.2, 4.2), layout="constrained")
     k = np.linspace(0.0, k_max, 200)
-    ax.plot(k, erf(k / np.sqrt(2.0)), "k--", lw=1.2, label="Gaussian (calibrated)")
+    ax.plot(k, erf(k / np.sqrt(2.0)), "k--", lw=1.2, label="Gaussian (calibrated)", gid="reference")
     for (label, z), color in zip(curves.items(), ("C0", "C1", "C2", "C3", "C4")):
         z = np.sort(np.ravel(np.asarray(z, float)))
         ax.plot(k, np.searchsorted(z, k, side="right") / len(z), color=color, lw=1.8, label=label)
     for kk, p in ((1, 0.6827), (2, 0.9545)):
         ax.plot([kk], [p], "ko", ms=4)
-    ax.set_xlabel("k: error within k predicted standard deviations")
-    ax.set_ylabel("fraction of held-out errors")
+    ax.set_xlabel("k: error within k predicted standard deviations [std]")
+    ax.set_ylabel("fraction of held-out errors [1]")
     ax.set_xlim(0, k_max)
     ax.set_ylim(0, 1.01)
     ax.grid(alpha=0.3)

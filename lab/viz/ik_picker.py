@@ -11,7 +11,7 @@ tip while the motors move linearly from the previous command to the new one.
 :meth:`IKPicker.update` is plain Python (tests call it headless); :meth:`IKPicker.widget`
 wraps it in x/y/z sliders (cm) and a drop-down of trajectory points, or prints why it
 cannot (no ipywidgets, or run by papermill) and shows the last static figure. In an
-interactive front end the arm, the target (black), the model's tip (blue), its path and the
+interactive front end the arm, the target (pink), the model's tip (blue), its path and the
 trajectory's points move in this kernel's live meshcat viewer (:mod:`lab.viz.live`). The
 drop-down shows "custom target" as soon as a slider moves the target off a trajectory point.
 """
@@ -27,7 +27,7 @@ from lab.errors import InputError
 from lab.viz.arm import TIP_RGB
 from lab.viz.live import front_end_available
 from lab.viz.sliders import figure_png, fixed_width_slider
-from lab.viz.tracking import CABLE_COLORS, TARGET_COLOR
+from lab.viz.style import CABLE_COLORS, TARGET_COLOR
 
 __all__ = ["IKPicker", "front_end_available", "CUSTOM_TARGET"]
 
@@ -229,7 +229,7 @@ class IKPicker:
         g, root = _meshcat().geometry, viewer.vis["picker"]
         root.delete()
         arm = None if self.explorer is None else LiveArm(viewer.vis, self.explorer.fem, prefix="picker/arm")
-        for name, rgb in (("target", TARGET_RGB), ("model_tip", to_rgb(PREDICTED_COLOR))):  # black as in Fig. 5
+        for name, rgb in (("target", TARGET_RGB), ("model_tip", to_rgb(PREDICTED_COLOR))):  # pink: lab.viz.style
             root[name].set_object(g.Sphere(MARKER_RADIUS_M), g.MeshLambertMaterial(color=_hex(rgb)))
         if self.targets_W is not None:
             pts = np.ascontiguousarray(self.targets_W.T, np.float32)

@@ -15,6 +15,8 @@ import textwrap
 
 import numpy as np
 
+from lab.viz.style import plain_log_ticks
+
 __all__ = ["AXIS_COLORS", "plot_diagnostics"]
 
 #: colours of the x, y, z components
@@ -64,7 +66,7 @@ def _floor_panel(ax, f: dict) -> None:
     top = np.quantile(per_row, 0.97) if len(per_row) else 1.0
     ax.set_ylim(0, 1.15 * max(top, 1e3 * (f.get("floor_m") or 0)))
     ax.set_xlim(left=-0.01)
-    ax.set_xlabel("command distance d (each motor scaled to its range)")
+    ax.set_xlabel("command distance d (each motor scaled to its range) [1]")
     ax.set_ylabel("tip difference per row |y_i - y_j| / sqrt 2 [mm]")
     ax.set_title(
         f"repeatability floor {_mm(f.get('floor_m'))} mm; {f['n_pairs']} pairs, {f['n_exact_pairs']} exact", fontsize=9
@@ -114,7 +116,7 @@ def _drift_panel(ax, d: dict) -> None:
     if rate is not None and d.get("row_index_r2_from_command", 0) > 0.5:
         words += "\n(row order follows the commands: confounded)"
     ax.set_title(f"drift within sequences: {words}", fontsize=9)
-    ax.set_xlabel("row (measurement order); shading: alternate sequences")
+    ax.set_xlabel("row (measurement order; shading: alternate sequences) [1]")
     ax.set_ylabel(f"mean local-fit residual per block [mm] ({d['fit']})")
     ax.legend(fontsize=7, title="component", title_fontsize=7)
 
@@ -130,11 +132,12 @@ def _gap_panel(ax, d: dict) -> None:
     cx, rms = _binned(gap, dy, log=True)
     ax.plot(cx, rms, "s-", color="0.2", ms=4, label="bin RMS")
     ax.set_xscale("log")
+    plain_log_ticks(ax, "x")
     ax.set_ylim(0, 1.15 * np.quantile(dy, 0.97))
     slope = d.get("pairs_gap_m2_per_1000_rows")
     text = "-" if slope is None else f"{1e3 * slope:+.2g} mm^2 per row"
     ax.set_title(f"near pairs against the rows between them: |y_i - y_j|^2 rises {text}", fontsize=9)
-    ax.set_xlabel("rows between the pair (time)")
+    ax.set_xlabel("rows between the pair (time) [rows]")
     ax.set_ylabel("tip difference of the pair [mm]")
     ax.legend(fontsize=7, loc="upper left", markerscale=2)
 
@@ -166,7 +169,7 @@ def plot_diagnostics(report: dict, *, title: str = "", figsize=(12, 8.5)):
     _drift_panel(axes[1, 0], report["drift"])
     _gap_panel(axes[1, 1], report["drift"])
     for ax in axes.flat:
-        ax.grid(alpha=0.3, which="both")
+        ax.grid(alpha=0.3, which="major")
     o = report["outliers"]
     fig.suptitle(
         title

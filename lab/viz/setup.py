@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from lab.viz.arm import FOAM_RGB, TIP_RGB
-from lab.viz.tracking import CABLE_COLORS
+from lab.viz.style import CABLE_COLORS
 
 __all__ = ["SPOOL_SETBACK_M", "plot_setup", "setup_geometry"]
 

@@ -5,17 +5,24 @@ shown projected onto their plane, the y-z plane facing the arm (errors are still
 Motor commands are colour-coded per cable as in the paper's Figure 2: every cable has
 its own colour (:data:`CABLE_COLORS`, the same in every panel), used for its command
 curve ``u_c`` over the trajectory and for its position in a small cross-section key.
-Both functions take :class:`lab.tracking.track.TrackResult` objects and return the figure.
+Targets are pink and achieved tips near-black in every figure (:mod:`lab.viz.style`);
+targets are counted from 1 along a trajectory. The functions take
+:class:`lab.tracking.track.TrackResult` objects and return the figure.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-#: One colour per cable (cable i -> CABLE_COLORS[i % 6]); tab10's first six.
-CABLE_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
-TARGET_COLOR = "#e377c2"  # the paper draws targets in pink (Fig. 4)
-ACHIEVED_COLOR = "0.15"
+from lab.viz.style import (
+    ACHIEVED_COLOR,
+    CABLE_COLORS,
+    LIMIT_STYLE,
+    achieved_kw,
+    legend_outside,
+    target_kw,
+)
+
 KEY_PT = 9  # font size of the cable key and its names: legible at a notebook's width
 
 
@@ -39,22 +46,35 @@ def _cable_key(ax, robot) -> None:
 
 
 def plot_commands(ax, result, robot, legend: bool = True) -> None:
-    """Motor commands (rad) along the trajectory, one colour per cable, with u_max dashed."""
+    """Motor commands (rad) against the target number (from 1), one colour per cable, with
+    the motor limit u_max dashed and labelled."""
+    number = np.arange(1, len(result.commands) + 1)
     for i, c in enumerate(robot.cables):
-        ax.plot(result.commands[:, i], color=CABLE_COLORS[i % 6], lw=1.8, label=c.name)
-    ax.axhline(robot.u_max_rad, color="0.6", ls="--", lw=0.8)
-    ax.set_ylim(-0.1, 1.05 * robot.u_max_rad)
-    ax.set_xlabel("target index")
+        ax.plot(number, result.commands[:, i], color=CABLE_COLORS[i % 6], lw=1.8, label=c.name)
+    ax.axhline(robot.u_max_rad, **LIMIT_STYLE)
+    ax.annotate(
+        f"u_max {robot.u_max_rad:.3g} rad", (1.0, robot.u_max_rad), xycoords=("axes fraction", "data"),
+        xytext=(-2, 2), textcoords="offset points", ha="right", va="bottom", fontsize=8, color="0.4",
+    )  # fmt: skip
+    ax.set_ylim(-0.1, 1.12 * robot.u_max_rad)
+    ax.set_xlabel("target number [1]")
     ax.set_ylabel("motor command u [rad]")
     if legend:
         ax.legend(fontsize=7, loc="upper right", ncol=len(robot.cables))
 
 
+def _is_loop(points) -> bool:
+    """Whether a path (N, 3) ends next to its start (a circle, a square), not a spiral or helix:
+    the gap about one of its steps (at most 1.1 of the median step)."""
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    return bool(len(points) > 2 and np.linalg.norm(points[-1] - points[0]) <= 1.1 * np.median(steps))
+
+
 def _plane(ax, result, a: int, b: int, label: bool = True) -> None:
     t, p = 100 * result.targets_W, 100 * result.achieved_W
-    closed = np.vstack([t, t[:1]]) if result.trajectory != "helix" else t
-    ax.plot(closed[:, a], closed[:, b], "-", color=TARGET_COLOR, lw=2.5, label="target" if label else None)
-    ax.plot(p[:, a], p[:, b], ".", color=ACHIEVED_COLOR, ms=3.5, label="achieved" if label else None)
+    closed = np.vstack([t, t[:1]]) if result.trajectory != "helix" and _is_loop(t) else t
+    ax.plot(closed[:, a], closed[:, b], "-", **target_kw(lw=2.5, label="target" if label else None))
+    ax.plot(p[:, a], p[:, b], ".", **achieved_kw(ms=3.5, label="achieved" if label else None))
     ax.set_xlabel(f"{'xyz'[a]} [cm]")
     ax.set_ylabel(f"{'xyz'[b]} [cm]")
     ax.set_aspect("equal")
@@ -202,9 +222,10 @@ def plot_helix(result, robot, title: str = ""):
     grid = fig.add_gridspec(2, 3, height_ratios=(1.5, 1), width_ratios=(1.2, 1, 0.8))
     ax3 = fig.add_subplot(grid[0, 0], projection="3d")
     t, p = 100 * result.targets_W, 100 * result.achieved_W
-    ax3.plot(*t.T, color=TARGET_COLOR, lw=2.5, label="target")
-    ax3.plot(*p.T, ".", color=ACHIEVED_COLOR, ms=3, label="achieved")
+    ax3.plot(*t.T, **target_kw(lw=2.5))
+    ax3.plot(*p.T, ".", **achieved_kw(ms=3))
     _equal_3d(ax3, np.vstack([t, p]), zoom=0.85)
+    ax3.set_proj_type("ortho")
     _few_ticks(ax3, 4, steps=(1, 2, 5, 10))  # whole or even centimetres: 16, 18, 20
     ax3.view_init(elev=15, azim=-35)
     ax3.legend(fontsize=8, loc="upper left")
@@ -219,8 +240,8 @@ def plot_helix(result, robot, title: str = ""):
     _cable_key(fig.add_subplot(bottom[0, 0]), robot)  # beside the commands, not over them
     plot_commands(fig.add_subplot(bottom[0, 1]), result, robot, legend=False)
     ax_e = fig.add_subplot(grid[1, 2])
-    ax_e.plot(100 * result.errors_m, color=ACHIEVED_COLOR)
-    ax_e.set_xlabel("target index")
+    ax_e.plot(np.arange(1, len(result.errors_m) + 1), 100 * result.errors_m, color=ACHIEVED_COLOR)
+    ax_e.set_xlabel("target number [1]")
     ax_e.set_ylabel("error |achieved - target| [cm]")
     ax_e.set_title(f"mean {100 * result.mean_error_m:.4f} cm, max {100 * result.max_error_m:.4f} cm")
     ax_e.grid(alpha=0.3)
@@ -228,9 +249,10 @@ def plot_helix(result, robot, title: str = ""):
     return fig
 
 
-def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achieved_color: str = TARGET_COLOR):
-    """Figure 5: one 3-D panel per trajectory, target and achieved tip, centimetres, equal axis
-    scales; the panel title gives the mean and max 3-D error.
+def plot_paths_3d(results: dict, title: str = ""):
+    """Figure 5: per path, its front view (y-z, equal scales: a circle stays round) with the
+    target and the achieved tip, and under it the depth x of both along the path; cm. The
+    panel title gives the mean and max 3-D error.
 
     Parameters
     ----------
@@ -238,31 +260,34 @@ def plot_paths_3d(results: dict, title: str = "", target_color: str = "k", achie
         ``{name: TrackResult}``.
     title : str, optional
         The figure's title.
-    target_color, achieved_color : str, optional
-        Colours of the target (black) and the achieved tip (pink: the paper's for this figure).
 
     Returns
     -------
     matplotlib.figure.Figure
-        The figure.
+        The figure: a front view and a depth strip per path, one legend beside them.
     """
     import matplotlib.pyplot as plt
 
     n = len(results)
-    ncols = 2 if n == 4 else min(n, 3)  # four paths: a 2 x 2 grid of roomy panels
-    nrows = -(-n // ncols)
-    fig = plt.figure(figsize=(5.6 * ncols, 5.2 * nrows), layout="constrained")
+    fig = plt.figure(figsize=(3.4 * n + 1.6, 5.6), layout="constrained")
+    grid = fig.add_gridspec(2, n, height_ratios=(3.0, 1.0))
     for k, (name, res) in enumerate(results.items()):
-        ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d")
-        t, p = 100 * res.targets_W, 100 * res.achieved_W
-        ax.plot(*t.T, "-", color=target_color, lw=1.6, label="target")
-        ax.plot(*p.T, "-", color=achieved_color, lw=1.6, alpha=0.9, label="achieved")
-        _equal_3d(ax, np.vstack([t, p]), zoom=0.85)
-        _few_ticks(ax)
-        ax.view_init(elev=20, azim=-50)
-        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm, max {100 * res.max_error_m:.3f} cm", fontsize=9)
+        ax = fig.add_subplot(grid[0, k])
+        _plane(ax, res, 1, 2, label=k == 0)
+        ax.set_title(f"{name}: mean {100 * res.mean_error_m:.3f} cm,\nmax {100 * res.max_error_m:.3f} cm", fontsize=10)
+        depth = fig.add_subplot(grid[1, k])
+        number = np.arange(1, len(res.targets_W) + 1)
+        depth.plot(number, 100 * res.targets_W[:, 0], "-", **target_kw(lw=2.5))
+        depth.plot(number, 100 * res.achieved_W[:, 0], ".", **achieved_kw(ms=3))
+        x_cm = 100 * np.concatenate([res.targets_W[:, 0], res.achieved_W[:, 0]])
+        pad = max(0.5, 0.1 * np.ptp(x_cm))  # at least 1 cm shown: a flat path stays flat
+        depth.set_ylim(x_cm.min() - pad, x_cm.max() + pad)
+        depth.set_xlabel("target number [1]")
+        depth.set_ylabel("depth x [cm]")
+        depth.grid(alpha=0.3)
         if k == 0:
-            ax.legend(fontsize=8, loc="upper left")
+            handles = ax.get_lines()
+    legend_outside(fig, handles)
     if title:
         fig.suptitle(title)
     return fig

@@ -14,6 +14,8 @@ Drawn here rather than in the notebook so that a test checks what a student sees
 
 from __future__ import annotations
 
+from lab.viz.style import LIMIT_STYLE, plain_log_ticks
+
 __all__ = ["plot_lm_training"]
 
 SETS = (("perf", "training"), ("vperf", "validation"), ("tperf", "test"))
@@ -48,17 +50,18 @@ def plot_lm_training(log, n_train: int, *, figsize=(11, 3.8)):
         if len(hist.get(key, ())):
             ax_p.semilogy(hist["epoch"], hist[key], "o-", ms=3, label=label)
     ax_p.axvline(log.best_epoch, color="0.5", ls=":", label=f"best epoch ({log.best_epoch})")
-    ax_p.set(xlabel="epoch", ylabel="MSE [m²]", title="performance (MATLAB mse, metres)")
+    ax_p.set(xlabel="epoch [1]", ylabel="MSE [m²]", title="performance (MATLAB mse, metres)")
     ax_p.legend()
     ax_g.semilogy(hist["epoch"], hist["gradient"], "o-", ms=3, label=r"gradient $2\|J^\top e\|/N_e$")
     ax_g.semilogy(hist["epoch"], hist["mu"], "s-", ms=3, label=r"$\mu$")
     min_grad = float(log.options.get("min_grad", 0.0))
     if min_grad > 0:
-        ax_g.axhline(min_grad, color="C3", ls="--", label=f"min_grad = {_short(min_grad)}")
-    ax_g.set(xlabel="epoch", title="Levenberg–Marquardt state")
+        ax_g.axhline(min_grad, **LIMIT_STYLE, label=f"min_grad = {_short(min_grad)}")
+    ax_g.set(xlabel="epoch [1]", ylabel="gradient [m²], μ [1]", title="Levenberg–Marquardt state")
     ax_g.legend()
     for ax in (ax_p, ax_g):
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        plain_log_ticks(ax, "y")
     fig.suptitle(f"trainlm on {n_train} training samples: {STOP_MESSAGES.get(log.stop_reason, log.stop_reason)}")
     return fig, (ax_p, ax_g)
 
