@@ -19,7 +19,8 @@ a recorded copy keeps every figure the text refers to and stays small:
 * a representation over ``MAX_OUTPUT_BYTES`` (a self-contained 3-D scene: meshcat's JavaScript
   is about a megabyte) is dropped. If the output has a smaller image beside it (the still of
   :class:`lab.viz.SceneView`), that image is shown, with a line saying what was left out;
-  otherwise a line stands in for the whole output.
+  otherwise a line stands in for the whole output. A plot's PNG over the limit is first
+  re-encoded smaller (:func:`fitted_png`), so that no plot is lost to the rule.
 
 The exercises' solution cells show the reference solutions that ran (the graders' "passed"
 is theirs), folded on the site (MyST-NB's ``hide-input``) so that a reader working through
@@ -35,6 +36,8 @@ in the date of its note is not rewritten: a re-run with the same outputs changes
 from __future__ import annotations
 
 import argparse
+import base64
+import io
 import json
 import os
 import re
@@ -89,12 +92,37 @@ def _size(value) -> int:
     return len(_text(value).encode())
 
 
+def fitted_png(b64: str) -> str | None:
+    """The PNG ``b64`` (base64) re-encoded to fit :data:`MAX_OUTPUT_BYTES`: as a 256-colour
+    palette image, then halved in size until it fits; None if it never does, or if it is no
+    still PNG (an animated one is made to fit where it is drawn: lab.viz.stills)."""
+    from PIL import Image
+
+    try:
+        image = Image.open(io.BytesIO(base64.b64decode(b64)))
+        image.load()
+    except (OSError, ValueError):
+        return None
+    if getattr(image, "is_animated", False):
+        return None
+    image = image.convert("RGB")
+    while min(image.size) >= 100:
+        buf = io.BytesIO()
+        image.quantize(colors=256, dither=Image.Dither.NONE).save(buf, format="PNG", optimize=True)
+        fitted = base64.b64encode(buf.getvalue()).decode("ascii")
+        if len(fitted) <= MAX_OUTPUT_BYTES:
+            return fitted
+        image = image.resize((image.width // 2, image.height // 2), Image.Resampling.LANCZOS)
+    return None
+
+
 def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
     """The outputs for a recorded copy: without the first ``n_figures`` inline images (they
     duplicate the figures the cell saved), without kernel-only mime types, and without any
-    representation over :data:`MAX_OUTPUT_BYTES`; a widget or an output that lost its large
-    representation keeps what it has beside (an image) with a line saying what is left out,
-    or becomes that line if it has nothing but text."""
+    representation over :data:`MAX_OUTPUT_BYTES` (a PNG over it is first made to fit:
+    :func:`fitted_png`); a widget or an output that lost its large representation keeps what
+    it has beside (an image) with a line saying what is left out, or becomes that line if it
+    has nothing but text."""
     kept = []
     for out in outputs:
         data = out.get("data")
@@ -105,6 +133,8 @@ def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
             n_figures -= 1
             continue
         widget = any(k in data for k in KERNEL_ONLY)
+        if _size(data.get("image/png", "")) > MAX_OUTPUT_BYTES and (fitted := fitted_png(_text(data["image/png"]))):
+            data = {**data, "image/png": fitted}  # a large plot, made smaller: it stays
         large = {k: _size(v) for k, v in data.items() if k not in KERNEL_ONLY and _size(v) > MAX_OUTPUT_BYTES}
         data = {k: v for k, v in data.items() if k not in KERNEL_ONLY and k not in large}
         shown = any(k != "text/plain" for k in data)

@@ -105,6 +105,19 @@ def _code(cell_id, source, outputs, tags=()):
     return {**cell, "source": source, "outputs": outputs}
 
 
+def _noise_png():
+    """A PNG far over the size rule (base64): 500 x 500 pixels of noise."""
+    import base64
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.random.default_rng(0).integers(0, 256, (500, 500, 3), dtype=np.uint8)).save(buf, "PNG")
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
 #: A widget's view (needs a kernel) and its text.
 _WIDGET = {"application/vnd.jupyter.widget-view+json": {"model_id": "1"}, "text/plain": "VBox(children=(FloatSlider("}
 
@@ -139,6 +152,7 @@ def _executed(tmp_path):
             [_display({"text/html": big, "image/png": still})],
         ),
         _code("b", "plt.show()", [_image("B" * 300_000)]),
+        _code("n", "plt.imshow(noise)\nplt.show()", [_image(_noise_png())]),
     ]
     cells[3]["metadata"]["papermill"] = {"duration": 1.0}  # (a run's timing: dropped)
     meta = {"papermill": {"parameters": {"quick": False}, "start_time": "2026-11-26T10:00:00"}}
@@ -184,10 +198,11 @@ def test_recorded_copy_refers_to_saved_figures(tmp_path):
 
 
 def test_recorded_copy_keeps_every_image_the_text_refers_to(tmp_path):
-    """A plot a cell only shows keeps its image; a widget becomes the image it drew (or a line,
-    never its ``VBox(children=...)`` text); a 3-D scene too large to keep shows its still; an
-    exercise shows the reference solution the grader passed, folded; an output over the size
-    rule is a line saying so."""
+    """A plot a cell only shows keeps its image, made smaller if it is over the size rule; a
+    widget becomes the image it drew (or a line, never its ``VBox(children=...)`` text); a 3-D
+    scene too large to keep shows its still; an exercise shows the reference solution the
+    grader passed, folded; an output over the size rule with nothing smaller beside it is a
+    line saying so."""
     nb, cells, record = _recorded(tmp_path)
     assert _shown(cells["p"]["outputs"][0]) == ("image/png", "PLOT")  # plt.show(), nothing saved
     image, note = cells["w"]["outputs"]  # the sliders: their image, and a line on what is left out
@@ -204,10 +219,13 @@ def test_recorded_copy_keeps_every_image_the_text_refers_to(tmp_path):
     kinds = [_shown(o)[0] for o in cells["m"]["outputs"]]
     assert kinds == ["image/png", "text/markdown", "text/markdown"], kinds
     assert "anim.html" in _shown(cells["m"]["outputs"][-1])[1]
-    (only,) = cells["b"]["outputs"]  # an image over the rule (base64: 300 kB)
+    (only,) = cells["b"]["outputs"]  # an image over the rule (base64: 300 kB) that is no PNG
     assert "0.3 MB (image/png) is left out" in _shown(only)[1]
-    sizes = [len(json.dumps(o)) for c in nb["cells"] for o in c.get("outputs", [])]
-    assert max(sizes) < record.MAX_OUTPUT_BYTES
+    (plot,) = cells["n"]["outputs"]  # a real PNG over the rule (1 MB): made smaller, it stays
+    kind, png = _shown(plot)
+    assert kind == "image/png" and png.startswith("iVBOR") and len(png) <= record.MAX_OUTPUT_BYTES
+    sizes = [len(json.dumps(v)) for c in nb["cells"] for o in c.get("outputs", []) for v in o.get("data", {}).values()]
+    assert max(sizes) <= record.MAX_OUTPUT_BYTES + 2  # (its quotes)
     # the exercise: the reference solution that passed, folded (MyST-NB's hide-input), never a stub
     solution = cells["s"]
     assert "return 2 * x" in solution["source"] and "NotImplementedError" not in solution["source"]
