@@ -234,7 +234,7 @@ def recorded_copy(
         if cell["cell_type"] != "code":
             continue
         if SOLUTION_TAG in meta.get("tags", []):
-            meta["tags"] = [*meta["tags"], *SOLUTION_FOLD["tags"]]
+            meta["tags"] = [*meta["tags"], *(t for t in SOLUTION_FOLD["tags"] if t not in meta["tags"])]
             meta["mystnb"] = dict(SOLUTION_FOLD["mystnb"])
         figures = saved_figures(cell, figures_dir)
         n_images = sum(n.endswith(".png") for n in figures)  # (a page of its own is never an inline image)

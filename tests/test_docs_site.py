@@ -563,7 +563,7 @@ def test_widgets_and_3d_scenes_have_a_static_view(site):
     widgets = [c for c in cells if _SHOWS_A_WIDGET.search(c[2]["source"])]
     scenes = [c for c in cells if _SHOWS_A_SCENE.search(c[2]["source"])]
     names = {c[0].name[:2] for c in widgets}, {c[0].name[:2] for c in scenes}
-    assert names == ({"01", "04", "06"}, {"01", "06"}), f"chapters with widgets, with scenes: {names}"
+    assert names[0] >= {"01", "04", "06"} and names[1] >= {"01", "06"}, f"chapters with widgets, with scenes: {names}"
     missing = [_where(*c) for c in widgets + scenes if not c[2]["images"]]
     assert not missing, f"widgets or 3-D scenes with no image: {missing}"
     raw = [p.relative_to(site[0]).as_posix() for p in site[0].rglob("*.html") if "VBox(children=" in p.read_text()]
