@@ -583,13 +583,16 @@ def test_exercises_show_the_solution_their_grader_passed(site):
     assert not unfolded, f"reference solutions shown unfolded: {unfolded}"
 
 
-#: JavaScript: the blocks of the article whose right edge is past the article's (cut off).
-_PAST_THE_COLUMN = (
+#: JavaScript: the blocks of the article cut off at the column: past the article's right edge,
+#: or holding wider content without scrolling it (it spills over the edge, where the page clips).
+_CUT_OFF = (
     "(() => { const article = document.querySelector('article');"
     " const right = article.getBoundingClientRect().right + 1;"
-    " const blocks = 'pre, div.highlight, div.math, mjx-container[display], img, .table-wrapper, .cell_output';"
+    ' const blocks = \'pre, div.highlight, div.math, mjx-container[display="true"], .table-wrapper, .cell_output,'
+    "   img';"
+    " const scrolls = e => ['auto', 'scroll'].includes(getComputedStyle(e).overflowX);"
     " return [...article.querySelectorAll(blocks)]"
-    "   .filter(e => e.getBoundingClientRect().right > right)"
+    "   .filter(e => e.getBoundingClientRect().right > right || (e.scrollWidth > e.clientWidth + 1 && !scrolls(e)))"
     "   .map(e => `${e.tagName.toLowerCase()}.${e.className}: ${(e.textContent || e.src || '').slice(0, 60)}`); })()"
 )
 #: JavaScript: the article's images that did not load.
@@ -620,5 +623,5 @@ def test_images_load_and_nothing_is_cut_off_in_chromium(site, tmp_path):
             if html in results and n_images == 0:
                 problems.append(f"{html.name}: no figure")
             problems += [f"{html.name}: {src} did not load" for src in page.evaluate(_BROKEN_IMAGES)]
-            problems += [f"{html.name}: cut off at the column: {e}" for e in page.evaluate(_PAST_THE_COLUMN)]
+            problems += [f"{html.name}: cut off at the column: {e}" for e in page.evaluate(_CUT_OFF)]
     assert not problems, f"{len(problems)} problems:\n" + "\n".join(problems[:40])
