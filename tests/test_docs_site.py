@@ -566,6 +566,7 @@ def test_widgets_and_3d_scenes_have_a_static_view(site):
     assert names[0] >= {"01", "04", "06"} and names[1] >= {"01", "06"}, f"chapters with widgets, with scenes: {names}"
     missing = [_where(*c) for c in widgets + scenes if not c[2]["images"]]
     assert not missing, f"widgets or 3-D scenes with no image: {missing}"
+    # (every page: a page that quotes the repr should write it VBox(...))
     raw = [p.relative_to(site[0]).as_posix() for p in site[0].rglob("*.html") if "VBox(children=" in p.read_text()]
     assert not raw, f"pages that show a widget as its text: {raw}"
 

@@ -98,7 +98,7 @@ def still_box(children, canvas=None):
     ``canvas`` holds then (the image its sliders drew last) as an ``image/png`` beside the
     widget view. A front end with a widget manager (JupyterLab) shows the widget; a page
     without one (a saved notebook opened elsewhere, the site's recorded runs) shows the image
-    instead of the widget's text (``VBox(children=...)``).
+    instead of the widget's text (its repr, ``VBox(...)``).
 
     Parameters
     ----------
