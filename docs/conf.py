@@ -8,7 +8,8 @@ API reference is docs/api/*.rst (generated from ``__all__`` by docs/_ext/lab_api
 sidebar's table of contents is added to the README when Sphinx reads it (GitHub never sees
 it). Formulas are typeset by MathJax copied into the site (docs/_ext/lab_mathjax.py), so
 they render offline; a page's later top-level headings go under its title
-(docs/_ext/lab_sections.py). Why Sphinx, MyST-NB and Furo: docs/site.md.
+(docs/_ext/lab_sections.py). The site's own styles are docs/_static/site.css: what is
+wider than the content column scrolls. Why Sphinx, MyST-NB and Furo: docs/site.md.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ exclude_patterns = [
     "shared",
     "*.egg-info",
     "docs/_ext",
+    "docs/_static",
     "docs/_templates",
 ]
 templates_path = ["_templates"]
@@ -91,6 +93,9 @@ html_copy_source = False
 html_show_sourcelink = False
 html_last_updated_fmt = None
 html_additional_pages = {"index": "redirect.html"}  # index.html -> README.html, the front page
+# wide formulas and long code lines scroll inside the 46em column, instead of being cut off
+html_static_path = ["_static"]
+html_css_files = ["site.css"]
 
 
 def _linked(index: Path) -> list[str]:

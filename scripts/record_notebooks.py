@@ -5,13 +5,26 @@
 scripts/reproduce calls this after a full run: it turns each executed chapter papermill wrote
 to build/notebooks/ into ``figures/notebooks/NN_name.ipynb``, committed like the rest of
 figures/, so that the site (scripts/docs) shows every chapter with the outputs of a recorded
-run from a fresh clone -- the notebooks in notebooks/ stay cleared. A recorded copy is kept
-small: a figure a cell saved into figures/ is shown as a reference to that committed file (an
-inline image of it, if the kernel drew one, is dropped), widget views (no state without a live
-kernel) keep only their text, and an output over ``MAX_OUTPUT_BYTES`` (a self-contained 3-D
-scene) is replaced by a line saying what it was. The exercises' solution cells are shown as
-the student edition has them (:func:`lab.course.edition.stub_source`); the graders' outputs
-are those of the reference solutions. Per-cell timestamps are dropped (no churn in git).
+run from a fresh clone -- the notebooks in notebooks/ stay cleared. The site renders each
+output by its richest representation it can show without a kernel (an image before text), so
+a recorded copy keeps every figure the text refers to and stays small:
+
+* a figure a cell saved into figures/ is shown as a reference to that committed file (the
+  inline image of it the kernel drew is dropped); any other inline image (a plot a cell only
+  shows with ``plt.show()``) stays, embedded;
+* a widget (sliders) needs a kernel: its view is dropped. What the widget carries beside it
+  stays -- the course's sliders carry the image they drew (:class:`lab.viz.ArmExplorer`) --
+  with a line saying the sliders need a running chapter; a widget with nothing but its text
+  (``VBox(children=...)``) is replaced by that line;
+* a representation over ``MAX_OUTPUT_BYTES`` (a self-contained 3-D scene: meshcat's JavaScript
+  is about a megabyte) is dropped. If the output has a smaller image beside it (the still of
+  :class:`lab.viz.SceneView`), that image is shown, with a line saying what was left out;
+  otherwise a line stands in for the whole output. A plot's PNG over the limit is first
+  re-encoded smaller (:func:`fitted_png`), so that no plot is lost to the rule.
+
+The exercises' solution cells show the reference solutions that ran (the graders' "passed"
+is theirs), folded on the site (MyST-NB's ``hide-input``) so that a reader working through
+the exercises does not see them unasked. Per-cell timestamps are dropped (no churn in git).
 
 Cell ids are stable: a cell keeps the id it has in the source chapter (``--source``, default
 notebooks/), and a cell the source has not -- papermill's injected parameters, which nbformat
@@ -23,22 +36,31 @@ in the date of its note is not rewritten: a re-run with the same outputs changes
 from __future__ import annotations
 
 import argparse
+import base64
+import io
 import json
 import os
 import re
 import sys
 from pathlib import Path
 
-from lab.course.edition import SOLUTION_TAG, stub_source
+from lab.course.edition import SOLUTION_TAG
 from lab.errors import InputError
 from lab.files import atomic_write_text
 
-#: Outputs larger than this (bytes of their largest representation) are left out.
+#: Representations larger than this (bytes, as stored: base64 for an image) are left out.
 MAX_OUTPUT_BYTES = 200_000
-#: Mime types that need a live kernel: dropped, the output's text/plain stays.
+#: Mime types that need a live kernel: dropped, the output's other representations stay.
 KERNEL_ONLY = ("application/vnd.jupyter.widget-view+json",)
 #: A figure file named in a cell's source or printed by it ("wrote ../figures/x.png").
 FIGURE_NAME = re.compile(r"[\w.-]+\.(?:png|html)\b")
+#: The line under (or instead of) a widget: it needs a kernel.
+WIDGET_NOTE = "*(an interactive widget: run the chapter in JupyterLab to use it{shown})*"
+#: Cell metadata of an exercise's reference solution: folded on the site, with MyST-NB's prompts.
+SOLUTION_FOLD = {
+    "tags": ["hide-input"],
+    "mystnb": {"code_prompt_show": "Show the reference solution", "code_prompt_hide": "Hide the reference solution"},
+}
 
 
 def _text(value) -> str:
@@ -62,9 +84,45 @@ def _reference(name: str, figures_dir: Path, out_dir: Path) -> dict:
     return {"output_type": "display_data", "metadata": {}, "data": {"text/markdown": text, "text/plain": name}}
 
 
+def _note(text: str) -> dict:
+    return {"output_type": "display_data", "metadata": {}, "data": {"text/markdown": text, "text/plain": text}}
+
+
+def _size(value) -> int:
+    return len(_text(value).encode())
+
+
+def fitted_png(b64: str) -> str | None:
+    """The PNG ``b64`` (base64) re-encoded to fit :data:`MAX_OUTPUT_BYTES`: as a 256-colour
+    palette image, then halved in size until it fits; None if it never does, or if it is no
+    still PNG (an animated one is made to fit where it is drawn: lab.viz.stills)."""
+    from PIL import Image
+
+    try:
+        image = Image.open(io.BytesIO(base64.b64decode(b64)))
+        image.load()
+    except (OSError, ValueError):
+        return None
+    if getattr(image, "is_animated", False):
+        return None
+    image = image.convert("RGB")
+    while min(image.size) >= 100:
+        buf = io.BytesIO()
+        image.quantize(colors=256, dither=Image.Dither.NONE).save(buf, format="PNG", optimize=True)
+        fitted = base64.b64encode(buf.getvalue()).decode("ascii")
+        if len(fitted) <= MAX_OUTPUT_BYTES:
+            return fitted
+        image = image.resize((image.width // 2, image.height // 2), Image.Resampling.LANCZOS)
+    return None
+
+
 def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
-    """The outputs without the first ``n_figures`` inline images (they duplicate saved
-    figures), kernel-only mime types, and with outputs over the size limit replaced by a note."""
+    """The outputs for a recorded copy: without the first ``n_figures`` inline images (they
+    duplicate the figures the cell saved), without kernel-only mime types, and without any
+    representation over :data:`MAX_OUTPUT_BYTES` (a PNG over it is first made to fit:
+    :func:`fitted_png`); a widget or an output that lost its large representation keeps what
+    it has beside (an image) with a line saying what is left out, or becomes that line if it
+    has nothing but text."""
     kept = []
     for out in outputs:
         data = out.get("data")
@@ -74,14 +132,27 @@ def compact_outputs(outputs: list[dict], n_figures: int) -> list[dict]:
         if n_figures and any(k.startswith("image/") for k in data):
             n_figures -= 1
             continue
-        data = {k: v for k, v in data.items() if k not in KERNEL_ONLY}
-        size = max((len(_text(v).encode()) for v in data.values()), default=0)
-        if size > MAX_OUTPUT_BYTES:
-            kinds = ", ".join(sorted(k for k in data if k != "text/plain"))
-            note = f"*(an output of {size / 1e6:.1f} MB ({kinds}) is left out of the recorded copy: "
-            note += "run the chapter to see it)*"
-            data = {"text/markdown": note, "text/plain": note}
-        kept.append({**out, "data": data, "metadata": out.get("metadata", {})})
+        widget = any(k in data for k in KERNEL_ONLY)
+        if _size(data.get("image/png", "")) > MAX_OUTPUT_BYTES and (fitted := fitted_png(_text(data["image/png"]))):
+            data = {**data, "image/png": fitted}  # a large plot, made smaller: it stays
+        large = {k: _size(v) for k, v in data.items() if k not in KERNEL_ONLY and _size(v) > MAX_OUTPUT_BYTES}
+        data = {k: v for k, v in data.items() if k not in KERNEL_ONLY and k not in large}
+        shown = any(k != "text/plain" for k in data)
+        if large:
+            what = f"{max(large.values()) / 1e6:.1f} MB ({', '.join(sorted(large))})"
+            if any(k.startswith("image/") for k in data):
+                line = f"*(above: a still image of an output of {what} that is left out of the recorded copy; "
+                line += "run the chapter for the interactive view)*"
+            else:
+                line = f"*(an output of {what} is left out of the recorded copy: run the chapter to see it)*"
+        elif widget:
+            line = WIDGET_NOTE.format(shown="; above, the image it drew when the chapter ran" if shown else "")
+        else:
+            line = None
+        if shown or line is None:
+            kept.append({**out, "data": data, "metadata": out.get("metadata", {})})
+        if line is not None:
+            kept.append(_note(line))
     return kept
 
 
@@ -163,17 +234,19 @@ def recorded_copy(
         if cell["cell_type"] != "code":
             continue
         if SOLUTION_TAG in meta.get("tags", []):
-            cell["source"] = stub_source(_text(cell["source"]))
+            meta["tags"] = [*meta["tags"], *(t for t in SOLUTION_FOLD["tags"] if t not in meta["tags"])]
+            meta["mystnb"] = dict(SOLUTION_FOLD["mystnb"])
         figures = saved_figures(cell, figures_dir)
-        cell["outputs"] = [_without_root(o) for o in compact_outputs(cell.get("outputs", []), len(figures))]
+        n_images = sum(n.endswith(".png") for n in figures)  # (a page of its own is never an inline image)
+        cell["outputs"] = [_without_root(o) for o in compact_outputs(cell.get("outputs", []), n_images)]
         cell["outputs"] += [_reference(n, figures_dir, out_dir) for n in figures]
     params = run.get("parameters", {})
     mode = "quick" if params.get("quick") else "full"
     date = str(run.get("start_time") or "")[:10] or "an unrecorded date"
     note = (
         f"*A recorded run: the outputs below are those of `scripts/reproduce` ({mode} mode, {date}); "
-        "its figures are the committed files in `figures/`. The exercises' solutions are left out, "
-        "as in the student edition; the graders' outputs are those of the reference solutions.*"
+        "its figures are the committed files in `figures/`. Each exercise shows the reference solution "
+        "the grader below it passed, folded: the student edition has the stub instead.*"
     )
     at = 1 if cells and cells[0]["cell_type"] == "markdown" else 0
     cells.insert(at, {"cell_type": "markdown", "id": "recorded-run", "metadata": {}, "source": note})

@@ -1,16 +1,20 @@
 """The documentation site (scripts/docs) builds without a warning and every page holds.
 
 One build per test session (``site``: scripts/docs into a temporary folder, never
-build/docs/), then: no warning (``-W``, ``-n``: every cross-reference resolves); every
-internal link of the built HTML names a file that exists and an anchor in it; every public
-name of every module's ``__all__`` has an API entry; and Chromium, with no network, shows
-the front page, a chapter with its figure (an image that loaded), the API entry of
-``lab.fem.solve_static`` with its signature, and the built-in search finds it; every
-chapter's formulas are typeset by the site's own copy of MathJax, with its fonts, and no raw
-TeX is left; the sidebar lists each page once (chapter 04's "Part 2" is no course entry).
-Without the build: every chapter has a recorded run in figures/notebooks/ (scripts/record_notebooks.py,
-run by scripts/reproduce) that is small, and the recorder keeps a cell's saved figure as a
-reference to the committed file.
+build/docs/; or the site ``LAB_DOCS_SITE`` names, built elsewhere), then: no warning
+(``-W``, ``-n``: every cross-reference resolves); every internal link of the built HTML
+names a file that exists and an anchor in it; every public name of every module's
+``__all__`` has an API entry; and Chromium, with no network, shows the front page, a chapter
+with its figure (an image that loaded), the API entry of ``lab.fem.solve_static`` with its
+signature, and the built-in search finds it; every chapter's formulas are typeset by the
+site's own copy of MathJax, with its fonts, and no raw TeX is left; the sidebar lists each
+page once (chapter 04's "Part 2" is no course entry). The recorded chapters show every
+output their text refers to: each ``plt.show()`` an image, each widget and 3-D scene a
+static view (never ``VBox(children=...)``), each exercise the solution its grader passed;
+every results page shows a figure; in Chromium every image loads and nothing reaches past
+the content column. Without the build: every chapter has a recorded run in
+figures/notebooks/ (scripts/record_notebooks.py, run by scripts/reproduce) that is small,
+and the recorder keeps what the site needs (a small synthetic executed chapter).
 """
 
 from __future__ import annotations
@@ -51,7 +55,8 @@ def test_nested_packages_export_through_their_parent():
         assert not missing, f"lab.{nested} exports names its parent does not (no API entry): {missing}"
 
 
-#: The recorded runs together stay small in git (bytes; measured: about 0.6 MB).
+#: The recorded runs together stay small in git (bytes; measured: 0.6 MB before they kept the plots cells
+#: only show, the sliders' images and the 3-D stills; 1.3 MB recorded from a quick run with them).
 MAX_RECORDED_BYTES = 3_000_000
 
 
@@ -84,49 +89,73 @@ def _image(png):
     return {"output_type": "display_data", "metadata": {}, "data": {"image/png": png, "text/plain": "<Figure>"}}
 
 
+def _display(data):
+    return {"output_type": "display_data", "metadata": {}, "data": data}
+
+
+def _result(data):
+    return {"output_type": "execute_result", "execution_count": 1, "metadata": {}, "data": data}
+
+
+def _grade(line):
+    return _display({"text/html": f"<b>{line}</b>", "text/plain": line})
+
+
+def _code(cell_id, source, outputs, tags=()):
+    cell = {"cell_type": "code", "id": cell_id, "metadata": {"tags": list(tags)}, "execution_count": 1}
+    return {**cell, "source": source, "outputs": outputs}
+
+
+def _noise_png():
+    """A PNG far over the size rule (base64): 500 x 500 pixels of noise."""
+    import base64
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.random.default_rng(0).integers(0, 256, (500, 500, 3), dtype=np.uint8)).save(buf, "PNG")
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+#: A widget's view (needs a kernel) and its text.
+_WIDGET = {"application/vnd.jupyter.widget-view+json": {"model_id": "1"}, "text/plain": "VBox(children=(FloatSlider("}
+
+
 def _executed(tmp_path):
-    """A small executed chapter: a figure saved and drawn inline, a widget, a huge output, a solution."""
+    """A small executed chapter: a figure saved and drawn inline, a plot only shown, widgets
+    with and without their image, 3-D scenes with and without a still, an exercise."""
     big = "<div>" + "x" * 300_000 + "</div>"
+    still = "iVBOR" + "A" * 1000  # a small PNG, as base64
     cells = [
         {"cell_type": "markdown", "id": "t", "metadata": {}, "source": "# 99 A chapter"},
-        {
-            "cell_type": "code",
-            "id": "s",
-            "metadata": {"tags": ["solution"]},
-            "execution_count": 1,
-            "outputs": [],
-            "source": 'def twice(x):\n    """Two x."""\n    return 2 * x\n',
-        },
-        {
-            "cell_type": "code",
-            "id": "f",
-            "metadata": {"papermill": {"duration": 1.0}},
-            "execution_count": 2,
-            "source": 'fig.savefig(os.path.join(figures_dir, "fig_a.png"))\nprint("wrote", path)',
-            "outputs": [
+        _code("s", 'def twice(x):\n    """Two x."""\n    return 2 * x\n', [], tags=["solution"]),
+        _code("g", "check_twice(twice)", [_grade("exercise 'twice': passed (3 random cases)")], tags=["grader"]),
+        _code(
+            "f",
+            'fig.savefig(os.path.join(figures_dir, "fig_a.png"))\nprint("wrote", path)\nplt.show()',
+            [
                 {"output_type": "stream", "name": "stdout", "text": "wrote ../figures/fig_b.png\n"},
                 _image("AAAA"),
                 _image("BBBB"),
                 _image("CCCC"),
             ],
-        },
-        {
-            "cell_type": "code",
-            "id": "w",
-            "metadata": {},
-            "execution_count": 3,
-            "source": "scene",
-            "outputs": [
-                {
-                    "output_type": "execute_result",
-                    "execution_count": 3,
-                    "metadata": {},
-                    "data": {"application/vnd.jupyter.widget-view+json": {"model_id": "1"}, "text/plain": "Slider"},
-                },
-                {"output_type": "display_data", "metadata": {}, "data": {"text/html": big, "text/plain": "scene"}},
-            ],
-        },
+        ),
+        _code("p", "ax.loglog(h, err)\nplt.show()", [_image("PLOT")]),
+        _code("w", "explorer.widget()", [_result({**_WIDGET, "image/png": still})]),
+        _code("v", "old_widget()", [_result(dict(_WIDGET))]),
+        _code("a", "show_arm(fem, q)", [_display({"text/html": big, "image/png": still, "text/plain": "<arm>"})]),
+        _code("h", "scene", [_display({"text/html": big, "text/plain": "scene"})]),
+        _code(
+            "m",
+            'open(os.path.join(figures_dir, "anim.html"), "w").write(page)\nshow_animation(page, fem, q_frames)',
+            [_display({"text/html": big, "image/png": still})],
+        ),
+        _code("b", "plt.show()", [_image("B" * 300_000)]),
+        _code("n", "plt.imshow(noise)\nplt.show()", [_image(_noise_png())]),
     ]
+    cells[3]["metadata"]["papermill"] = {"duration": 1.0}  # (a run's timing: dropped)
     meta = {"papermill": {"parameters": {"quick": False}, "start_time": "2026-11-26T10:00:00"}}
     nb = {"cells": cells, "metadata": meta, "nbformat": 4, "nbformat_minor": 5}
     (tmp_path / "build").mkdir()
@@ -134,19 +163,31 @@ def _executed(tmp_path):
     path.write_text(json.dumps(nb))
     figures = tmp_path / "figures"
     figures.mkdir()
-    for name in ("fig_a.png", "fig_b.png"):
+    for name in ("fig_a.png", "fig_b.png", "anim.html"):
         (figures / name).write_bytes(b"\x89PNG")
     return path, figures
 
 
-def test_recorded_copy_refers_to_saved_figures(tmp_path):
+def _recorded(tmp_path):
     record = _load_script("record_notebooks")
     executed, figures = _executed(tmp_path)
     assert record.main(["--figures", str(figures), "--out", str(figures / "notebooks"), str(executed)]) == 0
     nb = json.loads((figures / "notebooks" / "99_chapter.ipynb").read_text())
-    cells = {c["id"]: c for c in nb["cells"]}
+    return nb, {c["id"]: c for c in nb["cells"]}, record
+
+
+def _shown(out):
+    """What the site renders of an output: its richest representation (MyST-NB's order)."""
+    data = out.get("data", {})
+    for kind in ("text/html", "image/png", "text/markdown", "text/plain"):
+        if kind in data:
+            return kind, "".join(data[kind])
+    return "stream", "".join(out.get("text", ""))
+
+
+def test_recorded_copy_refers_to_saved_figures(tmp_path):
+    nb, cells, _ = _recorded(tmp_path)
     assert nb["cells"][1]["id"] == "recorded-run" and "full mode, 2026-11-26" in nb["cells"][1]["source"]
-    assert "return 2 * x" not in cells["s"]["source"] and "NotImplementedError" in cells["s"]["source"]
     assert "papermill" not in cells["f"]["metadata"]
     outs = cells["f"]["outputs"]
     # the two inline images of the two saved figures are references now; the third image stays
@@ -155,9 +196,44 @@ def test_recorded_copy_refers_to_saved_figures(tmp_path):
         "![fig_a.png](../fig_a.png)",
         "![fig_b.png](../fig_b.png)",
     ]
-    widget, scene = cells["w"]["outputs"]
-    assert widget["data"] == {"text/plain": "Slider"}
-    assert "left out of the recorded copy" in scene["data"]["text/markdown"] and "0.3 MB" in scene["data"]["text/plain"]
+
+
+def test_recorded_copy_keeps_every_image_the_text_refers_to(tmp_path):
+    """A plot a cell only shows keeps its image, made smaller if it is over the size rule; a
+    widget becomes the image it drew (or a line, never its ``VBox(children=...)`` text); a 3-D
+    scene too large to keep shows its still; an exercise shows the reference solution the
+    grader passed, folded; an output over the size rule with nothing smaller beside it is a
+    line saying so."""
+    nb, cells, record = _recorded(tmp_path)
+    assert _shown(cells["p"]["outputs"][0]) == ("image/png", "PLOT")  # plt.show(), nothing saved
+    image, note = cells["w"]["outputs"]  # the sliders: their image, and a line on what is left out
+    assert image["data"]["image/png"].startswith("iVBOR") and record.KERNEL_ONLY[0] not in image["data"]
+    assert "interactive widget" in _shown(note)[1] and "the image it drew" in _shown(note)[1]
+    (only,) = cells["v"]["outputs"]  # a widget with nothing but its text: a line instead
+    assert _shown(only)[0] == "text/markdown" and "run the chapter in JupyterLab" in _shown(only)[1]
+    scene, note = cells["a"]["outputs"]  # the scene's 0.3 MB of HTML go, its still stays
+    assert _shown(scene)[0] == "image/png" and "text/html" not in scene["data"]
+    assert "still image of an output of 0.3 MB (text/html)" in note["data"]["text/markdown"]
+    (only,) = cells["h"]["outputs"]  # no still: a line stands in
+    assert "0.3 MB (text/html) is left out of the recorded copy" in _shown(only)[1]
+    # an animation saved as a page of its own keeps its still (only a saved PNG is a duplicate)
+    kinds = [_shown(o)[0] for o in cells["m"]["outputs"]]
+    assert kinds == ["image/png", "text/markdown", "text/markdown"], kinds
+    assert "anim.html" in _shown(cells["m"]["outputs"][-1])[1]
+    (only,) = cells["b"]["outputs"]  # an image over the rule (base64: 300 kB) that is no PNG
+    assert "0.3 MB (image/png) is left out" in _shown(only)[1]
+    (plot,) = cells["n"]["outputs"]  # a real PNG over the rule (1 MB): made smaller, it stays
+    kind, png = _shown(plot)
+    assert kind == "image/png" and png.startswith("iVBOR") and len(png) <= record.MAX_OUTPUT_BYTES
+    sizes = [len(json.dumps(v)) for c in nb["cells"] for o in c.get("outputs", []) for v in o.get("data", {}).values()]
+    assert max(sizes) <= record.MAX_OUTPUT_BYTES + 2  # (its quotes)
+    # the exercise: the reference solution that passed, folded (MyST-NB's hide-input), never a stub
+    solution = cells["s"]
+    assert "return 2 * x" in solution["source"] and "NotImplementedError" not in solution["source"]
+    assert "hide-input" in solution["metadata"]["tags"]
+    assert solution["metadata"]["mystnb"]["code_prompt_show"] == "Show the reference solution"
+    assert "passed" in _shown(cells["g"]["outputs"][0])[1]
+    assert not [c["id"] for c in nb["cells"] for o in c.get("outputs", []) if "VBox(children=" in _shown(o)[1]]
 
 
 def test_recorded_copies_name_no_machine_path():
@@ -201,9 +277,19 @@ def test_docstring_math_and_command_blocks():
 
 
 # ------------------------------------------------------------------ the build
+#: A site built elsewhere to check instead of building one (its folder): e.g. one built from a
+#: copy of the repository whose figures/notebooks/ hold copies recorded from a quick run.
+SITE_ENV = "LAB_DOCS_SITE"
+
+
 @pytest.fixture(scope="session")
 def site(tmp_path_factory):
-    """scripts/docs into a temporary folder: (the site's folder, stderr, seconds)."""
+    """scripts/docs into a temporary folder: (the site's folder, stderr, seconds); or the site
+    ``LAB_DOCS_SITE`` names, built elsewhere (stderr None: its warnings are not seen here)."""
+    if os.environ.get(SITE_ENV):
+        built = Path(os.environ[SITE_ENV]).resolve()
+        assert (built / "README.html").is_file(), f"{SITE_ENV}={built}: no built site there"
+        return built, None, 0.0
     out = tmp_path_factory.mktemp("site") / "docs"
     env = {**os.environ, "LAB_DOCS_OUT": str(out), "LAB_DOCS_JOBS": "1"}
     t0 = time.perf_counter()
@@ -217,6 +303,8 @@ def site(tmp_path_factory):
 @pytest.mark.timeout(900)
 def test_build_gives_no_warning(site):
     out, stderr, seconds = site
+    if stderr is None:
+        pytest.skip(f"{SITE_ENV}: a site built elsewhere (its build's warnings are not seen here)")
     print(f"site built in {seconds:.0f} s")
     assert not re.search(r"WARNING|ERROR", stderr), stderr[-6000:]
     assert (out / "index.html").is_file() and (out / "README.html").is_file()
@@ -394,3 +482,148 @@ def test_math_renders_offline_in_chromium(site, tmp_path):
                 loaded = "[...document.fonts].filter(f => f.status === 'loaded').map(f => f.family)"
                 fonts = page.evaluate(f"document.fonts.ready.then(() => {loaded})", await_promise=True)
                 assert "MJXTEX" in fonts, f"MathJax's fonts did not load from _static/: {fonts}"
+
+
+# ------------------------------------------------------------------ every output the text refers to
+# On the built site, from the recorded runs in figures/notebooks/ (scripts/reproduce writes them;
+# LAB_DOCS_SITE checks a site built from other recorded copies): every plot, widget and 3-D scene
+# shows an image, and each exercise the solution its grader passed.
+
+
+class _Cells(HTMLParser):
+    """The code cells of a built chapter page: each one's classes (MyST-NB's ``tag_*``), its
+    source text, its outputs' text and the ``src`` of their images."""
+
+    def __init__(self, text):
+        super().__init__()
+        self.cells, self._divs, self._cell_at, self._part = [], [], None, None
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        classes = (attrs.get("class") or "").split()
+        if tag == "div":
+            self._divs.append(classes)
+            if "cell" in classes and self._cell_at is None:
+                self._cell_at = len(self._divs)
+                self.cells.append({"classes": classes, "source": "", "output": "", "images": []})
+            elif self._cell_at is not None and {"cell_input", "cell_output"} & set(classes):
+                self._part = ("source" if "cell_input" in classes else "output", len(self._divs))
+        elif tag == "img" and self._part and self._part[0] == "output":
+            self.cells[-1]["images"].append(attrs.get("src", ""))
+
+    def handle_endtag(self, tag):
+        if tag != "div" or not self._divs:
+            return
+        depth = len(self._divs)
+        self._divs.pop()
+        if self._part and depth == self._part[1]:
+            self._part = None
+        if depth == self._cell_at:
+            self._cell_at = None
+
+    def handle_data(self, data):
+        if self._part:
+            self.cells[-1][self._part[0]] += data
+
+
+#: A cell that shows a figure (pyplot's), a widget (sliders, the IK picker) or a 3-D scene.
+_SHOWS_A_PLOT = re.compile(r"\bplt\.show\(\)")
+_SHOWS_A_WIDGET = re.compile(r"\.widget\(")
+_SHOWS_A_SCENE = re.compile(r"^(?!\s*(?:from|import)\b).*\bshow_(?:arm|animation)\(", re.M)
+
+
+def _chapter_cells(out):
+    """(chapter page, cell number, cell) of every code cell of every chapter of the site."""
+    pages = sorted((out / "figures" / "notebooks").glob("[0-9][0-9]_*.html"))
+    assert pages, f"no chapter pages in {out}"
+    return [(page, k, cell) for page in pages for k, cell in enumerate(_Cells(page.read_text()).cells)]
+
+
+def _where(page, k, cell):
+    line = next((x for x in cell["source"].splitlines() if x.strip()), "")
+    return f"{page.name} cell {k} ({line.strip()[:60]})"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_every_plot_of_a_chapter_shows_its_image(site):
+    """A cell that calls ``plt.show()`` has an image below it (papermill's kernels draw inline:
+    under Agg plt.show() shows nothing, and only the figures a cell saved were shown)."""
+    plots = [c for c in _chapter_cells(site[0]) if _SHOWS_A_PLOT.search(c[2]["source"])]
+    missing = [_where(*c) for c in plots if not c[2]["images"]]
+    assert not missing, f"{len(missing)} cells call plt.show() and show no image: {missing}"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_widgets_and_3d_scenes_have_a_static_view(site):
+    """The sliders and the IK picker show the image they drew, a 3-D scene its still (the arm's
+    PNG, the animation's animated PNG); no page shows a widget's text (``VBox(children=...)``)."""
+    cells = _chapter_cells(site[0])
+    widgets = [c for c in cells if _SHOWS_A_WIDGET.search(c[2]["source"])]
+    scenes = [c for c in cells if _SHOWS_A_SCENE.search(c[2]["source"])]
+    names = {c[0].name[:2] for c in widgets}, {c[0].name[:2] for c in scenes}
+    assert names[0] >= {"01", "04", "06"} and names[1] >= {"01", "06"}, f"chapters with widgets, with scenes: {names}"
+    missing = [_where(*c) for c in widgets + scenes if not c[2]["images"]]
+    assert not missing, f"widgets or 3-D scenes with no image: {missing}"
+    # (every page: a page that quotes the repr should write it VBox(...))
+    raw = [p.relative_to(site[0]).as_posix() for p in site[0].rglob("*.html") if "VBox(children=" in p.read_text()]
+    assert not raw, f"pages that show a widget as its text: {raw}"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_exercises_show_the_solution_their_grader_passed(site):
+    """No exercise shows a stub (``raise NotImplementedError``) above its grader's "passed":
+    the recorded run is the instructor's, so the reference solution is shown, folded."""
+    solutions = [c for c in _chapter_cells(site[0]) if "tag_solution" in c[2]["classes"]]
+    assert len({c[0].name for c in solutions}) >= 5, "chapters with exercises: fewer than five"
+    stubs = [_where(*c) for c in solutions if "NotImplementedError" in c[2]["source"]]
+    assert not stubs, f"exercises that show a stub: {stubs}"
+    unfolded = [_where(*c) for c in solutions if "tag_hide-input" not in c[2]["classes"]]
+    assert not unfolded, f"reference solutions shown unfolded: {unfolded}"
+
+
+#: JavaScript: the blocks of the article cut off at the column: past the article's right edge,
+#: or holding wider content without scrolling it (it spills over the edge, where the page clips).
+_CUT_OFF = (
+    "(() => { const article = document.querySelector('article');"
+    " const right = article.getBoundingClientRect().right + 1;"
+    ' const blocks = \'pre, div.highlight, div.math, mjx-container[display="true"], .table-wrapper, .cell_output,'
+    "   img';"
+    " const scrolls = e => ['auto', 'scroll'].includes(getComputedStyle(e).overflowX);"
+    " return [...article.querySelectorAll(blocks)]"
+    "   .filter(e => e.getBoundingClientRect().right > right || (e.scrollWidth > e.clientWidth + 1 && !scrolls(e)))"
+    "   .map(e => `${e.tagName.toLowerCase()}.${e.className}: ${(e.textContent || e.src || '').slice(0, 60)}`); })()"
+)
+#: JavaScript: the article's images that did not load.
+_BROKEN_IMAGES = "[...document.querySelectorAll('article img')].filter(i => !(i.naturalWidth > 0)).map(i => i.src)"
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_images_load_and_nothing_is_cut_off_in_chromium(site, tmp_path):
+    """Every results page shows at least one figure and every image of a chapter or results
+    page loads; no formula, code block or output reaches past the content column (what is
+    wider scrolls inside its own block: docs/_static/site.css)."""
+    require_chromium()
+    out = site[0]
+    results = sorted((out / "docs").glob("results-*.html"))
+    chapters = sorted((out / "figures" / "notebooks").glob("[0-9][0-9]_*.html"))
+    assert len(results) >= 8 and chapters, (results, chapters)
+    problems = []
+    with DevToolsPage(devtools_command(), tmp_path / "profile", width=1200, height=900) as page:
+        for html in results + chapters:
+            page.navigate(html.as_uri())
+            ready = f"location.href.endsWith('{html.name}') && document.readyState === 'complete'"
+            _wait(page, f"{ready} && [...document.images].every(i => i.complete)", 60, f"{html.name}")
+            if page.evaluate("!!window.MathJax?.startup?.promise"):
+                page.evaluate("MathJax.startup.promise.then(() => true)", await_promise=True)
+            n_images = page.evaluate("document.querySelectorAll('article img').length")
+            if html in results and n_images == 0:
+                problems.append(f"{html.name}: no figure")
+            problems += [f"{html.name}: {src} did not load" for src in page.evaluate(_BROKEN_IMAGES)]
+            problems += [f"{html.name}: cut off at the column: {e}" for e in page.evaluate(_CUT_OFF)]
+    assert not problems, f"{len(problems)} problems:\n" + "\n".join(problems[:40])

@@ -133,12 +133,14 @@ def test_show_arm_and_show_animation_live_or_static(viewer, coarse_fem, capsys):
     q = solve_static(coarse_fem, U_UP).q
     static = show_arm(coarse_fem, q, U_UP, live=False)  # papermill's: the scene in the page
     assert "<iframe srcdoc=" in static.data and "static snapshot" in capsys.readouterr().out
+    assert static.png.startswith(b"\x89PNG")  # its still, for a page that runs no scene
     live = show_arm(coarse_fem, q, U_UP, live=True)
     assert f'<iframe src="{viewer.url}"' in live.data and viewer.url in capsys.readouterr().out
     view = viewer.bridge.tree["meshcat"]["view"]
     tip_W = np.array(umsgpack.unpackb(view["tip"].transform)["matrix"])[12:15]  # column-major: the translation
     np.testing.assert_allclose(tip_W, coarse_fem.tip(coarse_fem.to_nodes(q)), atol=1e-12)
-    assert show_animation("<p>the page</p>", coarse_fem, q[None], live=False).data.count("<p>the page</p>") == 1
+    page = show_animation("<p>the page</p>", coarse_fem, q[None], live=False)
+    assert page.data.count("<p>the page</p>") == 1 and page.png.startswith(b"\x89PNG")
     frames = np.array([coarse_fem.rest_q(), q])
     shown = show_animation("unused", coarse_fem, frames, np.array([0 * U_UP, U_UP]), live=True, n_segments=4)
     assert viewer.url in shown.data and viewer.bridge.tree.animation is not None  # played by the viewer

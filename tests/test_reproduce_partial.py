@@ -6,7 +6,8 @@ moved; the tables it re-made are compared with the committed ones ("nothing move
 
 Checked with a stand-in papermill (no notebook runs): the venv's python is a script that,
 for ``-m papermill``, writes the executed chapter as papermill does (the source's cells, an
-injected-parameters cell with a new random id, the run's start time) and a ten-split table
+injected-parameters cell with a new random id, the run's start time), the matplotlib backend
+its kernel would draw with (beside it, ``NN_name.backend``) and a ten-split table
 into the chapter's figures_dir with a new ``wall_s`` column, the results as ``LAB_FAKE_RESULT``
 says.
 """
@@ -45,6 +46,7 @@ nb["cells"].insert(1, inject)
 stamp = time.strftime("%Y-%m-%dT%H:%M:%S")
 nb["metadata"]["papermill"] = {"parameters": params, "start_time": stamp, "duration": 0.1}
 out.write_text(json.dumps(nb, indent=1))
+out.with_suffix(".backend").write_text(os.environ.get("MPLBACKEND", ""))  # the kernel's matplotlib backend
 figures = (cwd / params["figures_dir"]).resolve()
 figures.mkdir(parents=True, exist_ok=True)
 if src.name.startswith("01_"):
@@ -174,6 +176,9 @@ def test_a_full_run_updates_the_times_and_keeps_unmoved_tables(repo):
     assert (repo / "figures" / TABLE).read_text() == COMMITTED_TABLE
     assert (repo / "README.md").read_text() != readme  # the full run's times replace 30 s and 95 s
     assert "Model A" not in (repo / "README.md").read_text()  # no footnote mixing two machines
+    # the kernels draw inline, as in JupyterLab (under _env.sh's Agg, plt.show() shows nothing)
+    backend = (repo / "build" / "notebooks" / "01_a.backend").read_text()
+    assert backend == "module://matplotlib_inline.backend_inline"
 
 
 def _script(name: str):

@@ -103,3 +103,22 @@ def test_explorer_sliders_drive_the_callback(explorer, monkeypatch):
     sliders[0].value = 1.5  # what dragging the first slider does
     np.testing.assert_allclose(explorer.last["u_motor"], [1.5, 0.0, 0.0])
     assert "ms" in box.children[explorer.robot.n_cables].value  # the status line reports the solve
+
+
+def test_explorer_widget_carries_the_image_it_drew(explorer, monkeypatch):
+    """Where no widget can be shown (a saved notebook, the site's recorded run) the sliders'
+    output is the arm they drew: the widget's display carries its image beside the view."""
+    import base64
+
+    from IPython.core.formatters import DisplayFormatter
+
+    pytest.importorskip("ipywidgets")
+    monkeypatch.setattr(sliders_module, "widgets_available", lambda: True)
+    box = explorer.widget(live=False)
+    data, _ = DisplayFormatter().format(box)
+    assert "application/vnd.jupyter.widget-view+json" in data  # a front end with widgets shows the sliders
+    png = base64.b64decode(data["image/png"])
+    assert png.startswith(b"\x89PNG") and png == box.children[-1].value  # the arm they drew last
+    explorer.sliders[0].value = 1.0  # a move redraws it, and a later display carries the new one
+    assert base64.b64decode(DisplayFormatter().format(box)[0]["image/png"]) == box.children[-1].value != png
+    assert "image/png" not in DisplayFormatter().format(sliders_module.still_box(list(box.children)))[0]

@@ -2,8 +2,9 @@
 and meshcat (:mod:`.arm`), meshcat animations (:mod:`.animation`), trajectory-tracking
 figures (:mod:`.tracking`), Figure 1's set-up (:mod:`.setup`), Figure 6
 (:mod:`.network_size`), the interactive arm of chapter 01 (:mod:`.sliders`), the live
-meshcat viewer a kernel serves (:mod:`.live`, :mod:`.live_arm`), a dataset's diagnostics
-(:mod:`.real_data`) and any body with its tendons and markers (:mod:`.bodies`).
+meshcat viewer a kernel serves (:mod:`.live`, :mod:`.live_arm`), still images of the 3-D
+scenes for pages that run none (:mod:`.stills`), a dataset's diagnostics (:mod:`.real_data`)
+and any body with its tendons and markers (:mod:`.bodies`).
 """
 
 from lab.viz.animation import (
@@ -49,6 +50,7 @@ from lab.viz.real_data import AXIS_COLORS, plot_diagnostics
 from lab.viz.setup import plot_setup
 from lab.viz.sliders import ArmExplorer, widgets_available
 from lab.viz.square_frames import plot_square_frames
+from lab.viz.stills import SceneView, animation_still, arm_still
 from lab.viz.style import (
     ACHIEVED_COLOR,
     CABLE_COLORS,
@@ -139,6 +141,9 @@ __all__ = [
     "LiveArm",
     "show_arm",
     "show_animation",
+    "SceneView",
+    "arm_still",
+    "animation_still",
     "live_viewer",
     "live_viewer_wanted",
     "plot_square_frames",

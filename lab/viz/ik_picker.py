@@ -26,7 +26,7 @@ from lab.control.ik import IKSolver, check_targets
 from lab.errors import InputError
 from lab.viz.arm import TIP_RGB
 from lab.viz.live import front_end_available
-from lab.viz.sliders import figure_png, fixed_width_slider
+from lab.viz.sliders import figure_png, fixed_width_slider, still_box
 from lab.viz.style import CABLE_COLORS, TARGET_COLOR
 
 __all__ = ["IKPicker", "front_end_available", "CUSTOM_TARGET"]
@@ -340,4 +340,5 @@ class IKPicker:
         if self.fig is not None:
             plt.close(self.fig)  # shown through the Image widget only
         self.sliders, self.points = sliders, points
-        return w.VBox([*sliders, points, status, canvas] if n else [*sliders, status, canvas])
+        children = [*sliders, points, status, canvas] if n else [*sliders, status, canvas]
+        return still_box(children, None if live else canvas)  # (the image: where no widget shows)

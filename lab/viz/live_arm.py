@@ -111,7 +111,8 @@ class LiveArm:
 def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str = "view", height_px: int = 400):
     """The arm at ``q``, cables coloured by ``u_motor``, as a notebook output: drawn in this
     kernel's live viewer under ``prefix`` when ``live``, else a self-contained static snapshot
-    (meshcat's JavaScript embedded, works offline). Prints which.
+    (meshcat's JavaScript embedded, works offline) with a still PNG of it beside
+    (:func:`lab.viz.stills.arm_still`: what a page that runs no scene shows). Prints which.
 
     Parameters
     ----------
@@ -130,12 +131,11 @@ def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str
 
     Returns
     -------
-    IPython.display.HTML
-        The viewer's iframe or the static page.
+    IPython.display.HTML or SceneView
+        The viewer's iframe, or the static page and its still (:class:`lab.viz.stills.SceneView`).
     """
-    from IPython.display import HTML
-
     from lab.viz.arm import meshcat_scene, meshcat_visualizer, notebook_html
+    from lab.viz.stills import SceneView, arm_still
 
     if live_viewer_wanted() if live is None else live:
         viewer = live_viewer()
@@ -146,13 +146,16 @@ def show_arm(fem, q=None, u_motor=None, *, live: bool | None = None, prefix: str
     with meshcat_visualizer() as vis:
         meshcat_scene(fem, q, vis, u_motor=u_motor)
         page = notebook_html(vis, height_px)
-    print(f"static snapshot: {len(page) / 1e6:.1f} MB of HTML")
-    return HTML(page)
+    still = arm_still(fem, q, u_motor)
+    print(f"static snapshot: {len(page) / 1e6:.1f} MB of HTML, and a still image of it")
+    return SceneView(page, still, "the arm in 3-D")
 
 
 def show_animation(page_html: str, fem, q_frames, u_frames=None, *, live=None, prefix="anim", height_px=400, **kwargs):
     """:func:`lab.viz.animation.animation_html`'s animation as a notebook output: played by
-    this kernel's live viewer when ``live``, else its page ``page_html`` in an iframe.
+    this kernel's live viewer when ``live``, else its page ``page_html`` in an iframe with an
+    animated PNG of it beside (:func:`lab.viz.stills.animation_still`: what a page that runs
+    no scene shows).
 
     Parameters
     ----------
@@ -167,19 +170,21 @@ def show_animation(page_html: str, fem, q_frames, u_frames=None, *, live=None, p
     height_px : int, optional
         Height of the output (pixels).
     **kwargs
-        Go to :func:`lab.viz.animation.animate_arm` (live only).
+        Go to :func:`lab.viz.animation.animate_arm` (live), or its ``targets_W`` and ``fps``
+        to :func:`lab.viz.stills.animation_still` (static).
 
     Returns
     -------
-    IPython.display.HTML
-        The viewer's iframe or the static page's.
+    IPython.display.HTML or SceneView
+        The viewer's iframe, or the static page's with its animated still
+        (:class:`lab.viz.stills.SceneView`).
     """
-    from IPython.display import HTML
-
     from lab.viz.animation import animate_arm, notebook_iframe
+    from lab.viz.stills import SceneView, animation_still
 
     if not (live_viewer_wanted() if live is None else live):
-        return HTML(notebook_iframe(page_html, height_px))
+        still = animation_still(fem, q_frames, u_frames, **{k: kwargs[k] for k in ("targets_W", "fps") if k in kwargs})
+        return SceneView(notebook_iframe(page_html, height_px), still, "the animation in 3-D")
     viewer = live_viewer()
     viewer.vis[prefix].delete()
     animate_arm(viewer.vis, fem, q_frames, u_frames, prefix=prefix, **kwargs)

@@ -11,12 +11,17 @@ headless; :meth:`ArmExplorer.widget` wraps it in ipywidgets sliders when a front
 can show them, and otherwise (no ipywidgets, or no kernel front end) returns ``None``
 after saying so, leaving the static figure in place. In an interactive front end the
 sliders move the arm in this kernel's live meshcat viewer (:mod:`lab.viz.live`); under
-papermill they redraw a matplotlib image instead. Every slider has the same description
-and track width (:data:`SLIDER_STYLE`, :data:`SLIDER_LAYOUT`), whatever its label.
+papermill they redraw a matplotlib image instead, and the widget carries that image as its
+still (:func:`lab.viz.sliders.still_box`): a saved notebook opened without a kernel, or the
+site's recorded run, shows the arm the sliders drew, not the widget's text. Every slider has
+the same description and track width (:data:`SLIDER_STYLE`, :data:`SLIDER_LAYOUT`),
+whatever its label.
 """
 
 from __future__ import annotations
 
+import base64
+import functools
 import time
 
 import numpy as np
@@ -24,7 +29,15 @@ import numpy as np
 from lab.errors import InputError
 from lab.viz.live import widgets_available
 
-__all__ = ["ArmExplorer", "widgets_available", "figure_png", "fixed_width_slider", "SLIDER_STYLE", "SLIDER_LAYOUT"]
+__all__ = [
+    "ArmExplorer",
+    "widgets_available",
+    "figure_png",
+    "fixed_width_slider",
+    "still_box",
+    "SLIDER_STYLE",
+    "SLIDER_LAYOUT",
+]
 
 #: One description width and one total width for every slider of the course's widgets, so
 #: that their tracks line up ("initial" sized each description to its text: 147/108/98 px).
@@ -57,6 +70,50 @@ def figure_png(fig, dpi: int = 90) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
+
+
+@functools.cache
+def _still_box_class():
+    import ipywidgets as w
+
+    class StillBox(w.VBox):
+        """A VBox whose display carries its canvas's PNG beside the widget view."""
+
+        def __init__(self, children, canvas=None):
+            super().__init__(children)
+            self.canvas = canvas
+
+        def _repr_mimebundle_(self, **kwargs):
+            data = super()._repr_mimebundle_(**kwargs)
+            png = getattr(self.canvas, "value", b"")
+            if png and isinstance(data, dict):
+                data["image/png"] = base64.b64encode(png).decode("ascii")
+            return data
+
+    return StillBox
+
+
+def still_box(children, canvas=None):
+    """An ``ipywidgets.VBox`` of ``children`` that, when displayed, also carries the PNG its
+    ``canvas`` holds then (the image its sliders drew last) as an ``image/png`` beside the
+    widget view. A front end with a widget manager (JupyterLab) shows the widget; a page
+    without one (a saved notebook opened elsewhere, the site's recorded runs) shows the image
+    instead of the widget's text (its repr, ``VBox(...)``).
+
+    Parameters
+    ----------
+    children : sequence of ipywidgets.Widget
+        The box's widgets.
+    canvas : ipywidgets.Image, optional
+        The widget whose PNG ``value`` is the still (None, or an empty value: no still, as
+        for the live viewer's iframe).
+
+    Returns
+    -------
+    ipywidgets.VBox
+        The box.
+    """
+    return _still_box_class()(list(children), canvas=canvas)
 
 
 class ArmExplorer:
@@ -201,7 +258,8 @@ class ArmExplorer:
         Returns
         -------
         ipywidgets.VBox or None
-            The sliders, status line and arm, or None without a widget front end.
+            The sliders, status line and arm (:func:`lab.viz.sliders.still_box`: shown as the
+            arm's image where no widget can be), or None without a widget front end.
         """
         if not widgets_available():
             print("no widget front end here (papermill, a plain Python): the static figures stand in for the sliders")
@@ -242,4 +300,4 @@ class ArmExplorer:
         if self.fig is not None:
             plt.close(self.fig)  # shown through the Image widget only
         self.sliders = sliders
-        return w.VBox([*sliders, status, canvas])
+        return still_box([*sliders, status, canvas], None if live else canvas)
