@@ -97,6 +97,7 @@ def test_explorer_without_a_front_end_says_so(explorer, capsys, monkeypatch):
 def test_explorer_sliders_drive_the_callback(explorer, monkeypatch):
     pytest.importorskip("ipywidgets")
     monkeypatch.setattr(sliders_module, "widgets_available", lambda: True)
+    monkeypatch.setattr(explorer, "last", None)  # nothing solved yet: the sliders start at zero
     box = explorer.widget()
     sliders = box.children[: explorer.robot.n_cables]
     assert [s.description for s in sliders] == [f"{c.name} [rad]" for c in explorer.robot.cables]
@@ -122,3 +123,16 @@ def test_explorer_widget_carries_the_image_it_drew(explorer, monkeypatch):
     explorer.sliders[0].value = 1.0  # a move redraws it, and a later display carries the new one
     assert base64.b64decode(DisplayFormatter().format(box)[0]["image/png"]) == box.children[-1].value != png
     assert "image/png" not in DisplayFormatter().format(sliders_module.still_box(list(box.children)))[0]
+
+
+def test_explorer_sliders_start_at_the_pose_shown(explorer, monkeypatch):
+    """The sliders start at the last command solved (what the view shows first), not at zero
+    beside a bent arm."""
+    pytest.importorskip("ipywidgets")
+    monkeypatch.setattr(sliders_module, "widgets_available", lambda: True)
+    u_mixed = explorer.robot.u_max_rad * np.array([2 / 3, 1 / 3, 1 / 6])
+    explorer.update(u_mixed, draw=False)
+    box = explorer.widget(live=False)
+    values = [s.value for s in box.children[: explorer.robot.n_cables]]
+    np.testing.assert_allclose(values, u_mixed, atol=0.05)  # to the sliders' step
+    np.testing.assert_allclose(explorer.last["u_motor"], values)  # the first view: that pose

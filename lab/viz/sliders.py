@@ -272,7 +272,13 @@ class ArmExplorer:
 
         live = L.live_viewer_wanted() if live is None else live
         u_max = self.robot.u_max_rad
-        sliders = [fixed_width_slider(f"{c.name} [rad]", 0.0, 0.0, u_max, step_rad) for c in self.robot.cables]
+        # The sliders start at the last safe command solved (:meth:`update`), which the first
+        # view shows: the arm and the numbers under it agree from the start.
+        start = self.last["u_motor"] if self.last is not None and self.last["safe"] else np.zeros(self.robot.n_cables)
+        sliders = [
+            fixed_width_slider(f"{c.name} [rad]", float(v), 0.0, u_max, step_rad)
+            for c, v in zip(self.robot.cables, np.clip(start, 0.0, u_max))
+        ]
         status = w.HTML()
         if live:
             viewer = L.live_viewer()
