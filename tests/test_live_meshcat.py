@@ -301,16 +301,24 @@ def test_slider_moves_the_arm_in_the_live_viewer_of_a_jupyterlab_kernel(server, 
         out = run(
             "import threading, lab.viz.live as L\n"
             "print('LIVE', L.live_viewer().url, os.getpid(), explorer.scene is not None, explorer.fig is None,"
-            " explorer.last['p_tip_W'][2], [t.name for t in threading.enumerate()])"
+            " explorer.last['p_tip_W'][2], [s.value for s in explorer.sliders] == list(explorer.last['u_motor']),"
+            " [t.name for t in threading.enumerate()])"
         )
         assert "LIVE " in out, out
-        url, pid, live, no_png, z0, threads = out.split("LIVE ", 1)[1].split(" ", 5)
+        url, pid, live, no_png, z0, agree, threads = out.split("LIVE ", 1)[1].split(" ", 6)
         assert live == no_png == "True" and "lab-live-viewer" in threads, out  # the live path, not matplotlib
+        assert agree == "True", out  # the sliders read the command of the pose first shown
         pid, port = int(pid), int(url.split(":")[2].split("/")[0])
         command = [str(CHROMIUM), *FLAGS]
         with DevToolsPage(command, tmp_path / "profile") as page:
             page.navigate(url)
-            page.wait_for(f"typeof viewer !== 'undefined' && Math.abs({_TIP_Z} - {z0}) < 1e-6", 60, "the arm at rest")
+            page.wait_for(
+                f"typeof viewer !== 'undefined' && Math.abs({_TIP_Z} - {z0}) < 1e-6", 60, "the pose the sliders show"
+            )
+            z_rest = float(
+                run("for s in explorer.sliders:\n    s.value = 0.0\nprint(explorer.last['p_tip_W'][2])").split()[-1]
+            )
+            page.wait_for(f"Math.abs({_TIP_Z} - {z_rest}) < 1e-6", 60, "the arm at rest")
             before = page.screenshot()[20:]
             z1 = float(run("explorer.sliders[0].value = 3.0\nprint(explorer.last['p_tip_W'][2])").split()[-1])
             page.wait_for(f"Math.abs({_TIP_Z} - {z1}) < 1e-6", 60, "the arm at the new command")
@@ -320,7 +328,7 @@ def test_slider_moves_the_arm_in_the_live_viewer_of_a_jupyterlab_kernel(server, 
         _api(server, f"/api/kernels/{kernel['id']}", "DELETE")
     (r0, c0, n0), (r1, c1, n1) = _red_centroid(before), _red_centroid(after)
     counts = _pixel_counts(before), _pixel_counts(after)
-    print(f"tip z {z0} -> {z1} m; red centroid ({r0:.0f}, {c0:.0f}) -> ({r1:.0f}, {c1:.0f}); {counts}")
+    print(f"tip z {z_rest} -> {z1} m; red centroid ({r0:.0f}, {c0:.0f}) -> ({r1:.0f}, {c1:.0f}); {counts}")
     assert n0 > 20 and n1 > 20 and counts[0]["foam"] > 3000, counts  # the tip marker and the body
     assert r0 - r1 > 100, (r0, r1)  # the tip rose on screen (about 9 cm: about 200 px)
     assert counts[0]["magenta"] < 100 < counts[1]["magenta"], counts  # the top cable now at u_max

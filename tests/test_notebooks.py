@@ -82,8 +82,8 @@ def test_the_longest_units_of_work_go_out_first(request):
         pytest.skip("pytest-xdist is not loaded (-p no:xdist)")
     config = type("Config", (), {"getvalue": staticmethod({"dist": "loadfile", "tx": ["popen", "popen"]}.get)})
     sched = request.config.hook.pytest_xdist_make_scheduler(config=config, log=None)
-    units = {
-        "tests/test_sweep.py": {f"tests/test_sweep.py::t[{i}]": False for i in range(300)},
+    units = {  # a file of many short tests, two chapters' shared runs, the site's build, one test
+        "tests/test_many.py": {f"tests/test_many.py::t[{i}]": False for i in range(50)},
         "chapter 11_any_soft_body.ipynb": {"tests/test_nbval.py::test_headline_numbers[11_any_soft_body.ipynb]": False},
         "tests/test_docs_site.py": {"tests/test_docs_site.py::test_build_gives_no_warning": False},
         "chapter 12_fluidic_arm.ipynb": {"tests/test_nbval.py::test_headline_numbers[12_fluidic_arm.ipynb]": False},
@@ -95,7 +95,9 @@ def test_the_longest_units_of_work_go_out_first(request):
     while sched.workqueue:
         sched._assign_work_unit(node)
     handed = list(sched.assigned_work[node])  # the units in the order they went out
-    assert handed[:3] == ["chapter 12_fluidic_arm.ipynb", "tests/test_docs_site.py", "tests/test_sweep.py"], handed
+    # (the chapters' weights come from figures/chapter_times.csv, so only clear orders are asserted)
+    assert set(handed[:2]) == {"chapter 12_fluidic_arm.ipynb", "tests/test_docs_site.py"}, handed
+    assert handed.index("chapter 11_any_soft_body.ipynb") < handed.index("tests/test_many.py"), handed
     assert handed[-1] == "tests/test_tiny.py"
 
 
