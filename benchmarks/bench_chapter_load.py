@@ -28,16 +28,15 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from timing import run_beside_load  # noqa: E402
+
 from lab.course.load_times import LOAD_TIMES, write_load_times  # noqa: E402
 from lab.course.times import machine_name  # noqa: E402
-
-HOG = "while True: pass"
 
 
 def run_chapter(nb: Path, load: int) -> tuple[float, tuple[float, float, float]]:
@@ -48,16 +47,7 @@ def run_chapter(nb: Path, load: int) -> tuple[float, tuple[float, float, float]]
     with tempfile.TemporaryDirectory(prefix="lab-chapter-load-") as tmp:
         cmd = [sys.executable, "-m", "papermill", str(nb), str(Path(tmp) / nb.name), "--cwd", str(nb.parent),
                "-k", "python3", "-p", "figures_dir", str(Path(tmp) / "figures"), "-p", "quick", "True"]  # fmt: skip
-        hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(load)]
-        try:
-            t0 = time.monotonic()
-            r = subprocess.run(cmd, env=env, capture_output=True, text=True)
-            wall = time.monotonic() - t0
-            loadavg = os.getloadavg()
-        finally:
-            for h in hogs:
-                h.kill()
-                h.wait()
+        r, wall, loadavg = run_beside_load(cmd, load, env=env)
     if r.returncode:
         sys.exit(
             f"bench_chapter_load: {nb.name} failed (exit {r.returncode}) with {load} beside it:\n{r.stderr[-3000:]}"

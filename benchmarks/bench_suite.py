@@ -21,29 +21,20 @@ import re
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
+from timing import run_beside_load
+
 ROOT = Path(__file__).resolve().parent.parent
-HOG = "while True: pass"
 
 
 def one_run(load: int, log_dir: Path, k: int) -> dict:
     with tempfile.TemporaryDirectory(prefix="lab-suite-") as tmp:
         clone = Path(tmp) / "lab"
         subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
-        hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(load)]
-        try:
-            t0 = time.monotonic()
-            env = {**os.environ, "CI": "true"}
-            env.pop("VIRTUAL_ENV", None)
-            r = subprocess.run(["bash", ".ci/run"], cwd=clone, env=env, capture_output=True, text=True)
-            wall = time.monotonic() - t0
-            loadavg = os.getloadavg()
-        finally:
-            for h in hogs:
-                h.kill()
-                h.wait()
+        env = {**os.environ, "CI": "true"}
+        env.pop("VIRTUAL_ENV", None)
+        r, wall, loadavg = run_beside_load(["bash", ".ci/run"], load, cwd=clone, env=env)
     out = r.stdout + r.stderr
     (log_dir / f"bench_suite_run{k}_load{load}.log").write_text(out)
     summary = [ln for ln in out.splitlines() if re.search(r"\d+ (passed|failed)", ln) and " in " in ln]

@@ -1,11 +1,32 @@
-"""Shared helpers of the benchmark scripts (imported from the scripts' folder): timing, and
-the ``lab`` package of a baseline revision to time against."""
+"""Shared helpers of the benchmark scripts (imported from the scripts' folder): timing, a
+command run beside CPU-bound load, and the ``lab`` package of a baseline revision to time against."""
 
+import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+#: What each CPU-bound process of a loaded run executes.
+HOG = "while True: pass"
+
+
+def run_beside_load(cmd: list, load: int, **kwargs):
+    """``subprocess.run(cmd, capture_output=True, text=True, **kwargs)`` with ``load`` CPU-bound
+    processes (:data:`HOG`) running beside it for the whole run, stopped after it (also on an
+    error): ``(result, wall s, the 1/5/15-minute load averages at its end)``."""
+    hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(load)]
+    try:
+        t0 = time.monotonic()
+        r = subprocess.run(cmd, capture_output=True, text=True, **kwargs)
+        return r, time.monotonic() - t0, os.getloadavg()
+    finally:
+        for h in hogs:
+            h.kill()
+            h.wait()
 
 
 def best_of(fn, n=7):

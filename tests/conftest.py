@@ -60,7 +60,8 @@ def pytest_xdist_make_scheduler(config, log):
         def _assign_work_unit(self, node):
             if not getattr(self, "_longest_first", False):  # once, before the first unit goes out
                 self._longest_first = True
-                order = sorted(self.workqueue, key=lambda scope: -_expected_s(scope, len(self.workqueue[scope])))
+                quick = _quick_times()  # read once
+                order = sorted(self.workqueue, key=lambda scope: -_expected_s(scope, len(self.workqueue[scope]), quick))
                 for scope in order:
                     self.workqueue.move_to_end(scope)
             super()._assign_work_unit(node)
@@ -73,13 +74,13 @@ def pytest_xdist_make_scheduler(config, log):
 _LONG_SCOPES = {"tests/test_docs_site.py": 90.0}
 
 
-def _expected_s(scope: str, n_tests: int) -> float:
+def _expected_s(scope: str, n_tests: int, quick: dict) -> float:
     """A rough duration of a scheduling scope, for handing out the longest first: a chapter's
-    quick run (its three checks share it) from figures/chapter_times.csv, a known long file,
+    quick run (its three checks share it) from ``quick`` (figures/chapter_times.csv), a known long file,
     else 0.2 s per test. xdist's own order (most tests first) sent the chapters last, so the
     suite ended with one worker running a chapter while the other waited."""
     if scope.startswith("chapter "):
-        return 2.0 * _quick_times().get(scope.removeprefix("chapter "), 30.0)
+        return 2.0 * quick.get(scope.removeprefix("chapter "), 30.0)
     return _LONG_SCOPES.get(scope, 0.2 * n_tests)
 
 

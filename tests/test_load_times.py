@@ -126,6 +126,7 @@ def test_write_refuses_a_bad_row_and_keeps_the_file(tmp_path):
 
 
 def test_the_benchmark_alternates_and_writes_what_the_line_reads(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # as when run as a script: its folder's helpers
     spec = importlib.util.spec_from_file_location("bench_chapter_load", ROOT / "benchmarks" / "bench_chapter_load.py")
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)

@@ -43,6 +43,18 @@ def text_of(path: Path, what: str) -> str:
         raise InputError(f"{path}: not {what} (not UTF-8 text: byte {e.start} is {e.object[e.start]:#04x})") from None
 
 
+def csv_rows(path: Path, lines: list[list[str]], header: list[str]):
+    """``(line number, {column: text})`` of each non-blank row of a CSV read as ``lines``
+    (its header first); an :class:`InputError` naming the file and line of a row whose
+    number of fields is not the header's."""
+    for line, cells in enumerate(lines[1:], start=2):
+        if not cells:
+            continue
+        if len(cells) != len(header):
+            raise InputError(f"{path}, line {line}: {len(cells)} fields where its header has {len(header)}")
+        yield line, dict(zip(header, cells))
+
+
 def _check(row: dict[str, str]) -> tuple[str, str] | None:
     """The first bad cell of a row: (column, what it must be), or None."""
 
@@ -97,12 +109,7 @@ def read_load_times(path: str | Path) -> list[dict[str, str]]:
         got = ",".join(lines[0])[:60] if lines else ""
         raise InputError(f"{path}, line 1: not {WHAT}: its header must be {','.join(LOAD_COLUMNS)}, got {got!r}")
     rows: list[dict[str, str]] = []
-    for line, cells in enumerate(lines[1:], start=2):
-        if not cells:
-            continue
-        if len(cells) != len(LOAD_COLUMNS):
-            raise InputError(f"{path}, line {line}: {len(cells)} fields where its header has {len(LOAD_COLUMNS)}")
-        row = dict(zip(LOAD_COLUMNS, cells))
+    for line, row in csv_rows(path, lines, LOAD_COLUMNS):
         bad = _check(row)
         if bad:
             raise InputError(f"{path}, line {line}, column {bad[0]}: {row[bad[0]]!r} is not {bad[1]}")

@@ -31,7 +31,7 @@ import platform
 import re
 from pathlib import Path
 
-from lab.course.load_times import load_sentence
+from lab.course.load_times import csv_rows, load_sentence
 from lab.course.load_times import text_of as _text
 from lab.errors import InputError
 from lab.files import atomic_write_text
@@ -110,12 +110,7 @@ def read_times(path: str | Path, must_exist: bool = False) -> dict[str, dict]:
             f"got {first!r}" + (f" (unknown: {', '.join(unknown)})" if unknown and header[:1] == ["chapter"] else "")
         )
     rows = {}
-    for line, cells in enumerate(lines[1:], start=2):
-        if not cells:
-            continue
-        if len(cells) != len(header):
-            raise InputError(f"{path}, line {line}: {len(cells)} fields where its header has {len(header)}")
-        row = dict(zip(header, cells))
+    for line, row in csv_rows(path, lines, header):
         for column, text in row.items():
             if column != "chapter" and not column.endswith(("_date", "_machine")):
                 _number(path, line, column, text)

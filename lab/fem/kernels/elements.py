@@ -216,9 +216,10 @@ def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out
 def volume_ratios(x, tets, G, out):
     """det F of every tet into ``out`` (M,): its volume over its rest volume (node positions
     ``x`` (N, 3) m, ``tets`` (M, 4), shape-function gradients ``G`` (M, 4, 3))."""
+    F = np.empty((3, 3))
     for e in range(tets.shape[0]):
-        a, b, c, d, f, g, h, i, j = deformation(x, tets, G, e)
-        out[e] = a * (f * j - g * i) + b * (g * h - d * j) + c * (d * i - f * h)
+        _fill(F, deformation(x, tets, G, e))
+        out[e] = _inverse(F, F, False)  # det F only
 
 
 @jit

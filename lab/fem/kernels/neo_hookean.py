@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from lab.fem.kernels.backend import jit
-from lab.fem.kernels.elements import ELEMENT_HESSIANS, ENERGY, GRADIENT, HESSIAN, deformation
+from lab.fem.kernels.elements import ELEMENT_HESSIANS, ENERGY, GRADIENT, HESSIAN, _fill, _inverse, deformation
 
 
 @jit(inline=True)
@@ -102,20 +102,15 @@ def neo_hookean_product(x, dx, tets, G, V, prm, out):
     Node positions ``x`` and the direction ``dx`` (N, 3) m; the other arguments as in
     ``neo_hookean_sums``. Returns the number of inverted tets (nothing is added for them).
     """
-    Fi, D, T = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    F, Fi, D, T = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     bad = 0
     for e in range(tets.shape[0]):
-        a, b, c, d, f, g, h, i, j = deformation(x, tets, G, e)
-        c00, c10, c20 = f * j - g * i, g * h - d * j, d * i - f * h
-        J = a * c00 + b * c10 + c * c20
+        _fill(F, deformation(x, tets, G, e))
+        J = _inverse(F, Fi, True)
         if not J > 0:
             bad += 1
             continue
-        r = 1.0 / J
-        Fi[0, 0], Fi[0, 1], Fi[0, 2] = c00 * r, (c * i - b * j) * r, (b * g - c * f) * r
-        Fi[1, 0], Fi[1, 1], Fi[1, 2] = c10 * r, (a * j - c * h) * r, (c * d - a * g) * r
-        Fi[2, 0], Fi[2, 1], Fi[2, 2] = c20 * r, (b * h - a * i) * r, (a * f - b * d) * r
-        D[0, 0], D[0, 1], D[0, 2], D[1, 0], D[1, 1], D[1, 2], D[2, 0], D[2, 1], D[2, 2] = deformation(dx, tets, G, e)
+        _fill(D, deformation(dx, tets, G, e))
         Ve = V[e]
         mu, lam = Ve * prm[e, 0], Ve * prm[e, 1]
         cm = mu - lam * math.log(J)

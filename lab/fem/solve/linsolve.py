@@ -263,18 +263,16 @@ def _upper_pattern(H) -> tuple[_UpperPattern, sp.csr_matrix]:
     """The :class:`_UpperPattern` of ``H`` (from the cache when known), and ``H`` as a
     float64 CSR matrix in canonical form (``H`` itself when it is one)."""
     H = sp.csr_matrix(H, dtype=float)
-    for pattern in _PATTERNS:  # a known pattern is canonical (checking that costs 0.3 ms)
-        if pattern.fits(H):
-            return pattern, H
-    if not H.has_canonical_format:  # duplicate or unsorted entries: summed and sorted (a copy)
+    pattern = next((p for p in _PATTERNS if p.fits(H)), None)  # a known one is canonical (checking costs 0.3 ms)
+    if pattern is None and not H.has_canonical_format:  # duplicate or unsorted entries: summed and sorted (a copy)
         H = H.copy()
         H.sum_duplicates()
-        for pattern in _PATTERNS:
-            if pattern.fits(H):
-                return pattern, H
-    _PATTERNS.insert(0, _UpperPattern(H.indptr, H.indices))
-    del _PATTERNS[8:]
-    return _PATTERNS[0], H
+        pattern = next((p for p in _PATTERNS if p.fits(H)), None)
+    if pattern is None:
+        pattern = _UpperPattern(H.indptr, H.indices)
+        _PATTERNS.insert(0, pattern)
+        del _PATTERNS[8:]
+    return pattern, H
 
 
 def _call(solver, upper: _UpperPattern, data: np.ndarray, b: np.ndarray) -> np.ndarray:
