@@ -15,7 +15,7 @@ from helpers import fd_jacobian
 from lab.data import read_dataset
 from lab.errors import InputError
 from lab.learn import ModelFileError, fit_gpr, fit_knn, fit_sklearn_mlp, init_mlp, load_peer
-from lab.learn.peers import GPRModel, KNNModel, SklearnMLPModel
+from lab.learn.peers import KNN_WEIGHTS, GPRModel, KNNModel, SklearnMLPModel
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -140,6 +140,15 @@ def test_knn_matches_sklearn_has_no_jacobian_and_round_trips(data, tmp_path):
             call(u_test[0])
     with pytest.raises(InputError, match="n_neighbors"):
         fit_knn(u[:3], y[:3], n_neighbors=5)
+    # The model queries the estimator's k-d tree itself: the same neighbours, ties included
+    # (the grid's cell centres are equidistant from eight samples), and the same weights.
+    u_grid, y_grid, _ = read_dataset(ROOT / "data" / "sim_three_cable.csv")
+    step = np.diff(np.unique(u_grid[:, 0]))[0]
+    centres = np.unique(u_grid, axis=0)[:40] + step / 2
+    for weights in KNN_WEIGHTS:
+        grid = fit_knn(u_grid, y_grid, n_neighbors=5, weights=weights)
+        for q in (centres, u_grid[:40], u_test):
+            np.testing.assert_allclose(grid.predict(q), grid.estimator.predict(grid.scale(q)), rtol=1e-15, atol=0)
     back = load_peer(knn.save(tmp_path / "knn.npz"))
     assert isinstance(back, KNNModel) and back.n_neighbors == 4
     np.testing.assert_array_equal(back.predict(u_test), knn.predict(u_test))

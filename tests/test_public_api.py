@@ -54,7 +54,7 @@ def _texts() -> dict[Path, str]:
 
 def unused_exports() -> list[str]:
     """``lab.pkg.Name`` for every exported name no other file references (by whole word)."""
-    texts = _texts()
+    words = {p: set(re.findall(r"\w+", t)) for p, t in _texts().items()}  # a name is a whole word
     unused = []
     for info in pkgutil.walk_packages(lab.__path__, "lab."):
         if not info.ispkg:
@@ -66,8 +66,7 @@ def unused_exports() -> list[str]:
             module = getattr(obj, "__module__", None)
             if isinstance(module, str) and module.startswith("lab"):
                 home.add(Path(importlib.import_module(module).__file__).resolve())
-            word = re.compile(rf"\b{re.escape(name)}\b")
-            if not any(word.search(t) for p, t in texts.items() if p not in home):
+            if not any(name in w for p, w in words.items() if p not in home):
                 unused.append(f"{info.name}.{name}")
     return unused
 
