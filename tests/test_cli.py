@@ -117,6 +117,14 @@ def test_python_m_lab_exit_code_and_message(tmp_path):
     assert r.returncode == 2 and "dataset not found" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_the_command_line_starts_without_the_heavy_libraries():
+    # every command imports all of lab.cli: scipy.stats (~0.4 s), torch and numba wait for the
+    # code that uses them (each `python -m lab` process, each test that starts one, pays this)
+    probe = "import sys, lab.cli, lab.jobs\nprint(sorted({'scipy.stats', 'torch', 'numba'} & set(sys.modules)))"
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True)
+    assert r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
 def test_every_command_has_its_module():
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
