@@ -366,6 +366,14 @@ def test_every_public_name_has_an_api_entry(site):
     assert not missing, f"{len(missing)} public names have no API entry: {missing[:20]}"
 
 
+def test_an_api_page_lists_its_names_not_their_members(site):
+    page = (site[0] / "docs" / "api" / "lab.fem.html").read_text()
+    toc = page[page.index('class="toc-tree"') :]
+    toc = toc[: toc.index("</div>")]  # the page's "On this page"
+    assert 'href="#lab.fem.ArmFEM"' in toc and 'href="#lab.fem.solve_static"' in toc
+    assert 'href="#lab.fem.ArmFEM.hessian"' not in toc and 'id="lab.fem.ArmFEM.hessian"' in page
+
+
 def _wait(page, expression, timeout_s, what):
     """``page.wait_for``, through navigations (a page being replaced answers nothing)."""
 
