@@ -27,7 +27,7 @@ import lab_mathjax  # noqa: E402  (docs/_ext, just put on the path)
 project = "lab"
 author = "the lab authors"
 copyright = "the lab authors, MIT licence"
-extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "lab_api", "lab_mathjax", "lab_sections"]
+extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "lab_api", "lab_fuzzy_index", "lab_mathjax", "lab_sections"]
 
 root_doc = "README"
 include_patterns = ["README.md", "docs/*.md", "docs/design/*.md", "docs/api/*.rst", "figures/notebooks/*.ipynb"]

@@ -266,6 +266,40 @@ def _lab_api():
         sys.path.remove(str(ROOT / "docs" / "_ext"))
 
 
+def test_fuzzy_lookups_from_the_index_are_sphinxs():
+    """docs/_ext/lab_fuzzy_index.py finds what the Python domain's own scan finds, in its order."""
+    from sphinx.domains.python import ObjectEntry, PythonDomain
+
+    sys.path.insert(0, str(ROOT / "docs" / "_ext"))
+    try:
+        indexed_class = importlib.import_module("lab_fuzzy_index").IndexedPythonDomain
+    finally:
+        sys.path.remove(str(ROOT / "docs" / "_ext"))
+    names = ["lab.fem.ArmFEM", "lab.fem.ArmFEM.hessian", "lab.fem.solve.statics.solve_static", "lab.fem.solve_static"]
+    names += ["lab.learn.train", "lab.learn.train_spec.TrainSpec", "lab.rig.ArmFEM", "ArmFEM", "lab.x.hessian"]
+    kinds = ["class", "method", "function", "function", "function", "class", "data", "class", "attribute"]
+    domains = []
+    for cls in (PythonDomain, indexed_class):
+        domain = object.__new__(cls)  # what find_obj reads: the objects and the roles' object types
+        domain.data = {"objects": {n: ObjectEntry("page", n, k, False) for n, k in zip(names, kinds)}}
+        domain._role2type = {}
+        for kind, objtype in cls.object_types.items():
+            for role in objtype.roles:
+                domain._role2type.setdefault(role, []).append(kind)
+        domain.object_types, domain.objtypes_for_role = dict(cls.object_types), domain._role2type.get
+        domains.append(domain)
+    asked = ["ArmFEM", "hessian", "solve_static", "statics.solve_static", "train", "TrainSpec", "nothing", "()"]
+    asked += ["fem.ArmFEM.hessian", "ArmFEM.hessian()", "x.hessian", "lab.fem.ArmFEM"]
+    for name in asked:
+        for mod, cls_name in (("", ""), ("lab.fem", ""), ("lab.fem", "ArmFEM"), ("lab.rig", "")):
+            for role in (None, "class", "func", "meth", "obj", "data"):
+                for mode in (0, 1):
+                    ours, theirs = (d.find_obj(None, mod, cls_name, name, role, mode) for d in (domains[1], domains[0]))
+                    assert [n for n, _ in ours] == [n for n, _ in theirs], (name, mod, cls_name, role, mode)
+    assert [n for n, _ in domains[1].find_obj(None, "", "", "ArmFEM", "class", 1)] == ["ArmFEM"]
+    assert len(domains[1].find_obj(None, "", "", "hessian", None, 1)) == 2  # two objects end with .hessian
+
+
 def test_docstring_math_and_command_blocks():
     lab_api = _lab_api()
     assert lab_api.plain_text_math(["mean |x - y| over ``a|b`` and :data:`A|B`"]) == [
