@@ -26,9 +26,9 @@ from lab.errors import InputError
 #: The assemblies, by name.
 BACKENDS = ("compiled", "numpy")
 #: By default a model of fewer tets keeps the NumPy assembly: loading numba and the kernels
-#: costs about half a second of CPU per process, more than they save on such a mesh in a
-#: short run (benchmarks/bench_assembly.py measures both).
-COMPILED_MIN_TETS = 1000
+#: costs ~0.4 s of CPU per process, which a solve on 432 tets repays after ~60 solves and one
+#: on 108 tets after ~150 (benchmarks/bench_small_meshes.py), more than a short run makes.
+COMPILED_MIN_TETS = 400
 
 _choice: str | None = None  # None: "compiled" where numba imports
 _numba_problem: str | None = None  # why numba cannot be used (None: not known to fail)
