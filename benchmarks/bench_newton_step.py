@@ -34,6 +34,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from bench_assembly import instrumented  # noqa: E402
+from timing import Printout  # noqa: E402
 
 import lab.fem.solve.statics as statics  # noqa: E402
 from lab.asbuilt.arm import as_built_fem  # noqa: E402
@@ -43,12 +44,8 @@ from lab.description import load_robot  # noqa: E402
 from lab.fem import ArmFEM, solve_static, use_assembly  # noqa: E402
 from lab.fem.solve.linsolve import factorize  # noqa: E402
 
-LINES: list[str] = []
-
-
-def say(text: str = "") -> None:
-    print(text, flush=True)
-    LINES.append(text)
+OUT = Printout()
+say = OUT.say
 
 
 def models() -> dict:
@@ -165,7 +162,7 @@ def main() -> None:
         solve_table(fems, 20)
     say(f"load average at the end: {os.getloadavg()[0]:.1f}")
     if args.out:
-        Path(args.out).write_text("\n".join(LINES) + "\n")
+        OUT.write(args.out)
 
 
 if __name__ == "__main__":

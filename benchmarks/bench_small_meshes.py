@@ -23,6 +23,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from timing import Printout  # noqa: E402
 
 from lab.description import load_robot  # noqa: E402
 from lab.fem import COMPILED_MIN_TETS, ArmFEM, solve_static, use_assembly  # noqa: E402
@@ -41,12 +42,8 @@ with use_assembly("compiled"):
     t0 = time.process_time(); fem.hessian(q, u); t1 = time.process_time(); fem.hessian(q, u); t2 = time.process_time()
 print((t1 - t0) - (t2 - t1))
 """
-LINES: list[str] = []
-
-
-def say(text: str = "") -> None:
-    print(text, flush=True)
-    LINES.append(text)
+OUT = Printout()
+say = OUT.say
 
 
 def load_cost(runs: int = 5) -> float:
@@ -98,7 +95,7 @@ def main() -> None:
     say()
     say(f"load average at the end: {os.getloadavg()[0]:.1f}")
     if args.out:
-        Path(args.out).write_text("\n".join(LINES) + "\n")
+        OUT.write(args.out)
 
 
 if __name__ == "__main__":

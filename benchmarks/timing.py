@@ -10,6 +10,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+class Printout:
+    """A benchmark's printout: each line printed as it comes and kept, written to a file at
+    the end (the scripts' ``--out``)."""
+
+    def __init__(self):
+        self.lines: list[str] = []
+
+    def say(self, text: str = "") -> None:
+        print(text, flush=True)
+        self.lines.append(text)
+
+    def write(self, path) -> None:
+        Path(path).write_text("\n".join(self.lines) + "\n")
+
+
 #: What each CPU-bound process of a loaded run executes.
 HOG = "while True: pass"
 

@@ -44,8 +44,8 @@ class IndexedPythonDomain(PythonDomain):
         if objtypes is None:
             return []
         objects = self.objects
-        exact = [f"{modname}.{bare}" if modname else "", bare]
-        exact.insert(0, f"{modname}.{classname}.{bare}" if modname and classname else "")
+        in_class = f"{modname}.{classname}.{bare}" if modname and classname else ""
+        exact = (in_class, f"{modname}.{bare}" if modname else "", bare)
         if any(n in objects and objects[n].objtype in objtypes for n in exact if n):
             return super().find_obj(env, modname, classname, name, type, searchmode)  # an exact match
         return [(n, objects[n]) for n in self._ending(bare) if objects[n].objtype in objtypes]
