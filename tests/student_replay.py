@@ -26,12 +26,16 @@ the edition is executed in full, as before. It holds when
 - each replayed cell, run after the chapter's end, finds each name it reads as it was at
   its position: the replay binds the name anew before it (and replays every cell that
   writes it since), or no cell from it onward writes the name and no replayed cell before
-  it does.
+  it does. Where neither holds, the cell that last bound the name for certain before it
+  (not the parameters cell, which the edition changes) and every cell that changed it
+  since are replayed too ("rebind"), and so on for what those read.
 
 Names are followed statically (:mod:`symtable`, :mod:`ast`): a cell reads the global names
-it and its functions reference, and writes the names it binds and, conservatively, every
-object it may change (an attribute or item assigned, a method called, an argument passed,
-but to a builtin such as ``print`` or ``len``).
+it and its functions reference (but those it binds before each use: in a loop's body, as a
+loop's variable, in every branch of a ``try`` that goes on), and writes the names it binds
+and, conservatively, every object it may change (an attribute or item assigned, a method
+called, an argument passed, but to a builtin such as ``print`` or ``len``, or a name only
+ever bound to a string, a number or a tuple of them, which nothing can change).
 A grader is trusted to report only: :func:`lab.course.grade` calls the student's function
 first, so with a stub it stops at that call, and the cases it builds before it are the ones
 the chapter's run built at the same position.
@@ -61,7 +65,7 @@ PURE |= {"isinstance", "enumerate", "zip", "range", "format", "any", "all", "lis
 
 class ReplayCell(NamedTuple):
     """One cell to run again: its ``index`` in the notebook, its ``source`` in the student
-    edition and its ``kind`` ("stub", "grader" or "dependent")."""
+    edition and its ``kind`` ("stub", "grader", "dependent" or "rebind")."""
 
     index: int
     source: str
@@ -91,6 +95,68 @@ def _base(node) -> str | None:
     while isinstance(node, (ast.Attribute, ast.Subscript, ast.Starred)):
         node = node.value
     return node.id if isinstance(node, ast.Name) else None
+
+
+def _immutable(node) -> bool:
+    """Whether the expression ``node`` gives an immutable value whatever the names hold: a
+    literal number, string or None, an f-string, a tuple of such, or a choice between them."""
+    if isinstance(node, (ast.Constant, ast.JoinedStr)):
+        return True
+    if isinstance(node, ast.Tuple):
+        return all(_immutable(e) for e in node.elts)
+    if isinstance(node, ast.IfExp):
+        return _immutable(node.body) and _immutable(node.orelse)
+    if isinstance(node, ast.UnaryOp):
+        return isinstance(node.operand, ast.Constant)
+    return False
+
+
+def _stored_before_loads(tree) -> set[str]:
+    """Names every load of which comes after an assignment to it earlier in the same block
+    (``n = f(); g(n)`` in a loop's body) or inside a loop over it (``for n in ...: g(n)``):
+    the cell reads only its own values, whatever the name held before."""
+    loads, covered = {}, {}
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load):
+            loads.setdefault(n.id, set()).add(id(n))
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.For, ast.AsyncFor)):
+            inside = {id(m) for stmt in node.body for m in ast.walk(stmt)}
+            for x in _target_names(node.target):
+                covered.setdefault(x, set()).update(inside)
+        for block in (getattr(node, f, None) for f in ("body", "orelse", "finalbody")):
+            if not isinstance(block, list):
+                continue
+            for i, stmt in enumerate(block):
+                names = _surely_bound([stmt])
+                if names:
+                    after = {id(m) for later in block[i + 1 :] for m in ast.walk(later)}
+                    for x in names:
+                        covered.setdefault(x, set()).update(after)
+    return {x for x, ids in covered.items() if loads.get(x, set()) <= ids}
+
+
+def _surely_bound(block: list) -> set[str]:
+    """Names that the statements ``block`` bind on every path through them that goes on
+    after them (a ``try``: its body and each handler that does not raise; an ``if``: both
+    branches)."""
+    out = set()
+    for stmt in block:
+        if isinstance(stmt, ast.Assign):
+            out.update(t.id for t in stmt.targets if isinstance(t, ast.Name))
+        elif isinstance(stmt, (ast.Import, ast.ImportFrom)):
+            out.update(_import_names(stmt))
+        elif isinstance(stmt, (ast.FunctionDef, ast.ClassDef)):
+            out.add(stmt.name)
+        elif isinstance(stmt, ast.If):
+            out |= _surely_bound(stmt.body) & _surely_bound(stmt.orelse)
+        elif isinstance(stmt, ast.With):
+            out |= _surely_bound(stmt.body)
+        elif isinstance(stmt, ast.Try):
+            paths = [_surely_bound(stmt.body + stmt.orelse)]
+            paths += [_surely_bound(h.body) for h in stmt.handlers if not isinstance(h.body[-1], ast.Raise)]
+            out |= set.intersection(*paths) | _surely_bound(stmt.finalbody)
+    return out
 
 
 def _target_names(t) -> list[str]:
@@ -154,6 +220,7 @@ class _Cell:
             if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load):
                 first_load[n.id] = min(first_load.get(n.id, n.lineno), n.lineno)
         self.reads -= {x for x, line in self.must.items() if line < first_load.get(x, line + 1)}
+        self.reads -= _stored_before_loads(tree)
         self.mutates = set()
         for n in ast.walk(tree):
             targets = []
@@ -172,6 +239,17 @@ class _Cell:
                     continue
                 self.mutates.update(_base(a) for a in [*receivers, *n.args, *(k.value for k in n.keywords)])
         self.mutates.discard(None)
+        how_bound = {}  # name -> {whether each assignment in this cell gives an immutable value}
+        for n in ast.walk(tree):
+            pairs = []
+            if isinstance(n, ast.Assign):
+                pairs = [(t, n.value) for t in n.targets]
+            elif isinstance(n, ast.AnnAssign) and n.value is not None:
+                pairs = [(n.target, n.value)]
+            for t, value in pairs:
+                for x in _target_names(t):
+                    how_bound.setdefault(x, set()).add(isinstance(t, ast.Name) and _immutable(value))
+        self.immutable = {x for x in self.binds if how_bound.get(x) == {True}}
         attributes = {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)}
         self.dynamic = sorted((self.reads | attributes) & DYNAMIC)
         fragments = {id(v) for n in ast.walk(tree) if isinstance(n, ast.JoinedStr) for v in n.values}  # f"{a}..{b}"
@@ -262,7 +340,9 @@ def replay_plan(source: Path, edition: str, student_dir: Path) -> Plan:
     stable = {x for x, ways in how.items() if len(ways) == 1 and next(iter(ways))[0] != "bound by"}
     if how.keys() & PURE:
         return Plan(None, f"a cell rebinds the builtin {sorted(how.keys() & PURE)[0]}")
-    writes = {i: (cells[i].binds | (cells[i].mutates & how.keys())) - stable for i in code}
+    # a name only ever bound to an immutable value cannot be changed, only bound anew
+    immutable = {x for x in how if all(x in cells[i].immutable for i in code if x in cells[i].binds)}
+    writes = {i: (cells[i].binds | (cells[i].mutates & how.keys() - immutable)) - stable for i in code}
     for i in code:
         if GRADER in tags[i]:  # a grader reports; it changes nothing it is given
             writes[i] = cells[i].binds - stable
@@ -282,6 +362,26 @@ def replay_plan(source: Path, edition: str, student_dir: Path) -> Plan:
         else:
             changed -= c.must.keys()  # the same value in both editions from here on
 
+    while True:  # until every replayed cell finds what it reads as it was at its position
+        problem = _first_stale_read(replay, cells, code, writes, changed_at)
+        if problem is None:
+            break
+        r, x, where = problem
+        before = [k for k in code if k < r.index and x in writes[k]]
+        fresh = [k for k in before if x in cells[k].must]
+        again = {c.index for c in replay}
+        rebind = [k for k in before if fresh and k >= fresh[-1] and k not in again]
+        if not rebind or PARAMETERS in tags[fresh[-1]]:
+            return Plan(None, f"cell {r.index} reads {x}, which the chapter changes elsewhere (cell {where})")
+        # replay the cell that binds x before it, and every cell that changes x since
+        replay = sorted(replay + [ReplayCell(k, cell_source(theirs[k]), "rebind") for k in rebind])
+    return Plan(replay, f"{len(replay)} cells replayed")
+
+
+def _first_stale_read(replay, cells, code, writes, changed_at):
+    """The first (replayed cell, name, cell that changes the name) where the replay, run
+    after the chapter's end, would not find the name as it was at that cell's position;
+    None if there is none."""
     again = {r.index for r in replay}
     for r in replay:
         c = cells[r.index]
@@ -293,6 +393,5 @@ def replay_plan(source: Path, edition: str, student_dir: Path) -> Plan:
             later = [j for j in code if j >= r.index and x in writes[j]]
             if not later and not again.intersection(before):
                 continue  # the chapter's end holds x as it was here, and the replay leaves it alone
-            where = (later or [k for k in before if k in again])[0]
-            return Plan(None, f"cell {r.index} reads {x}, which the chapter changes elsewhere (cell {where})")
-    return Plan(replay, f"{len(replay)} cells replayed")
+            return r, x, (later or [k for k in before if k in again])[0]
+    return None

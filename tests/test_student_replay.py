@@ -64,14 +64,51 @@ def test_cells_that_use_the_exercise_are_replayed_and_what_they_change_too(tmp_p
     assert replayed(plan_for(tmp_path, *cells)) == [(0, "stub"), (1, "dependent")]
 
 
+def test_a_name_changed_later_is_bound_anew_by_replaying_the_cells_that_made_it(tmp_path):
+    # the end of the run does not hold a as cell 2 read it: replaying cell 0 first does
+    cells = ["a = 1", (SOLUTION, "solution"), "print(double(a))", "a = 2"]
+    assert replayed(plan_for(tmp_path, *cells)) == [(0, "rebind"), (1, "stub"), (2, "dependent")]
+    # a cell that changes what it reads (replayed alone, it would change it twice)
+    cells = ["acc = []", (SOLUTION, "solution"), "acc.append(double(1))"]
+    assert replayed(plan_for(tmp_path, *cells)) == [(0, "rebind"), (1, "stub"), (2, "dependent")]
+    # and what the rebound cell reads, transitively (cell 4 reads rng after cell 3 drew from it)
+    cells = ["n = 3", "rng = make(n)", (SOLUTION, "solution"), "print(double(rng.random()))", "rng.random()", "n = 4"]
+    assert replayed(plan_for(tmp_path, *cells)) == [
+        (0, "rebind"),
+        (1, "rebind"),
+        (2, "stub"),
+        (3, "dependent"),
+        (4, "dependent"),
+    ]
+
+
+def test_what_cannot_change_and_what_a_cell_binds_before_reading_it_need_no_rebinding(tmp_path):
+    # a string passed to functions cannot be changed by them
+    join = "import os\nprint(double(1), os.path.join(figures_dir, 'x'))"
+    cells = [(PARAMS, "parameters"), (SOLUTION, "solution"), join, "import os\nos.makedirs(figures_dir)"]
+    assert replayed(plan_for(tmp_path, *cells)) == [(1, "stub"), (2, "dependent")]
+    # names a cell binds before each use: in a loop's body, as a loop's variable, in both
+    # branches of a try
+    loop = "for t in (1, 2):\n    n = double(t)\n    print(n)"
+    tried = "try:\n    v = double(1)\nexcept NotImplementedError:\n    v = 2\nprint(v)"
+    cells = [(SOLUTION, "solution"), loop, tried, "n, t = [0], [1]\nn.append(t)\nv = [3]"]
+    assert replayed(plan_for(tmp_path, *cells)) == [(0, "stub"), (1, "dependent"), (2, "dependent")]
+    # a handler that raises binds nothing after the try; one that may not run binds nothing
+    raised = "try:\n    v = double(1)\nexcept NotImplementedError:\n    raise\nprint(v)"
+    assert replayed(plan_for(tmp_path, (SOLUTION, "solution"), raised, "v = [3]")) == [(0, "stub"), (1, "dependent")]
+    maybe = "if double is None:\n    v = 1\nprint(v)"
+    assert plan_for(tmp_path, "v = 0", (SOLUTION, "solution"), maybe, "v = [3]").cells is not None
+    assert replayed(plan_for(tmp_path, "v = 0", (SOLUTION, "solution"), maybe, "v = [3]"))[0] == (0, "rebind")
+
+
 @pytest.mark.parametrize(
     ("cells", "reason"),
     [
-        # a replayed cell reads a name the chapter changes after it: the end of the run is not its state
-        (["a = 1", (SOLUTION, "solution"), "print(double(a))", "a = 2"], "reads a, which the chapter changes"),
-        # ... or one it changes itself (replayed, it would change it twice)
-        (["acc = []", (SOLUTION, "solution"), "acc.append(double(1))"], "reads acc"),
-        (["rng = make()", (SOLUTION, "solution"), "print(double(rng.random()))", "rng.random()"], "reads rng"),
+        # a replayed cell reads a name the chapter changes after it (or that it changes itself),
+        # and no cell binds the name for certain before it: a loop's variable ...
+        (["for a in (1, 2):\n    pass", (SOLUTION, "solution"), "print(double(a))", "a = 2"], "reads a, which"),
+        # ... or only the parameters cell, which the edition changes
+        ([("quick = False\nacc = []\n", "parameters"), (SOLUTION, "solution"), "acc.append(double(1))"], "reads acc"),
         # the stub would lose what the solution cell defines besides its functions
         ([("K = 2\n" + SOLUTION, "solution")], "more than function definitions"),
         # paths relative to the working folder: the edition runs from build/student/
