@@ -11,6 +11,7 @@ independent, every subpackage declares ``__all__``, and no code cites an issue n
 from __future__ import annotations
 
 import ast
+import functools
 import importlib
 import re
 from pathlib import Path
@@ -86,9 +87,15 @@ def is_module(name: str) -> bool:
     return (LAB.parent / rel).is_dir() or (LAB.parent / rel.with_suffix(".py")).exists()
 
 
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    """The syntax tree of the file ``path``, read once per session (the tests only walk it)."""
+    return ast.parse(path.read_text())
+
+
 def lab_imports(path: Path, name: str) -> set[str]:
     """Every lab module ``path`` (module ``name``) imports, resolved to module names."""
-    tree = ast.parse(path.read_text())
+    tree = parsed(path)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out = set()
     for node in ast.walk(tree):
@@ -109,9 +116,11 @@ def lab_imports(path: Path, name: str) -> set[str]:
     return out
 
 
-def graph() -> dict[str, set[str]]:
+@functools.lru_cache(maxsize=1)
+def graph() -> dict[str, frozenset[str]]:
+    """Each lab module -> the lab modules it imports (computed once per session)."""
     files = {module_name(p): p for p in LAB.rglob("*.py")}
-    return {name: {m for m in lab_imports(p, name) if m in files} - {name} for name, p in files.items()}
+    return {name: frozenset({m for m in lab_imports(p, name) if m in files} - {name}) for name, p in files.items()}
 
 
 def layer(module: str) -> int:
@@ -188,7 +197,7 @@ def test_one_family_class():
         f"{module_name(p)}.{n.name}"
         for p in sorted(LAB.rglob("*.py"))
         if in_package(module_name(p), "asbuilt") or in_package(module_name(p), "rig")
-        for n in ast.walk(ast.parse(p.read_text()))
+        for n in ast.walk(parsed(p))
         if isinstance(n, ast.ClassDef) and "Family" in n.name and not n.name.endswith("Spec")
     ]
     assert sorted(classes) == ["lab.asbuilt.family.Family", "lab.rig.twin.FamilyTwinRig"], classes
@@ -317,7 +326,7 @@ def test_command_run_is_short():
     for module in sorted(set(command_modules().values())):
         path = LAB.parent / Path(*module.split("."))
         path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
-        runs = [n for n in ast.parse(path.read_text()).body if isinstance(n, ast.FunctionDef) and n.name == "run"]
+        runs = [n for n in parsed(path).body if isinstance(n, ast.FunctionDef) and n.name == "run"]
         assert runs, f"{module} has no run(args) function"
         if (n := runs[0].end_lineno - runs[0].lineno + 1) > RUN_MAX_LINES:
             long[module] = n
@@ -340,7 +349,7 @@ def test_one_job_per_command():
     g = graph()
     for cmd, cli_module in commands.items():
         job = f"lab.jobs.{cmd.replace('-', '_')}"
-        tree = ast.parse((jobs_dir / f"{job.rpartition('.')[2]}.py").read_text())
+        tree = parsed(jobs_dir / f"{job.rpartition('.')[2]}.py")
         runs = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "run"]
         assert runs, f"{job} has no run(spec, ...) function"
         assert job in g[cli_module], f"{cli_module} does not import {job}"
@@ -357,7 +366,7 @@ FEM_SOLVE = ["lab.fem.solve.statics", "lab.fem.solve.steps", "lab.fem.solve.warm
 
 def code_names(path: Path) -> set[str]:
     """Every identifier in the code of ``path`` (names, attributes, arguments; not docstrings)."""
-    tree = ast.parse(path.read_text())
+    tree = parsed(path)
     out = set()
     for n in ast.walk(tree):
         if isinstance(n, ast.Name):
@@ -385,7 +394,7 @@ def test_a_toy_actuator_plugs_in_without_solver_edits():
     """tests/test_fem_interfaces.py registers its own actuator and solves with it, patching
     nothing in lab.fem."""
     path = LAB.parent / "tests" / "test_fem_interfaces.py"
-    tree = ast.parse(path.read_text())
+    tree = parsed(path)
     registered = [
         c.name
         for c in ast.walk(tree)
@@ -479,7 +488,7 @@ def test_only_rigs_parse_rig_strings():
 
 def declares_all(path: Path) -> bool:
     """Whether the module at ``path`` assigns ``__all__`` at its top level."""
-    for node in ast.parse(path.read_text()).body:
+    for node in parsed(path).body:
         targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
         if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
             return True
@@ -517,7 +526,7 @@ def test_no_test_named_after_an_issue():
     bad = [
         f"{p.name}::{n.name}"
         for p in sorted((LAB.parent / "tests").rglob("*.py"))
-        for n in ast.walk(ast.parse(p.read_text()))
+        for n in ast.walk(parsed(p))
         if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef)
         and re.search(r"issues?_?\d+", n.name, re.IGNORECASE)
     ]
