@@ -8,7 +8,8 @@ too, unless a test asks for the real one: the student command's build of its edi
 A build that silenced the shell's stderr (as ``exec 9<&- 2>/dev/null`` did) loses that
 error and the build's own progress lines; this test sees both, on the first run and on the
 second (when .venv is up to date and the build is skipped). The student command's first
-run prints JupyterLab's URL with its token and opens build/student/.
+run prints JupyterLab's URL with its token and opens build/student/. scripts/test's
+pytest command line shows how many workers it starts.
 """
 
 from __future__ import annotations
@@ -117,3 +118,17 @@ def test_first_build_of_the_student_command_prints_its_url_and_opens_the_edition
     # the instructors' command stays on notebooks/
     r = _run(root, fake_base, "jupyter", "--no-browser")
     assert r.returncode == 0 and f"--notebook-dir={root}/notebooks" in r.stderr, r.stderr
+
+
+def test_the_suite_runs_one_worker_per_core_and_one_more(repo):
+    """scripts/test's default workers: the cores this process may use, plus one, whatever
+    OMP_NUM_THREADS says (scripts/_env.sh sets it to 1, and GNU nproc would answer that);
+    LAB_TEST_WORKERS overrides, and --pdb runs in one process."""
+    root, fake_base = repo
+    cores = len(os.sched_getaffinity(0))
+    r = _run(root, fake_base, "test", OMP_NUM_THREADS="1")
+    assert f"python -m pytest -n {cores + 1} --dist loadfile" in r.stderr, r.stderr
+    r = _run(root, fake_base, "test", "-k", "x", LAB_TEST_WORKERS="5")
+    assert "python -m pytest -n 5 --dist loadfile -k x" in r.stderr, r.stderr
+    r = _run(root, fake_base, "test", "--pdb")
+    assert "python -m pytest --pdb" in r.stderr and " -n " not in r.stderr, r.stderr
