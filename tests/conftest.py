@@ -40,42 +40,6 @@ def chapter_runs(tmp_path_factory):
     return ChapterRuns(tmp_path_factory.mktemp("chapters"))
 
 
-def pytest_configure(config):
-    """In the process that hands out the work to xdist's workers: fill numba's on-disk cache
-    of the FEM's kernels (:func:`_warm_kernels`) in a thread while the workers start."""
-    if (
-        config.pluginmanager.hasplugin("xdist")
-        and config.getoption("numprocesses", None)
-        and not hasattr(config, "workerinput")
-    ):
-        import threading
-
-        threading.Thread(target=_warm_kernels, name="warm-fem-kernels", daemon=True).start()
-
-
-def _warm_kernels() -> None:
-    """Compile the FEM's kernels (:mod:`lab.fem.kernels`) for every law into numba's on-disk
-    cache, once. In a fresh clone the cache is empty, and every process that solved first (the
-    workers, the first chapters' kernels, commands run in subprocesses) compiled them itself,
-    seconds of CPU each; here the controller, idle while the workers start and collect, does it
-    once. A failure is left to the tests that use the kernels to report."""
-    try:
-        import numpy as np
-
-        from lab.fem import solve_static, use_assembly
-        from lab.fem.materials import HyperfoamMaterial, YeohMaterial
-
-        robot = load_robot("three-cable")
-        u = np.array([1.0, 0.5, 0.0])
-        with use_assembly("compiled"):
-            for material in (None, YeohMaterial(2.0e4, -1.0e3, 5.0e2, 0.45), HyperfoamMaterial(1.4e4, 13.96, 0.75)):
-                fem = ArmFEM(robot, n_rings=1, n_axial=4, material=material)
-                q = solve_static(fem, u, sensitivity="reuse", refine_du=np.eye(3)[:1]).q
-                fem.volume_ratio(q)
-    except Exception:  # noqa: BLE001, S110 - the tests say what is wrong
-        pass
-
-
 @pytest.hookimpl(optionalhook=True, tryfirst=True)
 def pytest_xdist_make_scheduler(config, log):
     """xdist's ``--dist loadfile`` (scripts/test) or ``load`` (``-n`` alone), except that a
