@@ -113,8 +113,8 @@ def _immutable(node) -> bool:
 
 def _stored_before_loads(tree) -> set[str]:
     """Names every load of which comes after an assignment to it earlier in the same block
-    (``n = f(); g(n)`` in a loop's body) or inside a loop over it (``for n in ...: g(n)``):
-    the cell reads only its own values, whatever the name held before."""
+    (``n = f(); g(n)``, at the cell's top level or in a loop's body) or inside a loop over it
+    (``for n in ...: g(n)``): the cell reads only its own values, whatever the name held before."""
     loads, covered = {}, {}
     for n in ast.walk(tree):
         if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load):
@@ -143,7 +143,9 @@ def _surely_bound(block: list) -> set[str]:
     out = set()
     for stmt in block:
         if isinstance(stmt, ast.Assign):
-            out.update(t.id for t in stmt.targets if isinstance(t, ast.Name))
+            out.update(x for t in stmt.targets for x in _target_names(t))
+        elif isinstance(stmt, ast.AnnAssign) and stmt.value is not None:
+            out.update(_target_names(stmt.target))
         elif isinstance(stmt, (ast.Import, ast.ImportFrom)):
             out.update(_import_names(stmt))
         elif isinstance(stmt, (ast.FunctionDef, ast.ClassDef)):
@@ -215,11 +217,6 @@ class _Cell:
                 names = _target_names(n.target)
             for x in names:
                 self.must.setdefault(x, n.end_lineno)
-        first_load = {}
-        for n in ast.walk(tree):
-            if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load):
-                first_load[n.id] = min(first_load.get(n.id, n.lineno), n.lineno)
-        self.reads -= {x for x, line in self.must.items() if line < first_load.get(x, line + 1)}
         self.reads -= _stored_before_loads(tree)
         self.mutates = set()
         for n in ast.walk(tree):

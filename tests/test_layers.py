@@ -116,7 +116,7 @@ def lab_imports(path: Path, name: str) -> set[str]:
     return out
 
 
-@functools.lru_cache(maxsize=1)
+@functools.cache
 def graph() -> dict[str, frozenset[str]]:
     """Each lab module -> the lab modules it imports (computed once per session)."""
     files = {module_name(p): p for p in LAB.rglob("*.py")}
