@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from lab.data.chunks import _serpentine, grid_chunks, nearest_neighbour_chunks
+from lab.data.chunks import _serpentine, grid_chunks, nearest_neighbour_chunks, nearest_walk
 from lab.data.dataset import DatasetError, read_dataset, write_dataset
 from lab.data.designs import grid_commands, sobol_commands
 from lab.data.simulation import simulate
@@ -18,6 +18,18 @@ def test_serpentine_walk_moves_one_step_at_a_time():
     walk = keys[_serpentine(keys)]
     assert len({tuple(k) for k in walk}) == len(keys)
     assert np.all(np.abs(np.diff(walk, axis=0)).sum(axis=1) == 1)
+
+
+def test_nearest_walk_starts_nearest_rest_and_steps_to_the_nearest_left():
+    u = np.array([[3.0, 0.0], [0.5, 0.5], [2.9, 0.2], [0.0, 0.2], [1.0, 1.0]])
+    assert nearest_walk(u).tolist() == [3, 1, 4, 2, 0]  # L1 distances from rest, then from each
+    u = np.random.default_rng(0).uniform(0, 2, (40, 3))
+    order = nearest_walk(u)
+    assert sorted(order) == list(range(40)) and order[0] == np.argmin(np.abs(u).sum(axis=1))
+    for k in range(1, 39):  # each step goes to the nearest command not yet visited
+        left = order[k:]
+        assert order[k] == left[np.argmin(np.abs(u[left] - u[order[k - 1]]).sum(axis=1))]
+    assert nearest_walk(np.zeros((0, 3))).tolist() == []
 
 
 def test_grid_chunks_cover_every_command_once(three_cable):

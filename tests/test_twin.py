@@ -23,7 +23,7 @@ from lab.fem.solve.statics import solve_static
 from lab.rig import make_rig
 from lab.rig.base import RigError
 from lab.rig.mocap_model import MocapModel
-from lab.rig.twin import AsBuiltBody, TwinRig
+from lab.rig.twin import AsBuiltBody, TwinRig, quasi_static_tips
 
 COARSE = dict(n_rings=1, n_axial=6)
 
@@ -109,6 +109,23 @@ def test_no_defects_is_the_nominal_fem(three_cable, clean, coarse_fem):
     fem = as_built_fem(three_cable, parse_defects(clean, three_cable))
     for u in ([0, 0, 0], [1.5, 0.5, 0], [0, 2.0, 2.5]):
         assert np.allclose(solve_static(fem, u).p_tip_W, solve_static(coarse_fem, u).p_tip_W, atol=1e-9)
+
+
+def test_quasi_static_tips_are_each_commands_own_equilibrium_in_any_order(three_cable, clean):
+    """The tips are solved along a walk through the commands, each warm-started from a near
+    one: the same equilibria (to the solver's tolerance) as a fresh body's for each command
+    alone, returned in the commands' order, whatever that order; the noise is drawn in it."""
+    doc = copy.deepcopy(clean)
+    doc["material"]["softness"] = 0.8
+    u = np.random.default_rng(1).uniform(0.0, 2.0, (7, 3))
+    u = u[three_cable.is_safe(u)]
+    tips = quasi_static_tips(body_of(doc, three_cable), u)
+    alone = np.array([body_of(doc, three_cable).quasi_static_tip(ui) for ui in u])
+    assert np.abs(tips - alone).max() < 1e-8
+    shuffled = np.random.default_rng(2).permutation(len(u))
+    assert np.abs(quasi_static_tips(body_of(doc, three_cable), u[shuffled]) - tips[shuffled]).max() < 1e-8
+    noisy = quasi_static_tips(body_of(doc, three_cable), u, 1e-3, seed=5)
+    assert np.allclose(noisy - tips, np.random.default_rng(5).normal(0.0, 1e-3, tips.shape), atol=1e-8)
 
 
 def test_softer_body_sags_more(three_cable, clean, coarse_fem):

@@ -12,7 +12,7 @@ dataset (repeatability floor, hysteresis, drift, outliers: ``python -m lab inspe
 :mod:`.importing` reads external measurements (:class:`ImportSpec`) into a dataset.
 """
 
-from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks, ordered_chunks
+from lab.data.chunks import Chunk, grid_chunks, nearest_neighbour_chunks, nearest_walk, ordered_chunks
 from lab.data.chunkstore import CheckpointError, ChunkStore, fingerprint
 from lab.data.commands_file import read_commands
 from lab.data.dataset import (
@@ -71,6 +71,7 @@ __all__ = [
     "min_distance",
     "grid_chunks",
     "nearest_neighbour_chunks",
+    "nearest_walk",
     "solve_chunk",
     "simulate",
     "default_jobs",

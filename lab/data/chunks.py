@@ -4,7 +4,9 @@ Chunkers (:func:`grid_chunks`, :func:`nearest_neighbour_chunks`) cut the command
 :mod:`lab.data.designs` into walks whose neighbours are close (:func:`ordered_chunks` keeps
 given commands in their order), so that
 :func:`lab.data.simulation.simulate` can warm-start each solve from the last; they depend
-only on the commands, never on the number of workers.
+only on the commands, never on the number of workers. :func:`nearest_walk` is the one walk
+through a small set of scattered commands (the real samples of a calibration, the probe
+commands of an emulated robot), from rest.
 """
 
 from __future__ import annotations
@@ -107,6 +109,31 @@ def nearest_neighbour_chunks(u_motor: np.ndarray, size: int = 64) -> list[Chunk]
                 cur = min(left, key=lambda i: np.linalg.norm(u_motor[i] - u_motor[cur]))
         chunks.append(Chunk(np.asarray(order)))
     return chunks
+
+
+def nearest_walk(u_motor) -> np.ndarray:
+    """A greedy nearest-neighbour walk through the commands (L1 distance), starting from the
+    one nearest rest: the order in which warm-started solves of scattered commands each start
+    near a solved one.
+
+    Parameters
+    ----------
+    u_motor : array_like
+        The commands, shape (N, m), each input in its unit (rad, N, Pa).
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices (N,) into ``u_motor``, every command once; ties go to the lower index.
+    """
+    u = np.asarray(u_motor, float)
+    left, order, here = list(range(len(u))), [], np.zeros(u.shape[1])
+    while left:
+        j = left[int(np.argmin(np.abs(u[left] - here).sum(axis=1)))]
+        order.append(j)
+        left.remove(j)
+        here = u[j]
+    return np.asarray(order, dtype=int)
 
 
 def ordered_chunks(n: int, size: int = 64) -> list[Chunk]:

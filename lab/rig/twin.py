@@ -20,6 +20,7 @@ import numpy as np
 from lab.asbuilt.arm import Defects
 from lab.asbuilt.draw import check_seed
 from lab.asbuilt.family import RANDOM, Family
+from lab.data.chunks import nearest_walk
 from lab.description import RobotDescription
 from lab.rig.asbuilt_body import AsBuiltBody
 from lab.rig.base import MocapFrame, Rig, RigError
@@ -166,7 +167,9 @@ class FamilyTwinRig(TwinRig):
 def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) -> np.ndarray:
     """Settled tips of ``body`` for commands ``u_motor``, each reached after the protocol's
     reset, plus Gaussian noise: what ``capture`` measures once the lag has died out,
-    without emulating the waiting.
+    without emulating the waiting. The equilibria are solved along a nearest-neighbour walk
+    through the commands (:func:`lab.data.nearest_walk`), each warm-started from a near one;
+    the tips and their noise come in the commands' order.
 
     Parameters
     ----------
@@ -185,7 +188,9 @@ def quasi_static_tips(body, u_motor, noise_sigma_m: float = 0.0, seed: int = 0) 
         Settled tips p_tip_W, shape (N, 3), in m in the motion capture's frame W.
     """
     u = np.atleast_2d(np.asarray(u_motor, float))
-    tips = np.array([body.quasi_static_tip(ui) for ui in u])
+    tips = np.empty((len(u), 3))
+    for i in nearest_walk(u):
+        tips[i] = body.quasi_static_tip(u[i])
     if noise_sigma_m > 0:
         tips += np.random.default_rng(seed).normal(0.0, noise_sigma_m, tips.shape)
     return tips

@@ -9,7 +9,8 @@ are the tip (default) or any of the FEM's markers, stacked (x, y, z) per marker.
 
 With ``reuse`` each sample's sensitivities are taken right after its solve from the solve's
 own last factorisation where that is near (:func:`lab.fem.solve.nearby.nearby_sensitivities`:
-no new factorisation). A pass may stop early: once the samples solved so far already miss by
+no new factorisation); the others from a fresh factorisation once every sample is solved, so
+that a trial step stopped early (below) pays for none. A pass may stop early: once the samples solved so far already miss by
 more than ``limit``, the rest cannot make the step acceptable (or, asked, once they miss what
 the linear model expected of them by a ``margin`` of the step's expected gain).
 :func:`first_pass` remembers the last first pass, which calibrations of several robots against
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lab.data.chunks import nearest_walk
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.solve.parameter_layout import ParameterError
 from lab.fem.solve.parameters import ParametrisedFEM
@@ -55,17 +57,6 @@ def first_pass(samples: Samples, theta, key):
         _FIRST[:] = [(key, samples.first(theta))]
     q, tips, (dq, J) = _FIRST[0][1]
     return q.copy(), tips.copy(), (dq.copy(), J.copy())
-
-
-def _walk(u: np.ndarray) -> list[int]:
-    """A nearest-neighbour walk through the commands (N, m), starting nearest rest."""
-    left, order, here = list(range(len(u))), [], np.zeros(u.shape[1])
-    while left:
-        j = left[int(np.argmin(np.abs(u[left] - here).sum(axis=1)))]
-        order.append(j)
-        left.remove(j)
-        here = u[j]
-    return order
 
 
 class Samples:
@@ -114,8 +105,11 @@ class Samples:
                     excess += self.misfits_m2[i] - expected[i]
                     if excess >= margin * gain:
                         return None
-            if self.reuse:
-                sens[i] = self._sensitivities(theta, sol, self.u[i])
+            if self.reuse:  # from the solve's own factorisation, where it serves
+                sens[i] = self._sensitivities(theta, sol.q, self.u[i], sol.factorisation, fresh=False)
+        if self.reuse:  # the others from a fresh factorisation, once the pass is whole
+            for i in [k for k, got in enumerate(sens) if got is None]:
+                sens[i] = self._sensitivities(theta, q[i], self.u[i])
         return (q, tips, *self._stack(sens)) if self.reuse else (q, tips)
 
     def _solve(self, fem, u, q0):
@@ -139,12 +133,13 @@ class Samples:
                 return None
         return prev
 
-    def _sensitivities(self, theta, sol, u):
-        """:meth:`ParametrisedFEM.sensitivities` at the solve ``sol``'s equilibrium (from its
-        factorisation with ``reuse`` where that serves, else a fresh one)."""
-        fac = sol.factorisation if self.reuse else None
+    def _sensitivities(self, theta, q, u, factorisation=None, *, fresh=True):
+        """:meth:`ParametrisedFEM.sensitivities` at the equilibrium ``q``, from ``factorisation``
+        (its solve's, with ``reuse``) where that serves, else a fresh one (None without
+        ``fresh``)."""
         before = self.pf.n_factorisations
-        out = self.pf.sensitivities(theta, sol.q, u, self.markers, factorisation=fac)
+        fac = factorisation if self.reuse else None
+        out = self.pf.sensitivities(theta, q, u, self.markers, factorisation=fac, fresh=fresh)
         self.n_factorisations += self.pf.n_factorisations - before
         return out
 
@@ -155,13 +150,13 @@ class Samples:
         self.n_factorisations += rest.factorizations
         q_prev, u_prev, dq_du = rest.q, np.zeros(self.u.shape[1]), None
         q, tips, sens = np.empty((len(self.u), fem.n_free)), np.empty((len(self.u), self.n_y)), [None] * len(self.u)
-        for i in _walk(self.u):
+        for i in nearest_walk(self.u):
             start = q_prev if dq_du is None else q_prev + dq_du @ (self.u[i] - u_prev)
             sol = self._solve(fem, self.u[i], start)
             if sol is None:
                 raise LabRuntimeError(f"no equilibrium of the nominal FEM for sample {i}, u = {self.u[i].tolist()} rad")
             q[i], tips[i] = sol.q, self._observed(sol)
-            sens[i] = self._sensitivities(theta, sol, self.u[i])
+            sens[i] = self._sensitivities(theta, sol.q, self.u[i], sol.factorisation)
             q_prev, u_prev, dq_du = sol.q, self.u[i], sens[i][0]
         return q, tips, self._stack(sens)
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["nearby_preconditioner", "nearby_sensitivities", "refined_solve"]
+__all__ = ["near_enough", "nearby_preconditioner", "nearby_sensitivities", "refined_solve"]
 
 #: Farthest (largest coordinate, m) an equilibrium may lie from the factorised iterate: a
 #: converging Newton step (``tol_step_m``, 1e-7 m by default) is; chord steps can end up to
@@ -133,6 +133,24 @@ def refined_solve(hessian, precondition, R, weights, *, max_iter: int = CG_ITERA
     return None, products
 
 
+def near_enough(fac, distance_m) -> bool:
+    """Whether a solve's last factorisation may serve at its equilibrium (:data:`NEAR_M`).
+
+    Parameters
+    ----------
+    fac : Factorised or None
+        The solve's last exact factorisation.
+    distance_m : float or None
+        How far the equilibrium lies from the factorised iterate (largest coordinate, m).
+
+    Returns
+    -------
+    bool
+        True where :func:`nearby_sensitivities` tries it (it may still find it does not serve).
+    """
+    return fac is not None and distance_m is not None and distance_m <= NEAR_M
+
+
 def nearby_sensitivities(fem, q, u, B, S, fac, condensation, distance_m=0.0):
     """dq = -H^-1 B and the observed rows J = S dq at the equilibrium ``q`` without a new
     factorisation: J exact to round-off by the adjoint solve H Y = S^T refined with Hessian
@@ -165,7 +183,7 @@ def nearby_sensitivities(fem, q, u, B, S, fac, condensation, distance_m=0.0):
         dq (n_free, k) and J (3K, k); None where ``fac`` does not serve (none, or the
         refinement did not settle): the caller factorises afresh.
     """
-    if fac is None or distance_m is None or distance_m > NEAR_M:
+    if not near_enough(fac, distance_m):
         return None
     precondition = nearby_preconditioner(fac, condensation)
     H = fem.hessian(q, u)

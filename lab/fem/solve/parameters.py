@@ -34,7 +34,7 @@ from lab.fem.bodies import body_of
 from lab.fem.bodies.mesh import TetMesh
 from lab.fem.model import ArmFEM
 from lab.fem.solve.linsolve import factorize
-from lab.fem.solve.nearby import nearby_sensitivities
+from lab.fem.solve.nearby import near_enough, nearby_sensitivities
 from lab.fem.solve.parameter_layout import AXES, DEFAULT_GROUPS, ParameterError, ParameterLayout
 from lab.fem.solve.statics import StaticSolution, solve_static
 
@@ -262,11 +262,12 @@ class ParametrisedFEM:
                     out[:, lay.shift(c)] = d_shift[k]
         return out
 
-    def sensitivities(self, theta, q: np.ndarray, u_motor, markers=None, factorisation=None):
+    def sensitivities(self, theta, q: np.ndarray, u_motor, markers=None, factorisation=None, *, fresh=True):
         """At an equilibrium q of the FEM at theta: dq/du (n_free, m), dq/dtheta
         (n_free, p), and the observed markers' Jacobians J_y_u (3K, m) and J_y_theta (3K, p)
         from one factorisation of the exact Hessian, or from ``factorisation``, the solve's
-        own (:func:`lab.fem.solve.nearby.nearby_sensitivities`).
+        own (:func:`lab.fem.solve.nearby.nearby_sensitivities`); with ``fresh=False`` None
+        where that does not serve (no new factorisation: the caller may ask again later).
 
         Parameters
         ----------
@@ -282,6 +283,8 @@ class ParametrisedFEM:
         factorisation : tuple, optional
             ``StaticSolution.factorisation`` of the solve that found q (``keep_factorisation``):
             no new factorisation where it serves.
+        fresh : bool
+            Factorise the Hessian at q where ``factorisation`` does not serve (else return None).
 
         Returns
         -------
@@ -294,11 +297,15 @@ class ParametrisedFEM:
         J_y_theta : ndarray, shape (3K, p)
             The same, m per unit of each parameter.
         """
+        if not fresh and (factorisation is None or not near_enough(factorisation[0], factorisation[2])):
+            return None  # (before the force derivatives: the caller asks again)
         fem = self.fem(theta)
         m = self.robot.n_inputs
         B = np.hstack([fem.mixed_derivative(q, u_motor), self.force_derivative(theta, q, u_motor)])
         S = marker_rows(fem, markers)
         got = None if factorisation is None else nearby_sensitivities(fem, q, u_motor, B, S, *factorisation)
+        if got is None and not fresh:
+            return None
         if got is None:
             self.n_factorisations += 1
             dq = -factorize(fem.hessian(q, u_motor)).solve(B)
