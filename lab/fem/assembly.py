@@ -12,6 +12,9 @@ through :attr:`HessianPattern.element_slots` and the actuators' blocks after the
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -62,6 +65,37 @@ class HessianPattern:
         k0 = block_dofs[0].shape[1]
         self.element_slots = np.ascontiguousarray(parts[0].reshape(-1, k0 * k0))
         self.block_slots = [np.ascontiguousarray(p) for p in parts[1:]]
+
+    #: The patterns :meth:`of` keeps (least recently used dropped), by a digest of their dofs.
+    _known: OrderedDict = OrderedDict()
+    KEEP = 4
+
+    @classmethod
+    def of(cls, block_dofs: list[np.ndarray], dof_to_free: np.ndarray, n_free: int) -> HessianPattern:
+        """The pattern of these blocks: a kept one where the same dofs were seen last (no
+        copy: a pattern is never changed after it is made), else a new one.
+
+        Parameters
+        ----------
+        block_dofs, dof_to_free, n_free
+            As for the class.
+
+        Returns
+        -------
+        HessianPattern
+            The pattern.
+        """
+        digest = hashlib.sha1(repr((int(n_free), [np.shape(d) for d in block_dofs])).encode())
+        for a in (*block_dofs, dof_to_free):
+            digest.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+        key = digest.hexdigest()
+        pattern = cls._known.get(key)
+        if pattern is None:
+            pattern = cls._known[key] = cls(block_dofs, dof_to_free, n_free)
+            while len(cls._known) > cls.KEEP:
+                cls._known.popitem(last=False)
+        cls._known.move_to_end(key)
+        return pattern
 
     @property
     def nnz(self) -> int:

@@ -117,7 +117,7 @@ class ArmFEM(ActuatedModel):
         self.tip_nodes, self.tip_weights = self.markers["tip"].nodes, self.markers["tip"].weights
         dofs = [(3 * mesh.tets[:, :, None] + np.arange(3)).reshape(-1, 12)]  # the tets', then the actuators'
         dofs += [d for act in self.actuators for d in act.block_dofs()]
-        self._pattern = HessianPattern(dofs, self.coordinates.dof_to_free, self.n_free)
+        self._pattern = HessianPattern.of(dofs, self.coordinates.dof_to_free, self.n_free)
         self._compiled = (None, None)  # (law, its compiled sums), see _sums
         self._S_tip = self.coordinates.point_matrix(self.markers["tip"])
         self._S_markers = sp.vstack([self.coordinates.point_matrix(m) for m in self.markers.values()]).tocsr()
