@@ -65,8 +65,10 @@ def test_a_trial_stops_once_it_cannot_be_accepted(member):
     step[0] = 0.1
     start = q + dq @ step
     limit = 0.5 * float(np.sum((tips - y) ** 2))  # half the misfit at the nominal: out of reach
+    fresh = pf.n_factorisations  # (the sensitivities' own factorisations)
     assert samples.solve(pf.nominal + step, start, y=y, limit=limit) is None
     assert samples.n_solves - solves < len(u) and samples.misfit_m2 >= limit
+    assert pf.n_factorisations == fresh  # a trial stopped early factorised nothing for sensitivities
     got = samples.solve(pf.nominal + step, start, y=y, limit=np.inf, order=np.arange(len(u))[::-1])
     assert len(got) == 4 and got[3].shape == (len(u), 3, pf.layout.size)
 
@@ -90,3 +92,21 @@ def test_another_robot_of_the_same_description_repeats_no_first_pass(member, fit
     assert after.n_factorisations < alone.n_factorisations
     assert np.array_equal(after.theta, alone.theta) and np.array_equal(after.residuals_m, alone.residuals_m)
     assert after.rms_nominal_m == alone.rms_nominal_m
+
+
+def test_a_worker_starts_from_the_first_pass_its_parent_remembers(member):
+    """What :func:`lab.transfer.family_recovery` hands its workers: the first pass of another
+    process, remembered here, saves its solves; None changes nothing."""
+    from lab.transfer import samples
+
+    robot, u, y = member
+    samples._FIRST.clear()
+    alone = calibrate(robot, u, y, **MESH)
+    entry = samples.remembered_first_pass()
+    samples._FIRST.clear()
+    samples.remember_first_pass(None)
+    assert samples.remembered_first_pass() is None
+    samples.remember_first_pass(entry)
+    handed = calibrate(robot, u, y, **MESH)
+    assert handed.n_solves == alone.n_solves - len(u)
+    assert np.array_equal(handed.theta, alone.theta)

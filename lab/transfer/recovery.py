@@ -161,11 +161,13 @@ def recovery_rows(
     ]
 
 
-def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm) -> list[dict]:
+def _member_rows(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm, first=None) -> list[dict]:
     from lab.asbuilt.family import family_member
+    from lab.transfer.samples import remember_first_pass
     from lab.workers import watch_parent
 
     watch_parent()
+    remember_first_pass(first)
     defects = family_member(robot, label, n_rings=n_rings, n_axial=n_axial)
     return recovery_rows(
         robot,
@@ -194,7 +196,9 @@ def family_recovery(
 ) -> list[dict]:
     """:func:`recovery_rows` for each robot of ``labels`` (``"shipped"``, ``"random:SEED"``;
     :func:`lab.asbuilt.family.family_member`), in ``n_jobs`` worker processes (one BLAS thread
-    each), rows in the order of ``labels``; ``noise_m`` and ``algorithm`` as there.
+    each), rows in the order of ``labels``; ``noise_m`` and ``algorithm`` as there. The workers
+    start from the calibration's first pass this process remembers
+    (:func:`lab.transfer.samples.remembered_first_pass`), where it is theirs.
 
     Parameters
     ----------
@@ -224,10 +228,14 @@ def family_recovery(
 
     from lab.workers import worker_config
 
+    from lab.transfer.samples import remembered_first_pass
+
     u = np.asarray(u_real, float)
+    first = remembered_first_pass() if n_jobs > 1 else None  # (the workers' calibrations start from it)
     with worker_config():
         parts = Parallel(n_jobs=max(1, min(n_jobs, len(labels))))(
-            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm) for label in labels
+            delayed(_member_rows)(robot, label, u, seed, n_rings, n_axial, noise_m, algorithm, first)
+            for label in labels
         )
     return [r for part in parts for r in part]
 

@@ -14,7 +14,8 @@ that a trial step stopped early (below) pays for none. A pass may stop early: on
 more than ``limit``, the rest cannot make the step acceptable (or, asked, once they miss what
 the linear model expected of them by a ``margin`` of the step's expected gain).
 :func:`first_pass` remembers the last first pass, which calibrations of several robots against
-the same nominal description and commands share.
+the same nominal description and commands share (in worker processes too:
+:func:`remembered_first_pass`, :func:`remember_first_pass`).
 """
 
 from __future__ import annotations
@@ -57,6 +58,31 @@ def first_pass(samples: Samples, theta, key):
         _FIRST[:] = [(key, samples.first(theta))]
     q, tips, (dq, J) = _FIRST[0][1]
     return q.copy(), tips.copy(), (dq.copy(), J.copy())
+
+
+def remembered_first_pass():
+    """The first pass :func:`first_pass` remembers, to hand to worker processes
+    (:func:`remember_first_pass`): a family's calibrations in workers then repeat none of it.
+
+    Returns
+    -------
+    tuple or None
+        (key, result), or None if no first pass was made in this process.
+    """
+    return _FIRST[0] if _FIRST else None
+
+
+def remember_first_pass(entry) -> None:
+    """Remember ``entry`` (:func:`remembered_first_pass` of another process) as this process's
+    last first pass; None changes nothing. A calibration whose key differs ignores it.
+
+    Parameters
+    ----------
+    entry : tuple or None
+        (key, result).
+    """
+    if entry is not None:
+        _FIRST[:] = [entry]
 
 
 class Samples:
