@@ -226,9 +226,8 @@ def family_recovery(
     """
     from joblib import Parallel, delayed
 
-    from lab.workers import worker_config
-
     from lab.transfer.samples import remembered_first_pass
+    from lab.workers import worker_config
 
     u = np.asarray(u_real, float)
     first = remembered_first_pass() if n_jobs > 1 else None  # (the workers' calibrations start from it)

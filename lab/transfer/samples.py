@@ -10,9 +10,10 @@ are the tip (default) or any of the FEM's markers, stacked (x, y, z) per marker.
 With ``reuse`` each sample's sensitivities are taken right after its solve from the solve's
 own last factorisation where that is near (:func:`lab.fem.solve.nearby.nearby_sensitivities`:
 no new factorisation); the others from a fresh factorisation once every sample is solved, so
-that a trial step stopped early (below) pays for none. A pass may stop early: once the samples solved so far already miss by
-more than ``limit``, the rest cannot make the step acceptable (or, asked, once they miss what
-the linear model expected of them by a ``margin`` of the step's expected gain).
+that a trial step stopped early pays for none. A pass may stop early: once the samples solved
+so far already miss by more than ``limit``, the rest cannot make the step acceptable (or,
+asked, once they miss what the linear model expected of them by a ``margin`` of the step's
+expected gain).
 :func:`first_pass` remembers the last first pass, which calibrations of several robots against
 the same nominal description and commands share (in worker processes too:
 :func:`remembered_first_pass`, :func:`remember_first_pass`).
