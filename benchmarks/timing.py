@@ -2,6 +2,7 @@
 command run beside CPU-bound load, and the ``lab`` package of a baseline revision to time against."""
 
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -32,16 +33,23 @@ HOG = "while True: pass"
 def run_beside_load(cmd: list, load: int, **kwargs):
     """``subprocess.run(cmd, capture_output=True, text=True, **kwargs)`` with ``load`` CPU-bound
     processes (:data:`HOG`) running beside it for the whole run, stopped after it (also on an
-    error): ``(result, wall s, the 1/5/15-minute load averages at its end)``."""
+    error): ``(result, wall s, the 1/5/15-minute load averages at its end)``; ``result.cpu_s``
+    is the CPU time (user + system) of ``cmd`` and every descendant it waited for."""
     hogs = [subprocess.Popen([sys.executable, "-c", HOG]) for _ in range(load)]
     try:
-        t0 = time.monotonic()
+        t0, cpu0 = time.monotonic(), _children_cpu_s()
         r = subprocess.run(cmd, capture_output=True, text=True, **kwargs)
+        r.cpu_s = _children_cpu_s() - cpu0  # (the hogs are waited for only below)
         return r, time.monotonic() - t0, os.getloadavg()
     finally:
         for h in hogs:
             h.kill()
             h.wait()
+
+
+def _children_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def best_of(fn, n=7):
