@@ -100,3 +100,8 @@ export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 # Headless plotting and deterministic hashing.
 export MPLBACKEND=Agg
 export PYTHONHASHSEED=0
+# Python's bytecode cache, even where PYTHONDONTWRITEBYTECODE is set (some images set it): else
+# every process -- each test worker, notebook kernel, joblib worker and `python -m lab` call --
+# compiles lab's modules again. The .pyc files go into __pycache__/ beside the sources, which
+# git ignores (numba keeps its cache of the FEM kernels there too).
+unset PYTHONDONTWRITEBYTECODE

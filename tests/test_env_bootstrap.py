@@ -132,3 +132,14 @@ def test_the_suite_runs_one_worker_per_core_and_one_more(repo):
     assert "python -m pytest -n 5 --dist loadfile -k x" in r.stderr, r.stderr
     r = _run(root, fake_base, "test", "--pdb")
     assert "python -m pytest --pdb" in r.stderr and " -n " not in r.stderr, r.stderr
+
+
+def test_the_scripts_keep_pythons_bytecode_cache(repo):
+    """With PYTHONDONTWRITEBYTECODE set (some images set it), every process the scripts start
+    would compile lab's modules again: scripts/_env.sh lets Python keep its cache."""
+    root, fake_base = repo
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "LAB_ROOT")}
+    env.update(LAB_PYTHON=str(fake_base), PYTHONDONTWRITEBYTECODE="1")
+    script = f'source "{root}/scripts/_env.sh" && echo "bytecode: ${{PYTHONDONTWRITEBYTECODE-kept}}"'
+    r = subprocess.run(["bash", "-c", script], capture_output=True, text=True, timeout=100, env=env)
+    assert r.returncode == 0 and "bytecode: kept" in r.stdout, (r.stdout, r.stderr)
