@@ -170,16 +170,18 @@ def test_init_mlp_still_plain(data):
 
 
 @pytest.mark.parametrize("mu", [1e-20, 1e-3, 1e2])
-def test_finetune_step_from_the_svd_is_the_normal_equations_step(mu):
-    # fewer residuals than parameters: the thin-SVD step against a dense solve of the same system
+def test_finetune_step_from_the_gram_matrix_is_the_normal_equations_step(mu):
+    # fewer residuals than parameters: the step from the eigendecomposition of Jf Jf^T against a
+    # dense solve of the same system, also where Jf's rows are dependent (zero eigenvalues)
     from lab.learn.finetune import _damped_solver
 
     rng = np.random.default_rng(4)
     Jf, g = rng.normal(size=(12, 40)), rng.normal(size=40)
     n_e, lam = 12, 1e-3
-    dense = np.linalg.solve(Jf.T @ Jf / n_e + (lam + mu) * np.eye(40), -g)
-    step = _damped_solver(Jf, n_e, lam, g)(mu)
-    assert np.allclose(step, dense, rtol=1e-9, atol=1e-12 * np.abs(dense).max())
+    for J in (Jf, np.vstack([Jf[:8], Jf[:4] * 2.0])):  # rank 12, then rank 8
+        dense = np.linalg.solve(J.T @ J / n_e + (lam + mu) * np.eye(40), -g)
+        step = _damped_solver(J, n_e, lam, g)(mu)
+        assert np.allclose(step, dense, rtol=1e-9, atol=1e-12 * np.abs(dense).max())
     tall = rng.normal(size=(60, 40))  # more residuals than parameters: the dense solve itself
     assert np.allclose(
         _damped_solver(tall, 60, lam, g)(mu), np.linalg.solve(tall.T @ tall / 60 + (lam + mu) * np.eye(40), -g)

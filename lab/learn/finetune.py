@@ -102,20 +102,23 @@ def _damped_solver(Jf: np.ndarray, n_e: int, lam: float, g: np.ndarray):
     """mu -> the LM step -(Jf^T Jf / n_e + (lam + mu) I)^-1 g.
 
     With fewer residuals than free parameters (a few real samples, all layers free), from
-    one thin SVD Jf = U diag(s) V^T: the step is -V diag(1 / (s^2 / n_e + c)) V^T g -
-    (g - V V^T g) / c, c = lam + mu, so each damping tried costs two products instead of
-    a solve with the (P, P) normal matrix (563 x 563 for 3-20-20-3: 5x faster in all,
-    the same steps to round-off); otherwise (the output layer alone) by that solve.
+    the eigendecomposition of the small Gram matrix Jf Jf^T = U diag(w) U^T (w = s^2 of the
+    thin SVD Jf = U diag(s) V^T): the step -V diag(1 / (w / n_e + c)) V^T g - (g - V V^T g) / c,
+    c = lam + mu, is Jf^T U diag(1 / (n_e c (w / n_e + c))) U^T Jf g - g / c, so each damping
+    tried costs two products instead of a solve with the (P, P) normal matrix (563 x 563 for
+    3-20-20-3), and the setup one (R, R) eigendecomposition instead of an SVD of Jf (R x P:
+    measured 72 x 563, 5x faster, the same steps to 1e-15 relative; a direction of small w,
+    where V = Jf^T U / s would be inexact, enters with the weight of the null space, 1 / c);
+    otherwise (the output layer alone) by that solve.
     """
     n_rows, n_free = Jf.shape
     if n_rows < n_free:
-        _, sv, Vt = np.linalg.svd(Jf, full_matrices=False)
-        gv = Vt @ g
-        g_null = g - Vt.T @ gv
+        w, U = np.linalg.eigh(Jf @ Jf.T)
+        JtU, UtJg = Jf.T @ U, U.T @ (Jf @ g)
 
         def solve(mu):
             c = lam + mu
-            return -(Vt.T @ (gv / (sv * sv / n_e + c)) + g_null / c)
+            return JtU @ (UtJg / (n_e * c * (w / n_e + c))) - g / c
 
         return solve
     A = Jf.T @ Jf / n_e + lam * np.eye(n_free)
