@@ -27,11 +27,13 @@ from lab.rig.twin import AsBuiltBody, TwinRig, quasi_static_tips
 
 COARSE = dict(n_rings=1, n_axial=6)
 U = np.array([[0, 0, 0], [1.5, 0.5, 0], [0, 2.0, 2.5], [1.0, 1.0, 0.2]])
-#: Shipped defects (eyelets in place, coarse mesh) before the optional fields existed.
+#: Shipped defects (eyelets in place, coarse mesh) before the optional fields existed. (U[2]'s
+#: tip was re-recorded when quasi_static_tips began to walk the commands, U[2] after U[3]: its
+#: warm start moved it 1.2e-11 m, within the solver's tolerance.)
 GOLDEN_TIPS = [
     [0.19930901621365868, -0.0001376197014688809, -0.008359486237174125],
     [0.18818823128217657, -0.0023898846454521463, 0.03287472001941182],
-    [0.17755039209297122, 0.01759041203369605, -0.04186329302975902],
+    [0.17755039209258908, 0.01759041202123726, -0.0418632930394267],
     [0.1924962685481396, -0.01019780236973293, 0.011536350760054982],
 ]
 GOLDEN_SAMPLES = [  # measure() on TwinRig(seed=7) of U[1:], one after the other
