@@ -70,12 +70,18 @@ def repo(tmp_path):
     return root, fake_base
 
 
-def _run(root: Path, fake_base: Path, script: str, *args: str, **extra_env: str):
+def _env(fake_base: Path, **extra_env: str) -> dict:
     env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "LAB_ROOT")}
-    env["LAB_PYTHON"] = str(fake_base)
-    env.update(extra_env)
+    return {**env, "LAB_PYTHON": str(fake_base), **extra_env}
+
+
+def _run(root: Path, fake_base: Path, script: str, *args: str, **extra_env: str):
     return subprocess.run(
-        ["bash", str(root / "scripts" / script), *args], capture_output=True, text=True, timeout=100, env=env
+        ["bash", str(root / "scripts" / script), *args],
+        capture_output=True,
+        text=True,
+        timeout=100,
+        env=_env(fake_base, **extra_env),
     )
 
 
@@ -138,8 +144,7 @@ def test_the_scripts_keep_pythons_bytecode_cache(repo):
     """With PYTHONDONTWRITEBYTECODE set (some images set it), every process the scripts start
     would compile lab's modules again: scripts/_env.sh lets Python keep its cache."""
     root, fake_base = repo
-    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "LAB_ROOT")}
-    env.update(LAB_PYTHON=str(fake_base), PYTHONDONTWRITEBYTECODE="1")
     script = f'source "{root}/scripts/_env.sh" && echo "bytecode: ${{PYTHONDONTWRITEBYTECODE-kept}}"'
+    env = _env(fake_base, PYTHONDONTWRITEBYTECODE="1")
     r = subprocess.run(["bash", "-c", script], capture_output=True, text=True, timeout=100, env=env)
     assert r.returncode == 0 and "bytecode: kept" in r.stdout, (r.stdout, r.stderr)

@@ -162,11 +162,10 @@ class Samples:
 
     def _sensitivities(self, theta, q, u, factorisation=None, *, fresh=True):
         """:meth:`ParametrisedFEM.sensitivities` at the equilibrium ``q``, from ``factorisation``
-        (its solve's, with ``reuse``) where that serves, else a fresh one (None without
-        ``fresh``)."""
+        (its solve's: kept only with ``reuse``, else None) where that serves, else a fresh one
+        (None without ``fresh``)."""
         before = self.pf.n_factorisations
-        fac = factorisation if self.reuse else None
-        out = self.pf.sensitivities(theta, q, u, self.markers, factorisation=fac, fresh=fresh)
+        out = self.pf.sensitivities(theta, q, u, self.markers, factorisation=factorisation, fresh=fresh)
         self.n_factorisations += self.pf.n_factorisations - before
         return out
 
