@@ -6,19 +6,23 @@ On the three-cable and six-cable arms (default meshes) and the as-built foam mem
 one process, one BLAS thread, CPU time, compiled assembly:
 
 1. cold solves from rest (no dx/du; commands drawn from the 4-level grid as in
-   bench_assembly.py) with the solver as it is and with its chord steps off
-   (``lab.fem.solve.statics.CHORD_WINDOW = 0``: every step assembles and factorises),
-   interleaved round by round: CPU per solve, factorisations and steps, the step against
-   its floor measured inside the solves (bench_assembly.py's instrumentation), and the
-   largest tip difference between the two;
+   bench_assembly.py) with the solver as it is; with its chord steps off
+   (``lab.fem.solve.statics.CHORD_WINDOW = 0``: every step assembles and factorises); with
+   the line search's evaluations in one pass each, the next step's Hessian apart
+   (``FUSED_TRIALS = False``); and with whole solves for the condensed step (k + 1
+   columns forward and backward, not a forward half with k + 1 and a backward half with
+   one), interleaved round by round: CPU per solve, factorisations and steps, the step
+   against its floor measured inside the solves (bench_assembly.py's instrumentation:
+   the factorisations, and per factorisation one stand-alone assembly at the solves' mean
+   cost), and the largest tip difference to the solver as it is;
 2. PARDISO's solves with the factorisation of the Hessian at an equilibrium, for 1, 2, 4
-   and 7 right-hand sides (a condensed step solves k + 1: the direction and S = H^-1 A),
-   against the factorisation itself, with the factor's size (iparm(18)): a solve reads the
-   factor twice, forward and backward.
+   and 7 right-hand sides (a condensed step needs k + 1: the direction and S = H^-1 A)
+   and as halves, against the factorisation itself, with the factor's size (iparm(18)):
+   a solve reads the factor twice, forward and backward.
 
 Chord steps trade a factorisation for a solve and a line-search evaluation: they lower a
 solve's time and raise its cost per factorisation, which is what the ratio divides by.
-About 3 minutes on an idle 2-core machine.
+About 5 minutes on an idle 2-core machine.
 """
 
 import os
@@ -33,9 +37,10 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_assembly import instrumented  # noqa: E402
+from bench_assembly import FUSED, in_solve_floor, instrumented  # noqa: E402
 from timing import Printout  # noqa: E402
 
+import lab.fem.solve.linsolve as linsolve  # noqa: E402
 import lab.fem.solve.statics as statics  # noqa: E402
 from lab.asbuilt.arm import as_built_fem  # noqa: E402
 from lab.asbuilt.family import family_member  # noqa: E402
@@ -57,42 +62,54 @@ def models() -> dict:
     return out
 
 
-def cold(fem, commands, window: float):
-    """Cold solves with CHORD_WINDOW = ``window``: (solutions, phases s, total s)."""
-    saved = statics.CHORD_WINDOW
-    statics.CHORD_WINDOW = window
+#: The solvers compared: (CHORD_WINDOW, FUSED_TRIALS, condensed steps by forward halves).
+SOLVERS = {
+    "as it is": (statics.CHORD_WINDOW, True, True),
+    "no chord steps": (0.0, True, True),
+    "line search's Hessian apart": (statics.CHORD_WINDOW, False, True),
+    "whole solves": (statics.CHORD_WINDOW, True, False),
+}
+
+
+def cold(fem, commands, solver: tuple, counts: dict):
+    """Cold solves with the ``solver`` of SOLVERS: (solutions, phases s, total s)."""
+    saved = statics.CHORD_WINDOW, statics.FUSED_TRIALS, linsolve._Pardiso.half_solves
+    statics.CHORD_WINDOW, statics.FUSED_TRIALS, halves = solver
+    if not halves:
+        linsolve._Pardiso.half_solves = False
     try:
-        return instrumented(lambda: [solve_static(fem, u) for u in commands])
+        return instrumented(lambda: [solve_static(fem, u) for u in commands], counts)
     finally:
-        statics.CHORD_WINDOW = saved
+        statics.CHORD_WINDOW, statics.FUSED_TRIALS, linsolve._Pardiso.half_solves = saved
 
 
 def chord_table(fems: dict, rounds: int) -> None:
-    say("## 1. Cold solves with and without chord steps (compiled assembly; medians over rounds)")
+    say("## 1. Cold solves by four solvers (compiled assembly; medians over rounds)")
     say()
     say(
         "| model | solver | CPU per solve, ms | factorisations | steps | step / floor, in the solves | "
-        "linear solves, ms per factorisation | energy and gradient, ms per factorisation |"
+        "linear solves, ms per factorisation | energy and gradient, ms per factorisation | "
+        "tip difference to the solver as it is, m |"
     )
-    say("|---|---|---|---|---|---|---|---|")
+    say("|---|---|---|---|---|---|---|---|---|")
     for name, (fem, robot) in fems.items():
         n = 3 if name.startswith("foam") else 6
         grid = grid_commands(robot, 4)  # as bench_assembly.py's cold solves
         commands = grid[np.random.default_rng(0).choice(len(grid), n, replace=False)]
         solve_static(fem, commands[0])  # kernels and PARDISO loaded outside the timings
-        rows = {"as it is": [], "no chord steps": []}
+        rows = {label: [] for label in SOLVERS}
         tips = {}
-        for _ in range(rounds):
-            for label, window in (("as it is", statics.CHORD_WINDOW), ("no chord steps", 0.0)):
-                sols, spent, total = cold(fem, commands, window)
+        for r in range(rounds):
+            for label in list(SOLVERS)[:: 1 if r % 2 == 0 else -1]:
+                counts = {}
+                sols, spent, total = cold(fem, commands, SOLVERS[label], counts)
                 n_fact = sum(s.factorizations for s in sols)
-                floor = spent["Hessian assembly"] + spent["factorisation"]
                 rows[label].append(
                     (
                         1e3 * total / len(sols),
                         n_fact,
                         sum(s.iterations for s in sols),
-                        total / floor,
+                        total / in_solve_floor(spent, counts, n_fact),
                         1e3 * spent["linear solves"] / n_fact,
                         1e3 * spent["energy and gradient"] / n_fact,
                     )
@@ -100,20 +117,27 @@ def chord_table(fems: dict, rounds: int) -> None:
                 tips[label] = np.array([s.p_tip_W for s in sols])
         for label, runs in rows.items():
             med = np.median(np.array(runs), axis=0)
+            gap = float(np.max(np.abs(tips[label] - tips["as it is"])))
             say(
                 f"| {name} | {label} | {med[0]:.1f} | {int(med[1])} | {int(med[2])} | {med[3]:.2f} | "
-                f"{med[4]:.2f} | {med[5]:.2f} |"
+                f"{med[4]:.2f} | {med[5]:.2f} | {gap:.1e} |"
             )
-        gap = float(np.max(np.abs(tips["as it is"] - tips["no chord steps"])))
-        say(f"| {name} | largest tip difference between the two | {gap:.1e} m | | | | | |")
+    say()
+    say(
+        f"Energy and gradient: the line search's evaluations without the next step's Hessian ({FUSED} counts "
+        "neither there nor in the floor: it is an assembly and an evaluation in one pass)."
+    )
     say()
 
 
 def solve_table(fems: dict, repeats: int) -> None:
     say("## 2. PARDISO's solves against its factorisation, at an equilibrium (ms CPU, mean of repeats)")
     say()
-    say("| model | unknowns | entries of the factor | factorisation | 1 RHS | 2 RHS | 4 RHS | 7 RHS |")
-    say("|---|---|---|---|---|---|---|---|")
+    say(
+        "| model | unknowns | entries of the factor | factorisation | 1 RHS | 2 RHS | 4 RHS | 7 RHS | "
+        "forward half, 4 RHS | backward half, 1 RHS |"
+    )
+    say("|---|---|---|---|---|---|---|---|---|---|")
     for name, (fem, robot) in fems.items():
         u = np.full(fem.n_inputs, 0.2 * robot.u_max_rad)
         q = solve_static(fem, u).q
@@ -136,6 +160,12 @@ def solve_table(fems: dict, repeats: int) -> None:
             t0 = time.process_time()
             for _ in range(repeats * 4):
                 lu.solve(B)
+            cells.append(1e3 * (time.process_time() - t0) / (repeats * 4))
+        B = np.random.default_rng(4).normal(size=(H.shape[0], 4))
+        for half, b in ((lu.forward, B), (lu.backward, B[:, 0])):
+            t0 = time.process_time()
+            for _ in range(repeats * 4):
+                half(b)
             cells.append(1e3 * (time.process_time() - t0) / (repeats * 4))
         say(
             f"| {name} | {H.shape[0]:,} | {factor_size:,} | {1e3 * t_fact:.2f} | "

@@ -161,6 +161,9 @@ def test_series_cable_derivatives_match_finite_differences(series_state, three_c
     H_fd = fd_jacobian(lambda z: fem.gradient(z, u), q, 1e-7)
     assert np.abs(H - H_fd).max() < 1e-5 * np.abs(H).max()
     assert np.allclose(H, H.T, atol=1e-9 * np.abs(H).max())
+    E_f, g_f, _, H_f = fem.energy(q, u, with_hessian=True)  # the line search's one pass: the correction too
+    assert E_f == fem.energy(q, u) and np.abs(g_f - g).max() <= 1e-13 * np.abs(g).max()
+    assert np.array_equal(H_f.toarray(), H)
     M_fd = fd_jacobian(lambda v: fem.gradient(q, v), u, 1e-7)
     assert np.abs(fem.mixed_derivative(q, u) - M_fd).max() < 1e-5 * np.abs(M_fd).max()
     v = np.random.default_rng(1).standard_normal(fem.n_free)

@@ -86,6 +86,41 @@ def test_a_stale_factorisation_is_redone_and_one_handle_holds_a_factor(pardiso, 
     assert sum(h.holds_factor for h in linsolve._Pardiso._handles.values()) == 1
 
 
+def test_a_cholesky_factor_solves_in_halves(pardiso, hessians):
+    """forward then backward is the whole solve, and b^T H^-1 c = forward(b) . forward(c)
+    (the condensed step's C = Y^T Y); only a Cholesky factor has the halves, and a half
+    after another factorisation factorises its matrix again, as a whole solve does."""
+    H, indefinite = hessians
+    B = np.random.default_rng(5).standard_normal((H.shape[0], 4))
+    lu = linsolve.factorize(H)
+    assert lu.mtype == 2 and lu.half_solves
+    X = lu.solve(B)
+    Y = lu.forward(B)
+    assert Y.shape == B.shape and np.abs(Y - X).max() > 1e-3 * np.abs(X).max()  # not the solve itself
+    assert np.abs(lu.backward(Y) - X).max() <= 1e-13 * np.abs(X).max()
+    assert np.abs(Y.T @ Y - B.T @ X).max() <= 1e-12 * np.abs(B.T @ X).max()
+    assert np.abs(lu.backward(lu.forward(B[:, 0])) - X[:, 0]).max() <= 1e-13 * np.abs(X).max()  # one column
+    assert not linsolve.factorize(indefinite).half_solves  # LDL^T
+    assert np.abs(lu.backward(lu.forward(B)) - X).max() <= 1e-13 * np.abs(X).max()  # H factorised again
+
+
+def test_a_condensed_step_from_halves_is_the_one_from_whole_solves(pardiso, coarse_fem, monkeypatch):
+    """A Newton step of the cables' condensation with a Cholesky factor (forward halves,
+    S formed only when asked) and with LDL^T (whole solves of S): the same step, C and S."""
+    fem, u = coarse_fem, np.array([2.5, 0.4, 0.0])
+    q = fem.rest_q() + 1e-4 * np.random.default_rng(6).standard_normal(fem.n_free)
+    g, cond = fem.gradient(q, u, with_condensation=True)
+    H = fem.hessian(q, u)
+    out = {}
+    for mode in ("definite-first", "indefinite"):
+        monkeypatch.setattr(linsolve, "PARDISO_MODE", mode)
+        d, fac = newton_step(H, g, cond)
+        assert (fac.Y is not None) == (mode == "definite-first")
+        out[mode] = d, fac.C.copy(), fac.S.copy()
+    for new, old in zip(*out.values()):
+        assert np.abs(new - old).max() <= 1e-11 * np.abs(old).max()
+
+
 def test_an_unknown_mode_is_an_input_error(pardiso, hessians, monkeypatch):
     monkeypatch.setattr(linsolve, "PARDISO_MODE", "cholesky")
     with pytest.raises(ValueError, match="PARDISO_MODE"):

@@ -209,3 +209,25 @@ def test_pardiso_solves_without_refinement_when_no_pivot_was_perturbed(default_f
     x = lu.solve(b)
     assert lu.n_perturbed == 0 and int(lu._solver.get_iparm(7)) == 0  # no refinement steps run
     assert np.linalg.norm(H @ x - b) < 1e-14 * abs(H).max() * np.linalg.norm(x)
+
+
+def test_the_line_search_assembles_the_next_newton_step_s_hessian(default_fem, monkeypatch):
+    """With FUSED_TRIALS, a full-length trial far from the equilibrium evaluates energy,
+    gradient and Hessian in one pass, and the next step factorises that Hessian: the same
+    solve step for step, with fewer separate assemblies."""
+    import lab.fem.solve.statics as statics
+
+    fem, u = default_fem, np.array([2.5, 0.0, 1.0])
+    calls = []
+    hessian = ArmFEM.hessian
+    monkeypatch.setattr(ArmFEM, "hessian", lambda self, *a, **k: calls.append(1) or hessian(self, *a, **k))
+    out = {}
+    for fused in (False, True):
+        monkeypatch.setattr(statics, "FUSED_TRIALS", fused)
+        calls.clear()
+        sol = solve_static(fem, u)
+        out[fused] = sol, len(calls)
+    (plain, n_plain), (fused, n_fused) = out.values()
+    assert np.array_equal(fused.q, plain.q)
+    assert (fused.iterations, fused.factorizations) == (plain.iterations, plain.factorizations)
+    assert n_plain == plain.factorizations and 0 < n_fused < n_plain - 2

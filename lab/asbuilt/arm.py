@@ -210,10 +210,11 @@ class SeriesCableFEM(ArmFEM):
     """:class:`~lab.fem.model.ArmFEM` whose cables stretch: cable c's own stiffness
     ``cable_own_stiffness_n_per_m[c]`` (N/m; ``inf``: inextensible) in series with the
     description's spring, so it pulls with ``cable_k_n_per_m[c]`` (m,) N/m =
-    :func:`~lab.fem.actuators.cable_routes.series_stiffness`. Every derivative stays exact: the springs'
-    tensions and stiffnesses scale with k, and :meth:`hessian` adds ``(k_eff - k)`` times
-    each cable's unit-stiffness block to ArmFEM's (which loops over the cables one stretch
-    at a time, at the description's k)."""
+    :func:`~lab.fem.actuators.cable_routes.series_stiffness`. Every derivative stays exact: the
+    springs' tensions and stiffnesses scale with k, and its Hessian
+    (:meth:`~lab.fem.model.ArmFEM.hessian`, and the line search's one pass) adds
+    ``(k_eff - k)`` times each cable's unit-stiffness block to ArmFEM's (which loops over the
+    cables one stretch at a time, at the description's k)."""
 
     def __init__(self, robot: RobotDescription, mesh, *, cable_own_stiffness_n_per_m, **kw):
         super().__init__(robot, mesh, **kw)
@@ -235,10 +236,10 @@ class SeriesCableFEM(ArmFEM):
             return super().cable_springs(d)
         return spring(d, self.cable_k_n_per_m, self.robot.slack_smoothing_m)
 
-    def hessian(self, q: np.ndarray, u_motor, project: bool = False) -> sp.csr_matrix:
-        """d2E/dq2 (n_free, n_free): ArmFEM's, plus each cable's series correction added in
-        place (the sparsity pattern, and so the solver's symbolic analysis, is unchanged)."""
-        H = super().hessian(q, u_motor, project)
+    def _corrected(self, H: sp.csr_matrix, x: np.ndarray, u_motor) -> sp.csr_matrix:
+        """ArmFEM's Hessian ``H`` (n_free, n_free) at nodes ``x``, plus each cable's series
+        correction added in place (the sparsity pattern, and so the solver's symbolic
+        analysis, is unchanged)."""
         if self._slots is None:
             keys = np.repeat(np.arange(self.n_free), np.diff(H.indptr)) * self.n_free + H.indices
             self._slots = []
@@ -248,7 +249,6 @@ class SeriesCableFEM(ArmFEM):
                 if np.any(slot >= len(keys)) or np.any(keys[np.minimum(slot, len(keys) - 1)] != want):
                     raise AssertionError("SeriesCableFEM: a cable block outside the Hessian's pattern")
                 self._slots.append(slot)
-        x = self.to_nodes(q)
         dk = self.cable_k_n_per_m - self.robot.cable_stiffness_n_m
         eps = self.robot.slack_smoothing_m
         for c, L_star, dk_c, (keep, _), slot in zip(

@@ -29,10 +29,11 @@ from lab.fem.bodies.mesh import TetMesh
 from lab.fem.kernels import assembly_backend, compiled_law
 from lab.fem.materials.neo_hookean import project_psd
 from lab.fem.model_inputs import ActuatedModel
+from lab.fem.model_markers import ObservedModel
 from lab.fem.model_material import description_material
 
 
-class ArmFEM(ActuatedModel):
+class ArmFEM(ActuatedModel, ObservedModel):
     """FEM model of a robot description: a body, a material, gravity and actuators.
 
     Parameters
@@ -170,64 +171,8 @@ class ArmFEM(ActuatedModel):
         """
         return self.to_free(self.mesh.X_W)
 
-    # ---------------------------------------------------------------- markers
-    def tip(self, x_W: np.ndarray) -> np.ndarray:
-        """The tip marker's position.
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions, m.
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            p_tip_W, m.
-        """
-        return self.tip_weights @ x_W[self.tip_nodes]
-
-    def tip_matrix(self) -> sp.csr_matrix:
-        """The tip marker as a linear map of the free coordinates (it is embedded).
-
-        Returns
-        -------
-        scipy.sparse.csr_matrix, shape (3, n_free)
-            S with p_tip = S q + const.
-        """
-        return self._S_tip
-
-    @property
-    def marker_names(self) -> tuple[str, ...]:
-        """The observed points, ``"tip"`` first (the body's markers in order)."""
-        return tuple(self.markers)
-
-    def observe(self, x_W: np.ndarray) -> np.ndarray:
-        """Every marker's position.
-
-        Parameters
-        ----------
-        x_W : ndarray, shape (N, 3)
-            Node positions, m.
-
-        Returns
-        -------
-        ndarray, shape (K, 3)
-            The markers of :attr:`marker_names` in frame W, m (row 0 is the tip).
-        """
-        return np.array([m.position(x_W) for m in self.markers.values()])
-
-    def marker_matrix(self) -> sp.csr_matrix:
-        """Every marker as a linear map of the free coordinates (each is linear in the nodes).
-
-        Returns
-        -------
-        scipy.sparse.csr_matrix, shape (3K, n_free)
-            S with ``observe(x).ravel() = S q + const``.
-        """
-        return self._S_markers
-
     # ---------------------------------------------------------------- energy
-    def energy(self, q: np.ndarray, u, with_gradient: bool = False):
+    def energy(self, q: np.ndarray, u, with_gradient: bool = False, with_hessian: bool = False):
         """The total energy.
 
         Parameters
@@ -238,23 +183,34 @@ class ArmFEM(ActuatedModel):
             Inputs of all actuators.
         with_gradient : bool
             Also the gradient, at the cost of about one gradient (shared kinematics).
+        with_hessian : bool
+            Also the gradient and the exact Hessian at ``u`` (:meth:`hessian`), with the
+            compiled kernels in the same pass over the tets: what a Newton step needs at a
+            trial point it expects to accept.
 
         Returns
         -------
         float or tuple
             E in J (+inf when an element is inverted); with ``with_gradient``,
             ``(E, g, condensation)`` as :meth:`gradient` with ``with_condensation``
-            (``(inf, None, None)`` when inverted).
+            (``(inf, None, None)`` when inverted); with ``with_hessian``
+            ``(E, g, condensation, H)`` (``(inf, None, None, None)``).
         """
-        x = self.to_nodes(q)
-        if with_gradient:
-            e, g_nodes = self._sums().energy_and_gradient(x)
+        x, law = self.to_nodes(q), self._sums()
+        if with_hessian and (law is self.elastic or type(self).hessian is not ArmFEM.hessian):  # a pass for each
+            e, g, c = self.energy(q, u, with_gradient=True)
+            return (e, g, c, self.hessian(q, u)) if np.isfinite(e) else (np.inf, None, None, None)
+        if with_hessian:
+            data = np.zeros(self._pattern.nnz)
+            e, g_nodes = law.energy_gradient_hessian(x, data, self._pattern.element_slots)
+        elif with_gradient:
+            e, g_nodes = law.energy_and_gradient(x)
         else:
-            e = self._sums().energy(x)
+            e = law.energy(x)
         if not np.isfinite(e):
-            return (np.inf, None, None) if with_gradient else np.inf
+            return (np.inf, None, None, None)[: 3 + with_hessian] if with_gradient or with_hessian else np.inf
         e -= float(np.sum(self.f_gravity_W * x))
-        if not with_gradient:
+        if not (with_gradient or with_hessian):
             for act, u_a in self._split(u):
                 e += act.energy(x, u_a)
             return e
@@ -262,7 +218,9 @@ class ArmFEM(ActuatedModel):
         for act, u_a in self._split(u):
             e_a, g_a, c = act.energy_and_gradient(x, u_a)
             e, g, condensation = e + e_a, g + g_a, self._offset(act, c) or condensation
-        return e, g, condensation
+        if not with_hessian:
+            return e, g, condensation
+        return e, g, condensation, self._with_blocks(law, x, u, data)
 
     def gradient(self, q: np.ndarray, u, with_condensation: bool = False):
         """dE/dq.
@@ -324,15 +282,25 @@ class ArmFEM(ActuatedModel):
         blocks = [b for act, u_a in self._split(u) for b in act.hessian_blocks(x, u_a)]
         if law is self.elastic:  # the NumPy reference: all blocks summed by one bincount
             H_el = law.hessian(x)
-            return pattern.assemble([(project_psd(H_el) if project else H_el).ravel(), *blocks])
+            return self._corrected(pattern.assemble([(project_psd(H_el) if project else H_el).ravel(), *blocks]), x, u)
         data = np.zeros(pattern.nnz)
         if project:
             law.scatter(data, pattern.element_slots.ravel(), project_psd(law.hessian(x)).ravel())
         else:
             law.add_hessian(x, data, pattern.element_slots)
-        for block, slots in zip(blocks, pattern.block_slots, strict=True):
+        return self._with_blocks(law, x, u, data, blocks)
+
+    def _with_blocks(self, law, x, u, data, blocks=None) -> sp.csr_matrix:
+        """The Hessian from the CSR ``data`` of its elements, the actuators' blocks added."""
+        if blocks is None:
+            blocks = [b for act, u_a in self._split(u) for b in act.hessian_blocks(x, u_a)]
+        for block, slots in zip(blocks, self._pattern.block_slots, strict=True):
             law.scatter(data, slots, block)
-        return pattern.matrix(data)
+        return self._corrected(self._pattern.matrix(data), x, u)
+
+    def _corrected(self, H: sp.csr_matrix, x: np.ndarray, u) -> sp.csr_matrix:
+        """The assembled Hessian ``H`` with what a subclass adds in place (none here)."""
+        return H
 
     def hessian_operator(self, q: np.ndarray, u):
         """Exact Hessian products at ``q`` without assembling the Hessian (a setup and each

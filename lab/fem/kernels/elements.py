@@ -20,8 +20,8 @@ import numpy as np
 from lab.fem.kernels.backend import jit
 from lab.fem.kernels.foam import foam_element
 
-#: What a loop computes (``mode``).
-ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS = 0, 1, 2, 3, 4
+#: What a loop computes (``mode``); GRADIENT_AND_HESSIAN: the gradient and the Hessian in one pass.
+ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS, GRADIENT_AND_HESSIAN = 0, 1, 2, 3, 4, 5
 
 
 @jit(inline=True)
@@ -125,17 +125,18 @@ def _contract(G, e, Ve, A, T, H):
 @jit(inline=True)
 def _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out):
     """Tet e's share by ``mode``: V G P^T into ``grad``, V A into ``out``, or its Hessian H
-    (144,) into ``data`` at ``slots[e]`` or into ``out[e]``."""
-    if mode == GRADIENT:
+    (144,) into ``data`` at ``slots[e]`` (with the gradient too: GRADIENT_AND_HESSIAN) or
+    into ``out[e]``."""
+    if mode == GRADIENT or mode == GRADIENT_AND_HESSIAN:
         for a in range(4):
             n = tets[e, a]
             for i in range(3):
                 grad[n, i] += Ve * (G[e, a, 0] * P[i, 0] + G[e, a, 1] * P[i, 1] + G[e, a, 2] * P[i, 2])
-    elif mode == TANGENTS:
+    if mode == TANGENTS:
         for r in range(9):
             for t in range(9):
                 out[e, r, t] = Ve * A[r, t]
-    elif mode == HESSIAN:
+    if mode == HESSIAN or mode == GRADIENT_AND_HESSIAN:
         for r in range(144):
             s = slots[e, r]
             if s >= 0:
@@ -152,7 +153,8 @@ def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
 
     ``mode``: ENERGY; GRADIENT (dE/dx also added into ``grad`` (N, 3)); HESSIAN (element
     Hessians added into ``data`` at ``slots`` (M, 144), -1: a clamped dof, skipped);
-    ELEMENT_HESSIANS (into ``out`` (M, 12, 12)); TANGENTS (V A into ``out`` (M, 9, 9)).
+    GRADIENT_AND_HESSIAN (both); ELEMENT_HESSIANS (into ``out`` (M, 12, 12)); TANGENTS
+    (V A into ``out`` (M, 9, 9)).
     Node positions ``x`` (N, 3) m, ``tets`` (M, 4), shape-function gradients ``G`` (M, 4, 3),
     rest volumes ``V`` (M,), per-tet parameters ``prm`` (M, 4) and the foam's exponents
     ``alpha``, ``beta`` (unused here). Returns (energy J, number of inverted tets); nothing is
@@ -175,7 +177,7 @@ def yeoh_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out):
             continue
         Ve = V[e]
         energy += Ve * _yeoh(F, Fi, J, prm[e, 0], prm[e, 1], prm[e, 2], prm[e, 3], order, P, A)
-        if mode == HESSIAN or mode == ELEMENT_HESSIANS:
+        if mode == HESSIAN or mode == ELEMENT_HESSIANS or mode == GRADIENT_AND_HESSIAN:
             _contract(G, e, Ve, A, T, H)
         if mode != ENERGY:
             _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)
@@ -205,7 +207,7 @@ def hyperfoam_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, out
             continue
         Ve = V[e]
         energy += Ve * W
-        if mode == HESSIAN or mode == ELEMENT_HESSIANS:
+        if mode == HESSIAN or mode == ELEMENT_HESSIANS or mode == GRADIENT_AND_HESSIAN:
             _contract(G, e, Ve, A, T, H)
         if mode != ENERGY:
             _emit(mode, e, Ve, tets, G, P, A, H, grad, data, slots, out)

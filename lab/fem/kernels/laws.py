@@ -19,7 +19,7 @@ from lab.fem.materials.neo_hookean import NeoHookean
 from lab.fem.materials.yeoh import Yeoh
 
 #: What a loop computes (the ``mode`` of :mod:`lab.fem.kernels.elements`, which imports numba).
-ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS = 0, 1, 2, 3, 4
+ENERGY, GRADIENT, HESSIAN, ELEMENT_HESSIANS, TANGENTS, GRADIENT_AND_HESSIAN = 0, 1, 2, 3, 4, 5
 
 
 def law_parameters(law):
@@ -117,6 +117,29 @@ class CompiledLaw:
         """
         grad = np.zeros((len(x_W), 3))
         e, bad = self._run(GRADIENT, x_W, grad=grad)
+        return (np.inf, None) if bad else (float(e), grad)
+
+    def energy_gradient_hessian(self, x_W: np.ndarray, data: np.ndarray, slots: np.ndarray):
+        """Energy, nodal gradient and every element Hessian (added into ``data``) in one pass.
+
+        Parameters
+        ----------
+        x_W : ndarray, shape (N, 3)
+            Node positions in frame W, m.
+        data : ndarray, shape (nnz,)
+            The CSR data, N/m, added to in place (:meth:`add_hessian`).
+        slots : ndarray of int64, shape (M, 144)
+            Each element Hessian entry's slot (-1: skipped).
+
+        Returns
+        -------
+        energy : float
+            J (+inf if an element is inverted; then ``data`` holds a partial sum).
+        gradient : ndarray, shape (N, 3) or None
+            dE/dx, N (None if an element is inverted).
+        """
+        grad = np.zeros((len(x_W), 3))
+        e, bad = self._run(GRADIENT_AND_HESSIAN, x_W, grad=grad, data=data, slots=slots)
         return (np.inf, None) if bad else (float(e), grad)
 
     def nodal_gradient(self, x_W: np.ndarray) -> np.ndarray:

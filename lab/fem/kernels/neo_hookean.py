@@ -14,7 +14,16 @@ import math
 import numpy as np
 
 from lab.fem.kernels.backend import jit
-from lab.fem.kernels.elements import ELEMENT_HESSIANS, ENERGY, GRADIENT, HESSIAN, _fill, _inverse, deformation
+from lab.fem.kernels.elements import (
+    ELEMENT_HESSIANS,
+    ENERGY,
+    GRADIENT,
+    GRADIENT_AND_HESSIAN,
+    HESSIAN,
+    _fill,
+    _inverse,
+    deformation,
+)
 
 
 @jit(inline=True)
@@ -43,7 +52,7 @@ def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, o
 
     ``mode``: ENERGY; GRADIENT (dE/dx also added into ``grad`` (N, 3)); HESSIAN (element
     Hessians added into ``data`` at ``slots`` (M, 144), -1: a clamped dof, skipped);
-    ELEMENT_HESSIANS (into ``out`` (M, 12, 12)). Node positions ``x`` (N, 3) m, ``tets``
+    GRADIENT_AND_HESSIAN (both); ELEMENT_HESSIANS (into ``out`` (M, 12, 12)). Node positions ``x`` (N, 3) m, ``tets``
     (M, 4), shape-function gradients ``G`` (M, 4, 3), rest volumes ``V`` (M,), per-tet
     parameters ``prm`` (M, 4); ``alpha``, ``beta`` unused (the signature of every law's loop).
     Returns (energy J, number of inverted tets); nothing is added for an inverted tet.
@@ -68,7 +77,7 @@ def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, o
         i10, i11, i12 = c10 * r, (a * j - c * h) * r, (c * d - a * g) * r
         i20, i21, i22 = c20 * r, (b * h - a * i) * r, (a * f - b * d) * r
         cm = mu - lam * logJ
-        if mode == GRADIENT:  # V P = V (mu F - c F^-T), then G (V P)^T at the nodes
+        if mode == GRADIENT or mode == GRADIENT_AND_HESSIAN:  # V P = V (mu F - c F^-T), then G (V P)^T
             P00, P01, P02 = Ve * (mu * a - cm * i00), Ve * (mu * b - cm * i10), Ve * (mu * c - cm * i20)
             P10, P11, P12 = Ve * (mu * d - cm * i01), Ve * (mu * f - cm * i11), Ve * (mu * g - cm * i21)
             P20, P21, P22 = Ve * (mu * h - cm * i02), Ve * (mu * i - cm * i12), Ve * (mu * j - cm * i22)
@@ -78,10 +87,11 @@ def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, o
                 grad[n, 0] += G0 * P00 + G1 * P01 + G2 * P02
                 grad[n, 1] += G0 * P10 + G1 * P11 + G2 * P12
                 grad[n, 2] += G0 * P20 + G1 * P21 + G2 * P22
-            continue
+            if mode == GRADIENT:
+                continue
         inv = (i00, i01, i02, i10, i11, i12, i20, i21, i22)
         _hessian(G, e, inv, Ve * cm, Ve * lam, Ve * mu, Ag, H)
-        if mode == HESSIAN:
+        if mode == HESSIAN or mode == GRADIENT_AND_HESSIAN:
             for r in range(144):
                 s = slots[e, r]
                 if s >= 0:

@@ -75,6 +75,7 @@ def _fall_back(reason: str) -> None:
 class _SuperLU:
     name = "splu"
     n_negative = None  # LU does not report the inertia
+    half_solves = False  # no forward and backward halves
 
     def __init__(self, H: sp.csr_matrix):
         try:
@@ -114,7 +115,7 @@ class _Handle:
 
     def __init__(self, mtype: int):
         self.solver = _pypardiso().PyPardisoSolver(mtype=mtype)
-        self.pattern = None  # (indptr, indices)
+        self.pattern = None  # the _UpperPattern analysed last
         self.holds_factor = False
 
     def free_factor(self):
@@ -151,7 +152,7 @@ class _Pardiso:
         if mode not in PARDISO_MODES:
             raise InputError(f"PARDISO_MODE={mode!r}: choose one of {sorted(PARDISO_MODES)}")
         self._upper, H = _upper_pattern(H)
-        self._A = self._upper.matrix(H)
+        self._data = np.take(H.data, self._upper.take)  # the upper triangle's entries, in PARDISO's order
         pypardiso = _pypardiso()
         *first, last = PARDISO_MODES[mode]
         for mtype in first:
@@ -182,35 +183,54 @@ class _Pardiso:
             handle.pattern = None
 
     def _factorize(self, mtype: int):
-        """Factorise ``self._A`` with the handle of ``mtype`` (PyPardisoError if PARDISO fails)."""
+        """Factorise the upper triangle ``self._data`` with the handle of ``mtype`` (PyPardisoError
+        if PARDISO fails)."""
         handle = _Pardiso._handles.get(mtype)
         if handle is None:
             handle = _Pardiso._handles[mtype] = _Handle(mtype)
-        solver, A = handle.solver, self._A
+        solver, upper = handle.solver, self._upper
         if not self._upper.full_rows:  # PARDISO would crash on an empty row
             raise SingularMatrixError("Matrix A is singular, because it contains empty row(s)")
         solver.set_iparm(12, 0)  # CSR, not its transpose
         _Pardiso._generation += 1  # whatever a handle held is gone from here on
         self._generation, self.mtype, self._solver = _Pardiso._generation, mtype, solver
-        known = handle.pattern
-        same = known is not None and np.array_equal(known[0], A.indptr) and np.array_equal(known[1], A.indices)
+        same = handle.pattern is upper  # the analysis of this pattern (one object per pattern)
         solver.set_phase(22 if same else 12)  # numerical only, or analysis + numerical
         solver.iparm[29] = 0  # iparm(30), where a Cholesky met a non-positive pivot: not reset by PARDISO
         handle.holds_factor = True
         try:
-            _call(solver, self._upper, A.data, np.zeros((A.shape[0], 1), order="F"))
+            _call(solver, upper, self._data, np.zeros((len(upper.indptr) - 1, 1), order="F"))
         except Exception as err:
             # A Cholesky that met a non-positive pivot (-4) has analysed this pattern.
             analysed = mtype == 2 and getattr(err, "value", None) == -4
-            handle.pattern = (A.indptr.copy(), A.indices.copy()) if analysed else None
+            handle.pattern = upper if analysed else None
             raise
-        if not same:
-            handle.pattern = (A.indptr.copy(), A.indices.copy())
+        handle.pattern = upper
         for other in _Pardiso._handles.values():
             if other is not handle:
                 other.free_factor()
 
     def solve(self, b: np.ndarray) -> np.ndarray:
+        """H^-1 b for ``b`` (n,) or (n, k)."""
+        return self._phase(33, b)
+
+    @property
+    def half_solves(self) -> bool:
+        """Whether :meth:`forward` and :meth:`backward` are available: a Cholesky factor
+        H = P^T L L^T P (``mtype`` 2) without perturbed pivots."""
+        return self.mtype == 2 and not self.n_perturbed
+
+    def forward(self, b: np.ndarray) -> np.ndarray:
+        """y = L^-1 P b (PARDISO's forward substitution alone, half a solve): H^-1 b is
+        ``backward(y)`` and b^T H^-1 c = y_b . y_c (only where :attr:`half_solves`)."""
+        return self._phase(331, b)
+
+    def backward(self, y: np.ndarray) -> np.ndarray:
+        """P^T L^-T y (the backward substitution alone): ``backward(forward(b))`` = H^-1 b."""
+        return self._phase(333, y)
+
+    def _phase(self, phase: int, b: np.ndarray) -> np.ndarray:
+        """PARDISO's solve ``phase`` (33 whole, 331 forward, 333 backward) on ``b``."""
         if self._generation != _Pardiso._generation:  # the handles now hold another matrix
             try:
                 self._factorize(self.mtype)
@@ -221,9 +241,9 @@ class _Pardiso:
         # Iterative refinement (two steps, PARDISO's default) only after perturbed
         # pivots: otherwise the direct solution is already accurate to ~1e-12 relative
         # and the two extra solves would triple the cost of each solve.
-        self._solver.set_iparm(8, 2 if self.n_perturbed else 0)
-        self._solver.set_phase(33)
-        x = _call(self._solver, self._upper, self._A.data, rhs)
+        self._solver.set_iparm(8, 2 if self.n_perturbed and phase == 33 else 0)
+        self._solver.set_phase(phase)
+        x = _call(self._solver, self._upper, self._data, rhs)
         return x.reshape(b.shape)
 
 
@@ -231,7 +251,8 @@ class _UpperPattern:
     """The upper triangle of a symmetric CSR sparsity pattern, as PARDISO takes it (sorted
     columns; ``ia``, ``ja`` 1-based int32), worked out once per pattern: each
     factorisation then takes its entries (``take``) instead of ``scipy.sparse.triu``
-    (about 2 ms on the three-cable arm's Hessian, half a factorisation)."""
+    (about 2 ms on the three-cable arm's Hessian, half a factorisation); a PARDISO handle
+    knows the pattern it analysed by this object."""
 
     def __init__(self, indptr: np.ndarray, indices: np.ndarray):
         self.key = (indptr.copy(), indices.copy())
@@ -249,11 +270,6 @@ class _UpperPattern:
         """Whether ``H`` has this pattern."""
         return np.array_equal(H.indptr, self.key[0]) and np.array_equal(H.indices, self.key[1])
 
-    def matrix(self, H: sp.csr_matrix) -> sp.csr_matrix:
-        """The upper triangle of ``H`` (this pattern), its own copy of the entries."""
-        n = len(self.indptr) - 1
-        return sp.csr_matrix((H.data[self.take], self.indices, self.indptr), shape=(n, n))
-
 
 #: The patterns met in this process (a few per mesh: the Hessians of its models).
 _PATTERNS: list[_UpperPattern] = []
@@ -262,7 +278,8 @@ _PATTERNS: list[_UpperPattern] = []
 def _upper_pattern(H) -> tuple[_UpperPattern, sp.csr_matrix]:
     """The :class:`_UpperPattern` of ``H`` (from the cache when known), and ``H`` as a
     float64 CSR matrix in canonical form (``H`` itself when it is one)."""
-    H = sp.csr_matrix(H, dtype=float)
+    if not (sp.issparse(H) and H.format == "csr" and H.dtype == np.float64):
+        H = sp.csr_matrix(H, dtype=float)
     pattern = next((p for p in _PATTERNS if p.fits(H)), None)  # a known one is canonical (checking costs 0.3 ms)
     if pattern is None and not H.has_canonical_format:  # duplicate or unsorted entries: summed and sorted (a copy)
         H = H.copy()

@@ -45,7 +45,7 @@ def nearby_preconditioner(fac, condensation):
     Parameters
     ----------
     fac : Factorised
-        The factorisation of a nearby Newton iterate (:class:`lab.fem.solve.steps.Factorised`).
+        The factorisation of a nearby Newton iterate (:class:`lab.fem.solve.factorised.Factorised`).
     condensation : Condensation or None
         The actuators' condensation at the equilibrium.
 
@@ -170,7 +170,7 @@ def nearby_sensitivities(fem, q, u, B, S, fac, condensation, distance_m=0.0):
     S : scipy.sparse matrix, shape (3K, n_free)
         The observed markers' rows (:func:`lab.fem.solve.parameters.marker_rows`).
     fac : Factorised or None
-        The solve's last exact factorisation (:class:`~lab.fem.solve.steps.Factorised`).
+        The solve's last exact factorisation (:class:`~lab.fem.solve.factorised.Factorised`).
     condensation : Condensation or None
         The condensation at q.
     distance_m : float or None

@@ -6,9 +6,10 @@ indefinite, a diagonally shifted one; only if that gives no descent direction ei
 elastic part projected to PSD element by element (always descends, but slow and expensive).
 A backtracking line search treats inverted elements as infinite energy and rejects a step
 that shrinks any element below ``MIN_VOLUME_RATIO`` of its volume, with an Armijo slack of
-1e-14 |E| so rounding does not reject the last, converged steps. Near the equilibrium,
-chord steps reuse the last factorisation with secant updates while they contract well
-(``CHORD_WINDOW``).
+1e-14 |E| so rounding does not reject the last, converged steps; far from the equilibrium
+its full-length trial assembles the next step's Hessian in the same pass over the tets
+(``FUSED_TRIALS``). Near the equilibrium, chord steps reuse the last factorisation with
+secant updates while they contract well (``CHORD_WINDOW``).
 
 Sensitivity analysis differentiates the equilibrium condition dE/dx (x(u), u) = 0:
 
@@ -65,6 +66,13 @@ CHORD_FINAL = 1e-3
 #: that corner reach the same equilibrium without it, and in fewer factorisations
 #: (``docs/fem-cost.md``).
 MIN_VOLUME_RATIO = 0.8
+
+#: Where a full-length trial step lies beyond CHORD_WINDOW tolerances, the next step will
+#: assemble and factorise if the trial is accepted, so the line search evaluates the energy,
+#: gradient and Hessian there in one pass over the tets (``ArmFEM.energy(...,
+#: with_hessian=True)``); a trial the line search rejects wastes that Hessian. False: one
+#: pass for the energy and gradient, another for the Hessian (the same numbers).
+FUSED_TRIALS = True
 
 
 class StaticSolveError(LabRuntimeError):
@@ -227,7 +235,7 @@ def solve_static(
         tol_force_n = max(1e-5 * float(np.abs(fem.f_gravity_W).max()), 1e-11)
     status, projected, it, n_fact, fac, step_prev, q_fac = "max_iter", 0, 0, 0, None, np.inf, None
     chord = False
-    pairs = []
+    pairs, H_next = [], None  # H_next: the Hessian at q, if the line search assembled it
     J = fem.volume_ratio(q)  # (M,) det F at q
     while it < max_iter:
         if np.max(np.abs(g)) <= tol_force_n and not chord:  # chord steps: see CHORD_FINAL
@@ -243,14 +251,14 @@ def solve_static(
             if pairs:
                 d = secant_step(fac, pairs, g)
             else:
-                d = condensed_step(fac, -fac.lu.solve(g), cond)
+                d = condensed_step(fac, fac.direction(-g), cond)
             step = np.max(np.abs(d))
             chord = bool(np.isfinite(step) and g @ d < 0 and step <= CHORD_CONTRACTION * step_prev)
             d = d if chord else None
         if d is None:
             n_fact += 1
             u_h = hessian_inputs(u, g, cond)  # u, but for a condensation not in the Hessian
-            H = fem.hessian(q, u_h)
+            H = fem.hessian(q, u_h) if H_next is None else H_next
             d, fac = newton_step(H, g, cond)
             q_fac, pairs = q, []
             exact = d is not None
@@ -281,13 +289,16 @@ def solve_static(
             g, cond = fem.gradient(q, u, with_condensation=True)
             status = "converged"
             break
-        slope = g @ d
+        slope, H_next = g @ d, None
+        fuse = FUSED_TRIALS and step > CHORD_WINDOW * tol_step_m and (cond is None or cond.in_hessian)
         alpha, accepted = 1.0, False
         for _ in range(1 if chord else 40):
             q_try = q + alpha * d
             J_try = fem.volume_ratio(q_try)  # first: far cheaper than a foam's energy
             if np.all(J_try >= MIN_VOLUME_RATIO * J):
-                if alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
+                if alpha == 1.0 and fuse:  # the next step's Hessian along (FUSED_TRIALS)
+                    E_try, g_try, cond_try, H_next = fem.energy(q_try, u, with_hessian=True)
+                elif alpha == 1.0:  # usually accepted: take its gradient along (shared kinematics)
                     E_try, g_try, cond_try = fem.energy(q_try, u, with_gradient=True)
                 else:
                     E_try = fem.energy(q_try, u)
@@ -305,8 +316,10 @@ def solve_static(
         q, E, J, step_prev = q_try, E_try, J_try, alpha * step
         if alpha == 1.0:
             g, cond = g_try, cond_try
+            if cond is not None and not cond.in_hessian:  # assembled at other inputs then
+                H_next = None
         else:
-            g, cond = fem.gradient(q, u, with_condensation=True)
+            g, cond, H_next = *fem.gradient(q, u, with_condensation=True), None
         if fac is not None and (q - q_old) @ (g - g_old) > 0:  # secant pair for chord steps
             pairs.append((q - q_old, g - g_old, 1.0 / ((q - q_old) @ (g - g_old))))
     else:
@@ -348,7 +361,7 @@ def solve_static(
 def sensitivities(fem: ArmFEM, q: np.ndarray, u_motor) -> tuple[np.ndarray, np.ndarray]:
     """dq/du and the tip Jacobian at an equilibrium, from a fresh factorisation (of the
     exact Hessian; a condensation's rank-k term that it does not hold, a volume chamber's,
-    added exactly by Woodbury, :class:`~lab.fem.solve.steps.Factorised`).
+    added exactly by Woodbury, :class:`~lab.fem.solve.factorised.Factorised`).
 
     Parameters
     ----------

@@ -5,7 +5,8 @@
 a stiff one-dimensional law tau(e) (the cables: a taut cable often sits inside its 0.2 mm
 smoothing zone, where Newton's quadratic model of the spring is poor). Each step keeps that
 law exact in those k coordinates and linearises the rest: a k-dimensional equation
-(``condensed_step``) around one (k + 1)-column solve with the factorisation; it has
+(``condensed_step``) around one (k + 1)-column solve with the factorisation (its forward
+half alone, with a Cholesky factor: :mod:`lab.fem.solve.factorised`); it has
 Newton's fixed point. ``secant_step``: chord steps near the equilibrium, reusing that
 factorisation with BFGS updates. ``shifted_step``: H + s I where the exact Hessian is
 indefinite (``SHIFTS``). ``reused_sensitivity``: dq/du = -H^-1 d2E/dq du from the last
@@ -28,13 +29,12 @@ The derivation and the measurements behind each step: docs/design/fem.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.sparse as sp
 
 from lab.fem.actuators.base import Condensation
 from lab.fem.model import ArmFEM
+from lab.fem.solve.factorised import Direction, Factorised
 from lab.fem.solve.linsolve import SingularMatrixError, factorize
 
 #: Diagonal shifts tried, as fractions of the median diagonal entry, where the exact
@@ -44,42 +44,6 @@ SHIFTS = (1e-3, 1e-2)
 #: stopped when an update changes dq/du du by less than REFINE_TOL of its size.
 REFINE_ITERATIONS = 2
 REFINE_TOL = 1e-4
-
-
-@dataclass
-class Factorised:
-    """The exact Hessian factorised at an iterate where it is positive definite, with
-    what condensed steps need from that point: the condensation's directions A (n_free, k),
-    S = H^-1 A, C = A^T S (k, k) and the law's stiffnesses K (k,) in H (all None without a
-    condensation; K zero for one not in the Hessian), and ``rank_K`` (k,), the stiffnesses
-    of a condensation not in H, which :meth:`solve` adds by Woodbury (None otherwise)."""
-
-    lu: object
-    A: np.ndarray | None
-    S: np.ndarray | None
-    C: np.ndarray | None
-    K: np.ndarray | None
-    rank_K: np.ndarray | None = None
-
-    def solve(self, r: np.ndarray) -> np.ndarray:
-        """(H + A rank_K A^T)^-1 r: the factorised H, with the rank-k term if any.
-
-        Parameters
-        ----------
-        r : ndarray, shape (n_free,) or (n_free, m)
-            Right-hand side(s), N.
-
-        Returns
-        -------
-        ndarray, same shape as ``r``
-            The solution(s), m.
-        """
-        z = self.lu.solve(r)
-        if self.rank_K is None:
-            return z
-        D = self.rank_K.reshape((-1,) + (1,) * (np.ndim(z) - 1))
-        M = np.eye(len(self.rank_K)) + self.rank_K[:, None] * self.C
-        return z - self.S @ np.linalg.solve(M, D * (self.A.T @ z))
 
 
 def newton_step(H: sp.csr_matrix, g, condensation: Condensation | None):
@@ -109,11 +73,12 @@ def newton_step(H: sp.csr_matrix, g, condensation: Condensation | None):
         return None, None
     if condensation is None:
         d = -lu.solve(g)
-        fac, tries = Factorised(lu, None, None, None, None), (d,)
+        fac, tries = Factorised(lu, None, None, None, None), (lambda: d,)
     else:
-        fac, d = condensed_factorisation(lu, g, condensation)
-        tries = (condensed_step(fac, d, condensation), d)  # else the plain Newton step
-    for d in tries:
+        fac, newton = condensed_factorisation(lu, g, condensation)
+        tries = (lambda: condensed_step(fac, newton, condensation), lambda: newton.d)  # else plain Newton
+    for step in tries:
+        d = step()
         if np.all(np.isfinite(d)) and g @ d < 0:
             return d, fac
     return None, None
@@ -125,7 +90,7 @@ def condensed_factorisation(lu, g, condensation: Condensation):
     Parameters
     ----------
     lu : object
-        The factorisation of H (its ``solve``).
+        The factorisation of H (its ``solve``; its forward halves where it has them).
     g : ndarray, shape (n_free,)
         The gradient, N.
     condensation : Condensation
@@ -134,17 +99,21 @@ def condensed_factorisation(lu, g, condensation: Condensation):
     Returns
     -------
     fac : Factorised
-        With A, S = H^-1 A, C = A^T S, and the law's stiffness in ``K`` (in H) or in
-        ``rank_K`` (``in_hessian`` False; then ``K`` is zero).
-    d : ndarray, shape (n_free,)
+        With A, S = H^-1 A (or its forward half Y), C = A^T S, and the law's stiffness in
+        ``K`` (in H) or in ``rank_K`` (``in_hessian`` False; then ``K`` is zero).
+    newton : Direction
         -H^-1 g, m.
     """
     A = condensation.A
-    Z = lu.solve(np.column_stack([-g, A]))
     K = condensation.law(condensation.stretch)[2]
-    if condensation.in_hessian:
-        return Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], K), Z[:, 0]
-    return Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], np.zeros_like(K), K), Z[:, 0]
+    K, rank_K = (K, None) if condensation.in_hessian else (np.zeros_like(K), K)
+    if getattr(lu, "half_solves", False):  # C = Y^T Y from forward halves alone
+        Y = lu.forward(np.column_stack([-g, A]))
+        fac = Factorised(lu, A, None, Y[:, 1:].T @ Y[:, 1:], K, rank_K, Y=Y[:, 1:])
+        return fac, Direction(fac, y=Y[:, 0])
+    Z = lu.solve(np.column_stack([-g, A]))
+    fac = Factorised(lu, A, Z[:, 1:], A.T @ Z[:, 1:], K, rank_K)
+    return fac, Direction(fac, d=Z[:, 0])
 
 
 def hessian_inputs(u, g, condensation: Condensation | None):
@@ -198,8 +167,8 @@ def rank_step(lu, g, condensation: Condensation | None) -> np.ndarray:
     """
     if condensation is None or condensation.in_hessian:
         return -lu.solve(g)
-    fac, d = condensed_factorisation(lu, g, condensation)
-    return condensed_step(fac, d, condensation)
+    fac, newton = condensed_factorisation(lu, g, condensation)
+    return condensed_step(fac, newton, condensation)
 
 
 def shifted_step(H: sp.csr_matrix, g, condensation: Condensation | None = None):
@@ -239,41 +208,43 @@ def secant_step(lu, pairs, g) -> np.ndarray:
     return z
 
 
-def condensed_step(fac: Factorised, d_newton: np.ndarray, condensation: Condensation | None) -> np.ndarray:
+def condensed_step(fac: Factorised, newton: Direction, condensation: Condensation | None) -> np.ndarray:
     """The condensed step dq = d_newton + S psi(e) (module docstring).
 
     Parameters
     ----------
     fac : Factorised
         The factorisation (may be from an earlier iterate: a chord step).
-    d_newton : ndarray, shape (n_free,)
-        The step -H^-1 g of that factorisation, m.
+    newton : Direction
+        The step d_newton = -H^-1 g of that factorisation (:meth:`Factorised.direction`
+        of -g), m.
     condensation : Condensation or None
         The condensation where the step starts.
 
     Returns
     -------
     ndarray, shape (n_free,)
-        The step, m; ``d_newton`` itself without a condensation or if the equation for e
+        The step, m; d_newton itself without a condensation or if the equation for e
         does not settle.
     """
     if condensation is None or fac.A is None:
-        return d_newton
+        return newton.d
     law, stretch = condensation.law, condensation.stretch
     tau = law(stretch)[1]
-    e_newton = fac.A.T @ d_newton
+    e_newton = newton.along_A()
     e = e_newton.copy()
     scale = max(float(np.max(np.abs(e_newton))), condensation.scale)
+    eye = np.eye(len(e))
     for _ in range(50):
         _, tau_e, k_e = law(stretch + e)
         F = e - e_newton - fac.C @ (tau + fac.K * e - tau_e)
-        de = -np.linalg.solve(np.eye(len(e)) - fac.C * (fac.K - k_e)[None, :], F)
+        de = -np.linalg.solve(eye - fac.C * (fac.K - k_e)[None, :], F)
         e += de
         if not np.all(np.isfinite(e)):
             break
         if np.max(np.abs(de)) <= 1e-12 * scale:
-            return d_newton + fac.S @ (tau + fac.K * e - law(stretch + e)[1])
-    return d_newton
+            return newton.plus_S(tau + fac.K * e - law(stretch + e)[1])
+    return newton.d
 
 
 def reused_sensitivity(fem: ArmFEM, fac: Factorised, q, u, condensation, refine_du=None) -> np.ndarray:
