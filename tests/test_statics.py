@@ -211,22 +211,31 @@ def test_pardiso_solves_without_refinement_when_no_pivot_was_perturbed(default_f
     assert np.linalg.norm(H @ x - b) < 1e-14 * abs(H).max() * np.linalg.norm(x)
 
 
-def test_the_line_search_assembles_the_next_newton_step_s_hessian(default_fem, monkeypatch):
-    """With FUSED_TRIALS, a full-length trial far from the equilibrium evaluates energy,
-    gradient and Hessian in one pass, and the next step factorises that Hessian: the same
-    solve step for step, with fewer separate assemblies."""
+def test_the_line_search_assembles_the_next_newton_step_s_hessian(three_cable, default_fem, monkeypatch):
+    """With FUSED_TRIALS, on a law whose evaluation is costly (the hyperfoam's), a
+    full-length trial far from the equilibrium evaluates energy, gradient and Hessian in
+    one pass, and the next step factorises that Hessian: the same solve step for step,
+    with fewer separate assemblies. The neo-Hookean arm assembles apart."""
     import lab.fem.solve.statics as statics
+    from lab.fem import use_assembly
+    from lab.fem.materials import HyperfoamMaterial
 
-    fem, u = default_fem, np.array([2.5, 0.0, 1.0])
+    foam = ArmFEM(three_cable, n_rings=2, n_axial=8, material=HyperfoamMaterial(1.4e4, 13.96, 0.75))
+    u = np.array([2.5, 0.0, 1.0])
     calls = []
     hessian = ArmFEM.hessian
     monkeypatch.setattr(ArmFEM, "hessian", lambda self, *a, **k: calls.append(1) or hessian(self, *a, **k))
     out = {}
-    for fused in (False, True):
-        monkeypatch.setattr(statics, "FUSED_TRIALS", fused)
+    with use_assembly("compiled"):
+        assert foam.trial_hessians_pay and not default_fem.trial_hessians_pay
+        for fused in (False, True):
+            monkeypatch.setattr(statics, "FUSED_TRIALS", fused)
+            calls.clear()
+            sol = solve_static(foam, u)
+            out[fused] = sol, len(calls)
         calls.clear()
-        sol = solve_static(fem, u)
-        out[fused] = sol, len(calls)
+        neo = solve_static(default_fem, u)
+        assert len(calls) == neo.factorizations
     (plain, n_plain), (fused, n_fused) = out.values()
     assert np.array_equal(fused.q, plain.q)
     assert (fused.iterations, fused.factorizations) == (plain.iterations, plain.factorizations)

@@ -222,6 +222,15 @@ class ArmFEM(ActuatedModel, ObservedModel):
             return e, g, condensation
         return e, g, condensation, self._with_blocks(law, x, u, data)
 
+    @property
+    def trial_hessians_pay(self) -> bool:
+        """Whether a Newton solver's line search should assemble the next step's Hessian with
+        a trial's energy (:meth:`energy` ``with_hessian``; ``lab.fem.solve.statics.FUSED_TRIALS``):
+        where the law's evaluation is costly beside its Hessian (the hyperfoam kernels). With
+        the neo-Hookean's, the Hessians of the trials rejected (one in four) cost more than
+        the evaluations the others save."""
+        return bool(getattr(self._sums(), "costly_energy", False))
+
     def gradient(self, q: np.ndarray, u, with_condensation: bool = False):
         """dE/dq.
 

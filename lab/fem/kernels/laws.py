@@ -53,6 +53,9 @@ class CompiledLaw:
 
         self.law = law
         self.kind, self._prm, self._alpha, self._beta = law_parameters(law)
+        #: Whether an energy and gradient cost a large share of a Hessian pass: the hyperfoam's
+        #: eigen-decompositions of C (about 0.45 of it; the neo-Hookean's and Yeoh's 0.2).
+        self.costly_energy = self.kind == 2
         self._sums = (neo_hookean.neo_hookean_sums, elements.yeoh_sums, elements.hyperfoam_sums)[self.kind]
         self._product = neo_hookean.neo_hookean_product
         self._scatter, self._volume_ratios = elements.scatter_add, elements.volume_ratios

@@ -68,9 +68,13 @@ CHORD_FINAL = 1e-3
 MIN_VOLUME_RATIO = 0.8
 
 #: Where a full-length trial step lies beyond CHORD_WINDOW tolerances, the next step will
-#: assemble and factorise if the trial is accepted, so the line search evaluates the energy,
-#: gradient and Hessian there in one pass over the tets (``ArmFEM.energy(...,
-#: with_hessian=True)``); a trial the line search rejects wastes that Hessian. False: one
+#: assemble and factorise if the trial is accepted, so the line search can evaluate the
+#: energy, gradient and Hessian there in one pass over the tets (``ArmFEM.energy(...,
+#: with_hessian=True)``); a trial the line search rejects wastes that Hessian. At full length
+#: a solve's first step overshot in 27 of 30 cold solves measured (three-cable, six-cable and
+#: foam arms: the tangent at rest under a large command), its second in 17 of 30, a later one
+#: in 56 of 250; so only from the third step on, and only where the law's evaluation is
+#: costly beside its Hessian (:attr:`lab.fem.model.ArmFEM.trial_hessians_pay`). False: one
 #: pass for the energy and gradient, another for the Hessian (the same numbers).
 FUSED_TRIALS = True
 
@@ -290,7 +294,8 @@ def solve_static(
             status = "converged"
             break
         slope, H_next = g @ d, None
-        fuse = FUSED_TRIALS and step > CHORD_WINDOW * tol_step_m and (cond is None or cond.in_hessian)
+        fuse = FUSED_TRIALS and it > 2 and fem.trial_hessians_pay and step > CHORD_WINDOW * tol_step_m
+        fuse = fuse and (cond is None or cond.in_hessian)
         alpha, accepted = 1.0, False
         for _ in range(1 if chord else 40):
             q_try = q + alpha * d
