@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 import lab.fem.solve.linsolve as linsolve
-from lab.fem.solve import mkl
+from lab.fem.solve import mkl, pardiso_calls
 from lab.fem.solve.steps import newton_step, shifted_step
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -200,6 +200,6 @@ def test_any_csr_layout_of_a_matrix_gives_its_solution(pardiso, hessians):
     assert not unsorted.has_sorted_indices and not duplicated.has_canonical_format
     for layout in (H, unsorted, duplicated, H.tocsc(), H.tocoo()):
         assert np.allclose(linsolve.factorize(layout).solve(b), x, rtol=1e-10, atol=1e-12 * np.abs(x).max())
-    patterns = len(linsolve._PATTERNS)
+    patterns = len(pardiso_calls.PATTERNS)
     linsolve.factorize(H.copy())  # the same pattern again: no new one
-    assert len(linsolve._PATTERNS) == patterns
+    assert len(pardiso_calls.PATTERNS) == patterns

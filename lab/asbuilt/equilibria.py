@@ -125,9 +125,9 @@ class EquilibriumCache:
         kw = dict(sensitivity="reuse", raise_on_failure=False, check_command=False)
         start = None
         if self._entries:
-            keys = list(self._entries)
-            dist = [np.abs(self._entries[k][0] - u_eff).sum() for k in keys]
-            start = self._entries[keys[int(np.argmin(dist))]]
+            entries = list(self._entries.values())
+            dist = np.abs(np.array([e[0] for e in entries]) - u_eff).sum(axis=1)  # L1 to each, in order
+            start = entries[int(np.argmin(dist))]
         if start is not None and start[2] is not None:
             sol = solve_static(self.fem, u_eff, start[1] + start[2] @ (u_eff - start[0]), **kw)
             if sol.converged:

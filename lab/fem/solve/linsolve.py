@@ -28,7 +28,6 @@ round-off, only slower. ``LAB_LINEAR_SOLVER=splu`` chooses SciPy and silences it
 
 from __future__ import annotations
 
-import ctypes
 import os
 import sys
 
@@ -38,6 +37,8 @@ import scipy.sparse.linalg as spla
 
 from lab.errors import InputError, LabRuntimeError
 from lab.fem.solve import mkl
+from lab.fem.solve.pardiso_calls import call as _call
+from lab.fem.solve.pardiso_calls import upper_pattern as _upper_pattern
 
 
 class SingularMatrixError(LabRuntimeError):
@@ -115,7 +116,7 @@ class _Handle:
 
     def __init__(self, mtype: int):
         self.solver = _pypardiso().PyPardisoSolver(mtype=mtype)
-        self.pattern = None  # the _UpperPattern analysed last
+        self.pattern = None  # the UpperPattern analysed last (lab.fem.solve.pardiso_calls)
         self.holds_factor = False
 
     def free_factor(self):
@@ -245,81 +246,6 @@ class _Pardiso:
         self._solver.set_phase(phase)
         x = _call(self._solver, self._upper, self._data, rhs)
         return x.reshape(b.shape)
-
-
-class _UpperPattern:
-    """The upper triangle of a symmetric CSR sparsity pattern, as PARDISO takes it (sorted
-    columns; ``ia``, ``ja`` 1-based int32), worked out once per pattern: each
-    factorisation then takes its entries (``take``) instead of ``scipy.sparse.triu``
-    (about 2 ms on the three-cable arm's Hessian, half a factorisation); a PARDISO handle
-    knows the pattern it analysed by this object."""
-
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
-        self.key = (indptr.copy(), indices.copy())
-        n = len(indptr) - 1
-        rows = np.repeat(np.arange(n), np.diff(indptr))
-        keep = np.flatnonzero(indices >= rows)
-        self.take = keep[np.lexsort((indices[keep], rows[keep]))]
-        counts = np.bincount(rows[self.take], minlength=n)
-        self.full_rows = bool(np.all(counts > 0))
-        self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
-        self.indices = indices[self.take].astype(np.int32)
-        self.ia, self.ja = self.indptr + 1, self.indices + 1
-
-    def fits(self, H: sp.csr_matrix) -> bool:
-        """Whether ``H`` has this pattern."""
-        return np.array_equal(H.indptr, self.key[0]) and np.array_equal(H.indices, self.key[1])
-
-
-#: The patterns met in this process (a few per mesh: the Hessians of its models).
-_PATTERNS: list[_UpperPattern] = []
-
-
-def _upper_pattern(H) -> tuple[_UpperPattern, sp.csr_matrix]:
-    """The :class:`_UpperPattern` of ``H`` (from the cache when known), and ``H`` as a
-    float64 CSR matrix in canonical form (``H`` itself when it is one)."""
-    if not (sp.issparse(H) and H.format == "csr" and H.dtype == np.float64):
-        H = sp.csr_matrix(H, dtype=float)
-    pattern = next((p for p in _PATTERNS if p.fits(H)), None)  # a known one is canonical (checking costs 0.3 ms)
-    if pattern is None and not H.has_canonical_format:  # duplicate or unsorted entries: summed and sorted (a copy)
-        H = H.copy()
-        H.sum_duplicates()
-        pattern = next((p for p in _PATTERNS if p.fits(H)), None)
-    if pattern is None:
-        pattern = _UpperPattern(H.indptr, H.indices)
-        _PATTERNS.insert(0, pattern)
-        del _PATTERNS[8:]
-    return pattern, H
-
-
-def _call(solver, upper: _UpperPattern, data: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """One PARDISO call (the handle's ``phase``) on the matrix ``(data, upper)``, right-hand
-    sides ``b`` (n, k) in Fortran order: pypardiso's ``_call_pardiso`` (pinned 0.4.7) without
-    converting the pattern to 1-based int32 on every call."""
-    x = np.zeros_like(b)
-    error = ctypes.c_int32(0)
-    i32, f64 = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
-    solver._mkl_pardiso(
-        solver.pt.ctypes.data_as(ctypes.POINTER(solver._pt_type[0])),
-        ctypes.byref(ctypes.c_int32(1)),  # maxfct
-        ctypes.byref(ctypes.c_int32(1)),  # mnum
-        ctypes.byref(ctypes.c_int32(solver.mtype)),
-        ctypes.byref(ctypes.c_int32(solver.phase)),
-        ctypes.byref(ctypes.c_int32(len(upper.indptr) - 1)),
-        data.ctypes.data_as(f64),
-        upper.ia.ctypes.data_as(i32),
-        upper.ja.ctypes.data_as(i32),
-        solver.perm.ctypes.data_as(i32),
-        ctypes.byref(ctypes.c_int32(b.shape[1])),  # nrhs
-        solver.iparm.ctypes.data_as(i32),
-        ctypes.byref(ctypes.c_int32(solver.msglvl)),
-        b.ctypes.data_as(f64),
-        x.ctypes.data_as(f64),
-        ctypes.byref(error),
-    )
-    if error.value != 0:
-        raise _pypardiso().pardiso_wrapper.PyPardisoError(error.value)
-    return np.ascontiguousarray(x)
 
 
 def _available() -> list[str]:
