@@ -212,10 +212,10 @@ PHASES = {  # name: where the solver looks each timed function up
 FUSED = "Hessian with the trial's energy and gradient"
 
 
-def instrumented(fn, counts: dict | None = None):
-    """fn() with the PHASES timed (CPU, exclusive of nested phases): (result, {phase: s}, total s);
-    the calls of each phase counted into ``counts`` if given. A fused line-search evaluation
-    (``with_hessian``) is timed as FUSED."""
+def instrumented(fn, counts: dict | None = None, phases: dict | None = None):
+    """fn() with the PHASES (or ``phases``) timed (CPU, exclusive of nested phases): (result,
+    {phase: s}, total s); the calls of each phase counted into ``counts`` if given. A fused
+    line-search evaluation (``with_hessian``) is timed as FUSED."""
     spent, stack, originals = {}, [], []
     counts = {} if counts is None else counts
 
@@ -236,7 +236,7 @@ def instrumented(fn, counts: dict | None = None):
 
         return wrapper
 
-    for name, targets in PHASES.items():
+    for name, targets in (PHASES if phases is None else phases).items():
         for owner, attr in targets:
             originals.append((owner, attr, getattr(owner, attr)))
             setattr(owner, attr, timed(name, getattr(owner, attr)))

@@ -18,11 +18,15 @@ one process, one BLAS thread, CPU time, compiled assembly:
 2. PARDISO's solves with the factorisation of the Hessian at an equilibrium, for 1, 2, 4
    and 7 right-hand sides (a condensed step needs k + 1: the direction and S = H^-1 A)
    and as halves, against the factorisation itself, with the factor's size (iparm(18)):
-   a solve reads the factor twice, forward and backward.
+   a solve reads the factor twice, forward and backward;
+3. where a plain Newton step's time goes (chord steps off; instrumented, ms CPU per
+   factorisation, medians over rounds): the floor's two parts, then the linear solves, the
+   line search's evaluations, the condensed step's own Python (its solves not included),
+   the volume limiter's pass and the rest.
 
 Chord steps trade a factorisation for a solve and a line-search evaluation: they lower a
 solve's time and raise its cost per factorisation, which is what the ratio divides by.
-About 5 minutes on an idle 2-core machine.
+About 8 minutes at 9 rounds on an idle 2-core machine.
 """
 
 import os
@@ -37,7 +41,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_assembly import FUSED, in_solve_floor, instrumented  # noqa: E402
+from bench_assembly import FUSED, PHASES, in_solve_floor, instrumented  # noqa: E402
 from timing import Printout  # noqa: E402
 
 import lab.fem.solve.linsolve as linsolve  # noqa: E402
@@ -47,6 +51,7 @@ from lab.asbuilt.family import family_member  # noqa: E402
 from lab.data.designs import grid_commands  # noqa: E402
 from lab.description import load_robot  # noqa: E402
 from lab.fem import ArmFEM, solve_static, use_assembly  # noqa: E402
+from lab.fem.solve import steps  # noqa: E402
 from lab.fem.solve.linsolve import factorize  # noqa: E402
 
 OUT = Printout()
@@ -175,6 +180,54 @@ def solve_table(fems: dict, repeats: int) -> None:
     say()
 
 
+def step_breakdown(fems: dict, rounds: int) -> None:
+    say("## 3. Where a plain Newton step's time goes (chord steps off; ms CPU per factorisation, medians)")
+    say()
+    phases = dict(PHASES)
+    phases["condensed step (Python)"] = [
+        (steps, "condensed_step"),
+        (statics, "condensed_step"),
+        (steps, "condensed_factorisation"),
+    ]
+    phases["volume limiter"] = [(ArmFEM, "volume_ratio")]
+    shown = [
+        "factorisation",
+        "Hessian assembly",
+        FUSED,
+        "linear solves",
+        "energy and gradient",
+        "condensed step (Python)",
+        "volume limiter",
+    ]
+    say("| model | " + " | ".join(shown) + " | rest | total | step / floor |")
+    say("|---|" + "---|" * (len(shown) + 3))
+    for name, (fem, robot) in fems.items():
+        n = 3 if name.startswith("foam") else 6
+        grid = grid_commands(robot, 4)
+        commands = grid[np.random.default_rng(0).choice(len(grid), n, replace=False)]
+        saved, statics.CHORD_WINDOW = statics.CHORD_WINDOW, 0.0
+        rows = []
+        try:
+            for _ in range(rounds):
+                counts = {}
+                run = lambda f=fem, c=commands: [solve_static(f, u) for u in c]  # noqa: E731
+                sols, spent, total = instrumented(run, counts, phases)
+                n_fact = sum(s.factorizations for s in sols)
+                per = [1e3 * spent.get(p, 0.0) / n_fact for p in shown]
+                rest = 1e3 * total / n_fact - 1e3 * sum(spent.values()) / n_fact
+                rows.append([*per, rest, 1e3 * total / n_fact, total / in_solve_floor(spent, counts, n_fact)])
+        finally:
+            statics.CHORD_WINDOW = saved
+        med = np.median(np.array(rows), axis=0)
+        say(f"| {name} | " + " | ".join(f"{v:.2f}" for v in med) + " |")
+    say()
+    say(
+        "Hessian assembly: the stand-alone ones (the line search's fused ones in their own column); the "
+        "instrumentation itself adds a few microseconds per timed call."
+    )
+    say()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds of section 1")
@@ -190,6 +243,7 @@ def main() -> None:
         fems = models()
         chord_table(fems, args.rounds)
         solve_table(fems, 20)
+        step_breakdown(fems, args.rounds)
     say(f"load average at the end: {os.getloadavg()[0]:.1f}")
     if args.out:
         OUT.write(args.out)

@@ -149,6 +149,8 @@ def test_inverted_tets_are_infinite_energy_and_errors_alike(material, three_cabl
         law = compiled_law(fem.elastic)
     assert law.energy(x) == fem.elastic.energy(x) == np.inf
     assert law.energy_and_gradient(x) == (np.inf, None)
+    slots = fem._pattern.element_slots
+    assert law.energy_gradient_hessian(x, np.zeros(fem._pattern.nnz), slots) == (np.inf, None)
     counts = []
     for sums in (law, fem.elastic):
         for method in ("nodal_gradient", "hessian"):

@@ -100,8 +100,26 @@ def test_a_cholesky_factor_solves_in_halves(pardiso, hessians):
     assert np.abs(lu.backward(Y) - X).max() <= 1e-13 * np.abs(X).max()
     assert np.abs(Y.T @ Y - B.T @ X).max() <= 1e-12 * np.abs(B.T @ X).max()
     assert np.abs(lu.backward(lu.forward(B[:, 0])) - X[:, 0]).max() <= 1e-13 * np.abs(X).max()  # one column
-    assert not linsolve.factorize(indefinite).half_solves  # LDL^T
+    ldlt = linsolve.factorize(indefinite)
+    assert not ldlt.half_solves and not lu.current  # LDL^T has no halves; lu's factor is gone
+    with pytest.raises(linsolve.LabRuntimeError, match="solves whole"):
+        ldlt.forward(B)
     assert np.abs(lu.backward(lu.forward(B)) - X).max() <= 1e-13 * np.abs(X).max()  # H factorised again
+
+
+def test_a_lazy_s_after_another_factorisation_is_a_whole_solve(pardiso, hessians, coarse_fem):
+    """A condensed factorisation keeps Y = L^-1 P A; S = H^-1 A asked for after another
+    matrix was factorised comes from a whole solve with H, not from Y's backward half of a
+    factor made again."""
+    from lab.fem.solve.steps import condensed_factorisation
+
+    H, indefinite = hessians
+    g, cond = coarse_fem.gradient(coarse_fem.rest_q(), U, with_condensation=True)
+    fac, _ = condensed_factorisation(linsolve.factorize(H), g, cond)
+    assert fac.Y is not None
+    linsolve.factorize(indefinite)
+    S = np.linalg.solve(H.toarray(), cond.A)
+    assert np.abs(fac.S - S).max() <= 1e-10 * np.abs(S).max()
 
 
 def test_a_condensed_step_from_halves_is_the_one_from_whole_solves(pardiso, coarse_fem, monkeypatch):

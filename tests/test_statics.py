@@ -222,9 +222,12 @@ def test_the_line_search_assembles_the_next_newton_step_s_hessian(three_cable, d
 
     foam = ArmFEM(three_cable, n_rings=2, n_axial=8, material=HyperfoamMaterial(1.4e4, 13.96, 0.75))
     u = np.array([2.5, 0.0, 1.0])
-    calls = []
-    hessian = ArmFEM.hessian
+    calls, fused_calls = [], []
+    hessian, energy = ArmFEM.hessian, ArmFEM.energy
     monkeypatch.setattr(ArmFEM, "hessian", lambda self, *a, **k: calls.append(1) or hessian(self, *a, **k))
+    monkeypatch.setattr(
+        ArmFEM, "energy", lambda self, *a, **k: fused_calls.append(k.get("with_hessian")) or energy(self, *a, **k)
+    )
     out = {}
     with use_assembly("compiled"):
         assert foam.trial_hessians_pay and not default_fem.trial_hessians_pay
@@ -240,3 +243,5 @@ def test_the_line_search_assembles_the_next_newton_step_s_hessian(three_cable, d
     assert np.array_equal(fused.q, plain.q)
     assert (fused.iterations, fused.factorizations) == (plain.iterations, plain.factorizations)
     assert n_plain == plain.factorizations and 0 < n_fused < n_plain - 2
+    used = fused.factorizations - n_fused
+    assert sum(bool(f) for f in fused_calls) > used  # and some trials' Hessians were thrown away

@@ -229,6 +229,8 @@ class ArmFEM(ActuatedModel, ObservedModel):
         where the law's evaluation is costly beside its Hessian (the hyperfoam kernels). With
         the neo-Hookean's, the Hessians of the trials rejected (one in four) cost more than
         the evaluations the others save."""
+        if type(self).hessian is not ArmFEM.hessian:  # then energy(..., with_hessian) takes two passes
+            return False
         return bool(getattr(self._sums(), "costly_energy", False))
 
     def gradient(self, q: np.ndarray, u, with_condensation: bool = False):

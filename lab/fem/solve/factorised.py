@@ -47,9 +47,10 @@ class Factorised:
 
     @property
     def S(self) -> np.ndarray | None:
-        """H^-1 A (n_free, k), m per m."""
+        """H^-1 A (n_free, k), m per m: Y's backward half, or a whole solve where another
+        factorisation came between (the factor is then made again: see ``current``)."""
         if self._S is None and self.Y is not None:
-            self._S = self.lu.backward(self.Y)
+            self._S = self.lu.backward(self.Y) if getattr(self.lu, "current", False) else self.lu.solve(self.A)
         return self._S
 
     def solve(self, r: np.ndarray) -> np.ndarray:

@@ -218,8 +218,15 @@ class _Pardiso:
     @property
     def half_solves(self) -> bool:
         """Whether :meth:`forward` and :meth:`backward` are available: a Cholesky factor
-        H = P^T L L^T P (``mtype`` 2) without perturbed pivots."""
-        return self.mtype == 2 and not self.n_perturbed
+        H = P^T L L^T P (``mtype`` 2; LDL^T would need its diagonal between the halves)."""
+        return self.mtype == 2
+
+    @property
+    def current(self) -> bool:
+        """Whether the handles still hold this factor: a forward half from before a later
+        :func:`factorize` meets the backward half of a factor made again, the same only
+        where the analysis is (a caller that cannot tell solves whole)."""
+        return self._generation == _Pardiso._generation
 
     def forward(self, b: np.ndarray) -> np.ndarray:
         """y = L^-1 P b (PARDISO's forward substitution alone, half a solve): H^-1 b is
@@ -232,6 +239,8 @@ class _Pardiso:
 
     def _phase(self, phase: int, b: np.ndarray) -> np.ndarray:
         """PARDISO's solve ``phase`` (33 whole, 331 forward, 333 backward) on ``b``."""
+        if phase != 33 and not self.half_solves:
+            raise LabRuntimeError(f"PARDISO phase {phase}: an LDL^T factor solves whole (half_solves is False)")
         if self._generation != _Pardiso._generation:  # the handles now hold another matrix
             try:
                 self._factorize(self.mtype)

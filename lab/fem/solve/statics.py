@@ -7,7 +7,8 @@ elastic part projected to PSD element by element (always descends, but slow and 
 A backtracking line search treats inverted elements as infinite energy and rejects a step
 that shrinks any element below ``MIN_VOLUME_RATIO`` of its volume, with an Armijo slack of
 1e-14 |E| so rounding does not reject the last, converged steps; far from the equilibrium
-its full-length trial assembles the next step's Hessian in the same pass over the tets
+and from a solve's third step on, where the law's evaluation is costly (the hyperfoam's), its
+full-length trial assembles the next step's Hessian in the same pass over the tets
 (``FUSED_TRIALS``). Near the equilibrium, chord steps reuse the last factorisation with
 secant updates while they contract well (``CHORD_WINDOW``).
 
@@ -121,7 +122,8 @@ class StaticSolution:
     time_s : float
         Wall time of the solve, s.
     factorizations : int
-        Hessian assemblies and factorisations.
+        Factorisations of a Hessian (a rejected line-search trial's Hessian, never
+        factorised, is not counted).
     dq_du : ndarray, shape (n_free, m), optional
         dq/du if asked, m per unit of input.
     J_tip_u : ndarray, shape (3, m), optional
@@ -193,8 +195,8 @@ def solve_static(
     that has other starting points to try first.
     ``keep_factorisation``: return the last exact factorisation with the equilibrium
     (``factorisation``), for sensitivities without a new one (:mod:`lab.fem.solve.nearby`).
-    ``iterations`` counts all steps, ``factorizations`` the assemblies (each with its
-    factorisation; a shifted one counts once more).
+    ``iterations`` counts all steps, ``factorizations`` the factorised Hessians (a shifted
+    one counts once more).
     Raises :class:`StaticSolveError` on failure unless ``raise_on_failure=False``, in
     which case the returned solution has ``converged=False`` and a ``status`` saying why.
 
