@@ -197,7 +197,7 @@ class ArmFEM(ActuatedModel, ObservedModel):
             ``(E, g, condensation, H)`` (``(inf, None, None, None)``).
         """
         x, law = self.to_nodes(q), self._sums()
-        if with_hessian and (law is self.elastic or type(self).hessian is not ArmFEM.hessian):  # a pass for each
+        if with_hessian and not self._hessian_in_one_pass(law):  # a pass for each
             e, g, c = self.energy(q, u, with_gradient=True)
             return (e, g, c, self.hessian(q, u)) if np.isfinite(e) else (np.inf, None, None, None)
         if with_hessian:
@@ -208,7 +208,9 @@ class ArmFEM(ActuatedModel, ObservedModel):
         else:
             e = law.energy(x)
         if not np.isfinite(e):
-            return (np.inf, None, None, None)[: 3 + with_hessian] if with_gradient or with_hessian else np.inf
+            if with_hessian:
+                return np.inf, None, None, None
+            return (np.inf, None, None) if with_gradient else np.inf
         e -= float(np.sum(self.f_gravity_W * x))
         if not (with_gradient or with_hessian):
             for act, u_a in self._split(u):
@@ -229,9 +231,13 @@ class ArmFEM(ActuatedModel, ObservedModel):
         where the law's evaluation is costly beside its Hessian (the hyperfoam kernels). With
         the neo-Hookean's, the Hessians of the trials rejected (one in four) cost more than
         the evaluations the others save."""
-        if type(self).hessian is not ArmFEM.hessian:  # then energy(..., with_hessian) takes two passes
-            return False
-        return bool(getattr(self._sums(), "costly_energy", False))
+        law = self._sums()
+        return self._hessian_in_one_pass(law) and bool(getattr(law, "costly_energy", False))
+
+    def _hessian_in_one_pass(self, law) -> bool:
+        """Whether :meth:`energy` ``with_hessian`` is one pass of ``law`` (this model's sums):
+        the compiled kernels, and :meth:`hessian` not overridden by a subclass."""
+        return law is not self.elastic and type(self).hessian is ArmFEM.hessian
 
     def gradient(self, q: np.ndarray, u, with_condensation: bool = False):
         """dE/dq.

@@ -52,9 +52,10 @@ def neo_hookean_sums(mode, x, tets, G, V, prm, alpha, beta, grad, data, slots, o
 
     ``mode``: ENERGY; GRADIENT (dE/dx also added into ``grad`` (N, 3)); HESSIAN (element
     Hessians added into ``data`` at ``slots`` (M, 144), -1: a clamped dof, skipped);
-    GRADIENT_AND_HESSIAN (both); ELEMENT_HESSIANS (into ``out`` (M, 12, 12)). Node positions ``x`` (N, 3) m, ``tets``
-    (M, 4), shape-function gradients ``G`` (M, 4, 3), rest volumes ``V`` (M,), per-tet
-    parameters ``prm`` (M, 4); ``alpha``, ``beta`` unused (the signature of every law's loop).
+    GRADIENT_AND_HESSIAN (both); ELEMENT_HESSIANS (into ``out`` (M, 12, 12)). Node
+    positions ``x`` (N, 3) m, ``tets`` (M, 4), shape-function gradients ``G`` (M, 4, 3), rest
+    volumes ``V`` (M,), per-tet parameters ``prm`` (M, 4); ``alpha``, ``beta`` unused (the
+    signature of every law's loop).
     Returns (energy J, number of inverted tets); nothing is added for an inverted tet.
     """
     H, Ag = np.empty(144), np.empty((4, 3))
