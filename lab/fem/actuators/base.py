@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,6 +80,9 @@ class Condensation:
         (constant stiffness K), :meth:`Actuator.hessian_product` still includes it, and the
         statics add it to the factorised Hessian exactly by Woodbury
         (:mod:`lab.fem.solve.steps`).
+    values : tuple of ndarray, optional
+        ``law(stretch)`` if the actuator evaluated it already (else evaluated once when
+        :meth:`at_stretch` is first asked).
     """
 
     A: np.ndarray
@@ -89,6 +92,13 @@ class Condensation:
     inputs: slice
     gain: float | np.ndarray
     in_hessian: bool = True
+    values: tuple | None = field(default=None, repr=False, compare=False)
+
+    def at_stretch(self) -> tuple:
+        """The law at ``stretch``: (energy J, force N, stiffness N/m), each (k,), evaluated once."""
+        if self.values is None:
+            self.values = self.law(self.stretch)
+        return self.values
 
 
 class Actuator(ABC):

@@ -237,7 +237,7 @@ def spring(d, k: float, eps: float):
         In J, N and N/m, each shaped as ``d``.
     """
     d = np.asarray(d, dtype=float)
-    dc = np.clip(d, 0.0, eps)  # cubic part
+    dc = np.minimum(np.maximum(0.0, d), eps)  # cubic part: np.clip(d, 0, eps), without its overhead
     dq = np.maximum(d - eps, 0.0)  # quadratic part beyond eps
     energy = k * dc**3 / (6 * eps) + k * (0.5 * dq**2 + 0.5 * eps * dq)
     tension = k * dc**2 / (2 * eps) + k * dq

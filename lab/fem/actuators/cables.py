@@ -210,8 +210,8 @@ class CableActuator(Actuator):
         """
         L, A, _ = self.set.jacobian(x_W)
         d = L - self.targets(u)
-        e, tension, _ = self.law(d)
-        return float(np.sum(e)), A @ tension, self._condensation(A, d)
+        values = self.law(d)
+        return float(np.sum(values[0])), A @ values[1], self._condensation(A, d, values)
 
     def gradient(self, x_W, u):
         """Gradient A tau and the stretches' :class:`Condensation`.
@@ -232,11 +232,13 @@ class CableActuator(Actuator):
         """
         L, A, _ = self.set.jacobian(x_W)
         d = L - self.targets(u)
-        return A @ self.law(d)[1], self._condensation(A, d)
+        values = self.law(d)
+        return A @ values[1], self._condensation(A, d, values)
 
-    def _condensation(self, A, stretch) -> Condensation:
+    def _condensation(self, A, stretch, values) -> Condensation:
+        robot = self.robot
         return Condensation(
-            A, stretch, self.law, self.robot.slack_smoothing_m, slice(0, len(self.routes)), self.robot.spool_radius_m
+            A, stretch, self.law, robot.slack_smoothing_m, slice(0, len(self.routes)), robot.spool_radius_m, values=values
         )
 
     def block_dofs(self) -> list[np.ndarray]:

@@ -56,7 +56,7 @@ def nearby_preconditioner(fac, condensation):
     """
     if condensation is None or fac.A is None or not condensation.in_hessian or fac.A.shape != condensation.A.shape:
         return fac.solve  # nothing to correct (a rank term not in H: its law is linear)
-    dK = condensation.law(condensation.stretch)[2] - fac.K
+    dK = condensation.at_stretch()[2] - fac.K
     W = np.linalg.inv(np.eye(len(dK)) + dK[:, None] * fac.C)
 
     def apply(r):
@@ -188,7 +188,7 @@ def nearby_sensitivities(fem, q, u, B, S, fac, condensation, distance_m=0.0):
     precondition = nearby_preconditioner(fac, condensation)
     H = fem.hessian(q, u)
     if condensation is not None and not condensation.in_hessian:  # its rank-k term, left out of H
-        A, K = condensation.A, condensation.law(condensation.stretch)[2]
+        A, K = condensation.A, condensation.at_stretch()[2]
 
         def hessian(V):
             return H @ V + A @ (K[:, None] * (A.T @ V))

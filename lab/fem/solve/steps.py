@@ -29,6 +29,8 @@ The derivation and the measurements behind each step: docs/design/fem.md.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -105,7 +107,7 @@ def condensed_factorisation(lu, g, condensation: Condensation):
         -H^-1 g, m.
     """
     A = condensation.A
-    K = condensation.law(condensation.stretch)[2]
+    K = condensation.at_stretch()[2]
     K, rank_K = (K, None) if condensation.in_hessian else (np.zeros_like(K), K)
     if getattr(lu, "half_solves", False):  # C = Y^T Y from forward halves alone
         Y = lu.forward(np.column_stack([-g, A]))
@@ -141,7 +143,7 @@ def hessian_inputs(u, g, condensation: Condensation | None):
     if condensation is None or condensation.in_hessian:
         return u
     A = condensation.A
-    K = condensation.law(condensation.stretch)[2]
+    K = condensation.at_stretch()[2]
     shift = -np.linalg.lstsq(A, g, rcond=None)[0]  # tau_hat - tau
     u_hat = np.array(u, dtype=float)
     u_hat[condensation.inputs] += shift / (condensation.gain * K)
@@ -229,21 +231,21 @@ def condensed_step(fac: Factorised, newton: Direction, condensation: Condensatio
     """
     if condensation is None or fac.A is None:
         return newton.d
-    law, stretch = condensation.law, condensation.stretch
-    tau = law(stretch)[1]
+    law, stretch, C, K = condensation.law, condensation.stretch, fac.C, fac.K
+    tau = condensation.at_stretch()[1]
     e_newton = newton.along_A()
     e = e_newton.copy()
-    scale = max(float(np.max(np.abs(e_newton))), condensation.scale)
+    tol = 1e-12 * max(float(np.max(np.abs(e_newton))), condensation.scale)
     eye = np.eye(len(e))
     for _ in range(50):
         _, tau_e, k_e = law(stretch + e)
-        F = e - e_newton - fac.C @ (tau + fac.K * e - tau_e)
-        de = -np.linalg.solve(eye - fac.C * (fac.K - k_e)[None, :], F)
+        de = np.linalg.solve(eye - C * (K - k_e), e_newton - e + C @ (tau + K * e - tau_e))
         e += de
-        if not np.all(np.isfinite(e)):
+        size = float(np.max(np.abs(de)))  # nan where de is not finite
+        if size <= tol:
+            return newton.plus_S(tau + K * e - law(stretch + e)[1])
+        if not math.isfinite(size):
             break
-        if np.max(np.abs(de)) <= 1e-12 * scale:
-            return newton.plus_S(tau + fac.K * e - law(stretch + e)[1])
     return newton.d
 
 
@@ -284,7 +286,7 @@ def reused_sensitivity(fem: ArmFEM, fac: Factorised, q, u, condensation, refine_
     other = [j for j in range(n_u) if j not in condensed]
     if condensation is not None:
         A = condensation.A
-        K = condensation.law(condensation.stretch)[2]
+        K = condensation.at_stretch()[2]
         dK = K - fac.K
         W = np.linalg.inv(np.eye(len(K)) + dK[:, None] * fac.C)
 
