@@ -145,6 +145,21 @@ def test_condensed_step_resolves_the_smoothed_cable_spring(default_fem, equilibr
     assert fac is not None and np.allclose(fac.C, fac.A.T @ fac.S)
 
 
+def test_a_condensation_evaluates_its_law_once(default_fem, equilibrium):
+    # The cables hand their own evaluation of the law to the condensation; a condensation
+    # built without one evaluates it when first asked, and once only.
+    from lab.fem.actuators.base import Condensation
+
+    fem, (u, ref, _) = default_fem, equilibrium
+    for cond in (fem.gradient(ref.q, u, with_condensation=True)[1], fem.energy(ref.q, u, with_gradient=True)[2]):
+        for given, fresh in zip(cond.at_stretch(), cond.law(cond.stretch)):
+            assert np.array_equal(given, fresh)
+    calls = []
+    law = lambda d: calls.append(1) or cond.law(d)  # noqa: E731
+    lazy = Condensation(cond.A, cond.stretch, law, cond.scale, cond.inputs, cond.gain)
+    assert lazy.at_stretch() is lazy.at_stretch() and len(calls) == 1
+
+
 def test_close_start_converges_with_one_factorisation_and_chord_steps(default_fem, equilibrium):
     fem, (u, ref, D) = default_fem, equilibrium
     for amp in (3e-4, 1e-3):  # 10 and 30 um from the equilibrium

@@ -236,10 +236,8 @@ class CableActuator(Actuator):
         return A @ values[1], self._condensation(A, d, values)
 
     def _condensation(self, A, stretch, values) -> Condensation:
-        robot = self.robot
-        return Condensation(
-            A, stretch, self.law, robot.slack_smoothing_m, slice(0, len(self.routes)), robot.spool_radius_m, values=values
-        )
+        inputs, robot = slice(0, len(self.routes)), self.robot
+        return Condensation(A, stretch, self.law, robot.slack_smoothing_m, inputs, robot.spool_radius_m, values=values)
 
     def block_dofs(self) -> list[np.ndarray]:
         """One dense block per cable over the dofs of its eyelets' tets.
