@@ -95,7 +95,13 @@ class Condensation:
     values: tuple | None = field(default=None, repr=False, compare=False)
 
     def at_stretch(self) -> tuple:
-        """The law at ``stretch``: (energy J, force N, stiffness N/m), each (k,), evaluated once."""
+        """The law at ``stretch``, evaluated once.
+
+        Returns
+        -------
+        energy, force, stiffness : ndarray, shape (k,)
+            In J, N and N/m (``law(stretch)``).
+        """
         if self.values is None:
             self.values = self.law(self.stretch)
         return self.values
